@@ -1,0 +1,366 @@
+"""Controllers: transfer functions for analysis and state-space blocks for simulation.
+
+Every controller is a two-degree-of-freedom law ``u = C_ff(s) r - C_fb(s) y``:
+
+* :class:`PID`, ideal form with derivative filter, ``kp (1 + 1/(ti s) + td s/(1 + td s/n))``
+  on the error (``C_ff = C_fb``); ``ti=None`` drops the integral and ``td=0`` the derivative.
+* :class:`SeriesPID`, ``kp (1 + 1/(ti s)) (1 + td s)/(1 + td s/n)`` on the error; the form of
+  Haalman's and Gorez-Klan's design (eq. 3-11).
+* :class:`FPPI`, Hagglund's predictive PI with Normey-Rico's first-order filter
+  ``F = 1/(tf s + 1)`` (Ingimundarson section 4, eq. 13-16): a Smith predictor on the FOPDT
+  model ``K_n e^{-L_n s}/(T_n s + 1)`` with ``T_i = T_n`` and ``K = T_n/(K_n T_r)`` (eq. 14-15).
+* :class:`MSP`, Matausek and Micic's modified Smith predictor for integrating plants
+  (Ingimundarson section 5, eq. 35-38, 47): model ``K_n e^{-L_n s}/s``, set-point gain
+  ``K_r = 1/(K_n T_r)``, disturbance filter ``F = K_0 = 1/(2 L_n K_n)`` or the PD-type extension
+  of eq. 51.
+
+Each class gives ``feedback_response``/``reference_response`` (exact, dead times included) and
+``block()``, a :class:`~envs.simulation.DelaySystem` with inputs ``[r, y_measured]`` and output
+``u`` whose internal dead times are exact delays.  The tests check that the two agree.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import scipy.signal
+
+from envs.simulation import DelaySystem, SystemBuilder
+
+__all__ = ["PID", "SeriesPID", "FPPI", "MSP", "Controller", "controller_from_dict"]
+
+
+def _require(value: Any, name: str, *, positive: bool = False, nonzero: bool = False, nonnegative: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if positive and value <= 0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    if nonnegative and value < 0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+    if nonzero and value == 0:
+        raise ValueError(f"{name} must be non-zero, got {value!r}")
+    return value
+
+
+def _rational_block(num: np.ndarray, den: np.ndarray) -> DelaySystem:
+    """A 1-DOF rational controller ``C = num/den`` acting on ``e = r - y``."""
+    A, B, C, D = scipy.signal.tf2ss(num, den)
+    n = A.shape[0]
+    b = SystemBuilder(n_states=n, n_inputs=2, n_delays=0)
+    error = b.input(0) - b.input(1)
+    states = [b.state(i) for i in range(n)]
+    derivatives = [sum((A[i, k] * states[k] for k in range(n)), b.zero()) + B[i, 0] * error for i in range(n)]
+    output = sum((C[0, k] * states[k] for k in range(n)), b.zero()) + D[0, 0] * error
+    return b.build(derivatives, [output], [], [])
+
+
+@dataclass(frozen=True)
+class PID:
+    """Ideal PID ``kp (1 + 1/(ti s) + td s/(1 + td s/n))`` on the error (Marlin ch. 8).
+
+    ``ti=None`` means no integral action, ``td=0`` no derivative action (``n`` is then unused).
+    """
+
+    kp: float
+    ti: float | None
+    td: float = 0.0
+    n: float = 10.0
+
+    def __post_init__(self) -> None:
+        _require(self.kp, "kp", nonzero=True)
+        if self.ti is not None:
+            _require(self.ti, "ti", positive=True)
+        _require(self.td, "td", nonnegative=True)
+        if self.td > 0:
+            _require(self.n, "n", positive=True)
+
+    @property
+    def integrators(self) -> int:
+        return 0 if self.ti is None else 1
+
+    def transfer_function(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(num, den)`` in descending powers of ``s``."""
+        num, den = np.array([1.0]), np.array([1.0])
+        if self.ti is not None:  # 1 + 1/(ti s) = (ti s + 1)/(ti s)
+            num, den = np.array([self.ti, 1.0]), np.array([self.ti, 0.0])
+        if self.td > 0:  # + td s/(1 + td s/n)
+            filt = np.array([self.td / self.n, 1.0])
+            num = np.polyadd(np.polymul(num, filt), np.polymul(den, [self.td, 0.0]))
+            den = np.polymul(den, filt)
+        return self.kp * num, den
+
+    def feedback_response(self, omega: np.ndarray) -> np.ndarray:
+        num, den = self.transfer_function()
+        s = 1j * np.asarray(omega, dtype=float)
+        return np.polyval(num, s) / np.polyval(den, s)
+
+    reference_response = feedback_response
+
+    def block(self) -> DelaySystem:
+        return _rational_block(*self.transfer_function())
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": "pid", **asdict(self)}
+
+
+@dataclass(frozen=True)
+class SeriesPID:
+    """Series (interacting) PID ``kp (1 + 1/(ti s)) (1 + td s)/(1 + td s/n)`` on the error.
+
+    This is the form of Haalman's design and of Gorez-Klan eq. 3-11 (``T_i = T_1``,
+    ``T_d = T_2``, ``K_p = T_i/(mu K D_2)``); see :meth:`gorez_klan`.
+    """
+
+    kp: float
+    ti: float | None
+    td: float = 0.0
+    n: float = 10.0
+
+    __post_init__ = PID.__post_init__
+    integrators = PID.integrators
+
+    @classmethod
+    def gorez_klan(cls, gain: float, time_constants: tuple[float, float], dead_time: float, mu: float, n: float) -> "SeriesPID":
+        """Gorez-Klan design on the SOPDT model ``K e^{-D_2 s}/((1+T_1 s)(1+T_2 s))``.
+
+        ``T_i = T_1``, ``T_d = T_2``, ``K_i = 1/(mu K D_2)``, ``K_p = K_i T_i`` (eq. 3-11), so that
+        the model loop is ``e^{-D_2 s}/(mu D_2 s)`` up to the derivative filter (eq. 3-12).
+        """
+        t1, t2 = time_constants
+        _require(dead_time, "dead_time", positive=True)
+        _require(mu, "mu", positive=True)
+        return cls(kp=t1 / (mu * gain * dead_time), ti=t1, td=t2, n=n)
+
+    def transfer_function(self) -> tuple[np.ndarray, np.ndarray]:
+        num, den = np.array([1.0]), np.array([1.0])
+        if self.ti is not None:
+            num, den = np.array([self.ti, 1.0]), np.array([self.ti, 0.0])
+        if self.td > 0:
+            num = np.polymul(num, [self.td, 1.0])
+            den = np.polymul(den, [self.td / self.n, 1.0])
+        return self.kp * num, den
+
+    feedback_response = PID.feedback_response
+    reference_response = PID.feedback_response
+    block = PID.block
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": "pid-series", **asdict(self)}
+
+
+@dataclass(frozen=True)
+class FPPI:
+    """Filtered predictive PI (Ingimundarson section 4, Fig. 4).
+
+    ``u = C (r - G_n u - F (y - G_n e^{-L_n s} u))`` with ``C = K (1 + 1/(T_i s))``,
+    ``G_n = K_n/(T_n s + 1)``, ``F = 1/(T_f s + 1)``, ``T_i = T_n``, ``K = T_n/(K_n T_r)``
+    (eq. 13-15).  ``tf = 0`` gives Hagglund's unfiltered PPI.  Characteristic equation eq. 16.
+
+    Attributes
+    ----------
+    gain, time_constant, dead_time : float
+        The FOPDT model ``K_n``, ``T_n``, ``L_n`` (eq. 1).
+    tr : float
+        Closed-loop time constant ``T_r = T_n/kappa`` (eq. 15).
+    tf : float
+        Filter time constant ``T_f`` (the design rules set ``T_f = T_r``, section 4.3).
+    """
+
+    gain: float
+    time_constant: float
+    dead_time: float
+    tr: float
+    tf: float = 0.0
+
+    def __post_init__(self) -> None:
+        _require(self.gain, "model.gain", nonzero=True)
+        _require(self.time_constant, "model.time_constant", positive=True)
+        _require(self.dead_time, "model.dead_time", nonnegative=True)
+        _require(self.tr, "tr", positive=True)
+        _require(self.tf, "tf", nonnegative=True)
+
+    integrators = 1
+
+    @property
+    def kappa(self) -> float:
+        return self.time_constant / self.tr
+
+    @property
+    def proportional_gain(self) -> float:
+        return self.time_constant / (self.gain * self.tr)
+
+    def _parts(self, omega: np.ndarray):
+        s = 1j * np.asarray(omega, dtype=float)
+        c = self.proportional_gain * (1 + 1 / (self.time_constant * s))
+        g = self.gain / (self.time_constant * s + 1)
+        f = 1 / (self.tf * s + 1)
+        loop = 1 + c * g * (1 - f * np.exp(-s * self.dead_time))
+        return c, f, loop
+
+    def feedback_response(self, omega: np.ndarray) -> np.ndarray:
+        """``C F/(1 + C G_n (1 - F e^{-L_n s}))``."""
+        c, f, loop = self._parts(omega)
+        return c * f / loop
+
+    def reference_response(self, omega: np.ndarray) -> np.ndarray:
+        """``C/(1 + C G_n (1 - F e^{-L_n s}))``."""
+        c, f, loop = self._parts(omega)
+        return c / loop
+
+    def block(self) -> DelaySystem:
+        filtered = self.tf > 0
+        delayed = self.dead_time > 0
+        b = SystemBuilder(n_states=3 if filtered else 2, n_inputs=2, n_delays=1 if delayed else 0)
+        integral, model = b.state(0), b.state(1)
+        r, y = b.input(0), b.input(1)
+        model_delayed = b.delayed(0) if delayed else model
+        correction = b.state(2) if filtered else y - model_delayed
+        error = r - model - correction
+        k, ti = self.proportional_gain, self.time_constant
+        u = k * error + (k / ti) * integral
+        derivatives = [error, (self.gain * u - model) / self.time_constant]
+        if filtered:
+            derivatives.append((y - model_delayed - b.state(2)) / self.tf)
+        delayed_signals = [model] if delayed else []
+        return b.build(derivatives, [u], delayed_signals, [self.dead_time] if delayed else [])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "type": "fppi",
+            "model": {"gain": self.gain, "time_constant": self.time_constant, "dead_time": self.dead_time},
+            "tr": self.tr,
+            "tf": self.tf,
+        }
+
+
+@dataclass(frozen=True)
+class MSP:
+    """Modified Smith predictor for integrating plants (Ingimundarson section 5, Fig. 10).
+
+    ``e_d = y - G_n e^{-L_n s} u_r``, ``u_r = K_r (r - G_n u_r - e_d)``, ``u = u_r - F e_d`` with
+    ``G_n = K_n/s``, ``K_r = 1/(K_n T_r)`` (eq. 38) and ``F = K_0 = 1/(2 L_n K_n)`` (eq. 36), or
+    with ``extension=True`` the PD-type ``F = K_0 (T_d s + 1)/(T_d s/10 + 1)``, ``T_d = 0.4 L_n``,
+    ``K_0 = 0.6/(L_n K_n)`` (eq. 51).  With a perfect model the set-point response is
+    ``e^{-L_n s}/(T_r s + 1)`` (eq. 37) and the loop with a dead-time error is eq. 47.
+    """
+
+    gain: float
+    dead_time: float
+    tr: float
+    extension: bool = False
+
+    def __post_init__(self) -> None:
+        _require(self.gain, "model.gain", nonzero=True)
+        _require(self.dead_time, "model.dead_time", positive=True)
+        _require(self.tr, "tr", positive=True)
+        if not isinstance(self.extension, bool):
+            raise ValueError(f"extension must be true or false, got {self.extension!r}")
+
+    integrators = 1
+
+    @property
+    def k0(self) -> float:
+        return (0.6 if self.extension else 0.5) / (self.dead_time * self.gain)
+
+    @property
+    def kr(self) -> float:
+        return 1.0 / (self.gain * self.tr)
+
+    @property
+    def derivative_time(self) -> float:
+        return 0.4 * self.dead_time
+
+    def _parts(self, omega: np.ndarray):
+        s = 1j * np.asarray(omega, dtype=float)
+        f = self.k0 * np.ones_like(s)
+        if self.extension:
+            td = self.derivative_time
+            f = self.k0 * (td * s + 1) / (td * s / 10 + 1)
+        model = self.gain / s * np.exp(-s * self.dead_time)
+        # K_r/(1 + K_r G_n (1 - e^{-L_n s})) = (1/K_n) s/(T_r s + 1 - e^{-L_n s})
+        smith = s / (self.gain * (self.tr * s + 1 - np.exp(-s * self.dead_time)))
+        return f, model, smith
+
+    def feedback_response(self, omega: np.ndarray) -> np.ndarray:
+        """``F + K_r (1 + F P_n)/(1 + K_r G_n (1 - e^{-L_n s}))``."""
+        f, model, smith = self._parts(omega)
+        return f + smith * (1 + f * model)
+
+    def reference_response(self, omega: np.ndarray) -> np.ndarray:
+        """``K_r (1 + F P_n)/(1 + K_r G_n (1 - e^{-L_n s}))``."""
+        f, model, smith = self._parts(omega)
+        return smith * (1 + f * model)
+
+    def block(self) -> DelaySystem:
+        b = SystemBuilder(n_states=2 if self.extension else 1, n_inputs=2, n_delays=1)
+        model, r, y = b.state(0), b.input(0), b.input(1)
+        disturbance = y - b.delayed(0)
+        u_r = self.kr * (r - model - disturbance)
+        derivatives = [self.gain * u_r]
+        if self.extension:
+            lead = self.derivative_time / 10
+            derivatives.append((disturbance - b.state(1)) / lead)
+            correction = self.k0 * (10 * disturbance - 9 * b.state(1))
+        else:
+            correction = self.k0 * disturbance
+        return b.build(derivatives, [u_r - correction], [model], [self.dead_time])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "type": "msp",
+            "model": {"gain": self.gain, "dead_time": self.dead_time},
+            "tr": self.tr,
+            "extension": self.extension,
+        }
+
+
+Controller = PID | SeriesPID | FPPI | MSP
+
+_FIELDS = {
+    "pid": ({"kp", "ti"}, {"td", "n"}),
+    "pid-series": ({"kp", "ti"}, {"td", "n"}),
+    "fppi": ({"model", "tr"}, {"tf"}),
+    "msp": ({"model", "tr"}, {"extension"}),
+}
+_MODEL_FIELDS = {"fppi": {"gain", "time_constant", "dead_time"}, "msp": {"gain", "dead_time"}}
+
+
+def controller_from_dict(data: Any) -> Controller:
+    """Parse the controller JSON of ``deadtime analyze`` (see the README); errors name the field."""
+    if not isinstance(data, dict):
+        raise ValueError(f"controller must be a JSON object, got {type(data).__name__}")
+    kind = data.get("type")
+    if kind not in _FIELDS:
+        raise ValueError(f"controller.type must be one of {sorted(_FIELDS)}, got {kind!r}")
+    required, optional = _FIELDS[kind]
+    keys = set(data) - {"type"}
+    unknown = sorted(keys - required - optional)
+    if unknown:
+        raise ValueError(f"controller has unknown key {unknown[0]!r} for type {kind!r}")
+    missing = sorted(required - keys)
+    if missing:
+        raise ValueError(f"controller is missing key {missing[0]!r} for type {kind!r}")
+    fields = {k: v for k, v in data.items() if k != "type"}
+    try:
+        if kind in ("pid", "pid-series"):
+            cls = PID if kind == "pid" else SeriesPID
+            return cls(**fields)
+        model = fields.pop("model")
+        if not isinstance(model, dict):
+            raise ValueError(f"model must be an object with keys {sorted(_MODEL_FIELDS[kind])}")
+        unknown = sorted(set(model) - _MODEL_FIELDS[kind])
+        if unknown:
+            raise ValueError(f"model has unknown key {unknown[0]!r}")
+        missing = sorted(_MODEL_FIELDS[kind] - set(model))
+        if missing:
+            raise ValueError(f"model is missing key {missing[0]!r}")
+        cls = FPPI if kind == "fppi" else MSP
+        return cls(**model, **fields)
+    except ValueError as error:
+        raise ValueError(f"controller.{error}") from None

@@ -1,0 +1,264 @@
+"""Plants with dead time, ``G(s) e^{-L s}``.
+
+A :class:`Plant` is a rational, proper transfer function ``G(s) = num(s)/den(s)`` (coefficients in
+descending powers of ``s``, as in python-control and ``scipy.signal``) in series with a dead time
+``L``.  ``G`` is self-regulating (every pole in the open left half plane) or integrating (one pole
+at the origin, the others in the open left half plane).  Everything else in deadtime-gym takes a
+validated :class:`Plant`; invalid data is refused with a ``ValueError`` that names the field.
+
+The moments used by the method of moments (Gorez-Klan eq. 2-3 .. 2-6 and appendix A) are exact
+functions of the coefficients, see :meth:`Plant.taylor_coefficients`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+import scipy.linalg
+import scipy.signal
+
+__all__ = ["Plant", "StateSpace"]
+
+
+@dataclass(frozen=True)
+class StateSpace:
+    """A continuous-time state-space realization ``x' = A x + B u``, ``y = C x + D u``."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+
+
+def _as_coefficients(values: Any, field: str) -> tuple[float, ...]:
+    try:
+        array = np.asarray(values, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise ValueError(f"{field} must be a list of numbers, got {values!r}") from None
+    if array.size == 0:
+        raise ValueError(f"{field} must not be empty")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{field} must be finite numbers, got {values!r}")
+    nonzero = np.flatnonzero(array)
+    if nonzero.size == 0:
+        raise ValueError(f"{field} must not be all zero")
+    return tuple(float(v) for v in array[nonzero[0]:])
+
+
+@dataclass(frozen=True)
+class Plant:
+    """A validated plant ``G(s) e^{-L s}``.
+
+    Parameters
+    ----------
+    num, den : sequence of float
+        Numerator and denominator coefficients of ``G`` in descending powers of ``s``.  Leading
+        zeros are dropped; the denominator is scaled to be monic.
+    delay : float
+        The dead time ``L >= 0``.
+
+    Raises
+    ------
+    ValueError
+        If a coefficient is not finite, ``G`` is improper, has a pole in the closed right half
+        plane other than a single pole at the origin, has zero (static or velocity) gain, or the
+        delay is negative or not finite.
+
+    Examples
+    --------
+    >>> plant = Plant(num=[1.0], den=[10.0, 1.0], delay=5.0)
+    >>> plant.gain, plant.residence_time
+    (1.0, 15.0)
+    """
+
+    num: tuple[float, ...]
+    den: tuple[float, ...]
+    delay: float
+
+    def __post_init__(self) -> None:
+        num = _as_coefficients(self.num, "num")
+        den = _as_coefficients(self.den, "den")
+        try:
+            delay = float(self.delay)
+        except (TypeError, ValueError):
+            raise ValueError(f"delay must be a number, got {self.delay!r}") from None
+        if not np.isfinite(delay) or delay < 0:
+            raise ValueError(f"delay must be finite and >= 0, got {self.delay!r}")
+        if len(num) > len(den):
+            raise ValueError(
+                f"num has degree {len(num) - 1} > den degree {len(den) - 1}: the plant must be proper"
+            )
+        scale = den[0]
+        num = tuple(v / scale for v in num)
+        den = tuple(v / scale for v in den)
+        object.__setattr__(self, "num", num)
+        object.__setattr__(self, "den", den)
+        object.__setattr__(self, "delay", delay)
+        self._validate_poles()
+
+    def _validate_poles(self) -> None:
+        den = np.asarray(self.den)
+        origin_poles = len(den) - 1 - int(np.flatnonzero(den)[-1])
+        if origin_poles > 1:
+            raise ValueError(f"den has {origin_poles} poles at s=0: at most one integrator is allowed")
+        if self.num[-1] == 0.0:
+            raise ValueError("num has a zero at s=0: the plant has zero gain")
+        rest = den[: len(den) - origin_poles]
+        poles = np.roots(rest)
+        if poles.size and np.max(poles.real) >= 0.0:
+            worst = poles[np.argmax(poles.real)]
+            raise ValueError(f"den has an unstable pole at s={worst:.6g}: the plant must be stable or integrating")
+
+    # ----------------------------------------------------------------- constructors
+    @classmethod
+    def from_time_constants(
+        cls,
+        gain: float,
+        time_constants: Sequence[float],
+        delay: float = 0.0,
+        *,
+        zero_time_constants: Sequence[float] = (),
+        integrating: bool = False,
+    ) -> "Plant":
+        """``K prod(1 + T0_j s) / (s^i prod(1 + T_k s)) e^{-L s}``.
+
+        ``zero_time_constants`` holds ``T0_j`` of the numerator factors ``(1 + T0_j s)``; a
+        negative value gives a right-half-plane zero, e.g. ``-2`` for ``(1 - 2 s)``.
+        """
+        gain = float(gain)
+        if not np.isfinite(gain) or gain == 0.0:
+            raise ValueError(f"gain must be finite and non-zero, got {gain!r}")
+        for name, values in (("time_constants", time_constants), ("zero_time_constants", zero_time_constants)):
+            if not np.all(np.isfinite(np.asarray(values, dtype=float))):
+                raise ValueError(f"{name} must be finite, got {list(values)!r}")
+        if any(t <= 0 for t in time_constants):
+            raise ValueError(f"time_constants must be > 0, got {list(time_constants)!r}")
+        num = np.array([gain])
+        for t0 in zero_time_constants:
+            num = np.polymul(num, [t0, 1.0])
+        den = np.array([1.0])
+        for t in time_constants:
+            den = np.polymul(den, [t, 1.0])
+        if integrating:
+            den = np.polymul(den, [1.0, 0.0])
+        return cls(num=tuple(num), den=tuple(den), delay=delay)
+
+    @classmethod
+    def from_transfer_function(cls, transfer_function: Any, delay: float = 0.0) -> "Plant":
+        """From a SISO continuous-time ``control.TransferFunction`` (or anything with its
+        ``num``/``den`` layout) and a dead time."""
+        if getattr(transfer_function, "ninputs", 1) != 1 or getattr(transfer_function, "noutputs", 1) != 1:
+            raise ValueError("transfer_function must be SISO")
+        if getattr(transfer_function, "dt", 0) not in (0, None):
+            raise ValueError("transfer_function must be continuous time (dt = 0)")
+        try:
+            num = np.asarray(transfer_function.num[0][0], dtype=float)
+            den = np.asarray(transfer_function.den[0][0], dtype=float)
+        except (AttributeError, IndexError, TypeError):
+            raise ValueError("transfer_function must have num[0][0] and den[0][0] coefficient arrays") from None
+        return cls(num=tuple(num), den=tuple(den), delay=delay)
+
+    @classmethod
+    def from_dict(cls, data: Any) -> "Plant":
+        """From the JSON form ``{"num": [...], "den": [...], "delay": L}``."""
+        if not isinstance(data, dict):
+            raise ValueError(f"plant must be a JSON object with num, den, delay; got {type(data).__name__}")
+        unknown = sorted(set(data) - {"num", "den", "delay"})
+        if unknown:
+            raise ValueError(f"plant has unknown key {unknown[0]!r} (expected num, den, delay)")
+        for key in ("num", "den", "delay"):
+            if key not in data:
+                raise ValueError(f"plant is missing key {key!r}")
+        num, den = data["num"], data["den"]
+        for key, value in (("num", num), ("den", den)):
+            if not isinstance(value, list | tuple) or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) for v in value
+            ):
+                raise ValueError(f"plant.{key} must be a list of numbers, got {value!r}")
+        delay = data["delay"]
+        if not isinstance(delay, int | float) or isinstance(delay, bool):
+            raise ValueError(f"plant.delay must be a number, got {delay!r}")
+        try:
+            return cls(num=tuple(num), den=tuple(den), delay=delay)
+        except ValueError as error:
+            raise ValueError(f"plant.{error}") from None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form accepted by :meth:`from_dict`."""
+        return {"num": list(self.num), "den": list(self.den), "delay": self.delay}
+
+    # ----------------------------------------------------------------- properties
+    @property
+    def integrating(self) -> bool:
+        """True if ``G`` has a pole at the origin."""
+        return self.den[-1] == 0.0
+
+    @property
+    def order(self) -> int:
+        """Degree of the denominator of ``G``."""
+        return len(self.den) - 1
+
+    @property
+    def rational_part(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """``(num, den)`` of ``G`` without the integrator (equal to ``(num, den)`` if stable)."""
+        return self.num, self.den[:-1] if self.integrating else self.den
+
+    @property
+    def gain(self) -> float:
+        """Static gain ``K = G(0)``, or the velocity gain ``lim s G(s)`` if integrating."""
+        num, den = self.rational_part
+        return num[-1] / den[-1]
+
+    def taylor_coefficients(self) -> tuple[float, float]:
+        """``(p1, p2)`` of ``P(s)/K = 1 + p1 s + p2 s^2 + ...`` (Gorez-Klan eq. 2-3, appendix A).
+
+        For an integrating plant the expansion is that of ``s P(s)/K_v`` (the dynamics additional
+        to the integrator, with the dead time).
+        """
+        num, den = self.rational_part
+        n = np.asarray(num[::-1]) / num[-1]  # ascending, normalized: 1 + n1 s + n2 s^2
+        d = np.asarray(den[::-1]) / den[-1]
+        n1, n2 = (n[1] if n.size > 1 else 0.0), (n[2] if n.size > 2 else 0.0)
+        d1, d2 = (d[1] if d.size > 1 else 0.0), (d[2] if d.size > 2 else 0.0)
+        g1 = n1 - d1  # appendix A: n1 = g1 + d1
+        g2 = n2 - d1 * g1 - d2  # n2 = g2 + d1 g1 + d2
+        L = self.delay
+        p1 = g1 - L  # times e^{-Ls} = 1 - L s + L^2 s^2 / 2
+        p2 = g2 - L * g1 + L * L / 2
+        return float(p1), float(p2)
+
+    @property
+    def residence_time(self) -> float:
+        """Average residence time ``T_ar = -p1`` (Gorez-Klan eq. 2-5; Ingimundarson eq. 5).
+
+        For an integrating plant, ``T_ar`` of the dynamics additional to the integrator, i.e. the
+        dead time ``L_n`` of the two-parameter model (Ingimundarson section 2.1).
+        """
+        return -self.taylor_coefficients()[0]
+
+    # ----------------------------------------------------------------- responses
+    def frequency_response(self, omega: np.ndarray | float) -> np.ndarray:
+        """Exact ``G(i omega) e^{-i omega L}``."""
+        s = 1j * np.asarray(omega, dtype=float)
+        return np.polyval(self.num, s) / np.polyval(self.den, s) * np.exp(-s * self.delay)
+
+    def state_space(self) -> StateSpace:
+        """A balanced controllable-canonical realization of ``G`` (the dead time is not included)."""
+        A, B, C, D = scipy.signal.tf2ss(self.num, self.den)
+        if A.size:
+            A, (scale, perm) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+            B = B / scale[:, None]
+            C = C * scale[None, :]
+        return StateSpace(A=np.atleast_2d(A), B=np.atleast_2d(B), C=np.atleast_2d(C), D=np.atleast_2d(D))
+
+    def step_time_scale(self) -> float:
+        """A time scale for simulation: ``T_ar`` if positive, else the slowest time constant."""
+        t_ar = self.residence_time
+        if t_ar > 0:
+            return t_ar
+        num, den = self.rational_part
+        poles = np.roots(den)
+        slowest = 1.0 / np.min(np.abs(poles)) if poles.size else 1.0
+        return float(max(slowest, self.delay, 1e-12))
