@@ -1,0 +1,96 @@
+"""The ``deadtime`` command line.
+
+Each subcommand lives in the package that owns its concept and is imported only when it runs,
+so that ``deadtime analyze`` never loads torch.  Bad input anywhere prints one line naming what is
+wrong and exits with status 2; no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+__all__ = ["main", "CommandError", "load_json_argument"]
+
+
+class CommandError(ValueError):
+    """An error in the user's input, reported as one line."""
+
+
+def load_json_argument(text: str, name: str) -> Any:
+    """Parse ``text`` as JSON, or read it from a file if ``text`` is a path."""
+    source = text
+    if not text.lstrip().startswith(("{", "[")) and Path(text).is_file():
+        source = Path(text).read_text()
+    try:
+        return json.loads(source)
+    except json.JSONDecodeError as error:
+        raise CommandError(f"{name} is not valid JSON ({error.msg} at position {error.pos})") from None
+
+
+def _analyze(args: argparse.Namespace) -> int:
+    from envs.analysis import analyze
+    from envs.controllers import controller_from_dict
+    from envs.plants import Plant
+
+    plant = Plant.from_dict(load_json_argument(args.plant, "--plant"))
+    controller = controller_from_dict(load_json_argument(args.controller, "--controller"))
+    result = analyze(plant, controller).to_dict()
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for key, value in result.items():
+            print(f"{key:28s} {_format(value)}")
+    return 0
+
+
+def _format(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if value is None:
+        return "-"
+    if isinstance(value, list):
+        return ", ".join(_format(v) for v in value) or "-"
+    return str(value)
+
+
+def _reproduce(args: argparse.Namespace) -> int:
+    from baselines.reproduce import run_reproductions
+
+    return run_reproductions(args.name, as_json=args.json, figures=Path(args.figures))
+
+
+def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Namespace], int]]]:
+    parser = argparse.ArgumentParser(prog="deadtime", description="Tune controllers for dead-time processes.")
+    commands = parser.add_subparsers(dest="command", required=True)
+    handlers: dict[str, Callable[[argparse.Namespace], int]] = {}
+
+    analyze = commands.add_parser("analyze", help="robustness and IAE of a plant-controller loop")
+    analyze.add_argument("--plant", required=True, help='JSON {"num": [...], "den": [...], "delay": L} or a file')
+    analyze.add_argument("--controller", required=True, help='JSON {"type": "pid", "kp":, "ti":, "td":, "n":} etc. or a file')
+    analyze.add_argument("--json", action="store_true", help="print one JSON object")
+    handlers["analyze"] = _analyze
+
+    reproduce = commands.add_parser("reproduce", help="the seeds' tables and figures beside their computed twins")
+    reproduce.add_argument("name", help="a reproduction name, or 'all'")
+    reproduce.add_argument("--json", action="store_true", help="print JSON (one object per reproduction)")
+    reproduce.add_argument("--figures", default="figures", help="directory for the PNG figures (default: figures)")
+    handlers["reproduce"] = _reproduce
+    return parser, handlers
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser, handlers = _parser()
+    args = parser.parse_args(argv)
+    try:
+        return handlers[args.command](args)
+    except (ValueError, OSError) as error:  # CommandError is a ValueError
+        print(f"deadtime {args.command}: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,72 @@
+"""The figures of a designed loop: robustness (frequency domain) and IAE (time domain).
+
+:func:`analyze` is what ``deadtime analyze`` prints and what the environments score: stability,
+``Ms``, ``Mt``, gain, phase and delay margins of ``L = P C_fb`` on the exact frequency response
+(:mod:`envs.robustness`), and the IAE for unit load and set-point steps (:mod:`envs.performance`).
+An unstable loop is a result (``stable=False``, infinite IAE), not an error.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from envs.controllers import Controller
+from envs.loops import loop_response
+from envs.performance import IAEResult, iae
+from envs.plants import Plant
+from envs.robustness import Margins, loop_margins
+
+__all__ = ["LoopAnalysis", "analyze", "plant_margins"]
+
+
+@dataclass(frozen=True)
+class LoopAnalysis:
+    """Robustness and performance of one plant-controller loop (raw units of the plant)."""
+
+    margins: Margins
+    performance: IAEResult
+
+    @property
+    def stable(self) -> bool:
+        return self.margins.stable
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON object of ``deadtime analyze --json``; ``None`` where infinite or undefined."""
+        m, p = self.margins, self.performance
+
+        def finite(value: float) -> float | None:
+            return float(value) if value is not None and math.isfinite(value) else None
+
+        return {
+            "stable": m.stable,
+            "ms": finite(m.ms) if m.stable else None,
+            "mt": finite(m.mt) if m.stable else None,
+            "gain_margin": finite(m.gain_margin),
+            "phase_margin_deg": finite(m.phase_margin_deg),
+            "delay_margin": finite(m.delay_margin),
+            "iae_load": finite(p.load),
+            "iae_setpoint": finite(p.setpoint),
+            "gain_crossover_frequency": finite(m.gain_crossover_frequency),
+            "phase_crossover_frequency": finite(m.phase_crossover_frequency),
+            "delay_margin_frequency": finite(m.delay_margin_frequency),
+            "ms_frequency": finite(m.ms_frequency) if m.stable else None,
+            "gain_crossovers": [float(w) for w in m.gain_crossovers],
+            "unstable_closed_loop_poles": m.unstable_poles,
+            "iae_settled": p.settled,
+        }
+
+
+def plant_margins(plant: Plant, controller: Controller) -> Margins:
+    """Robustness figures of ``L = P C_fb`` (see :func:`envs.robustness.loop_margins`)."""
+    integrators = int(plant.integrating) + controller.integrators
+    return loop_margins(lambda w: loop_response(plant, controller, w), integrators, plant.step_time_scale())
+
+
+def analyze(plant: Plant, controller: Controller) -> LoopAnalysis:
+    """Robustness and IAE of the loop; the IAE of an unstable loop is infinite without simulating."""
+    margins = plant_margins(plant, controller)
+    if not margins.stable:
+        return LoopAnalysis(margins, IAEResult(math.inf, math.inf, True, 0.0, math.nan))
+    return LoopAnalysis(margins, iae(plant, controller))
