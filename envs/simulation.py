@@ -23,7 +23,9 @@ is checked against fine-step simulations in the tests.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Sequence
 
+import numba
 import numpy as np
 import scipy.linalg
 
@@ -33,6 +35,9 @@ __all__ = [
     "SimulationResult",
     "discretize",
     "simulate",
+    "simulate_batch",
+    "open_loop_response",
+    "SystemBuilder",
     "delayed_zoh",
 ]
 
@@ -174,50 +179,141 @@ class SimulationResult:
     final_state: np.ndarray = field(repr=False)
 
 
-def simulate(discrete: DiscreteDelaySystem, inputs: np.ndarray, x0: np.ndarray | None = None) -> SimulationResult:
-    """Simulate from rest (or ``x0`` with a zero past of the delayed signals).
+def simulate(discrete: DiscreteDelaySystem, inputs: np.ndarray) -> SimulationResult:
+    """Simulate one system from rest; see :func:`simulate_batch`.
 
     Parameters
     ----------
     discrete : DiscreteDelaySystem
     inputs : ndarray, shape (n_steps, n_inputs)
         ``d[j]``, held over ``[j dt, (j+1) dt)``.
+    """
+    d = np.asarray(inputs, dtype=float).reshape(-1, discrete.system.n_inputs)
+    return simulate_batch([discrete], d[None])[0]
+
+
+def _stack(discretes: Sequence[DiscreteDelaySystem]) -> dict[str, np.ndarray]:
+    """Zero-pad the systems to common state and delay-channel counts and stack them."""
+    n = max(d.system.n_states for d in discretes)
+    nv = max(d.system.delays.size for d in discretes)
+    nd, nz = discretes[0].system.n_inputs, discretes[0].system.n_outputs
+    if any(d.system.n_inputs != nd or d.system.n_outputs != nz for d in discretes):
+        raise ValueError("batched systems must have the same numbers of inputs and outputs")
+    B = len(discretes)
+    out = {
+        "Phi": np.zeros((B, n, n)), "Gamma": np.zeros((B, n, nd)), "R": np.zeros((B, n, nv, 3)),
+        "C1": np.zeros((B, nz, n)), "D11": np.zeros((B, nz, nd)), "D12": np.zeros((B, nz, nv)),
+        "C2": np.zeros((B, nv, n)), "D21": np.zeros((B, nv, nd)), "D22": np.zeros((B, nv, nv)),
+        "whole": np.ones((B, nv), dtype=int), "a": np.zeros((B, nv)),
+    }
+    for b, dis in enumerate(discretes):
+        s, k, v = dis.system, dis.system.n_states, dis.system.delays.size
+        out["Phi"][b, :k, :k], out["Gamma"][b, :k], out["R"][b, :k, :v] = dis.Phi, dis.Gamma, dis.R
+        out["C1"][b, :, :k], out["D11"][b], out["D12"][b, :, :v] = s.C1, s.D11, s.D12
+        out["C2"][b, :v, :k], out["D21"][b, :v], out["D22"][b, :v, :v] = s.C2, s.D21, s.D22
+        out["whole"][b, :v], out["a"][b, :v] = dis.whole_samples, dis.fraction / dis.dt
+    out["R"] = out["R"].reshape(B, n, nv * 3)
+    return out
+
+
+def simulate_batch(discretes: Sequence[DiscreteDelaySystem], inputs: np.ndarray) -> list[SimulationResult]:
+    """Simulate many systems at once, from rest, vectorized over the batch.
+
+    Parameters
+    ----------
+    discretes : sequence of DiscreteDelaySystem
+        Systems with the same numbers of inputs and outputs (state and delay counts may differ;
+        each keeps its own sample time).
+    inputs : ndarray, shape (n_systems, n_steps, n_inputs)
+        ``d[b, j]``, held over ``[j dt_b, (j+1) dt_b)``.
 
     Returns
     -------
-    SimulationResult
-        ``outputs[j] = z(j dt)``.  If any state exceeds ``1e8`` times the largest input the run
-        stops, the remaining outputs are ``nan`` and ``diverged`` is True.
+    list of SimulationResult
+        ``outputs[j] = z(j dt)``.  A system whose state exceeds ``1e8`` times its largest input
+        is stopped: its remaining outputs are ``nan`` and ``diverged`` is True.
     """
-    sys = discrete.system
-    d = np.asarray(inputs, dtype=float).reshape(-1, sys.n_inputs)
-    steps = d.shape[0]
-    nv = sys.delays.size
-    m = discrete.whole_samples
-    a = discrete.fraction / discrete.dt
-    offset = int(m.max()) + 1 if nv else 0
-    history = np.zeros((offset + steps + 1, nv))
-    x = np.zeros(sys.n_states) if x0 is None else np.asarray(x0, dtype=float).copy()
-    z = np.full((steps, sys.n_outputs), np.nan)
-    limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(d))) if d.size else 1.0)
-    Phi, Gamma, R = discrete.Phi, discrete.Gamma, discrete.R.reshape(sys.n_states, nv * 3)
-    channels = np.arange(nv)
-    diverged = False
-    for j in range(steps):
-        base = offset + j - m - 1  # index of w_i[j - m_i - 1]
-        past = history[base[:, None] + np.arange(3)[None, :], channels[:, None]] if nv else np.zeros((0, 3))
-        v = a * past[:, 0] + (1 - a) * past[:, 1]
-        z[j] = sys.C1 @ x + sys.D11 @ d[j] + sys.D12 @ v
-        if nv:
-            history[offset + j] = sys.C2 @ x + sys.D21 @ d[j] + sys.D22 @ v
-            # w[j] is now known; w_i[j - m_i + 1] with m_i >= 1 is in the past.
-            past = history[base[:, None] + np.arange(3)[None, :], channels[:, None]]
-        x = Phi @ x + Gamma @ d[j] + (R @ past.ravel() if nv else 0.0)
-        if not np.all(np.abs(x) < limit):
-            diverged = True
-            break
-    timepts = np.arange(steps) * discrete.dt
-    return SimulationResult(timepts=timepts, outputs=z, diverged=diverged, final_state=x)
+    d = np.ascontiguousarray(inputs, dtype=float)
+    M = _stack(discretes)
+    limit = DIVERGENCE_LIMIT * np.maximum(1.0, np.max(np.abs(d), axis=(1, 2)) if d.size else 1.0)
+    z, alive, x = _run(
+        M["Phi"], M["Gamma"], M["R"], M["C1"], M["D11"], M["D12"], M["C2"], M["D21"], M["D22"],
+        M["whole"], M["a"], d, limit,
+    )
+    steps = d.shape[1]
+    return [
+        SimulationResult(
+            timepts=np.arange(steps) * dis.dt, outputs=z[b], diverged=not alive[b], final_state=x[b, : dis.system.n_states]
+        )
+        for b, dis in enumerate(discretes)
+    ]
+
+
+@numba.njit(cache=True)
+def _run(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit):  # pragma: no cover - compiled
+    """The recursion of :class:`DiscreteDelaySystem` over a stacked batch (compiled with numba).
+
+    ``history[b, offset + k, i]`` holds ``w_i[k]`` (zero for ``k < 0``: the system starts at rest).
+    """
+    B, steps, nd = d.shape
+    n, nz, nv = Phi.shape[1], C1.shape[1], a.shape[1]
+    offset = 1
+    for b in range(B):
+        for i in range(nv):
+            offset = max(offset, whole[b, i] + 1)
+    z = np.full((B, steps, nz), np.nan)
+    alive = np.ones(B, dtype=np.bool_)
+    xs = np.zeros((B, n))
+    for b in range(B):
+        history = np.zeros((offset + steps + 1, nv))
+        x = np.zeros(n)
+        x_next = np.zeros(n)
+        v = np.zeros(nv)
+        past = np.zeros(nv * 3)
+        for j in range(steps):
+            for i in range(nv):
+                base = offset + j - whole[b, i] - 1
+                v[i] = a[b, i] * history[base, i] + (1.0 - a[b, i]) * history[base + 1, i]
+            for o in range(nz):
+                acc = 0.0
+                for k in range(n):
+                    acc += C1[b, o, k] * x[k]
+                for k in range(nd):
+                    acc += D11[b, o, k] * d[b, j, k]
+                for k in range(nv):
+                    acc += D12[b, o, k] * v[k]
+                z[b, j, o] = acc
+            for i in range(nv):
+                acc = 0.0
+                for k in range(n):
+                    acc += C2[b, i, k] * x[k]
+                for k in range(nd):
+                    acc += D21[b, i, k] * d[b, j, k]
+                for k in range(nv):
+                    acc += D22[b, i, k] * v[k]
+                history[offset + j, i] = acc
+            for i in range(nv):  # w_i[j - m_i - 1 + k], k = 0, 1, 2; w[j] is known now
+                base = offset + j - whole[b, i] - 1
+                for k in range(3):
+                    past[3 * i + k] = history[base + k, i]
+            finite = True
+            for r in range(n):
+                acc = 0.0
+                for k in range(n):
+                    acc += Phi[b, r, k] * x[k]
+                for k in range(nd):
+                    acc += Gamma[b, r, k] * d[b, j, k]
+                for k in range(3 * nv):
+                    acc += R[b, r, k] * past[k]
+                x_next[r] = acc
+                if not abs(acc) < limit[b]:
+                    finite = False
+            x[:] = x_next
+            if not finite:
+                alive[b] = False
+                break
+        xs[b] = x
+    return z, alive, xs
 
 
 def delayed_zoh(state_space, delay: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
