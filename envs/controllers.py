@@ -51,7 +51,7 @@ def _require(value: Any, name: str, *, positive: bool = False, nonzero: bool = F
 def _rational_block(num: np.ndarray, den: np.ndarray) -> DelaySystem:
     """A 1-DOF rational controller ``C = num/den`` acting on ``e = r - y``."""
     A, B, C, D = scipy.signal.tf2ss(num, den)
-    n = A.shape[0]
+    n = len(np.trim_zeros(np.asarray(den, dtype=float), "f")) - 1  # tf2ss pads a static gain with a dummy state
     b = SystemBuilder(n_states=n, n_inputs=2, n_delays=0)
     error = b.input(0) - b.input(1)
     states = [b.state(i) for i in range(n)]

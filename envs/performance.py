@@ -7,7 +7,8 @@ the set point, both at ``t = 0`` from rest.  Values are raw, in the plant's time
 Time scale and tail handling.  The loop is simulated (:mod:`envs.loops`) with
 ``T_ar/50`` per sample (``T_ar`` of the true plant, smaller if a dead time is shorter), over an
 initial horizon of ``HORIZON`` residence times.  ``|e|`` is integrated by the trapezoidal rule,
-splitting each interval where ``e`` changes sign at its linear zero.  The run counts as settled
+splitting each interval where ``e`` changes sign at its linear zero.  A loop without integral action
+for an input keeps a steady offset (its exact DC gain is computed first); its IAE is infinite.  The run counts as settled
 when the IAE accumulated over the last tenth of the horizon is below ``1e-5`` of the total (the
 decaying tail beyond the horizon is then of that order too); otherwise the horizon is doubled,
 up to ``MAX_HORIZON`` residence times, and ``settled`` is False if that is not enough.  A
@@ -32,6 +33,7 @@ __all__ = ["IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 HORIZON = 40.0
 MAX_HORIZON = 1280.0
 SETTLED_SHARE = 1e-5
+OFFSET_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -71,7 +73,9 @@ def iae_batch(
     if len(plants) != len(controllers):
         raise ValueError(f"got {len(plants)} plants but {len(controllers)} controllers")
     steps_of = [simulation_step(p, c, samples_per_residence_time) for p, c in zip(plants, controllers)]
-    discretes = [discretize(closed_loop(p, c), dt) for p, c, dt in zip(plants, controllers, steps_of)]
+    systems = [closed_loop(p, c) for p, c in zip(plants, controllers)]
+    discretes = [discretize(system, dt) for system, dt in zip(systems, steps_of)]
+    offsets = [_steady_offsets(system) for system in systems]
     scales = [p.step_time_scale() for p in plants]
     results: list[IAEResult | None] = [None] * len(plants)
     pending, horizon = list(range(len(plants))), HORIZON
@@ -81,18 +85,37 @@ def iae_batch(
         inputs[0::2, :, 1] = 1.0  # unit load step
         inputs[1::2, :, 0] = 1.0  # unit set-point step
         runs = simulate_batch([discretes[i] for i in pending for _ in range(2)], inputs)
-        still = []
+        still: list[int] = []
         for k, i in enumerate(pending):
-            load, setpoint = runs[2 * k], runs[2 * k + 1]
-            dt = steps_of[i]
-            if load.diverged or setpoint.diverged:
-                results[i] = IAEResult(math.inf, math.inf, True, horizon, dt)
-                continue
-            errors = (load.outputs[:, 2], setpoint.outputs[:, 2])
-            settled = all(_settled(e, dt) for e in errors)
-            if settled or horizon >= MAX_HORIZON:
-                results[i] = IAEResult(*(integrated_absolute_error(e, dt) for e in errors), settled, horizon, dt)
-            else:
+            outcome = _outcome(runs[2 * k], runs[2 * k + 1], offsets[i], steps_of[i], horizon)
+            if outcome is None:
                 still.append(i)
+            else:
+                results[i] = outcome
         pending, horizon = still, horizon * 2
     return results  # type: ignore[return-value]
+
+
+def _outcome(load, setpoint, offsets: tuple[bool, bool], dt: float, horizon: float) -> IAEResult | None:
+    """The IAE of one loop, or None if it has not settled within ``horizon`` and may run longer."""
+    if load.diverged or setpoint.diverged:
+        return IAEResult(math.inf, math.inf, True, horizon, dt)
+    errors = (load.outputs[:, 2], setpoint.outputs[:, 2])
+    settled = all(_settled(e, dt) for e, offset in zip(errors, offsets) if not offset)
+    if not settled and horizon < MAX_HORIZON:
+        return None
+    values = [math.inf if offset else integrated_absolute_error(e, dt) for e, offset in zip(errors, offsets)]
+    return IAEResult(values[0], values[1], settled, horizon, dt)
+
+
+def _steady_offsets(system) -> tuple[bool, bool]:
+    """Whether the error keeps a steady offset after a unit load and a unit set-point step.
+
+    Such a loop (no integral action for that input) has an infinite IAE.  The final error is the
+    closed loop's exact DC gain; a loop with a pole at the origin is left to the simulation.
+    """
+    try:
+        gain = system.dc_gain()
+    except np.linalg.LinAlgError:
+        return False, False
+    return abs(gain[2, 1]) > OFFSET_TOLERANCE, abs(gain[2, 0]) > OFFSET_TOLERANCE

@@ -247,6 +247,8 @@ class Plant:
     def state_space(self) -> StateSpace:
         """A balanced controllable-canonical realization of ``G`` (the dead time is not included)."""
         A, B, C, D = scipy.signal.tf2ss(self.num, self.den)
+        if self.order == 0:  # tf2ss pads a static gain with a dummy state
+            return StateSpace(A=np.zeros((0, 0)), B=np.zeros((0, 1)), C=np.zeros((1, 0)), D=np.atleast_2d(D))
         if A.size:
             A, (scale, perm) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
             B = B / scale[:, None]

@@ -71,6 +71,17 @@ class DelaySystem:
     def n_outputs(self) -> int:
         return self.C1.shape[0]
 
+    def dc_gain(self) -> np.ndarray:
+        """Steady-state gain from ``d`` to ``z`` (delays do not matter at ``s = 0``).
+
+        Solves ``0 = A x + B1 d + B2 v``, ``v = C2 x + D21 d + D22 v``; raises
+        ``numpy.linalg.LinAlgError`` if the system has a pole at the origin.
+        """
+        n, nv = self.n_states, self.delays.size
+        lhs = np.block([[self.A, self.B2], [self.C2, self.D22 - np.eye(nv)]])
+        state = np.linalg.solve(lhs, -np.vstack([self.B1, self.D21]))
+        return self.C1 @ state[:n] + self.D12 @ state[n:] + self.D11
+
     def frequency_response(self, omega: np.ndarray) -> np.ndarray:
         """Exact transfer matrix from ``d`` to ``z`` at ``s = i omega``, shape ``(len(omega), nz, nd)``.
 
