@@ -1,0 +1,247 @@
+"""Experiment 1: closed-loop set-point step, identified by the method of moments.
+
+:func:`closed_loop_step` steps the set point of the plant under its commissioning PI
+(:func:`~envs.commissioning.commissioning_pi`) or a given controller, runs to steady state
+(:func:`~envs.steady_state.steady_state_mask`, window ``T``) and identifies ``K`` (``K_v``),
+``T_ar`` (Ingimundarson eq. 10), ``T_a`` (Gorez-Klan appendix B), ``tau``, ``theta`` and the SOPDT
+model (eq. 2-7 .. 2-10).
+
+References
+----------
+.. [GK] R. Gorez, P. Klan, "Simple models for process control", section 2 and appendix B.
+.. [IN] A. Ingimundarson, "Robust tuning procedures of dead-time compensating controllers",
+   Lund 2000, sections 2.1 and 2.3.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from envs.commissioning import commissioning_pi
+from envs.controllers import Controller
+from envs.experiment_base import (
+    ExperimentResult,
+    _cap_steps,
+    _check_plant,
+    _check_rng,
+    _excursion_index,
+    _finite,
+    _noise,
+    _record,
+    _Run,
+    _run_until_settled,
+    _sample_time,
+)
+from envs.identification import (
+    FOPDTModel,
+    IntegratingModel,
+    SOPDTModel,
+    closed_loop_moments,
+    fopdt_from_moments,
+    sopdt_from_moments,
+    theta_from_tau,
+)
+from envs.loops import closed_loop
+from envs.plants import Plant
+from envs.simulation import discretize, simulate
+from envs.steady_state import _window_samples, steady_state_mask
+
+__all__ = ["ClosedLoopStepResult", "closed_loop_step"]
+
+
+@dataclass(frozen=True)
+class ClosedLoopStepResult(ExperimentResult):
+    """Closed-loop set-point step (experiment 1).
+
+    Attributes
+    ----------
+    amplitude : float
+        Set-point step ``r``.
+    controller : Controller
+        The loop's controller.
+    settled : bool
+        Steady state was reached before the cap.
+    gain : float
+        ``K = y_f/u_f`` (Gorez-Klan eq. 2-4), or ``K_v = y_f/u_i(t_f)`` if integrating.
+    residence_time : float
+        ``T_ar`` by Ingimundarson eq. 10 (for an integrating plant: of the dynamics additional to the
+        integrator, ``L_n`` of eq. 2).
+    apparent_time_constant : float
+        ``T_a`` (Gorez-Klan appendix B), clipped to ``[0, T_ar]``.
+    normalized_dead_time, theta : float
+        ``tau = 1 - T_a/T_ar`` (eq. 2-7) and ``theta`` (eq. 2-10).
+    fopdt, sopdt : FOPDTModel or None
+        Moment models (eq. 2-1, 2-2/2-8), self-regulating plants only.
+    integrating_model : IntegratingModel or None
+        ``K_v e^{-T_ar s}/s`` (Ingimundarson eq. 2), integrating plants only.
+    """
+
+    amplitude: float
+    controller: Controller
+    settled: bool
+    gain: float
+    residence_time: float
+    apparent_time_constant: float
+    normalized_dead_time: float
+    theta: float
+    fopdt: FOPDTModel | None
+    sopdt: SOPDTModel | None
+    integrating_model: IntegratingModel | None
+
+
+def closed_loop_step(
+    plant: Plant,
+    rng: np.random.Generator,
+    amplitude: float = 1.0,
+    noise_std: float = 0.0,
+    controller: Controller | None = None,
+    dt: float | None = None,
+    excursion_limit: float | None = None,
+    max_duration: float | None = None,
+) -> ClosedLoopStepResult:
+    """Set-point step in closed loop, run to steady state, identified by the method of moments.
+
+    Parameters
+    ----------
+    plant : Plant
+        The true plant.
+    rng : numpy.random.Generator
+        Source of the measurement noise.
+    amplitude : float
+        Set-point step ``r`` (non-zero).
+    noise_std : float
+        Measurement noise standard deviation per sample (>= 0).
+    controller : Controller, optional
+        A stabilizing controller (of :mod:`envs.controllers`) with integral action, unless the plant
+        integrates; default :func:`commissioning_pi`.
+    dt : float, optional
+        Sample time; default ``T/SAMPLES_PER_RESIDENCE_TIME``, reduced to the smallest dead time
+        in the loop if that is shorter (the exact loop simulation needs every delay >= dt).
+    excursion_limit : float, optional
+        Abort when ``|y|`` exceeds it.
+    max_duration : float, optional
+        Cap on the experiment, default ``MAX_DURATION`` time scales.
+
+    Returns
+    -------
+    ClosedLoopStepResult
+
+    Notes
+    -----
+    The levels before the step are the known steady state ``u_b = y_b = 0``; after it
+    ``y_f = r`` (integral action, Ingimundarson section 2.3) and ``u_f`` is the mean of ``u`` over the
+    last window.  For an integrating plant the input is replaced by its integral
+    ``u_i = int u dt`` (section 2.1).  ``K``: Gorez-Klan eq. 2-4; ``T_ar``: Ingimundarson eq. 10
+    (identical to appendix B's ``q_1 - g_1``); ``T_a``: appendix B; ``tau``, ``theta``, SOPDT:
+    eq. 2-7 .. 2-10.
+
+    Raises
+    ------
+    ValueError
+        On invalid arguments, e.g. ``"amplitude must be non-zero, got 0.0"``.
+    """
+    plant, rng = _check_plant(plant), _check_rng(rng)
+    amplitude = _finite(amplitude, "amplitude", nonzero=True)
+    noise_std = _finite(noise_std, "noise_std", nonnegative=True)
+    controller = commissioning_pi(plant) if controller is None else _check_controller(plant, controller)
+    scale = plant.step_time_scale()
+    dt = _loop_sample_time(plant, controller, dt)
+    noise = _noise(rng, noise_std, _cap_steps(scale, dt, max_duration))
+    window = _window_samples(scale, dt)
+    run = _run_closed_loop(plant, controller, amplitude, noise, dt, window, excursion_limit)
+    return _identify_closed_loop(plant, controller, amplitude, run, window, scale)
+
+
+def _check_controller(plant: Plant, controller: Controller) -> Controller:
+    if not hasattr(controller, "block") or not hasattr(controller, "feedback_response"):
+        raise ValueError(f"controller must be an envs.controllers controller, got {type(controller).__name__}")
+    if controller.integrators < 1 and not plant.integrating:
+        raise ValueError("controller must have integral action (e.g. PID with ti set) on a self-regulating plant")
+    return controller
+
+
+def _loop_sample_time(plant: Plant, controller: Controller, dt: float | None) -> float:
+    dt = _sample_time(plant, dt)
+    delays = [plant.delay] + [float(d) for d in controller.block().delays]
+    positive = [d for d in delays if d > 0]
+    return min([dt] + positive)
+
+
+def _run_closed_loop(
+    plant: Plant,
+    controller: Controller,
+    amplitude: float,
+    noise: np.ndarray,
+    dt: float,
+    window: int,
+    excursion_limit: float | None,
+) -> _Run:
+    """Simulate over growing horizons (doubling) until steady state, the cap, or an excursion."""
+    discrete = discretize(closed_loop(plant, controller), dt)
+
+    def trial(steps: int) -> tuple:
+        inputs = np.column_stack([np.full(steps, amplitude), np.zeros(steps), noise[:steps]])
+        sim = simulate(discrete, inputs)
+        y, u = sim.outputs[:, 0], sim.outputs[:, 1]
+        measured = y + noise[:steps]
+        finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
+        abort = _excursion_index(y[:finite], excursion_limit)
+        if sim.diverged and abort is None:
+            abort = max(finite - 1, 0)
+        settle = _closed_loop_settling(sim.timepts[:finite], u[:finite], measured[:finite], amplitude, window, plant.integrating)
+        return sim.timepts, u, measured, y, abort, settle
+
+    return _run_until_settled(trial, max(16 * window, 64), noise.size)
+
+
+def _closed_loop_settling(
+    t: np.ndarray, u: np.ndarray, measured: np.ndarray, amplitude: float, window: int, integrating: bool
+) -> int | None:
+    """First sample where the measured output is at the set point and the input (its integral
+    for an integrating plant) has settled too."""
+    drive = _cumulative_integral(t, u) if integrating else u
+    both = steady_state_mask(t, measured, window, target=amplitude) & steady_state_mask(t, drive, window)
+    hits = np.flatnonzero(both)
+    return int(hits[0]) if hits.size else None
+
+
+def _identify_closed_loop(
+    plant: Plant, controller: Controller, amplitude: float, run: _Run, window: int, scale: float
+) -> ClosedLoopStepResult:
+    record = _record(run, scale)
+    common = dict(**record, amplitude=amplitude, controller=controller, settled=run.settled)
+    t, u, y = record["timepts"], record["control"], record["output"]
+    drive = _cumulative_integral(t, u) if plant.integrating else u
+    final_drive = float(np.mean(drive[-window:]))
+    if run.aborted or t.size < window or final_drive == 0.0:
+        return ClosedLoopStepResult(**common, **_moment_models(float("nan"), float("nan"), float("nan"), plant.integrating))
+    moments = closed_loop_moments(t, drive, y, final_drive, amplitude)
+    gain = amplitude / final_drive
+    return ClosedLoopStepResult(**common, **_moment_models(gain, moments.residence_time, moments.apparent_time_constant, plant.integrating))
+
+
+def _moment_models(gain: float, residence_time: float, apparent: float, integrating: bool) -> dict:
+    """The identified fields of :class:`ClosedLoopStepResult` (NaN and None where undefined)."""
+    fields = dict(
+        gain=gain, residence_time=residence_time, apparent_time_constant=apparent,
+        normalized_dead_time=float("nan"), theta=float("nan"), fopdt=None, sopdt=None, integrating_model=None,
+    )
+    if not residence_time > 0:  # NaN (aborted) or a plant with lead: no model
+        return fields
+    tau = min(max(1.0 - apparent / residence_time, 0.0), 1.0)
+    fields.update(normalized_dead_time=tau, theta=theta_from_tau(tau))
+    if integrating:
+        fields.update(integrating_model=IntegratingModel(gain=gain, dead_time=residence_time))
+    else:
+        fields.update(
+            fopdt=fopdt_from_moments(gain, residence_time, apparent),
+            sopdt=sopdt_from_moments(gain, residence_time, tau),
+        )
+    return fields
+
+
+def _cumulative_integral(t: np.ndarray, values: np.ndarray) -> np.ndarray:
+    increments = 0.5 * (values[1:] + values[:-1]) * np.diff(t)
+    return np.concatenate([[0.0], np.cumsum(increments)])

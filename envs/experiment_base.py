@@ -1,0 +1,164 @@
+"""Shared machinery of the identification experiments: validation, sampling, noise, runs, results.
+
+Private helpers used by :mod:`envs.closed_loop_experiment`, :mod:`envs.open_loop_experiments`,
+:mod:`envs.relay` and :mod:`envs.commissioning`; the public names are the sampling constants and
+:class:`ExperimentResult`, the base of every experiment's result.
+
+Conventions (see :mod:`envs.experiments` for the full list)
+------------------------------------------------------------
+* The default ``dt`` is ``T/SAMPLES_PER_RESIDENCE_TIME`` with ``T = plant.step_time_scale()``
+  (``T_ar`` of the true plant when positive), so the noise bandwidth is fixed relative to the plant.
+* Measurement noise is white and Gaussian, ``noise_std`` per sample; exactly ``n_max`` standard
+  normals are drawn per experiment (``n_max`` samples of the longest run allowed), so a seed gives
+  the same noise whatever the noise level.
+* A run is simulated over growing horizons (doubling) until it settles, reaches the cap, or the
+  true output leaves ``[-excursion_limit, excursion_limit]``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from envs.plants import Plant
+
+__all__ = ["SAMPLES_PER_RESIDENCE_TIME", "MAX_DURATION", "ExperimentResult"]
+
+SAMPLES_PER_RESIDENCE_TIME = 200
+"""Default samples per time scale ``T`` (``T_ar``); fine enough for ``K``, ``T_ar`` to 1e-3."""
+MAX_DURATION = 150.0
+"""Default cap of an experiment, in time scales ``T``."""
+
+
+# --------------------------------------------------------------------------- validation and sampling
+def _check_plant(plant: Plant) -> Plant:
+    if not isinstance(plant, Plant):
+        raise ValueError(f"plant must be an envs.plants.Plant, got {type(plant).__name__}")
+    return plant
+
+
+def _check_rng(rng: np.random.Generator) -> np.random.Generator:
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    return rng
+
+
+def _finite(value: float, name: str, *, positive: bool = False, nonzero: bool = False, nonnegative: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if positive and value <= 0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    if nonzero and value == 0:
+        raise ValueError(f"{name} must be non-zero, got {value!r}")
+    if nonnegative and value < 0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+    return value
+
+
+def _sample_time(plant: Plant, dt: float | None) -> float:
+    if dt is None:
+        return plant.step_time_scale() / SAMPLES_PER_RESIDENCE_TIME
+    return _finite(dt, "dt", positive=True)
+
+
+def _noise(rng: np.random.Generator, noise_std: float, steps: int) -> np.ndarray:
+    return noise_std * rng.standard_normal(steps)
+
+
+def _excursion_index(true_output: np.ndarray, limit: float | None) -> int | None:
+    """Index of the first sample whose true output leaves ``[-limit, limit]``."""
+    if limit is None:
+        return None
+    outside = np.flatnonzero(~(np.abs(true_output) <= limit))
+    return int(outside[0]) if outside.size else None
+
+
+def _cap_steps(scale: float, dt: float, max_duration: float | None, minimum: float = 0.0) -> int:
+    cap = MAX_DURATION if max_duration is None else _finite(max_duration, "max_duration", positive=True)
+    return max(int(math.ceil(max(cap * scale, minimum) / dt)) + 1, 4)
+
+
+# --------------------------------------------------------------------------- results and runs
+@dataclass(frozen=True)
+class ExperimentResult:
+    """Signals and cost common to every experiment.
+
+    Attributes
+    ----------
+    timepts : ndarray
+        Sample times from the start of the experiment.
+    control : ndarray
+        Plant input ``u`` at ``timepts`` (held over each sample unless stated otherwise).
+    output : ndarray
+        Measured output ``y + n``.
+    true_output : ndarray
+        Noise-free output ``y``.
+    duration : float
+        Time spent, from the start to the last sample used (or to the abort).
+    relative_duration : float
+        ``duration / T`` with ``T = plant.step_time_scale()`` (``T_ar`` of the true plant).
+    aborted : bool
+        The true output left ``[-excursion_limit, excursion_limit]`` (or the loop diverged).
+    """
+
+    timepts: np.ndarray
+    control: np.ndarray
+    output: np.ndarray
+    true_output: np.ndarray
+    duration: float
+    relative_duration: float
+    aborted: bool
+
+
+@dataclass(frozen=True)
+class _Run:
+    """A simulated run: the signals up to the horizon simulated, and the last sample used."""
+
+    timepts: np.ndarray
+    control: np.ndarray
+    output: np.ndarray
+    true_output: np.ndarray
+    end: int  # last sample used
+    settled: bool
+    aborted: bool
+
+
+def _run_until_settled(trial: Callable[[int], tuple], first_steps: int, steps_max: int) -> _Run:
+    """Run ``trial(steps)`` over growing horizons, from ``first_steps`` samples and doubling, until
+    it settles, reaches the cap (``steps_max`` samples) or aborts.
+
+    ``trial`` returns ``(timepts, control, measured, true_output, abort, settle)`` with ``abort``
+    the first sample of an excursion (or divergence) and ``settle`` the first steady sample, each
+    None if there is none; an abort at or before the steady sample wins.
+    """
+    steps = min(first_steps, steps_max)
+    while True:
+        t, control, measured, true_output, abort, settle = trial(steps)
+        if abort is not None and (settle is None or abort <= settle):
+            return _Run(t, control, measured, true_output, abort, False, True)
+        if settle is not None:
+            return _Run(t, control, measured, true_output, settle, True, False)
+        if steps == steps_max:
+            return _Run(t, control, measured, true_output, steps - 1, False, False)
+        steps = min(2 * steps, steps_max)
+
+
+def _record(run: _Run, scale: float) -> dict:
+    """The :class:`ExperimentResult` fields of a run, truncated at its last sample."""
+    k = run.end + 1
+    t = run.timepts[:k]
+    return dict(
+        timepts=t,
+        control=run.control[:k],
+        output=run.output[:k],
+        true_output=run.true_output[:k],
+        duration=float(t[-1]),
+        relative_duration=float(t[-1] / scale),
+        aborted=run.aborted,
+    )

@@ -1,0 +1,108 @@
+"""Noise-aware steady-state detection and noise estimation for sampled experiment signals.
+
+Steady state is detected causally (:func:`steady_state_index`): the first time the mean of the
+last window is within ``CONFIDENCE`` standard errors of its target (or of the previous window)
+and the fitted slope is insignificant; without noise, the tolerance floor is
+``STEADY_STATE_TOLERANCE`` times the change of the signal.  The noise is estimated from the data
+(second differences inside a window, fourth differences for :func:`noise_level`), so no noise
+level has to be known in advance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = [
+    "STEADY_STATE_TOLERANCE",
+    "CONFIDENCE",
+    "steady_state_index",
+    "steady_state_mask",
+    "noise_level",
+]
+
+STEADY_STATE_TOLERANCE = 1e-5
+"""Noise-free steady-state tolerance, relative to the change of the signal (a resolution)."""
+CONFIDENCE = 3.0
+"""Standard errors within which a window is "at" its target and "flat"."""
+
+
+def steady_state_index(
+    timepts: np.ndarray,
+    signal: np.ndarray,
+    window: int,
+    *,
+    target: float | None = None,
+    start: int = 0,
+) -> int | None:
+    """First sample ``k >= start`` at which ``signal`` is in steady state, judged causally.
+
+    Over the window of the last ``window`` samples ending at ``k`` (``n`` samples, length ``W``):
+
+    * noise ``sigma`` is estimated as the RMS of the second differences over ``sqrt(6)``;
+    * the fitted slope ``b`` is insignificant: ``|b| W <= c sigma sqrt(12/n) + tol``;
+    * with a ``target``: ``|mean - target| <= c sigma/sqrt(n) + tol``; without: the mean equals the
+      previous window's, ``|mean_k - mean_{k-n}| <= c sigma sqrt(2/n) + tol``, and differs from the
+      initial value 0 by more than ``c sigma/sqrt(n) + tol`` (the response has started);
+
+    with ``c = CONFIDENCE`` and ``tol = STEADY_STATE_TOLERANCE`` times ``|target|`` (or ``|mean|``).
+    Returns ``None`` if no sample qualifies.
+    """
+    mask = steady_state_mask(timepts, signal, window, target=target)
+    hits = np.flatnonzero(mask[start:])
+    return int(hits[0]) + start if hits.size else None
+
+
+def steady_state_mask(timepts: np.ndarray, signal: np.ndarray, window: int, *, target: float | None = None) -> np.ndarray:
+    """Per sample, whether the window ending there passes the tests of :func:`steady_state_index`.
+
+    The samples are taken as equally spaced (``timepts`` is for the interface's symmetry).
+    """
+    y = np.asarray(signal, dtype=float)
+    n = int(window)
+    if n < 3:
+        raise ValueError(f"window must be >= 3 samples, got {window!r}")
+    mask = np.zeros(y.size, dtype=bool)
+    if y.size < n:
+        return mask
+    ends = np.arange(n - 1, y.size)  # window [k - n + 1, k]
+    sums = _window_sums(y, n)
+    mean = sums / n
+    index = np.arange(y.size, dtype=float)
+    centered = _window_sums(index * y, n) - (ends - (n - 1) / 2.0) * sums
+    change = centered / (n * (n * n - 1) / 12.0) * (n - 1)  # fitted slope times the window length
+    curvature = np.concatenate([[0.0, 0.0], np.diff(y, 2)])
+    sigma = np.sqrt(_window_sums(curvature**2, n) / n / 6.0)
+    scale = abs(target) if target is not None else np.abs(mean)
+    tol = STEADY_STATE_TOLERANCE * scale
+    ok = np.abs(change) <= CONFIDENCE * sigma * math.sqrt(12.0 / n) + tol
+    if target is not None:
+        ok &= np.abs(mean - target) <= CONFIDENCE * sigma / math.sqrt(n) + tol
+    else:
+        previous = np.concatenate([np.full(n, np.inf), mean[:-n]])
+        ok &= np.abs(mean - previous) <= CONFIDENCE * sigma * math.sqrt(2.0 / n) + tol
+        ok &= np.abs(mean) > CONFIDENCE * sigma / math.sqrt(n) + tol
+    mask[ends] = ok
+    return mask
+
+
+def _window_sums(values: np.ndarray, n: int) -> np.ndarray:
+    """Sums over each run of ``n`` consecutive values (one per window end ``k >= n - 1``)."""
+    c = np.concatenate([[0.0], np.cumsum(values)])
+    return c[n:] - c[:-n]
+
+
+def _window_samples(scale: float, dt: float) -> int:
+    return max(int(round(scale / dt)), 3)
+
+
+def noise_level(signal: np.ndarray) -> float:
+    """Robust white-noise standard deviation from fourth differences (MAD/0.6745/sqrt(70)).
+
+    Fourth differences of a smooth signal are of order ``y^(4) dt^4`` (negligible at the sample
+    times used here), those of white noise have standard deviation ``sqrt(70) sigma``; the median
+    ignores the few samples near kinks (a dead time ending, a relay switching).
+    """
+    fourth = np.diff(np.asarray(signal, dtype=float), 4)
+    return float(np.median(np.abs(fourth)) / 0.6745 / math.sqrt(70.0)) if fourth.size else 0.0
