@@ -336,7 +336,7 @@ def controller_from_dict(data: Any) -> Controller:
     if not isinstance(data, dict):
         raise ValueError(f"controller must be a JSON object, got {type(data).__name__}")
     kind = data.get("type")
-    if kind not in _FIELDS:
+    if not isinstance(kind, str) or kind not in _FIELDS:
         raise ValueError(f"controller.type must be one of {sorted(_FIELDS)}, got {kind!r}")
     required, optional = _FIELDS[kind]
     keys = set(data) - {"type"}
