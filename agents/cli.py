@@ -63,9 +63,17 @@ def _reproduce(args: argparse.Namespace) -> int:
     return run_reproductions(args.name, as_json=args.json, figures=Path(args.figures))
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with usage errors reported as one line (exit status 2)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        sys.exit(2)
+
+
 def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Namespace], int]]]:
-    parser = argparse.ArgumentParser(prog="deadtime", description="Tune controllers for dead-time processes.")
-    commands = parser.add_subparsers(dest="command", required=True)
+    parser = _Parser(prog="deadtime", description="Tune controllers for dead-time processes.")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     handlers: dict[str, Callable[[argparse.Namespace], int]] = {}
 
     analyze = commands.add_parser("analyze", help="robustness and IAE of a plant-controller loop")
@@ -87,7 +95,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return handlers[args.command](args)
-    except (ValueError, OSError) as error:  # CommandError is a ValueError
+    except (ValueError, OverflowError, OSError) as error:  # CommandError is a ValueError
         print(f"deadtime {args.command}: error: {error}", file=sys.stderr)
         return 2
 

@@ -33,7 +33,10 @@ class LoopAnalysis:
         return self.margins.stable
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON object of ``deadtime analyze --json``; ``None`` where infinite or undefined."""
+        """The JSON object of ``deadtime analyze --json``; ``None`` where infinite or undefined.
+
+        Margins and peaks of an unstable loop are undefined (``None``); its delay margin is 0.
+        """
         m, p = self.margins, self.performance
 
         def finite(value: float) -> float | None:
@@ -43,8 +46,8 @@ class LoopAnalysis:
             "stable": m.stable,
             "ms": finite(m.ms) if m.stable else None,
             "mt": finite(m.mt) if m.stable else None,
-            "gain_margin": finite(m.gain_margin),
-            "phase_margin_deg": finite(m.phase_margin_deg),
+            "gain_margin": finite(m.gain_margin) if m.stable else None,
+            "phase_margin_deg": finite(m.phase_margin_deg) if m.stable else None,
             "delay_margin": finite(m.delay_margin),
             "iae_load": finite(p.load),
             "iae_setpoint": finite(p.setpoint),

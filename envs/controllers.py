@@ -36,7 +36,10 @@ __all__ = ["PID", "SeriesPID", "FPPI", "MSP", "Controller", "controller_from_dic
 def _require(value: Any, name: str, *, positive: bool = False, nonzero: bool = False, nonnegative: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
         raise ValueError(f"{name} must be a number, got {value!r}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:
+        raise ValueError(f"{name} must be finite, got a number too large for a float") from None
     if not math.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value!r}")
     if positive and value <= 0:

@@ -35,7 +35,7 @@ class StateSpace:
 def _as_coefficients(values: Any, field: str) -> tuple[float, ...]:
     try:
         array = np.asarray(values, dtype=float).ravel()
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{field} must be a list of numbers, got {values!r}") from None
     if array.size == 0:
         raise ValueError(f"{field} must not be empty")
@@ -82,7 +82,7 @@ class Plant:
         den = _as_coefficients(self.den, "den")
         try:
             delay = float(self.delay)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ValueError(f"delay must be a number, got {self.delay!r}") from None
         if not np.isfinite(delay) or delay < 0:
             raise ValueError(f"delay must be finite and >= 0, got {self.delay!r}")
@@ -245,15 +245,23 @@ class Plant:
         return np.polyval(self.num, s) / np.polyval(self.den, s) * np.exp(-s * self.delay)
 
     def state_space(self) -> StateSpace:
-        """A balanced controllable-canonical realization of ``G`` (the dead time is not included)."""
-        A, B, C, D = scipy.signal.tf2ss(self.num, self.den)
-        if self.order == 0:  # tf2ss pads a static gain with a dummy state
-            return StateSpace(A=np.zeros((0, 0)), B=np.zeros((0, 1)), C=np.zeros((1, 0)), D=np.atleast_2d(D))
-        if A.size:
-            A, (scale, perm) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
-            B = B / scale[:, None]
-            C = C * scale[None, :]
-        return StateSpace(A=np.atleast_2d(A), B=np.atleast_2d(B), C=np.atleast_2d(C), D=np.atleast_2d(D))
+        """A well-scaled realization of ``G`` (the dead time is not included).
+
+        The controllable canonical form of ``G`` in normalized time ``s T`` (``T`` from
+        :meth:`step_time_scale`), rescaled to the plant's time and balanced, so that the states
+        have the magnitude of the signals whatever the plant's time scale.
+        """
+        if self.order == 0:  # tf2ss would pad a static gain with a dummy state
+            gain = np.atleast_2d(self.num[-1] / self.den[-1])
+            return StateSpace(A=np.zeros((0, 0)), B=np.zeros((0, 1)), C=np.zeros((1, 0)), D=gain)
+        scale = self.step_time_scale()
+        powers = np.arange(self.order, -1, -1)  # descending powers of s, as in den
+        num = np.asarray(self.num) * scale ** -powers[len(powers) - len(self.num) :]
+        den = np.asarray(self.den) * scale**-powers
+        A, B, C, D = scipy.signal.tf2ss(num, den)
+        A, B = A / scale, B / scale
+        A, (factors, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+        return StateSpace(A=A, B=B / factors[:, None], C=C * factors[None, :], D=np.atleast_2d(D))
 
     def step_time_scale(self) -> float:
         """A time scale for simulation: ``T_ar`` if positive, else the slowest time constant."""

@@ -121,12 +121,19 @@ def _refine(loop: LoopFunction, omega: np.ndarray, values: np.ndarray) -> tuple[
 
 
 def _crossings(fun: Callable[[float], float], omega: np.ndarray, samples: np.ndarray) -> list[float]:
-    """Roots of ``fun`` in log frequency between grid points where ``samples`` changes sign."""
-    roots = []
-    for i in np.flatnonzero(np.sign(samples[:-1]) * np.sign(samples[1:]) < 0):
-        root = scipy.optimize.brentq(lambda x: fun(math.exp(x)), math.log(omega[i]), math.log(omega[i + 1]), xtol=1e-13)
+    """Roots of ``fun`` in log frequency: grid points where ``samples`` is exactly zero, and a
+    ``brentq`` root between neighbours of opposite sign (linear interpolation in the rare case
+    where the scalar re-evaluation disagrees in sign with the vectorized samples)."""
+    roots = [float(w) for w in omega[samples == 0]]
+    for i in np.flatnonzero(samples[:-1] * samples[1:] < 0):
+        a, b = math.log(omega[i]), math.log(omega[i + 1])
+        fa, fb = fun(math.exp(a)), fun(math.exp(b))
+        if fa * fb < 0:
+            root = scipy.optimize.brentq(lambda x: fun(math.exp(x)), a, b, xtol=1e-13)
+        else:
+            root = a - samples[i] * (b - a) / (samples[i + 1] - samples[i])
         roots.append(math.exp(root))
-    return roots
+    return sorted(roots)
 
 
 def _peak(fun: Callable[[np.ndarray], np.ndarray], omega: np.ndarray, samples: np.ndarray) -> tuple[float, float]:

@@ -41,6 +41,8 @@ __all__ = [
     "delayed_zoh",
 ]
 
+# States beyond this multiple of the largest input mean divergence.  Plant.state_space realizes G in
+# normalized time, so states have the magnitude of the signals whatever the plant's time scale.
 DIVERGENCE_LIMIT = 1e8
 
 
@@ -241,7 +243,7 @@ def simulate_batch(discretes: Sequence[DiscreteDelaySystem], inputs: np.ndarray)
     Returns
     -------
     list of SimulationResult
-        ``outputs[j] = z(j dt)``.  A system whose state exceeds ``1e8`` times its largest input
+        ``outputs[j] = z(j dt)``.  A system whose state exceeds ``DIVERGENCE_LIMIT`` times its largest input
         is stopped: its remaining outputs are ``nan`` and ``diverged`` is True.
     """
     d = np.ascontiguousarray(inputs, dtype=float)

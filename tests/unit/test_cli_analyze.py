@@ -205,7 +205,6 @@ def test_controller_type_that_is_not_a_name():
 HUGE = "1" * 400  # a valid JSON integer that does not fit in a float
 
 
-@pytest.mark.xfail(strict=True, reason="bug: float(huge JSON integer) raises OverflowError (traceback)")
 @pytest.mark.parametrize(
     "plant, controller, field",
     [
@@ -219,6 +218,5 @@ def test_huge_integer_literal(plant, controller, field):
     _assert_one_line_error(*_main("analyze", "--plant", plant, "--controller", controller), field)
 
 
-@pytest.mark.xfail(strict=True, reason="argparse errors print the usage line too: two lines on stderr")
 def test_missing_option_is_one_line():
     _assert_one_line_error(*_main("analyze", "--plant", json.dumps(FOPDT)), "--controller")

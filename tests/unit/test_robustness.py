@@ -137,7 +137,6 @@ def test_delayed_integrator_loop_closed_form(mu):
         assert margins.delay_margin == 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="bug: a crossover exactly on a grid point is missed or crashes brentq")
 @pytest.mark.parametrize("mu", [1.0, 10.0])
 def test_delayed_integrator_loop_with_crossover_on_a_grid_point(mu):
     """``|L| = 1`` at ``omega = 1/mu``; for ``mu = 1`` or ``10`` that is exactly a point of the log grid
@@ -148,7 +147,6 @@ def test_delayed_integrator_loop_with_crossover_on_a_grid_point(mu):
     assert margins.delay_margin == pytest.approx(mu * math.pi / 2 - 1, rel=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="bug: a phase crossover exactly on a grid point is missed")
 def test_phase_crossover_on_a_grid_point():
     """``L = 1/(s (s+1)^2)`` crosses the negative real axis at ``omega = 1`` (exactly a grid point for
     ``time_scale = 1``) with ``|L| = 1/2``: gain margin 2.  Observed: ``inf``."""
@@ -156,7 +154,6 @@ def test_phase_crossover_on_a_grid_point():
     assert margins.gain_margin == pytest.approx(2.0, rel=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="bug: a crossover exactly on a grid point is missed or crashes brentq")
 @pytest.mark.parametrize("kp", [1.0, 0.1])
 def test_plant_level_crossover_on_a_grid_point(kp):
     """The same through the public path: ``e^{-s}/s`` with a P controller (``deadtime analyze`` gives
