@@ -176,8 +176,7 @@ def fppi_eq34(gain: float, time_constant: float, dead_time: float, mismatch_time
     >>> round(c.tr, 4), round(c.kappa, 4)
     (1.0, 2.0)
     """
-    tr = fppi_time_constant(time_constant, _bound(mismatch_time, dead_time_error))
-    return FPPI(gain=gain, time_constant=time_constant, dead_time=dead_time, tr=tr, tf=tr)
+    return fppi_eq28_29(gain, time_constant, dead_time, _bound(mismatch_time, dead_time_error))
 
 
 def ppi_default(gain: float, time_constant: float, dead_time: float, *, filtered: bool = True) -> FPPI:

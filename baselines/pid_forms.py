@@ -197,8 +197,7 @@ def _fopdt(
     model: FOPDTModel, rule: str, *, need_lag: bool = True, need_dead_time: bool = True
 ) -> tuple[float, float, float]:
     """``(K, T, L)`` of a FOPDT model, refused (naming ``rule``) if ``L`` or ``T`` must be > 0."""
-    if not isinstance(model, FOPDTModel):
-        raise ValueError(f"{rule} needs a FOPDTModel, got {type(model).__name__}")
+    _check_model(model, rule, (FOPDTModel,))
     if need_dead_time:
         _positive_dead_time(model.dead_time, rule)
     if need_lag and model.time_constant <= 0:

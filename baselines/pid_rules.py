@@ -58,6 +58,7 @@ from __future__ import annotations
 
 import math
 
+from baselines import pid_forms
 from baselines.pid_forms import (
     ReactionCurve,
     UltimatePoint,
@@ -77,13 +78,8 @@ __all__ = [
     "DERIVATIVE_FILTER",
     "IMC_PI_LAMBDA",
     "IMC_PID_LAMBDA",
-    "UltimatePoint",
-    "ReactionCurve",
-    "series_to_ideal",
-    "ideal_to_series",
-    "ultimate_point",
-    "reaction_curve",
-    "half_rule",
+    # re-exported from baselines.pid_forms (all of it but the Model alias)
+    *(name for name in pid_forms.__all__ if name != "Model"),
     "zn_step_pi",
     "zn_step_pid",
     "zn_ultimate_pi",
@@ -335,6 +331,13 @@ def chr_pid(
 
 
 # --------------------------------------------------------------------------- Haalman
+def _as_sopdt(model: SOPDTModel | FOPDTModel) -> SOPDTModel:
+    """A FOPDT model as the SOPDT model with ``T_2 = 0``; an SOPDT model unchanged."""
+    if isinstance(model, FOPDTModel):
+        return SOPDTModel(gain=model.gain, time_constants=(model.time_constant, 0.0), dead_time=model.dead_time)
+    return model
+
+
 def haalman_pid(model: SOPDTModel | FOPDTModel, n: float = DERIVATIVE_FILTER) -> SeriesPID:
     """Haalman's PID ([HA]; [AH95] ch. 4), series form on the SOPDT model, no conversion.
 
@@ -356,8 +359,7 @@ def haalman_pid(model: SOPDTModel | FOPDTModel, n: float = DERIVATIVE_FILTER) ->
     SeriesPID
     """
     _check_model(model, "haalman_pid", (SOPDTModel, FOPDTModel))
-    if isinstance(model, FOPDTModel):
-        model = SOPDTModel(gain=model.gain, time_constants=(model.time_constant, 0.0), dead_time=model.dead_time)
+    model = _as_sopdt(model)
     _positive_dead_time(model.dead_time, "haalman_pid")
     t1, t2 = sorted(model.time_constants, reverse=True)
     if t1 <= 0:
@@ -439,6 +441,12 @@ def _simc_integrating(gain: float, dead_time: float, tau_c: float | None, rule: 
     return 1.0 / (gain * (tc + dead_time)), 4.0 * (tc + dead_time)
 
 
+def _simc_lag(gain: float, lag: float, dead_time: float, tau_c: float | None, rule: str) -> tuple[float, float]:
+    """``K_c = lag/(k (tau_c + theta))``, ``tau_I = min(lag, 4 (tau_c + theta))`` of SIMC ([SK])."""
+    tc = _tau_c(tau_c, dead_time, rule)
+    return lag / (gain * (tc + dead_time)), min(lag, 4.0 * (tc + dead_time))
+
+
 def simc_pi(model: FOPDTModel | SOPDTModel | IntegratingModel, tau_c: float | None = None) -> PID:
     """Skogestad's SIMC PI ([SK]), ``tau_c = theta`` ("tight" tuning) by default.
 
@@ -468,8 +476,8 @@ def simc_pi(model: FOPDTModel | SOPDTModel | IntegratingModel, tau_c: float | No
     gain, t1, dead = _fopdt(model, "simc_pi", need_lag=False, need_dead_time=False)
     if t1 <= 0:
         raise ValueError("simc_pi on a pure dead time gives integral-only control; use isimc_pi")
-    tc = _tau_c(tau_c, dead, "simc_pi")
-    return PID(kp=t1 / (gain * (tc + dead)), ti=min(t1, 4.0 * (tc + dead)))
+    kp, ti = _simc_lag(gain, t1, dead, tau_c, "simc_pi")
+    return PID(kp=kp, ti=ti)
 
 
 def simc_pid(
@@ -500,14 +508,12 @@ def simc_pid(
     if isinstance(model, IntegratingModel):
         kp, ti = _simc_integrating(model.gain, model.dead_time, tau_c, "simc_pid")
         return SeriesPID(kp=kp, ti=ti, td=model.time_constant or 0.0, n=n)
-    if isinstance(model, FOPDTModel):
-        model = SOPDTModel(gain=model.gain, time_constants=(model.time_constant, 0.0), dead_time=model.dead_time)
+    model = _as_sopdt(model)
     t1, t2 = sorted(model.time_constants, reverse=True)
     if t1 <= 0:
         raise ValueError("simc_pid on a pure dead time gives integral-only control")
-    tc = _tau_c(tau_c, model.dead_time, "simc_pid")
-    total = tc + model.dead_time
-    return SeriesPID(kp=t1 / (model.gain * total), ti=min(t1, 4.0 * total), td=t2, n=n)
+    kp, ti = _simc_lag(model.gain, t1, model.dead_time, tau_c, "simc_pid")
+    return SeriesPID(kp=kp, ti=ti, td=t2, n=n)
 
 
 def isimc_pi(model: FOPDTModel | IntegratingModel, tau_c: float | None = None) -> PID:
@@ -531,9 +537,8 @@ def isimc_pi(model: FOPDTModel | IntegratingModel, tau_c: float | None = None) -
     if isinstance(model, IntegratingModel):
         return simc_pi(model, tau_c)
     gain, t1, dead = _fopdt(model, "isimc_pi", need_lag=False, need_dead_time=False)
-    tc = _tau_c(tau_c, dead, "isimc_pi")
-    t1 = t1 + dead / 3.0
-    return PID(kp=t1 / (gain * (tc + dead)), ti=min(t1, 4.0 * (tc + dead)))
+    kp, ti = _simc_lag(gain, t1 + dead / 3.0, dead, tau_c, "isimc_pi")
+    return PID(kp=kp, ti=ti)
 
 
 # --------------------------------------------------------------------------- IMC / lambda

@@ -37,11 +37,15 @@ PAPER_MAX_FREQUENCY = 10.0
 
 
 # --------------------------------------------------------------------------- Fig. 6
+def _inequality_26_max(kappa: float, gamma: float) -> float:
+    """``max |gamma w (i kappa w + 1)/(i w + 1)^2|`` over the finite frequencies :data:`OMEGA`."""
+    s = 1j * OMEGA
+    return float(np.max(np.abs(gamma * OMEGA * (kappa * s + 1) / (s + 1) ** 2)))
+
+
 def inequality_26_sup(kappa: float, gamma: float) -> float:
     """``sup |gamma w (i kappa w + 1)/(i w + 1)^2|`` over :data:`OMEGA` and ``w -> inf`` (``gamma kappa``)."""
-    s = 1j * OMEGA
-    values = np.abs(gamma * OMEGA * (kappa * s + 1) / (s + 1) ** 2)
-    return float(max(np.max(values), gamma * kappa))
+    return float(max(_inequality_26_max(kappa, gamma), gamma * kappa))
 
 
 def kappa_upper_limit(gamma: float, tolerance: float = 1e-10) -> float:
@@ -70,7 +74,7 @@ def fig6() -> Reproduction:
         rows.append(Row(f"gamma = {gamma:g}", "upper limit of kappa (bisection)", None, limit))
         rows.append(Row(f"gamma = {gamma:g}", "upper limit of kappa (closed form)", None, _kappa_closed_form(gamma)))
     on_line = max(inequality_26_sup(1 / g, g) for g in np.linspace(0.01, 1.0, 100))
-    finite = max(float(np.max(np.abs(g * OMEGA * (1j * OMEGA / g + 1) / (1j * OMEGA + 1) ** 2))) for g in np.linspace(0.01, 1.0, 100))
+    finite = max(_inequality_26_max(1 / g, g) for g in np.linspace(0.01, 1.0, 100))
     rows.append(printed("design line kappa gamma = 1, gamma <= 1", "sup of (26) (edge: = 1)", "1", on_line))
     rows.append(Row("design line kappa gamma = 1, gamma <= 1", "largest value of (26) at finite omega (extra)", None, finite))
     rows.append(printed("gamma = 1, kappa = 1 (both lines)", "sup of (26) (edge: = 1)", "1", inequality_26_sup(1.0, 1.0)))
@@ -200,10 +204,8 @@ def _delay_notes(kind: str, data: dict, loop: str, claims: str) -> list[str]:
 def _delay_figure_callable(kind: str, name: str, title: str):
     def draw(directory: Path) -> Path:
         deltas = np.linspace(-1.0, 1.0, 401)
-        lines = {}
-        for label, design in _delay_figure(kind)["design_functions"].items():
-            x = np.linspace(0.005, 0.9 if kind == "msp" else 1.0, 200)
-            lines[label] = (x, np.array([design(d) for d in x]))
+        x = np.linspace(0.005, 0.9 if kind == "msp" else 1.0, 200)
+        lines = {label: (x, np.array([design(d) for d in x])) for label, design in _delay_figure(kind)["design_functions"].items()}
         return plots.delay_error_plot(
             directory / f"{name}.png", deltas, stability_bound(kind, deltas), stability_bound(kind, deltas, PAPER_MAX_FREQUENCY), lines, title
         )
@@ -211,17 +213,29 @@ def _delay_figure_callable(kind: str, name: str, title: str):
     return draw
 
 
+def _delay_reproduction(kind: str, name: str, title: str, figure_title: str, rows: list[Row], notes: list[str]) -> Reproduction:
+    """Fig. 7 or 13 as a :class:`Reproduction`: ``notes`` plus the rounding note, and the figure."""
+    return Reproduction(
+        name=name,
+        title=title,
+        rows=tuple(rows),
+        notes=tuple(notes) + tuple(_rounding_note(rows)),
+        figure=_delay_figure_callable(kind, name, figure_title),
+    )
+
+
 def fig7() -> Reproduction:
     """Fig. 7: lower bound on ``T_r/L_n`` of the FPPI against the dead-time error; eq. 28/29 lines."""
     rows, data = _delay_rows("fppi", "delta_L anywhere in [-1, 1]", "0.22", "-0.2", "0.15")
     claims = "'if T_r_bar >= 0.22, delta_L can vary from -1 to 1' (reproduced) and 'T_r_bar = 0.01 would give a relative delay margin from -0.2 to 0.15' (not reproduced, see next note)."
     notes = _delay_notes("fppi", data, "eq. 33", claims)
-    return Reproduction(
-        name="ingimundarson-fig7",
-        title="Ingimundarson Fig. 7: FPPI, lower bound on T_r/L_n for stability against delta_L (eq. 33)",
-        rows=tuple(rows),
-        notes=tuple(notes) + tuple(_rounding_note(rows)),
-        figure=_delay_figure_callable("fppi", "ingimundarson-fig7", "Fig. 7 (computed): FPPI, eq. 33"),
+    return _delay_reproduction(
+        "fppi",
+        "ingimundarson-fig7",
+        "Ingimundarson Fig. 7: FPPI, lower bound on T_r/L_n for stability against delta_L (eq. 33)",
+        "Fig. 7 (computed): FPPI, eq. 33",
+        rows,
+        notes,
     )
 
 
@@ -237,12 +251,13 @@ def fig13() -> Reproduction:
             "it comes from a single crossover (omega L_n near 7.3) whose delay margin phi/omega is read off the paper's "
             "figure or coarse grid; the truncation still explains the lower end and the size of both ends."
         )
-    return Reproduction(
-        name="ingimundarson-fig13",
-        title="Ingimundarson Fig. 13: MSP, lower bound on T_r/L_n for stability against delta_L (eq. 49)",
-        rows=tuple(rows),
-        notes=tuple(notes) + tuple(_rounding_note(rows)),
-        figure=_delay_figure_callable("msp", "ingimundarson-fig13", "Fig. 13 (computed): MSP, eq. 49"),
+    return _delay_reproduction(
+        "msp",
+        "ingimundarson-fig13",
+        "Ingimundarson Fig. 13: MSP, lower bound on T_r/L_n for stability against delta_L (eq. 49)",
+        "Fig. 13 (computed): MSP, eq. 49",
+        rows,
+        notes,
     )
 
 

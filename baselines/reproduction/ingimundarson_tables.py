@@ -18,7 +18,7 @@ from functools import lru_cache
 import numpy as np
 
 from baselines.dtc_rules import fppi_eq28_29, fppi_time_constant, msp_eq43, msp_time_constant
-from baselines.reproduction.common import Reproduction, Row, printed, within_rounding
+from baselines.reproduction.common import Reproduction, Row, printed, printed_decimals, within_rounding
 from envs.experiments import closed_loop_step, open_loop_pulse, open_loop_ramp, open_loop_step
 from envs.families import benchmark_plants
 from envs.identification import FOPDTModel, mismatch_time
@@ -90,18 +90,27 @@ def fopdt_procedure(plant: Plant) -> dict[str, float]:
 
 
 def _half_unit(text: str) -> float:
-    return 0.5 * 10.0 ** -(len(text.split(".")[1]) if "." in text else 0)
+    return 0.5 * 10.0 ** -printed_decimals(text)
+
+
+def _case_plants(family: str, table: dict[str, tuple[str, ...]]) -> dict[str, Plant]:
+    """The benchmark plant ``ingimundarson-<family>-<case>`` of every case of ``table``, by case."""
+    plants = benchmark_plants(family)
+    return {case: plants[f"ingimundarson-{family}-{case}"] for case in table}
+
+
+def _off(rows: list[Row], quantity: str) -> str:
+    """The cases whose ``quantity`` is outside the printed rounding, with both values; ``"none"`` if none is."""
+    cases = [f"{r.case} ({r.computed:.3g} vs {r.paper:g})" for r in rows if r.quantity == quantity and not within_rounding(r)]
+    return ", ".join(cases) or "none"
 
 
 # --------------------------------------------------------------------------- Table 1
 def table1() -> Reproduction:
     """Table 1: FOPDT model, ``T_f_bar``, ``T_r`` (eq. 28/29) and ``kappa`` of the seven stable processes."""
-    plants = benchmark_plants("stable")
     rows: list[Row] = []
     consistency = []
-    for i in range(1, 8):
-        case = f"P{i}"
-        plant = plants[f"ingimundarson-stable-{case}"]
+    for case, plant in _case_plants("stable", TABLE1).items():
         result = fopdt_procedure(plant)
         controller = fppi_eq28_29(result["gain"], result["time_constant"], result["dead_time"], result["mismatch_time"])
         tn, ln, tf, tr, kappa = TABLE1[case]
@@ -138,8 +147,7 @@ def _kappa_range(case: str, tn: str, tf: str, kappa: str) -> str | None:
 
 def _table1_notes(rows: list[Row], consistency: list[str | None]) -> list[str]:
     def off(quantity: str) -> str:
-        cases = [f"{r.case} ({r.computed:.3g} vs {r.paper:g})" for r in rows if r.quantity == quantity and not within_rounding(r)]
-        return ", ".join(cases) or "none"
+        return _off(rows, quantity)
 
     def matching(quantity: str) -> str:
         return ", ".join(r.case for r in rows if r.quantity == quantity and within_rounding(r)) or "none"
@@ -201,12 +209,10 @@ def pulse_area_scan(plant: Plant, durations: tuple[float, ...], dt: float = 0.01
 
 def table2() -> Reproduction:
     """Table 2: ``T_n``, ``T_r`` (eq. 43, ``beta = A``), ``A`` (eq. 46) and ``L_n`` of the eight integrating processes."""
-    plants = benchmark_plants("integrating")
+    plants = _case_plants("integrating", TABLE2)
     rows: list[Row] = []
     limits = []
-    for i in range(1, 9):
-        case = f"P{i}"
-        plant = plants[f"ingimundarson-integrating-{case}"]
+    for case, plant in plants.items():
         closed = closed_loop_step(plant, _rng())
         gain, dead_time = closed.gain, closed.residence_time
         pulse = open_loop_pulse(plant, _rng(), 1.0, PULSE_DURATION, gain, dead_time)
@@ -231,13 +237,15 @@ def table2() -> Reproduction:
 
 
 def _duration_fit(plants: dict[str, Plant]) -> dict[str, object]:
-    """Which ``tau_p`` (0.01 grid) reproduce the printed ``A`` and the printed ``T_r`` (eq. 43, exact ``L_n``)."""
+    """Which ``tau_p`` (0.01 grid) reproduce the printed ``A`` and the printed ``T_r`` (eq. 43, exact ``L_n``).
+
+    ``plants`` maps the cases of :data:`TABLE2` to their plants."""
     durations = np.round(np.arange(0.5, 5.0001, 0.01), 2)
     area_ok = np.ones(durations.size, dtype=bool)
     counts = np.zeros(durations.size, dtype=int)
     tr_counts = np.zeros(durations.size, dtype=int)
     for case, (_, tr, area, _) in TABLE2.items():
-        plant = plants[f"ingimundarson-integrating-{case}"]
+        plant = plants[case]
         areas, _ = pulse_area_scan(plant, tuple(durations))
         dead_time = plant.residence_time
         matches_area = np.abs(areas - float(area)) <= _half_unit(area) * (1 + 1e-9)
@@ -264,11 +272,10 @@ def _duration_fit(plants: dict[str, Plant]) -> dict[str, object]:
 
 def _table2_notes(rows: list[Row], plants: dict[str, Plant]) -> list[str]:
     def off(quantity: str) -> str:
-        cases = [f"{r.case} ({r.computed:.3g} vs {r.paper:g})" for r in rows if r.quantity == quantity and not within_rounding(r)]
-        return ", ".join(cases) or "none"
+        return _off(rows, quantity)
 
     fit = _duration_fit(plants)
-    scan, _ = pulse_area_scan(plants["ingimundarson-integrating-P1"], (0.5, 1.0, 2.0, 4.0))
+    scan, _ = pulse_area_scan(plants["P1"], (0.5, 1.0, 2.0, 4.0))
     limit = next(r.computed for r in rows if r.case == "P1" and r.quantity.startswith("A/K_n for tau_p"))
     return [
         "Procedure (sections 2.1, 5.1, noise free): closed-loop set-point step with the commissioning PI gives K_n and "
