@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 
 from envs.controllers import FPPI, MSP
+from envs.validation import require_number
 
 __all__ = [
     "fppi_time_constant",
@@ -47,22 +48,6 @@ __all__ = [
     "msp_eq50",
     "msp_matausek_micic",
 ]
-
-
-def _number(value: float, name: str, *, positive: bool = False, nonnegative: bool = False) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    if positive and value <= 0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    if nonnegative and value < 0:
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
-    return value
 
 
 # --------------------------------------------------------------------------- FPPI (stable plants)
@@ -95,8 +80,8 @@ def fppi_time_constant(time_constant: float, mismatch_time: float) -> float:
     >>> round(fppi_time_constant(10.4, 0.27), 2)
     1.68
     """
-    time_constant = _number(time_constant, "time_constant", positive=True)
-    mismatch_time = _number(mismatch_time, "mismatch_time", positive=True)
+    time_constant = require_number(time_constant, "time_constant", positive=True)
+    mismatch_time = require_number(mismatch_time, "mismatch_time", positive=True)
     return max(math.sqrt(mismatch_time * time_constant), mismatch_time)
 
 
@@ -125,13 +110,13 @@ def fppi_kappa_eq34(time_constant: float, mismatch_time: float, dead_time_error:
     >>> round(fppi_kappa_eq34(10.4, 0.27), 2), round(fppi_kappa_eq34(4.0, 0.0, 1.0), 2)
     (6.21, 2.0)
     """
-    time_constant = _number(time_constant, "time_constant", positive=True)
+    time_constant = require_number(time_constant, "time_constant", positive=True)
     return time_constant / fppi_time_constant(time_constant, _bound(mismatch_time, dead_time_error))
 
 
 def _bound(mismatch_time: float, dead_time_error: float) -> float:
-    mismatch_time = _number(mismatch_time, "mismatch_time", nonnegative=True)
-    dead_time_error = _number(dead_time_error, "dead_time_error", nonnegative=True)
+    mismatch_time = require_number(mismatch_time, "mismatch_time", nonnegative=True)
+    dead_time_error = require_number(dead_time_error, "dead_time_error", nonnegative=True)
     total = mismatch_time + dead_time_error
     if total <= 0:
         raise ValueError("mismatch_time + dead_time_error must be > 0, got 0 (no model error gives no finite T_r)")
@@ -192,7 +177,7 @@ def ppi_default(gain: float, time_constant: float, dead_time: float, *, filtered
     >>> c.tr, c.kappa, c.tf, ppi_default(2.0, 3.0, 5.0, filtered=False).tf
     (3.0, 1.0, 3.0, 0.0)
     """
-    time_constant = _number(time_constant, "time_constant", positive=True)
+    time_constant = require_number(time_constant, "time_constant", positive=True)
     return FPPI(gain=gain, time_constant=time_constant, dead_time=dead_time, tr=time_constant, tf=time_constant if filtered else 0.0)
 
 
@@ -227,11 +212,11 @@ def msp_time_constant(gain: float, dead_time: float, beta: float) -> float:
     >>> round(msp_time_constant(1.0, 8.0, 0.9), 2)
     2.03
     """
-    gain = _number(gain, "gain")
+    gain = require_number(gain, "gain")
     if gain == 0:
         raise ValueError("gain must be non-zero, got 0.0")
-    dead_time = _number(dead_time, "dead_time", positive=True)
-    beta = _number(beta, "beta", positive=True)
+    dead_time = require_number(dead_time, "dead_time", positive=True)
+    beta = require_number(beta, "beta", positive=True)
     limit = abs(gain) * dead_time
     if beta >= limit:
         raise ValueError(
@@ -265,9 +250,9 @@ def msp_eq43(gain: float, dead_time: float, pulse_area: float, dead_time_error: 
     >>> round(msp_eq43(1.0, 6.0, 0.4).tr, 3)
     0.857
     """
-    dead_time_error = _number(dead_time_error, "dead_time_error", nonnegative=True)
-    pulse_area = _number(pulse_area, "pulse_area", nonnegative=True)
-    beta = pulse_area + abs(_number(gain, "gain")) * dead_time_error
+    dead_time_error = require_number(dead_time_error, "dead_time_error", nonnegative=True)
+    pulse_area = require_number(pulse_area, "pulse_area", nonnegative=True)
+    beta = pulse_area + abs(require_number(gain, "gain")) * dead_time_error
     return MSP(gain=gain, dead_time=dead_time, tr=msp_time_constant(gain, dead_time, beta), extension=extension)
 
 
@@ -287,10 +272,10 @@ def msp_eq50(gain: float, dead_time: float, relative_dead_time_error: float, *, 
     >>> msp_eq50(1.0, 10.0, 0.2).tr
     5.0
     """
-    delta = _number(relative_dead_time_error, "relative_dead_time_error")
+    delta = require_number(relative_dead_time_error, "relative_dead_time_error")
     if not 0.0 < delta < 1.0:
         raise ValueError(f"relative_dead_time_error must be in (0, 1) for eq. 50, got {delta!r}")
-    dead_time = _number(dead_time, "dead_time", positive=True)
+    dead_time = require_number(dead_time, "dead_time", positive=True)
     return MSP(gain=gain, dead_time=dead_time, tr=dead_time * 2.0 * delta / (1.0 - delta), extension=extension)
 
 
@@ -305,4 +290,4 @@ def msp_matausek_micic(gain: float, dead_time: float, time_constant: float, *, e
     >>> msp_matausek_micic(1.0, 8.0, 2.0).tr
     2.0
     """
-    return MSP(gain=gain, dead_time=dead_time, tr=_number(time_constant, "time_constant", positive=True), extension=extension)
+    return MSP(gain=gain, dead_time=dead_time, tr=require_number(time_constant, "time_constant", positive=True), extension=extension)

@@ -23,16 +23,15 @@ from envs.commissioning import commissioning_pi
 from envs.controllers import Controller
 from envs.experiment_base import (
     ExperimentResult,
-    _cap_steps,
-    _check_plant,
-    _check_rng,
-    _excursion_index,
-    _finite,
-    _noise,
-    _record,
-    _Run,
-    _run_until_settled,
-    _sample_time,
+    cap_steps,
+    check_plant,
+    check_rng,
+    excursion_index,
+    measurement_noise,
+    record_fields,
+    ExperimentRun,
+    run_until_settled,
+    sample_time,
 )
 from envs.identification import (
     FOPDTModel,
@@ -46,7 +45,8 @@ from envs.identification import (
 from envs.loops import closed_loop
 from envs.plants import Plant
 from envs.simulation import discretize, simulate
-from envs.steady_state import _window_samples, steady_state_mask
+from envs.steady_state import window_samples, steady_state_mask
+from envs.validation import require_number
 
 __all__ = ["ClosedLoopStepResult", "closed_loop_step"]
 
@@ -142,14 +142,14 @@ def closed_loop_step(
     ValueError
         On invalid arguments, e.g. ``"amplitude must be non-zero, got 0.0"``.
     """
-    plant, rng = _check_plant(plant), _check_rng(rng)
-    amplitude = _finite(amplitude, "amplitude", nonzero=True)
-    noise_std = _finite(noise_std, "noise_std", nonnegative=True)
+    plant, rng = check_plant(plant), check_rng(rng)
+    amplitude = require_number(amplitude, "amplitude", nonzero=True)
+    noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     controller = commissioning_pi(plant) if controller is None else _check_controller(plant, controller)
     scale = plant.step_time_scale()
     dt = _loop_sample_time(plant, controller, dt)
-    noise = _noise(rng, noise_std, _cap_steps(scale, dt, max_duration))
-    window = _window_samples(scale, dt)
+    noise = measurement_noise(rng, noise_std, cap_steps(scale, dt, max_duration))
+    window = window_samples(scale, dt)
     run = _run_closed_loop(plant, controller, amplitude, noise, dt, window, excursion_limit)
     return _identify_closed_loop(plant, controller, amplitude, run, window, scale)
 
@@ -163,7 +163,7 @@ def _check_controller(plant: Plant, controller: Controller) -> Controller:
 
 
 def _loop_sample_time(plant: Plant, controller: Controller, dt: float | None) -> float:
-    dt = _sample_time(plant, dt)
+    dt = sample_time(plant, dt)
     delays = [plant.delay] + [float(d) for d in controller.block().delays]
     positive = [d for d in delays if d > 0]
     return min([dt] + positive)
@@ -177,7 +177,7 @@ def _run_closed_loop(
     dt: float,
     window: int,
     excursion_limit: float | None,
-) -> _Run:
+) -> ExperimentRun:
     """Simulate over growing horizons (doubling) until steady state, the cap, or an excursion."""
     discrete = discretize(closed_loop(plant, controller), dt)
 
@@ -187,13 +187,13 @@ def _run_closed_loop(
         y, u = sim.outputs[:, 0], sim.outputs[:, 1]
         measured = y + noise[:steps]
         finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
-        abort = _excursion_index(y[:finite], excursion_limit)
+        abort = excursion_index(y[:finite], excursion_limit)
         if sim.diverged and abort is None:
             abort = max(finite - 1, 0)
         settle = _closed_loop_settling(sim.timepts[:finite], u[:finite], measured[:finite], amplitude, window, plant.integrating)
         return sim.timepts, u, measured, y, abort, settle
 
-    return _run_until_settled(trial, max(16 * window, 64), noise.size)
+    return run_until_settled(trial, max(16 * window, 64), noise.size)
 
 
 def _closed_loop_settling(
@@ -208,9 +208,9 @@ def _closed_loop_settling(
 
 
 def _identify_closed_loop(
-    plant: Plant, controller: Controller, amplitude: float, run: _Run, window: int, scale: float
+    plant: Plant, controller: Controller, amplitude: float, run: ExperimentRun, window: int, scale: float
 ) -> ClosedLoopStepResult:
-    record = _record(run, scale)
+    record = record_fields(run, scale)
     common = dict(**record, amplitude=amplitude, controller=controller, settled=run.settled)
     t, u, y = record["timepts"], record["control"], record["output"]
     drive = _cumulative_integral(t, u) if plant.integrating else u

@@ -20,9 +20,10 @@ import math
 import numpy as np
 
 from envs.controllers import PID, Controller
-from envs.experiment_base import _check_plant, _finite
+from envs.experiment_base import check_plant
 from envs.loops import loop_response
 from envs.plants import Plant
+from envs.validation import require_number
 
 __all__ = ["COMMISSIONING_MAX_SENSITIVITY", "commissioning_pi", "max_sensitivity"]
 
@@ -59,8 +60,8 @@ def commissioning_pi(plant: Plant, max_sensitivity_target: float = COMMISSIONING
     ValueError
         If ``max_sensitivity_target <= 1``.
     """
-    plant = _check_plant(plant)
-    target = _finite(max_sensitivity_target, "max_sensitivity_target")
+    plant = check_plant(plant)
+    target = require_number(max_sensitivity_target, "max_sensitivity_target")
     if target <= 1.0:
         raise ValueError(f"max_sensitivity_target must be > 1, got {target!r}")
     omega = _sensitivity_grid(plant)

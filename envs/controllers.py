@@ -21,7 +21,6 @@ Each class gives ``feedback_response``/``reference_response`` (exact, dead times
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -29,26 +28,9 @@ import numpy as np
 import scipy.signal
 
 from envs.simulation import DelaySystem, SystemBuilder
+from envs.validation import check_keys, require_number
 
 __all__ = ["PID", "SeriesPID", "FPPI", "MSP", "Controller", "controller_from_dict"]
-
-
-def _require(value: Any, name: str, *, positive: bool = False, nonzero: bool = False, nonnegative: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    try:
-        value = float(value)
-    except OverflowError:
-        raise ValueError(f"{name} must be finite, got a number too large for a float") from None
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    if positive and value <= 0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    if nonnegative and value < 0:
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
-    if nonzero and value == 0:
-        raise ValueError(f"{name} must be non-zero, got {value!r}")
-    return value
 
 
 def _rational_block(num: np.ndarray, den: np.ndarray) -> DelaySystem:
@@ -76,12 +58,12 @@ class PID:
     n: float = 10.0
 
     def __post_init__(self) -> None:
-        _require(self.kp, "kp", nonzero=True)
+        require_number(self.kp, "kp", nonzero=True)
         if self.ti is not None:
-            _require(self.ti, "ti", positive=True)
-        _require(self.td, "td", nonnegative=True)
+            require_number(self.ti, "ti", positive=True)
+        require_number(self.td, "td", nonnegative=True)
         if self.td > 0:
-            _require(self.n, "n", positive=True)
+            require_number(self.n, "n", positive=True)
 
     @property
     def integrators(self) -> int:
@@ -136,8 +118,8 @@ class SeriesPID:
         the model loop is ``e^{-D_2 s}/(mu D_2 s)`` up to the derivative filter (eq. 3-12).
         """
         t1, t2 = time_constants
-        _require(dead_time, "dead_time", positive=True)
-        _require(mu, "mu", positive=True)
+        require_number(dead_time, "dead_time", positive=True)
+        require_number(mu, "mu", positive=True)
         return cls(kp=t1 / (mu * gain * dead_time), ti=t1, td=t2, n=n)
 
     def transfer_function(self) -> tuple[np.ndarray, np.ndarray]:
@@ -182,11 +164,11 @@ class FPPI:
     tf: float = 0.0
 
     def __post_init__(self) -> None:
-        _require(self.gain, "model.gain", nonzero=True)
-        _require(self.time_constant, "model.time_constant", positive=True)
-        _require(self.dead_time, "model.dead_time", nonnegative=True)
-        _require(self.tr, "tr", positive=True)
-        _require(self.tf, "tf", nonnegative=True)
+        require_number(self.gain, "model.gain", nonzero=True)
+        require_number(self.time_constant, "model.time_constant", positive=True)
+        require_number(self.dead_time, "model.dead_time", nonnegative=True)
+        require_number(self.tr, "tr", positive=True)
+        require_number(self.tf, "tf", nonnegative=True)
 
     integrators = 1
 
@@ -259,9 +241,9 @@ class MSP:
     extension: bool = False
 
     def __post_init__(self) -> None:
-        _require(self.gain, "model.gain", nonzero=True)
-        _require(self.dead_time, "model.dead_time", positive=True)
-        _require(self.tr, "tr", positive=True)
+        require_number(self.gain, "model.gain", nonzero=True)
+        require_number(self.dead_time, "model.dead_time", positive=True)
+        require_number(self.tr, "tr", positive=True)
         if not isinstance(self.extension, bool):
             raise ValueError(f"extension must be true or false, got {self.extension!r}")
 
@@ -342,13 +324,7 @@ def controller_from_dict(data: Any) -> Controller:
     if not isinstance(kind, str) or kind not in _FIELDS:
         raise ValueError(f"controller.type must be one of {sorted(_FIELDS)}, got {kind!r}")
     required, optional = _FIELDS[kind]
-    keys = set(data) - {"type"}
-    unknown = sorted(keys - required - optional)
-    if unknown:
-        raise ValueError(f"controller has unknown key {unknown[0]!r} for type {kind!r}")
-    missing = sorted(required - keys)
-    if missing:
-        raise ValueError(f"controller is missing key {missing[0]!r} for type {kind!r}")
+    check_keys(set(data) - {"type"}, "controller", required, optional, kind)
     fields = {k: v for k, v in data.items() if k != "type"}
     try:
         if kind in ("pid", "pid-series"):
@@ -357,12 +333,7 @@ def controller_from_dict(data: Any) -> Controller:
         model = fields.pop("model")
         if not isinstance(model, dict):
             raise ValueError(f"model must be an object with keys {sorted(_MODEL_FIELDS[kind])}")
-        unknown = sorted(set(model) - _MODEL_FIELDS[kind])
-        if unknown:
-            raise ValueError(f"model has unknown key {unknown[0]!r}")
-        missing = sorted(_MODEL_FIELDS[kind] - set(model))
-        if missing:
-            raise ValueError(f"model is missing key {missing[0]!r}")
+        check_keys(model, "model", _MODEL_FIELDS[kind])
         cls = FPPI if kind == "fppi" else MSP
         return cls(**model, **fields)
     except ValueError as error:

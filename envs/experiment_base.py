@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from envs.plants import Plant
+from envs.validation import require_number
 
 __all__ = ["SAMPLES_PER_RESIDENCE_TIME", "MAX_DURATION", "ExperimentResult"]
 
@@ -34,44 +35,29 @@ MAX_DURATION = 150.0
 
 
 # --------------------------------------------------------------------------- validation and sampling
-def _check_plant(plant: Plant) -> Plant:
+def check_plant(plant: Plant) -> Plant:
     if not isinstance(plant, Plant):
         raise ValueError(f"plant must be an envs.plants.Plant, got {type(plant).__name__}")
     return plant
 
 
-def _check_rng(rng: np.random.Generator) -> np.random.Generator:
+def check_rng(rng: np.random.Generator) -> np.random.Generator:
     if not isinstance(rng, np.random.Generator):
         raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
     return rng
 
 
-def _finite(value: float, name: str, *, positive: bool = False, nonzero: bool = False, nonnegative: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    if positive and value <= 0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    if nonzero and value == 0:
-        raise ValueError(f"{name} must be non-zero, got {value!r}")
-    if nonnegative and value < 0:
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
-    return value
-
-
-def _sample_time(plant: Plant, dt: float | None) -> float:
+def sample_time(plant: Plant, dt: float | None) -> float:
     if dt is None:
         return plant.step_time_scale() / SAMPLES_PER_RESIDENCE_TIME
-    return _finite(dt, "dt", positive=True)
+    return require_number(dt, "dt", positive=True)
 
 
-def _noise(rng: np.random.Generator, noise_std: float, steps: int) -> np.ndarray:
+def measurement_noise(rng: np.random.Generator, noise_std: float, steps: int) -> np.ndarray:
     return noise_std * rng.standard_normal(steps)
 
 
-def _excursion_index(true_output: np.ndarray, limit: float | None) -> int | None:
+def excursion_index(true_output: np.ndarray, limit: float | None) -> int | None:
     """Index of the first sample whose true output leaves ``[-limit, limit]``."""
     if limit is None:
         return None
@@ -79,8 +65,8 @@ def _excursion_index(true_output: np.ndarray, limit: float | None) -> int | None
     return int(outside[0]) if outside.size else None
 
 
-def _cap_steps(scale: float, dt: float, max_duration: float | None, minimum: float = 0.0) -> int:
-    cap = MAX_DURATION if max_duration is None else _finite(max_duration, "max_duration", positive=True)
+def cap_steps(scale: float, dt: float, max_duration: float | None, minimum: float = 0.0) -> int:
+    cap = MAX_DURATION if max_duration is None else require_number(max_duration, "max_duration", positive=True)
     return max(int(math.ceil(max(cap * scale, minimum) / dt)) + 1, 4)
 
 
@@ -117,7 +103,7 @@ class ExperimentResult:
 
 
 @dataclass(frozen=True)
-class _Run:
+class ExperimentRun:
     """A simulated run: the signals up to the horizon simulated, and the last sample used."""
 
     timepts: np.ndarray
@@ -129,7 +115,7 @@ class _Run:
     aborted: bool
 
 
-def _run_until_settled(trial: Callable[[int], tuple], first_steps: int, steps_max: int) -> _Run:
+def run_until_settled(trial: Callable[[int], tuple], first_steps: int, steps_max: int) -> ExperimentRun:
     """Run ``trial(steps)`` over growing horizons, from ``first_steps`` samples and doubling, until
     it settles, reaches the cap (``steps_max`` samples) or aborts.
 
@@ -141,15 +127,15 @@ def _run_until_settled(trial: Callable[[int], tuple], first_steps: int, steps_ma
     while True:
         t, control, measured, true_output, abort, settle = trial(steps)
         if abort is not None and (settle is None or abort <= settle):
-            return _Run(t, control, measured, true_output, abort, False, True)
+            return ExperimentRun(t, control, measured, true_output, abort, False, True)
         if settle is not None:
-            return _Run(t, control, measured, true_output, settle, True, False)
+            return ExperimentRun(t, control, measured, true_output, settle, True, False)
         if steps == steps_max:
-            return _Run(t, control, measured, true_output, steps - 1, False, False)
+            return ExperimentRun(t, control, measured, true_output, steps - 1, False, False)
         steps = min(2 * steps, steps_max)
 
 
-def _record(run: _Run, scale: float) -> dict:
+def record_fields(run: ExperimentRun, scale: float) -> dict:
     """The :class:`ExperimentResult` fields of a run, truncated at its last sample."""
     k = run.end + 1
     t = run.timepts[:k]

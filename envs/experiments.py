@@ -68,6 +68,7 @@ from envs.steady_state import CONFIDENCE, STEADY_STATE_TOLERANCE, steady_state_i
 
 __all__ = [
     "SAMPLES_PER_RESIDENCE_TIME",
+    "MAX_DURATION",
     "STEADY_STATE_TOLERANCE",
     "CONFIDENCE",
     "COMMISSIONING_MAX_SENSITIVITY",

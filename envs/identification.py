@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from envs.plants import Plant
+from envs.validation import check_keys, require_number
 
 __all__ = [
     "FOPDTModel",
@@ -77,36 +78,6 @@ _LEVEL_63 = 1.0 - math.exp(-1.0)
 
 
 # --------------------------------------------------------------------------- validation
-def _number(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return value
-
-
-def _nonzero(value: Any, name: str) -> float:
-    value = _number(value, name)
-    if value == 0.0:
-        raise ValueError(f"{name} must be non-zero, got {value!r}")
-    return value
-
-
-def _positive(value: Any, name: str) -> float:
-    value = _number(value, name)
-    if value <= 0.0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    return value
-
-
-def _nonnegative(value: Any, name: str) -> float:
-    value = _number(value, name)
-    if value < 0.0:
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
-    return value
-
-
 def _signals(timepts: Any, **signals: Any) -> tuple[np.ndarray, ...]:
     """Validate a time grid and signals sampled on it."""
     t = np.asarray(timepts, dtype=float).ravel()
@@ -145,9 +116,9 @@ class FOPDTModel:
     dead_time: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "gain", _nonzero(self.gain, "gain"))
-        object.__setattr__(self, "time_constant", _nonnegative(self.time_constant, "time_constant"))
-        object.__setattr__(self, "dead_time", _nonnegative(self.dead_time, "dead_time"))
+        object.__setattr__(self, "gain", require_number(self.gain, "gain", nonzero=True))
+        object.__setattr__(self, "time_constant", require_number(self.time_constant, "time_constant", nonnegative=True))
+        object.__setattr__(self, "dead_time", require_number(self.dead_time, "dead_time", nonnegative=True))
         if self.time_constant + self.dead_time <= 0.0:
             raise ValueError("time_constant + dead_time must be > 0, got 0")
 
@@ -194,13 +165,13 @@ class SOPDTModel:
     dead_time: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "gain", _nonzero(self.gain, "gain"))
+        object.__setattr__(self, "gain", require_number(self.gain, "gain", nonzero=True))
         values = self.time_constants
         if isinstance(values, str | bytes) or not hasattr(values, "__len__") or len(values) != 2:
             raise ValueError(f"time_constants must be a pair [T1, T2], got {values!r}")
-        pair = tuple(_nonnegative(v, f"time_constants[{i}]") for i, v in enumerate(values))
+        pair = tuple(require_number(v, f"time_constants[{i}]", nonnegative=True) for i, v in enumerate(values))
         object.__setattr__(self, "time_constants", pair)
-        object.__setattr__(self, "dead_time", _nonnegative(self.dead_time, "dead_time"))
+        object.__setattr__(self, "dead_time", require_number(self.dead_time, "dead_time", nonnegative=True))
         if self.residence_time <= 0.0:
             raise ValueError("time_constants and dead_time must not all be 0")
 
@@ -257,10 +228,10 @@ class IntegratingModel:
     time_constant: float | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "gain", _nonzero(self.gain, "gain"))
-        object.__setattr__(self, "dead_time", _nonnegative(self.dead_time, "dead_time"))
+        object.__setattr__(self, "gain", require_number(self.gain, "gain", nonzero=True))
+        object.__setattr__(self, "dead_time", require_number(self.dead_time, "dead_time", nonnegative=True))
         if self.time_constant is not None:
-            object.__setattr__(self, "time_constant", _nonnegative(self.time_constant, "time_constant"))
+            object.__setattr__(self, "time_constant", require_number(self.time_constant, "time_constant", nonnegative=True))
 
     @property
     def residence_time(self) -> float:
@@ -307,13 +278,7 @@ def model_from_dict(data: Any) -> Model:
     if kind not in _MODEL_KEYS:
         raise ValueError(f"model.type must be one of {sorted(_MODEL_KEYS)}, got {kind!r}")
     cls, required, optional = _MODEL_KEYS[kind]
-    keys = set(data) - {"type"}
-    unknown = sorted(keys - required - optional)
-    if unknown:
-        raise ValueError(f"model has unknown key {unknown[0]!r} for type {kind!r}")
-    missing = sorted(required - keys)
-    if missing:
-        raise ValueError(f"model is missing key {missing[0]!r} for type {kind!r}")
+    check_keys(set(data) - {"type"}, "model", required, optional, kind)
     fields = {k: v for k, v in data.items() if k != "type"}
     if kind == "sopdt" and not isinstance(fields["time_constants"], list | tuple):
         raise ValueError(f"model.time_constants must be a list [T1, T2], got {fields['time_constants']!r}")
@@ -364,7 +329,7 @@ def theta_from_tau(tau: float) -> float:
     >>> round(theta_from_tau(0.33), 2), round(theta_from_tau(0.68), 2)
     (0.37, 0.75)
     """
-    tau = _number(tau, "tau")
+    tau = require_number(tau, "tau")
     if not 0.0 <= tau <= 1.0:
         raise ValueError(f"tau must be in [0, 1], got {tau!r}")
     theta = tau
@@ -391,8 +356,8 @@ def sopdt_from_moments(gain: float, residence_time: float, tau: float) -> SOPDTM
     ----------
     Gorez-Klan section 2, eq. 2-2, 2-8.
     """
-    gain = _nonzero(gain, "gain")
-    residence_time = _positive(residence_time, "residence_time")
+    gain = require_number(gain, "gain", nonzero=True)
+    residence_time = require_number(residence_time, "residence_time", positive=True)
     theta = theta_from_tau(tau)
     return SOPDTModel(
         gain=gain,
@@ -412,8 +377,8 @@ def apparent_time_constant(residence_time: float, second_moment: float) -> float
     ----------
     Gorez-Klan eq. 2-6 and appendix A.
     """
-    residence_time = _positive(residence_time, "residence_time")
-    square = 2.0 * _number(second_moment, "second_moment") - residence_time**2
+    residence_time = require_number(residence_time, "residence_time", positive=True)
+    square = 2.0 * require_number(second_moment, "second_moment") - residence_time**2
     return float(min(math.sqrt(max(square, 0.0)), residence_time))
 
 
@@ -423,9 +388,9 @@ def fopdt_from_moments(gain: float, residence_time: float, time_constant: float)
     ``time_constant`` is ``T_a`` (e.g. from :func:`apparent_time_constant`), clipped to
     ``[0, T_ar]``.
     """
-    gain = _nonzero(gain, "gain")
-    residence_time = _positive(residence_time, "residence_time")
-    t_a = min(max(_number(time_constant, "time_constant"), 0.0), residence_time)
+    gain = require_number(gain, "gain", nonzero=True)
+    residence_time = require_number(residence_time, "residence_time", positive=True)
+    t_a = min(max(require_number(time_constant, "time_constant"), 0.0), residence_time)
     return FOPDTModel(gain=gain, time_constant=t_a, dead_time=residence_time - t_a)
 
 
@@ -459,7 +424,7 @@ def normalized_moments(timepts: np.ndarray, signal: np.ndarray, initial: float, 
         If ``final == initial`` or the signals are not finite.
     """
     t, s = _signals(timepts, signal=signal)
-    initial, final = _number(initial, "initial"), _number(final, "final")
+    initial, final = require_number(initial, "initial"), require_number(final, "final")
     if final == initial:
         raise ValueError(f"final must differ from initial, both are {final!r}")
     complement = 1.0 - (s - initial) / (final - initial)
@@ -569,8 +534,8 @@ def step_time_constant(area: float, height: float, gain: float) -> float:
     ``A = int_0^{T_ar} y dt`` for a step of height ``h`` at ``t = 0``: for the FOPDT model eq. 1,
     ``A = h K_n T_n e^{-1}``.
     """
-    area = _number(area, "area")
-    return area * math.e / (_nonzero(height, "height") * _nonzero(gain, "gain"))
+    area = require_number(area, "area")
+    return area * math.e / (require_number(height, "height", nonzero=True) * require_number(gain, "gain", nonzero=True))
 
 
 def ramp_time_constant(area: float, rate: float, gain: float) -> float:
@@ -580,8 +545,8 @@ def ramp_time_constant(area: float, rate: float, gain: float) -> float:
     ``A = h K_n T_n^2 (1/2 - e^{-1})``.  Also valid for a step of height ``h`` into an integrating
     plant with ``K_n`` the velocity gain (section 2.2).
     """
-    area = _number(area, "area")
-    square = area / (_nonzero(rate, "rate") * _nonzero(gain, "gain") * (0.5 - math.exp(-1.0)))
+    area = require_number(area, "area")
+    square = area / (require_number(rate, "rate", nonzero=True) * require_number(gain, "gain", nonzero=True) * (0.5 - math.exp(-1.0)))
     return math.sqrt(square) if square > 0 else 0.0
 
 
@@ -593,9 +558,9 @@ def fopdt_from_area(gain: float, residence_time: float, time_constant: float) ->
     "no dead time", and a non-positive area (inverse response, or noise) "practically a pure
     dead time".  The clipping is visible: compare the returned ``time_constant`` with the input.
     """
-    gain = _nonzero(gain, "gain")
-    residence_time = _positive(residence_time, "residence_time")
-    time_constant = _number(time_constant, "time_constant")
+    gain = require_number(gain, "gain", nonzero=True)
+    residence_time = require_number(residence_time, "residence_time", positive=True)
+    time_constant = require_number(time_constant, "time_constant")
     t_n = min(max(time_constant, MIN_TIME_CONSTANT_FRACTION * residence_time), residence_time)
     return FOPDTModel(gain=gain, time_constant=t_n, dead_time=residence_time - t_n)
 
@@ -632,7 +597,7 @@ def pulse_mismatch_area(
     ``delta P_0`` of eq. 44 and is used as ``beta`` in eq. 43.
     """
     t, y = _signals(timepts, output=output)
-    height, duration = _nonzero(height, "height"), _positive(duration, "duration")
+    height, duration = require_number(height, "height", nonzero=True), require_number(duration, "duration", positive=True)
     model_output = height * (model.step_response(t) - model.step_response(t - duration))
     return float(np.trapezoid(np.abs(y - model_output), t)) / abs(height * duration)
 
@@ -665,7 +630,7 @@ def reaction_curve_tangent(
     Ziegler and Nichols 1942), eq. 6.2-6.4, pp. 179-181.
     """
     t, y = _signals(timepts, output=output)
-    height, final = _nonzero(height, "height"), _nonzero(final, "final")
+    height, final = require_number(height, "height", nonzero=True), require_number(final, "final", nonzero=True)
     if not isinstance(window, int | np.integer) or not 2 <= window <= t.size:
         raise ValueError(f"window must be an integer in [2, {t.size}], got {window!r}")
     slopes, centers, levels = _windowed_lines(t, y, int(window))
@@ -703,7 +668,7 @@ def reaction_curve_two_point(timepts: np.ndarray, output: np.ndarray, height: fl
     and 6.6, p. 181 (Smith 1972).
     """
     t, y = _signals(timepts, output=output)
-    height, final = _nonzero(height, "height"), _nonzero(final, "final")
+    height, final = require_number(height, "height", nonzero=True), require_number(final, "final", nonzero=True)
     normalized = y / final
     t28 = _first_crossing(t, normalized, _LEVEL_28)
     t63 = _first_crossing(t, normalized, _LEVEL_63)

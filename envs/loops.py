@@ -81,19 +81,19 @@ def closed_loop(plant: Plant, controller: Controller) -> DelaySystem:
     return b.build(derivatives, [y, u, r - y], delayed, delays)
 
 
-def simulation_step(plant: Plant, controller: Controller, samples_per_residence_time: int = 50) -> float:
+def simulation_step(
+    plant: Plant, controller: Controller, samples_per_residence_time: int = 50, *, system: DelaySystem | None = None
+) -> float:
     """The sample time used for closed-loop simulation.
 
     ``T_ar / samples_per_residence_time`` (``T_ar`` of the true plant), reduced if needed so that
     every dead time in the loop spans at least one sample (the recursion of
-    :func:`envs.simulation.discretize` is explicit then).
+    :func:`envs.simulation.discretize` is explicit then).  ``system`` is the loop's
+    :func:`closed_loop`, if already built.
     """
+    delays = (closed_loop(plant, controller) if system is None else system).delays
     dt = plant.step_time_scale() / samples_per_residence_time
-    delays = [plant.delay] + [float(x) for x in controller.block().delays]
-    positive = [d for d in delays if d > 0]
-    if positive:
-        dt = min(dt, min(positive))
-    return dt
+    return float(min(dt, delays.min())) if delays.size else dt
 
 
 @dataclass(frozen=True)
@@ -110,13 +110,12 @@ class ClosedLoopResponse:
 def closed_loop_response(
     plant: Plant,
     controller: Controller,
-    timepts_or_steps: int,
+    steps: int,
     dt: float,
     *,
     setpoint: np.ndarray | float = 0.0,
     load: np.ndarray | float = 0.0,
     noise: np.ndarray | float = 0.0,
-    system: DelaySystem | None = None,
 ) -> ClosedLoopResponse:
     """Simulate the loop for ``steps`` samples of ``dt`` from rest.
 
@@ -124,11 +123,10 @@ def closed_loop_response(
     sample, held over the sample interval.  A diverging loop stops early (``diverged=True``, the
     rest ``nan``); it is never an overflow.
     """
-    steps = int(timepts_or_steps)
+    steps = int(steps)
     inputs = np.empty((steps, 3))
     for k, signal in enumerate((setpoint, load, noise)):
         inputs[:, k] = np.broadcast_to(np.asarray(signal, dtype=float), (steps,))
-    system = closed_loop(plant, controller) if system is None else system
-    result = simulate(discretize(system, dt), inputs)
+    result = simulate(discretize(closed_loop(plant, controller), dt), inputs)
     y, u, e = result.outputs.T
     return ClosedLoopResponse(result.timepts, y, u, e, result.diverged)

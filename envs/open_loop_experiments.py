@@ -25,16 +25,15 @@ import numpy as np
 
 from envs.experiment_base import (
     ExperimentResult,
-    _cap_steps,
-    _check_plant,
-    _check_rng,
-    _excursion_index,
-    _finite,
-    _noise,
-    _record,
-    _Run,
-    _run_until_settled,
-    _sample_time,
+    cap_steps,
+    check_plant,
+    check_rng,
+    excursion_index,
+    measurement_noise,
+    record_fields,
+    ExperimentRun,
+    run_until_settled,
+    sample_time,
 )
 from envs.identification import (
     FOPDTModel,
@@ -51,7 +50,8 @@ from envs.identification import (
 )
 from envs.plants import Plant, StateSpace
 from envs.simulation import open_loop_response
-from envs.steady_state import _window_samples, noise_level, steady_state_index
+from envs.steady_state import window_samples, noise_level, steady_state_index
+from envs.validation import require_number
 
 __all__ = [
     "OpenLoopStepResult",
@@ -72,7 +72,7 @@ def _run_to_steady_state(
     window: int,
     start: int,
     excursion_limit: float | None,
-) -> _Run:
+) -> ExperimentRun:
     """Simulate ``inputs`` (held per sample) over growing horizons, from ``start + 6 window``
     samples and doubling, until the measured output is steady from sample ``start`` on
     (:func:`~envs.steady_state.steady_state_index`), the cap (``inputs.size`` samples) or an
@@ -83,10 +83,10 @@ def _run_to_steady_state(
         y = open_loop_response(state_space, plant.delay, inputs[:steps], dt)
         t = np.arange(steps) * dt
         measured = y + noise[:steps]
-        abort = _excursion_index(y, excursion_limit)
+        abort = excursion_index(y, excursion_limit)
         return t, inputs[:steps], measured, y, abort, steady_state_index(t, measured, window, start=start)
 
-    return _run_until_settled(trial, max(start + 6 * window, 16), inputs.size)
+    return run_until_settled(trial, max(start + 6 * window, 16), inputs.size)
 
 
 def _smoothing_samples(signal: np.ndarray, change: float, residence_time: float, dt: float) -> int:
@@ -112,7 +112,7 @@ def _moving_average(signal: np.ndarray, samples: int) -> np.ndarray:
 
 
 def _self_regulating(plant: Plant, experiment: str) -> Plant:
-    plant = _check_plant(plant)
+    plant = check_plant(plant)
     if plant.integrating:
         raise ValueError(f"plant must be self-regulating for {experiment} (use open_loop_pulse for an integrating plant)")
     return plant
@@ -198,18 +198,18 @@ def open_loop_step(
     Method II reads a moving average, over a number of samples chosen from the estimated noise
     (``_smoothing_samples``).
     """
-    plant, rng = _self_regulating(plant, "open_loop_step"), _check_rng(rng)
-    height = _finite(height, "height", nonzero=True)
-    residence_time = _finite(residence_time, "residence_time", positive=True)
-    gain = _finite(gain, "gain", nonzero=True)
-    noise_std = _finite(noise_std, "noise_std", nonnegative=True)
-    dt, scale = _sample_time(plant, dt), plant.step_time_scale()
-    steps = _cap_steps(scale, dt, max_duration, minimum=2.0 * residence_time)
-    noise = _noise(rng, noise_std, steps)
-    window = _window_samples(residence_time, dt)
+    plant, rng = _self_regulating(plant, "open_loop_step"), check_rng(rng)
+    height = require_number(height, "height", nonzero=True)
+    residence_time = require_number(residence_time, "residence_time", positive=True)
+    gain = require_number(gain, "gain", nonzero=True)
+    noise_std = require_number(noise_std, "noise_std", nonnegative=True)
+    dt, scale = sample_time(plant, dt), plant.step_time_scale()
+    steps = cap_steps(scale, dt, max_duration, minimum=2.0 * residence_time)
+    noise = measurement_noise(rng, noise_std, steps)
+    window = window_samples(residence_time, dt)
     start = int(math.ceil(2.0 * residence_time / dt))
     run = _run_to_steady_state(plant, np.full(steps, height), noise, dt, window, start, excursion_limit)
-    record = _record(run, scale)
+    record = record_fields(run, scale)
     return OpenLoopStepResult(**record, height=height, settled=run.settled,
                               **_step_identification(record, height, residence_time, gain, window, run.settled))
 
@@ -299,19 +299,19 @@ def open_loop_ramp(
     residence_time, gain : float
         ``T_ar`` and ``K_n`` from experiment 1.
     """
-    plant, rng = _self_regulating(plant, "open_loop_ramp"), _check_rng(rng)
-    rate = _finite(rate, "rate", nonzero=True)
-    residence_time = _finite(residence_time, "residence_time", positive=True)
-    gain = _finite(gain, "gain", nonzero=True)
-    noise_std = _finite(noise_std, "noise_std", nonnegative=True)
-    dt, scale = _sample_time(plant, dt), plant.step_time_scale()
+    plant, rng = _self_regulating(plant, "open_loop_ramp"), check_rng(rng)
+    rate = require_number(rate, "rate", nonzero=True)
+    residence_time = require_number(residence_time, "residence_time", positive=True)
+    gain = require_number(gain, "gain", nonzero=True)
+    noise_std = require_number(noise_std, "noise_std", nonnegative=True)
+    dt, scale = sample_time(plant, dt), plant.step_time_scale()
     steps = int(math.ceil(residence_time / dt - 1e-9)) + 1
-    noise = _noise(rng, noise_std, steps)
+    noise = measurement_noise(rng, noise_std, steps)
     y = open_loop_response(_with_input_integrator(plant.state_space()), plant.delay, np.full(steps, rate), dt)
     t = np.arange(steps) * dt
-    abort = _excursion_index(y, excursion_limit)
-    run = _Run(t, rate * t, y + noise, y, steps - 1 if abort is None else abort, abort is None, abort is not None)
-    record = _record(run, scale)
+    abort = excursion_index(y, excursion_limit)
+    run = ExperimentRun(t, rate * t, y + noise, y, steps - 1 if abort is None else abort, abort is None, abort is not None)
+    record = record_fields(run, scale)
     if abort is not None:
         record.update(duration=float(t[abort]), relative_duration=float(t[abort] / scale))
         nan = float("nan")
@@ -398,23 +398,23 @@ def open_loop_pulse(
     more window has passed.  ``A`` integrates ``|y - y_n|`` over the whole record (eq. 45-46), so with
     noise it grows with the duration.
     """
-    plant, rng = _check_plant(plant), _check_rng(rng)
+    plant, rng = check_plant(plant), check_rng(rng)
     if not plant.integrating:
         raise ValueError("plant must be integrating for open_loop_pulse")
-    height = _finite(height, "height", nonzero=True)
-    duration = _finite(duration, "duration", positive=True)
-    model = IntegratingModel(gain=_finite(gain, "gain", nonzero=True), dead_time=_finite(dead_time, "dead_time", nonnegative=True))
-    noise_std = _finite(noise_std, "noise_std", nonnegative=True)
+    height = require_number(height, "height", nonzero=True)
+    duration = require_number(duration, "duration", positive=True)
+    model = IntegratingModel(gain=require_number(gain, "gain", nonzero=True), dead_time=require_number(dead_time, "dead_time", nonnegative=True))
+    noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     scale = plant.step_time_scale()
-    pulse_samples = max(int(round(duration / _sample_time(plant, dt))), 1)
+    pulse_samples = max(int(round(duration / sample_time(plant, dt))), 1)
     dt = duration / pulse_samples
-    steps = _cap_steps(scale, dt, max_duration, minimum=3.0 * (duration + model.dead_time))
-    noise = _noise(rng, noise_std, steps)
+    steps = cap_steps(scale, dt, max_duration, minimum=3.0 * (duration + model.dead_time))
+    noise = measurement_noise(rng, noise_std, steps)
     inputs = np.where(np.arange(steps) < pulse_samples, height, 0.0)
-    window = _window_samples(max(model.dead_time, duration), dt)
+    window = window_samples(max(model.dead_time, duration), dt)
     start = pulse_samples + window
     run = _run_to_steady_state(plant, inputs, noise, dt, window, start, excursion_limit)
-    record = _record(run, scale)
+    record = record_fields(run, scale)
     t, y = record["timepts"], record["output"]
     area = pulse_mismatch_area(t, y, model, height, duration) if run.settled else float("nan")
     final = float(np.mean(y[-window:])) if run.settled else float("nan")

@@ -72,8 +72,10 @@ def iae_batch(
     """:func:`iae` for many loops at once (one vectorized simulation per horizon)."""
     if len(plants) != len(controllers):
         raise ValueError(f"got {len(plants)} plants but {len(controllers)} controllers")
-    steps_of = [simulation_step(p, c, samples_per_residence_time) for p, c in zip(plants, controllers)]
     systems = [closed_loop(p, c) for p, c in zip(plants, controllers)]
+    steps_of = [
+        simulation_step(p, c, samples_per_residence_time, system=s) for p, c, s in zip(plants, controllers, systems)
+    ]
     discretes = [discretize(system, dt) for system, dt in zip(systems, steps_of)]
     offsets = [_steady_offsets(system) for system in systems]
     scales = [p.step_time_scale() for p in plants]

@@ -22,17 +22,17 @@ import scipy.linalg
 
 from envs.experiment_base import (
     ExperimentResult,
-    _cap_steps,
-    _check_plant,
-    _check_rng,
-    _finite,
-    _noise,
-    _record,
-    _Run,
-    _sample_time,
+    cap_steps,
+    check_plant,
+    check_rng,
+    measurement_noise,
+    record_fields,
+    ExperimentRun,
+    sample_time,
 )
 from envs.plants import Plant
 from envs.steady_state import noise_level
+from envs.validation import require_number
 
 __all__ = ["RelayResult", "relay_feedback"]
 
@@ -127,14 +127,14 @@ def relay_feedback(
     -------
     RelayResult
     """
-    plant, rng = _check_plant(plant), _check_rng(rng)
-    amplitude = _finite(amplitude, "amplitude", positive=True)
-    hysteresis = _finite(hysteresis, "hysteresis", nonnegative=True)
-    noise_std = _finite(noise_std, "noise_std", nonnegative=True)
-    period_tolerance = _finite(period_tolerance, "period_tolerance", positive=True)
+    plant, rng = check_plant(plant), check_rng(rng)
+    amplitude = require_number(amplitude, "amplitude", positive=True)
+    hysteresis = require_number(hysteresis, "hysteresis", nonnegative=True)
+    noise_std = require_number(noise_std, "noise_std", nonnegative=True)
+    period_tolerance = require_number(period_tolerance, "period_tolerance", positive=True)
     dt, scale = _relay_sample_time(plant, dt), plant.step_time_scale()
-    steps = _cap_steps(scale, dt, max_duration)
-    noise = _noise(rng, noise_std, steps)
+    steps = cap_steps(scale, dt, max_duration)
+    noise = measurement_noise(rng, noise_std, steps)
     sign = 1.0 if plant.gain > 0 else -1.0
     relay = _RelaySimulation(plant, dt, amplitude * sign, hysteresis, noise[0])
     aborted = converged = False
@@ -151,8 +151,8 @@ def _relay_sample_time(plant: Plant, dt: float | None) -> float:
     """Default ``T/SAMPLES_PER_RESIDENCE_TIME``, at most ``L/20``: the limit cycle of a plant
     with a short dead time has a period of a few ``L``."""
     if dt is not None:
-        return _finite(dt, "dt", positive=True)
-    dt = _sample_time(plant, None)
+        return require_number(dt, "dt", positive=True)
+    dt = sample_time(plant, None)
     return min(dt, plant.delay / 20.0) if plant.delay > 0 else dt
 
 
@@ -266,8 +266,8 @@ def _relay_result(
     relay: _RelaySimulation, scale: float, amplitude: float, hysteresis: float, aborted: bool, converged: bool
 ) -> RelayResult:
     t = np.asarray(relay.times)
-    run = _Run(t, np.asarray(relay.relay_output), np.asarray(relay.measured), np.asarray(relay.true), t.size - 1, converged, aborted)
-    record = _record(run, scale)
+    run = ExperimentRun(t, np.asarray(relay.relay_output), np.asarray(relay.measured), np.asarray(relay.true), t.size - 1, converged, aborted)
+    record = record_fields(run, scale)
     switches = np.asarray(relay.switches)
     return RelayResult(**record, amplitude=amplitude, hysteresis=hysteresis, converged=converged,
                        switching_times=switches, **_relay_estimates(t, record["output"], switches, amplitude))

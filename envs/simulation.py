@@ -22,7 +22,7 @@ is checked against fine-step simulations in the tests.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 import numba
@@ -189,7 +189,6 @@ class SimulationResult:
     timepts: np.ndarray
     outputs: np.ndarray
     diverged: bool
-    final_state: np.ndarray = field(repr=False)
 
 
 def simulate(discrete: DiscreteDelaySystem, inputs: np.ndarray) -> SimulationResult:
@@ -249,17 +248,28 @@ def simulate_batch(discretes: Sequence[DiscreteDelaySystem], inputs: np.ndarray)
     d = np.ascontiguousarray(inputs, dtype=float)
     M = _stack(discretes)
     limit = DIVERGENCE_LIMIT * np.maximum(1.0, np.max(np.abs(d), axis=(1, 2)) if d.size else 1.0)
-    z, alive, x = _run(
+    z, alive = _run(
         M["Phi"], M["Gamma"], M["R"], M["C1"], M["D11"], M["D12"], M["C2"], M["D21"], M["D22"],
         M["whole"], M["a"], d, limit,
     )
     steps = d.shape[1]
     return [
-        SimulationResult(
-            timepts=np.arange(steps) * dis.dt, outputs=z[b], diverged=not alive[b], final_state=x[b, : dis.system.n_states]
-        )
+        SimulationResult(timepts=np.arange(steps) * dis.dt, outputs=z[b], diverged=not alive[b])
         for b, dis in enumerate(discretes)
     ]
+
+
+@numba.njit(cache=True)
+def _affine(M1, M2, M3, b, row, x, d, v):  # pragma: no cover - compiled
+    """``M1[b, row] x + M2[b, row] d + M3[b, row] v``."""
+    acc = 0.0
+    for k in range(x.size):
+        acc += M1[b, row, k] * x[k]
+    for k in range(d.size):
+        acc += M2[b, row, k] * d[k]
+    for k in range(v.size):
+        acc += M3[b, row, k] * v[k]
+    return acc
 
 
 @numba.njit(cache=True)
@@ -268,7 +278,7 @@ def _run(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit):  # prag
 
     ``history[b, offset + k, i]`` holds ``w_i[k]`` (zero for ``k < 0``: the system starts at rest).
     """
-    B, steps, nd = d.shape
+    B, steps, _ = d.shape
     n, nz, nv = Phi.shape[1], C1.shape[1], a.shape[1]
     offset = 1
     for b in range(B):
@@ -276,7 +286,6 @@ def _run(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit):  # prag
             offset = max(offset, whole[b, i] + 1)
     z = np.full((B, steps, nz), np.nan)
     alive = np.ones(B, dtype=np.bool_)
-    xs = np.zeros((B, n))
     for b in range(B):
         history = np.zeros((offset + steps + 1, nv))
         x = np.zeros(n)
@@ -284,50 +293,25 @@ def _run(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit):  # prag
         v = np.zeros(nv)
         past = np.zeros(nv * 3)
         for j in range(steps):
+            dj = d[b, j]
             for i in range(nv):
                 base = offset + j - whole[b, i] - 1
                 v[i] = a[b, i] * history[base, i] + (1.0 - a[b, i]) * history[base + 1, i]
             for o in range(nz):
-                acc = 0.0
-                for k in range(n):
-                    acc += C1[b, o, k] * x[k]
-                for k in range(nd):
-                    acc += D11[b, o, k] * d[b, j, k]
-                for k in range(nv):
-                    acc += D12[b, o, k] * v[k]
-                z[b, j, o] = acc
+                z[b, j, o] = _affine(C1, D11, D12, b, o, x, dj, v)
             for i in range(nv):
-                acc = 0.0
-                for k in range(n):
-                    acc += C2[b, i, k] * x[k]
-                for k in range(nd):
-                    acc += D21[b, i, k] * d[b, j, k]
-                for k in range(nv):
-                    acc += D22[b, i, k] * v[k]
-                history[offset + j, i] = acc
+                history[offset + j, i] = _affine(C2, D21, D22, b, i, x, dj, v)
             for i in range(nv):  # w_i[j - m_i - 1 + k], k = 0, 1, 2; w[j] is known now
                 base = offset + j - whole[b, i] - 1
                 for k in range(3):
                     past[3 * i + k] = history[base + k, i]
-            finite = True
             for r in range(n):
-                acc = 0.0
-                for k in range(n):
-                    acc += Phi[b, r, k] * x[k]
-                for k in range(nd):
-                    acc += Gamma[b, r, k] * d[b, j, k]
-                for k in range(3 * nv):
-                    acc += R[b, r, k] * past[k]
-                x_next[r] = acc
-                if not abs(acc) < limit[b]:
-                    finite = False
+                x_next[r] = _affine(Phi, Gamma, R, b, r, x, dj, past)
             x[:] = x_next
-            if not finite:
+            if not np.all(np.abs(x) < limit[b]):
                 alive[b] = False
                 break
-        xs[b] = x
-    return z, alive, xs
-
+    return z, alive
 
 def delayed_zoh(state_space, delay: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Exact ZOH discretization of ``G(s) e^{-L s}`` for a piecewise-constant input.

@@ -93,7 +93,7 @@ def _window_sums(values: np.ndarray, n: int) -> np.ndarray:
     return c[n:] - c[:-n]
 
 
-def _window_samples(scale: float, dt: float) -> int:
+def window_samples(scale: float, dt: float) -> int:
     return max(int(round(scale / dt)), 3)
 
 

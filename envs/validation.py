@@ -1,0 +1,47 @@
+"""Validation shared by the numerical modules: one clear ``ValueError`` naming the field."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Collection
+
+import numpy as np
+
+__all__ = ["require_number", "check_keys"]
+
+
+def require_number(
+    value: Any, name: str, *, positive: bool = False, nonnegative: bool = False, nonzero: bool = False
+) -> float:
+    """``value`` as a finite float, or a ``ValueError`` such as ``"tr must be > 0, got -1.0"``.
+
+    Booleans and strings are refused; the flags add the sign conditions.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    try:
+        value = float(value)
+    except OverflowError:
+        raise ValueError(f"{name} must be finite, got a number too large for a float") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if positive and value <= 0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    if nonnegative and value < 0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+    if nonzero and value == 0:
+        raise ValueError(f"{name} must be non-zero, got {value!r}")
+    return value
+
+
+def check_keys(
+    keys: Collection[str], what: str, required: Collection[str], optional: Collection[str] = (), kind: str | None = None
+) -> None:
+    """Refuse an unknown or a missing key of the JSON object ``what`` (of type ``kind``, if any)."""
+    suffix = f" for type {kind!r}" if kind is not None else ""
+    unknown = sorted(set(keys) - set(required) - set(optional))
+    if unknown:
+        raise ValueError(f"{what} has unknown key {unknown[0]!r}{suffix}")
+    missing = sorted(set(required) - set(keys))
+    if missing:
+        raise ValueError(f"{what} is missing key {missing[0]!r}{suffix}")
