@@ -116,10 +116,17 @@ class SeriesPID:
 
         ``T_i = T_1``, ``T_d = T_2``, ``K_i = 1/(mu K D_2)``, ``K_p = K_i T_i`` (eq. 3-11), so that
         the model loop is ``e^{-D_2 s}/(mu D_2 s)`` up to the derivative filter (eq. 3-12).
+
+        A degenerate model (``theta = 1``: ``T_1 = T_2 = 0``, which the moments give for plants whose
+        normalized dead time is 1 or more, e.g. with a strong inverse response) makes the design a
+        pure integral controller ``1/(mu K D_2 s)``; ``T_1`` is then floored at ``1e-9 D_2``, which
+        is that controller up to a negligible proportional part.  ``T_2 = 0`` drops the derivative.
         """
-        t1, t2 = time_constants
+        t1, t2 = (require_number(t, f"time_constants[{i}]", nonnegative=True) for i, t in enumerate(time_constants))
+        require_number(gain, "gain", nonzero=True)
         require_number(dead_time, "dead_time", positive=True)
         require_number(mu, "mu", positive=True)
+        t1 = max(t1, 1e-9 * dead_time)
         return cls(kp=t1 / (mu * gain * dead_time), ti=t1, td=t2, n=n)
 
     def transfer_function(self) -> tuple[np.ndarray, np.ndarray]:
