@@ -57,6 +57,36 @@ def _format(value: Any) -> str:
     return str(value)
 
 
+def _tune(args: argparse.Namespace) -> int:
+    from baselines.tune import rule_list, tune
+    from envs.identification import model_from_dict
+    from envs.plants import Plant
+
+    if args.list:
+        rules = rule_list()
+        if args.json:
+            print(json.dumps(rules))
+        else:
+            for rule in rules:
+                print(f"{rule['name']:20s} {rule['controller']:10s} {rule['plants']:11s} {rule['citation']}")
+        return 0
+    if args.rule is None or args.plant is None:
+        raise CommandError("--rule and --plant are required (or --list)")
+    plant = Plant.from_dict(load_json_argument(args.plant, "--plant"))
+    model = None if args.model is None else model_from_dict(load_json_argument(args.model, "--model"))
+    result = tune(args.rule, plant, model).to_dict()
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(f"{'rule':28s} {result['rule']}")
+    print(f"{'citation':28s} {result['citation']}")
+    print(f"{'parameter':28s} {_format(result['parameter'])}")
+    print(f"{'controller':28s} {json.dumps(result['controller'])}")
+    for key, value in result["analysis"].items():
+        print(f"{key:28s} {_format(value)}")
+    return 0
+
+
 def _reproduce(args: argparse.Namespace) -> int:
     from baselines.reproduce import run_reproductions
 
@@ -81,6 +111,15 @@ def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Nam
     analyze.add_argument("--controller", required=True, help='JSON {"type": "pid", "kp":, "ti":, "td":, "n":} etc. or a file')
     analyze.add_argument("--json", action="store_true", help="print one JSON object")
     handlers["analyze"] = _analyze
+
+    tune = commands.add_parser("tune", help="the controller an analytic rule gives for a plant, and its analysis")
+    tune.add_argument("--rule", help="a rule name (see --list)")
+    tune.add_argument("--plant", help="plant JSON as for analyze, or a file")
+    tune.add_argument("--model", help='identified model JSON {"type": "fopdt"|"sopdt"|"integrating", ...} or a file; '
+                      "default: run the rule's experiments on the plant, noise free")
+    tune.add_argument("--list", action="store_true", help="name every rule with its citation")
+    tune.add_argument("--json", action="store_true", help='print one JSON object ("controller" is analyze\'s controller JSON)')
+    handlers["tune"] = _tune
 
     reproduce = commands.add_parser("reproduce", help="the seeds' tables and figures beside their computed twins")
     reproduce.add_argument("name", help="a reproduction name, or 'all'")
