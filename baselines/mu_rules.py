@@ -32,7 +32,7 @@ import math
 
 from envs.validation import require_number
 
-__all__ = ["MU_TABLE", "mu_table", "mu_for_gain_margin", "mu_for_phase_margin", "gain_margin", "phase_margin_deg"]
+__all__ = ["MU_TABLE", "gain_margin", "mu_for_gain_margin", "mu_for_phase_margin", "mu_table", "phase_margin_deg"]
 
 MU_TABLE: tuple[float, ...] = (1.3, 1.5, 2.0, 3.0)
 """The ``mu`` values of Gorez-Klan's section-3 table (printed gain margins 2, 2.4, 3.1, 4.7 and

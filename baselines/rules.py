@@ -24,8 +24,9 @@ or the SOPDT model from identification), the MSP rules the two-parameter ``integ
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable, Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -47,7 +48,7 @@ from envs.open_loop_experiments import open_loop_pulse, open_loop_step
 from envs.plants import Plant
 from envs.procedure import PULSE_LENGTH, Identification
 
-__all__ = ["Rule", "RuleInputs", "RULES", "FPPI_DEAD_TIME_ERROR", "MSP_RELATIVE_DEAD_TIME_ERROR", "get_rule"]
+__all__ = ["FPPI_DEAD_TIME_ERROR", "MSP_RELATIVE_DEAD_TIME_ERROR", "RULES", "Rule", "RuleInputs", "get_rule"]
 
 ControllerKind = Literal["pid", "pid-series", "fppi", "msp"]
 PlantKind = Literal["stable", "integrating", "both"]
@@ -102,7 +103,7 @@ class RuleInputs:
     apparent_time_constant: float = math.nan
 
     @classmethod
-    def from_identification(cls, identification: Identification) -> "RuleInputs":
+    def from_identification(cls, identification: Identification) -> RuleInputs:
         """The quantities of :func:`envs.procedure.identify` (the seeds' procedure)."""
         i = identification
         model = i.integrating_model if i.integrating else i.sopdt
@@ -122,7 +123,7 @@ class RuleInputs:
         )
 
     @classmethod
-    def from_model(cls, model: Model, plant: Plant | None = None) -> "RuleInputs":
+    def from_model(cls, model: Model, plant: Plant | None = None) -> RuleInputs:
         """The quantities of a given model, with ``T_f_bar``/``A`` measured on the true ``plant``.
 
         From a FOPDT model the SOPDT model follows by ``tau -> theta`` (Gorez-Klan eq. 2-8 .. 2-10);
@@ -156,7 +157,7 @@ class RuleInputs:
             sopdt = model
             fopdt = fopdt_from_moments(model.gain, model.residence_time, math.hypot(t1, t2))
         else:
-            raise ValueError(f"model must be a FOPDTModel, SOPDTModel or IntegratingModel, got {type(model).__name__}")
+            raise TypeError(f"model must be a FOPDTModel, SOPDTModel or IntegratingModel, got {type(model).__name__}")
         return cls(
             integrating=False, gain=model.gain, residence_time=model.residence_time, fopdt=fopdt, sopdt=sopdt,
             integrating_model=None, model=model,

@@ -21,7 +21,7 @@ from envs.identification import Model
 from envs.plants import Plant
 from envs.procedure import identify
 
-__all__ = ["Tuning", "tune", "rule_inputs", "rule_list"]
+__all__ = ["Tuning", "rule_inputs", "rule_list", "tune"]
 
 
 @dataclass(frozen=True)

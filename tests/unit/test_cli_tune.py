@@ -141,8 +141,8 @@ def test_bad_input_is_one_line_and_exit_2(case):
 def test_error_reaches_the_shell_without_traceback():
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     done = subprocess.run([sys.executable, "-m", "agents.cli", "tune", "--rule", "nope", "--plant", json.dumps(STABLE)],
-                          capture_output=True, text=True, env=env, cwd=REPO, timeout=120)
+                          check=False, capture_output=True, text=True, env=env, cwd=REPO, timeout=120)
     assert done.returncode == 2
-    assert done.stderr.strip().splitlines() == ["deadtime tune: error: unknown rule 'nope'; `deadtime tune --list` names the "
-                                                f"{len(RULES)} rules"]
+    assert done.stderr.strip().splitlines() == [("deadtime tune: error: unknown rule 'nope'; `deadtime tune --list` names the "
+                                                 f"{len(RULES)} rules")]
     assert "Traceback" not in done.stderr

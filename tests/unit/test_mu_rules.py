@@ -13,7 +13,14 @@ import math
 import numpy as np
 import pytest
 
-from baselines.mu_rules import MU_TABLE, gain_margin, mu_for_gain_margin, mu_for_phase_margin, mu_table, phase_margin_deg
+from baselines.mu_rules import (
+    MU_TABLE,
+    gain_margin,
+    mu_for_gain_margin,
+    mu_for_phase_margin,
+    mu_table,
+    phase_margin_deg,
+)
 from envs.robustness import loop_margins
 
 # Gorez-Klan section 3 table as printed: mu, gain margin, phase margin [deg].
