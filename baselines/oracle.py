@@ -113,8 +113,8 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
 
 Measured with a wider search (``mu`` in [0.3, 300], ``T_r/T_n`` in [0.003, 100], ``T_r/L_n`` in
 [0.005, 100]) on the 17 benchmark plants and 40 random plants of each family
-(``sample_plants(family, 50, 0)[:40]``), noise-free identification, default constraints: every plant had a feasible design, with optima
-``mu`` in [0.45, 105.5], ``T_r/T_n`` in [0.0053, 4.9] and ``T_r/L_n`` in [0.064, 3.0].  ``mu`` must
+(``sample_plants(family, 50, 0)[:40]``), noise-free identification, default constraints: every
+plant had a feasible design, with optima ``mu`` in [0.45, 105.5], ``T_r/T_n`` in [0.0053, 4.9] and ``T_r/L_n`` in [0.064, 3.0].  ``mu`` must
 reach about 30 on Ingimundarson's stable P6 (``0.5/(s+1) + 0.05/(s+0.1)``, lead: the PID is
 unstable up to ``mu`` = 13 and breaks ``Ms <= 2`` up to 28.5) and 105 on lag-chain plant 28
 (strong lead, ``D_2 = 0.007 T_ar``: ``mu`` scales with ``1/D_2``).  When the moments give
