@@ -235,3 +235,28 @@ def test_random_plants_have_feasible_oracles():
             best = oracle(plant, identification, structure, grid=15)
             assert best.feasible, (family, structure, best.violations)
             assert math.isfinite(best.cost) and best.cost < FEASIBLE_CAP
+
+
+RANDOM = [
+    pytest.param(family, seed, id=f"{family}-{seed}")
+    for family in ("fopdt", "sopdt", "lag-chain", "integrating")
+    for seed in (3, 4)
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family, seed", RANDOM)
+def test_oracle_is_not_worse_than_any_rule_on_random_noisy_plants(family, seed):
+    """The must-show on random plants, with 1 % measurement noise in the experiments: the rules and
+    the oracle see the same identified model, so no rule may beat the oracle."""
+    plant = sample_plants(family, 1, seed)[0]
+    identification = identify(plant, np.random.default_rng(seed), noise_std=0.01)
+    for structure in structures(plant):
+        try:
+            best = oracle(plant, identification, structure)
+        except ValueError as error:  # a PID model without dead time: refused, see above
+            assert "dead" in str(error)
+            continue
+        for rule, controller in rule_controllers(identification, structure).items():
+            rule_score = score(plant, controller, experiment_time=identification.experiment_time)
+            assert best.cost <= rule_score.cost + 1e-9, (structure, rule, best.cost, rule_score.cost)
