@@ -11,6 +11,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from importlib import import_module
 from typing import Any, Callable, Sequence
 
 __all__ = ["main", "CommandError", "load_json_argument"]
@@ -93,6 +94,15 @@ def _reproduce(args: argparse.Namespace) -> int:
     return run_reproductions(args.name, as_json=args.json, figures=Path(args.figures))
 
 
+# Subcommands that own a module of ``agents``: the module defines ``add_arguments(parser)`` and
+# ``run(args) -> int``, and imports its heavy dependencies (torch, stable-baselines3) inside ``run``.
+_MODULE_COMMANDS: dict[str, tuple[str, str]] = {
+    "train": ("agents.train", "train an agent from a YAML config"),
+    "evaluate": ("agents.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
+    "bench": ("agents.bench", "measure the speed and accuracy of the scoring and the environments"),
+}
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with usage errors reported as one line (exit status 2)."""
 
@@ -126,6 +136,11 @@ def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Nam
     reproduce.add_argument("--json", action="store_true", help="print JSON (one object per reproduction)")
     reproduce.add_argument("--figures", default="figures", help="directory for the PNG figures (default: figures)")
     handlers["reproduce"] = _reproduce
+
+    for name, (module_name, help_text) in _MODULE_COMMANDS.items():
+        module = import_module(module_name)
+        module.add_arguments(commands.add_parser(name, help=help_text, description=help_text))
+        handlers[name] = module.run
     return parser, handlers
 
 
