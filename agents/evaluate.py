@@ -1,15 +1,275 @@
-"""``deadtime evaluate``: not built yet (see the open issues)."""
+"""``deadtime evaluate``: policies against every rule and the per-plant oracle on held-out plants.
+
+::
+
+    deadtime evaluate --env DeadTime/PID-v0 --policies all-rules,oracle,agent=runs/x/model.zip \\
+        --n 50 --seed 0 --out results/pid
+
+Plants: the fixed held-out test set ``envs.plant_sets.plant_set(family, "test", n)`` and, unless
+``--no-benchmark``, the seeds' benchmark batch of the environment's structure
+(``envs.plant_sets.benchmark_set``).  Plant ``i`` (test plants first) is played in one episode
+reset with seed ``--seed + i``: the noise of its identification is the same for every policy.
+How each policy is scored, and what a rule's failure costs: :mod:`agents.evaluation_run`; the
+policies: :mod:`agents.evaluation_policies`; the statistics (regret, gap closure, paired
+bootstrap seeded with ``--seed``): :mod:`agents.evaluation_stats`.
+
+The gap closure's best rule is the rule of lowest mean cost over all plants among the rules of the
+environment's own structure (the ``mu`` rules in ``PID-v0``, the FPPI ``T_r`` rules in ``FPPI-v0``,
+the MSP ``T_r`` rules in ``MSP-v0``): the oracle is the per-plant optimum of that structure's one
+parameter, so only those rules are bounded by it.  They and the oracle are always computed (regret
+and gap closure need them); the table shows the listed policies plus the oracle and the best rule.
+
+Writes into ``--out``: ``results.md``, ``results.csv``, ``results.json`` (also printed by
+``--json``), ``per_plant.csv``, ``costs.png`` and, for a few representative plants (the best
+rule's median- and largest-regret plants, and each agent's median-regret plant),
+``responses_<plant>.png`` and ``nyquist_<plant>.png``.  Per-plant results are appended to
+``cache.jsonl``, so an interrupted run resumes where it stopped; delete the file to recompute.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
 
-__all__ = ["add_arguments", "run"]
+__all__ = ["add_arguments", "run", "evaluate"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime evaluate``."""
+    parser.add_argument("--env", required=True, help="environment id, e.g. DeadTime/PID-v0")
+    parser.add_argument(
+        "--policies", required=True,
+        help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH",
+    )  # fmt: skip
+    parser.add_argument("--n", type=int, default=50, help="number of random held-out test plants (default 50)")
+    parser.add_argument("--seed", type=int, default=0, help="episode seeds are seed + plant index; also seeds the bootstrap")
+    parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument("--json", action="store_true", help="print results.json to stdout")
+    parser.add_argument("--family", help="plant family of the test set (default: the environment's)")
+    parser.add_argument("--no-benchmark", action="store_true", help="leave out the seeds' benchmark batch")
+    parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (default 2000)")
+    parser.add_argument("--no-plots", action="store_true", help="write the tables only")
 
 
 def run(args: argparse.Namespace) -> int:
-    raise ValueError("deadtime evaluate is not implemented yet")
+    """Run ``deadtime evaluate``; bad input is a ValueError (one line, exit status 2)."""
+    result = evaluate(
+        env_id=args.env, policies=args.policies, n=args.n, seed=args.seed, out=Path(args.out), family=args.family,
+        benchmark=not args.no_benchmark, resamples=args.resamples, plots=not args.no_plots,
+    )  # fmt: skip
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        print(f"wrote {Path(args.out) / 'results.md'}", file=sys.stderr)
+    return 0
+
+
+# --------------------------------------------------------------------------- setup
+def _make_env(env_id: str, **kwargs: Any) -> Any:
+    import gymnasium
+
+    import envs  # noqa: F401  (registers the DeadTime/ environments)
+
+    try:
+        return gymnasium.make(env_id, **kwargs)
+    except gymnasium.error.Error as error:
+        known = sorted(k for k in gymnasium.registry if k.startswith("DeadTime/"))
+        raise ValueError(f"unknown environment {env_id!r} ({error}); known: {', '.join(known) or 'none'}") from None
+
+
+def _as_list(plants: Any, prefix: str) -> list[tuple[str, Any]]:
+    if isinstance(plants, dict):
+        return list(plants.items())
+    return [(f"{prefix}-{i}", plant) for i, plant in enumerate(plants)]
+
+
+def _plants(family: str, structure: str, n: int, benchmark: bool) -> list[tuple[str, str, Any]]:
+    """``(subset, label, plant)`` of the test set, then the benchmark batch."""
+    from envs.plant_sets import benchmark_set, plant_set
+
+    plants = [("test", label, plant) for label, plant in _as_list(plant_set(family, "test", n), f"test-{family}")]
+    if benchmark:
+        plants += [("benchmark", label, plant) for label, plant in _as_list(benchmark_set(structure), "benchmark")]
+    return plants
+
+
+def _agents(specs: list, env_id: str, env_kwargs: dict[str, Any], taken: set[str]) -> dict[str, tuple[Any, Any, str]]:
+    import os
+
+    from agents.evaluation_policies import load_agent
+
+    agents: dict[str, tuple[Any, Any, str]] = {}
+    for spec in specs:
+        name, policy = load_agent(spec)
+        if name in taken or name in agents:
+            raise ValueError(f"policy name {name!r} of agent {spec.path!r} is taken; name it with NAME=PATH")
+        kwargs = {**env_kwargs, **dict(getattr(policy, "env_kwargs", None) or {})}
+        identity = f"agent|{os.path.abspath(spec.path)}|{os.path.getmtime(spec.path)}|{json.dumps(kwargs, sort_keys=True, default=str)}"
+        agents[name] = (policy, _make_env(env_id, **kwargs), identity)
+    return agents
+
+
+# --------------------------------------------------------------------------- the run
+def evaluate(
+    env_id: str,
+    policies: str,
+    n: int,
+    seed: int,
+    out: Path,
+    *,
+    family: str | None = None,
+    benchmark: bool = True,
+    resamples: int = 2000,
+    plots: bool = True,
+) -> dict[str, Any]:
+    """Evaluate ``policies`` on ``env_id``'s held-out plants and write the outputs into ``out``.
+
+    Returns the ``results.json`` object.  See the module docstring.
+
+    Raises
+    ------
+    ValueError
+        For an unknown environment, policy or rule, ``n <= 0``, ``resamples <= 0`` or an agent
+        that cannot be loaded.
+    """
+    import numpy as np
+    from tqdm import tqdm
+
+    from agents.evaluation_policies import own_rules, parse_policies
+    from agents.evaluation_run import Cache, evaluate_plant, plant_key
+
+    if isinstance(n, bool) or int(n) != n or n <= 0:
+        raise ValueError(f"--n must be a positive integer, got {n!r}")
+    if resamples <= 0:
+        raise ValueError(f"--resamples must be positive, got {resamples!r}")
+    started = time.perf_counter()
+    env_kwargs: dict[str, Any] = {} if family is None else {"family": family}
+    env = _make_env(env_id, experiments="fixed", **env_kwargs)
+    unwrapped = env.unwrapped
+    structure = unwrapped.structure
+    family = family or getattr(unwrapped, "family", None) or ("integrating" if structure == "msp" else "stable")
+    specs = parse_policies(policies, structure)
+    listed_rules = [s.name for s in specs if s.kind == "rule"]
+    own = own_rules(structure)
+    rules = listed_rules + [name for name in own if name not in listed_rules]
+    agents = _agents([s for s in specs if s.kind == "agent"], env_id, env_kwargs, {*rules, "oracle", "oracle-full"})
+    plants = _plants(family, structure, n, benchmark)
+
+    out.mkdir(parents=True, exist_ok=True)
+    cache = Cache(out / "cache.jsonl")
+    per_plant: list[dict[str, Any]] = []
+    results: list[dict[str, Any]] = []
+    mismatch = 0.0
+    full = any(s.kind == "oracle-full" for s in specs)
+    for index, (subset, label, plant) in enumerate(tqdm(plants, desc=f"evaluate {env_id}", unit="plant", file=sys.stderr)):
+        key = plant_key(env_id, family, seed, index, plant.to_dict())
+        found, off = evaluate_plant(env, plant, seed + index, rules, agents, cache, key, full_oracle=full)
+        mismatch = max(mismatch, off)
+        results.append(found)
+        for name, r in found.items():
+            per_plant.append({
+                "index": index, "subset": subset, "plant": label, "policy": name, "cost": r.cost,
+                "feasible": r.feasible, "failure": r.failure, "experiment_time": r.experiment_time,
+                "parameter": r.parameter, "error": r.error or "",
+            })  # fmt: skip
+
+    def column(name: str, field: str) -> np.ndarray:
+        return np.array([getattr(found[name], field) for found in results], dtype=float)
+
+    means = {name: float(column(name, "cost").mean()) for name in own}
+    best_rule = min(own, key=lambda name: (means[name], name))
+    shown = [s.name for s in specs if s.kind != "agent"] + list(agents)
+    shown += [name for name in ("oracle", best_rule) if name not in shown]
+    roles = {name: "rule" for name in shown}
+    roles.update({name: "agent" for name in agents})
+    roles.update({name: name for name in ("oracle", "oracle-full") if name in shown})
+    roles[best_rule] = "best rule" if best_rule in listed_rules else "best rule (reference)"
+
+    subsets: dict[str, Any] = {}
+    from agents.evaluation_stats import summarize
+
+    for subset_name in ("all", "test", "benchmark"):
+        rows = np.array([subset_name == "all" or plants[i][0] == subset_name for i in range(len(plants))])
+        if not rows.any():
+            continue
+        pick = {name: column(name, "cost")[rows] for name in shown}
+        subsets[subset_name] = summarize(
+            pick,
+            {name: 1.0 - column(name, "feasible")[rows] for name in shown},
+            {name: column(name, "failure")[rows] for name in shown},
+            {name: column(name, "experiment_time")[rows] for name in shown},
+            column("oracle", "cost")[rows],
+            column(best_rule, "cost")[rows],
+            resamples=resamples,
+            seed=seed,
+        )
+    elapsed = time.perf_counter() - started
+    extra = {
+        "family": family,
+        "structure": structure,
+        "plants": len(plants),
+        "benchmark_plants": sum(1 for p in plants if p[0] == "benchmark"),
+        "best_rule": best_rule,
+        "own_structure_rules": own,
+        "oracle_rescore_max_difference": mismatch,
+        "resamples": resamples,
+        "wall_time_s": round(elapsed, 2),
+    }
+    from agents.evaluation_report import write_tables
+
+    result = write_tables(out, env_id, int(n), seed, subsets, roles, extra, per_plant, _notes(best_rule, own))
+    if plots:
+        _plots(out, env_id, plants, results, shown, roles, best_rule, list(agents), unwrapped.constraints)
+    return result
+
+
+def _notes(best_rule: str, own: list[str]) -> list[str]:
+    from agents.evaluation_run import FAILURE_COST
+
+    return [
+        f"Best rule: {best_rule}, the lowest mean cost among the rules of the environment's own structure "
+        f"({', '.join(own)}); the oracle is the per-plant optimum of that structure's parameter, so only these "
+        "rules are bounded by it. Gap closure = (mean cost of the best rule - mean cost)/(mean cost of the best rule "
+        "- mean cost of the oracle).",
+        "Regret = mean over plants of (cost - oracle cost), the oracle searched on the same identified data and "
+        "re-scored by the environment (experiment cost included).",
+        f"A rule that raises on a plant (e.g. the Gorez-Klan PID when the SOPDT model has D_2 = 0) is a failure: "
+        f"it counts as a violation with the cost of an unstable loop ({FAILURE_COST:g}); `failures` is their share.",
+        "Intervals: 95 % percentile bootstrap over plants, paired (every policy on the same resampled plants), the "
+        "best rule fixed. Experiment time in units of the true plant's T_ar.",
+    ]
+
+
+def _plots(out: Path, env_id: str, plants: list, results: list, shown: list[str], roles: dict[str, str],
+           best_rule: str, agents: list[str], constraints: Any) -> None:  # fmt: skip
+    import numpy as np
+
+    from agents.evaluation_plots import cost_distribution_plot, nyquist_plot, responses_plot
+    from envs.controllers import controller_from_dict
+    from envs.scoring import FEASIBLE_CAP
+
+    costs = {name: np.array([found[name].cost for found in results]) for name in shown}
+    cost_distribution_plot(costs, roles, out / "costs.png", f"{env_id}: cost per plant ({len(plants)} plants)", FEASIBLE_CAP)
+    oracle = costs["oracle"]
+    chosen: list[int] = []
+    for name in [best_rule, *agents]:
+        regret = costs[name] - oracle
+        order = np.argsort(regret, kind="stable")
+        picks = [int(order[len(order) // 2])] + ([int(order[-1])] if name == best_rule else [])
+        chosen += [i for i in picks if i not in chosen]
+    drawn = ["oracle", best_rule, *agents] + (["oracle-full"] if "oracle-full" in shown else [])
+    for i in chosen[:4]:
+        _, label, plant = plants[i]
+        controllers = {
+            name: controller_from_dict(results[i][name].controller)
+            for name in drawn
+            if results[i][name].controller is not None
+        }
+        title = f"{env_id}, plant {label}"
+        slug = "".join(c if c.isalnum() or c in "-_" else "_" for c in label)
+        responses_plot(plant, controllers, out / f"responses_{slug}.png", title)
+        nyquist_plot(plant, controllers, constraints.max_sensitivity, out / f"nyquist_{slug}.png", title)

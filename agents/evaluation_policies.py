@@ -1,0 +1,111 @@
+"""The policies of ``deadtime evaluate``: parsing ``--policies`` and the rules of a structure.
+
+A policy is one of
+
+* a rule name of :data:`baselines.rules.RULES`;
+* ``all-rules``: every rule that applies to the environment's plants (the rules for
+  self-regulating plants in ``PID-v0`` and ``FPPI-v0``, the rules for integrating plants in
+  ``MSP-v0``; rules marked ``both`` count for either), the full PI/PID rules of the literature
+  included;
+* ``oracle``: :func:`baselines.oracle.oracle` on the identified data of the episode;
+* ``oracle-full``: :func:`baselines.oracle.full_information_oracle` (exact model, no experiment);
+* a path to a saved agent, loaded by ``agents.policies.load_policy``, or ``NAME=PATH`` to name it
+  in the tables (default: the loaded policy's ``name``).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["PolicySpec", "parse_policies", "own_rules", "applicable_rules", "STRUCTURE_CONTROLLER", "load_agent"]
+
+STRUCTURE_CONTROLLER = {"pid": "pid-series", "fppi": "fppi", "msp": "msp"}
+"""The controller type of each environment structure's design (the rules of its own structure)."""
+
+_PLANT_KINDS = {"pid": ("stable", "both"), "fppi": ("stable", "both"), "msp": ("integrating", "both")}
+
+
+@dataclass(frozen=True)
+class PolicySpec:
+    """One policy to evaluate: ``kind`` is ``"rule"``, ``"oracle"``, ``"oracle-full"`` or ``"agent"``."""
+
+    name: str
+    kind: str
+    path: str | None = None
+
+
+def applicable_rules(structure: str) -> list[str]:
+    """Names of the rules for the plants of an environment of ``structure`` (``all-rules``)."""
+    from baselines.rules import RULES
+
+    kinds = _PLANT_KINDS[structure]
+    return [name for name, rule in RULES.items() if rule.plants in kinds]
+
+
+def own_rules(structure: str) -> list[str]:
+    """Names of the rules that set the environment's own design parameter (``mu`` or ``T_r``).
+
+    These, and only these, compete for "best rule" in the gap closure: the oracle is the
+    per-plant optimum of that structure's one parameter, so a rule of another structure (a full
+    PID, or the FPPI in ``PID-v0``) is not bounded by it and the gap would not be a share of
+    anything.
+    """
+    from baselines.rules import RULES
+
+    controller = STRUCTURE_CONTROLLER[structure]
+    return [name for name, rule in RULES.items() if rule.controller == controller and rule.parameter is not None]
+
+
+def parse_policies(text: str, structure: str) -> list[PolicySpec]:
+    """The policies of a comma-separated ``--policies`` value, in order, without duplicates.
+
+    Raises
+    ------
+    ValueError
+        For an empty list, an unknown rule, or an agent path that does not exist; the message
+        names it.
+    """
+    from baselines.rules import get_rule
+
+    items = [item.strip() for item in text.split(",")]
+    if not text.strip() or any(not item for item in items):
+        raise ValueError(f"--policies must be a comma-separated list of policies, got {text!r}")
+    specs: list[PolicySpec] = []
+    for item in items:
+        if item == "all-rules":
+            specs += [PolicySpec(name, "rule") for name in applicable_rules(structure)]
+        elif item in ("oracle", "oracle-full"):
+            specs.append(PolicySpec(item, item))
+        elif "=" in item or os.sep in item or item.endswith(".zip") or os.path.exists(item):
+            name, _, path = item.rpartition("=")
+            if not os.path.exists(path):
+                raise ValueError(f"agent {path!r} (policy {item!r}) does not exist")
+            specs.append(PolicySpec(name, "agent", path))  # name "" -> the policy's own name
+        else:
+            get_rule(item)  # unknown rule: ValueError naming it
+            specs.append(PolicySpec(item, "rule"))
+    unique: dict[tuple[str, str | None], PolicySpec] = {}
+    for spec in specs:
+        unique.setdefault((spec.name, spec.path), spec)
+    return list(unique.values())
+
+
+def load_agent(spec: PolicySpec) -> tuple[str, Any]:
+    """``(name, policy)`` of an agent spec, through ``agents.policies.load_policy``.
+
+    Raises
+    ------
+    ValueError
+        If the agent cannot be loaded (the message names the path).
+    """
+    try:
+        from agents.policies import load_policy
+    except ImportError as error:
+        raise ValueError(f"cannot load agent {spec.path!r}: agents.policies is not available ({error})") from None
+    try:
+        policy = load_policy(spec.path)
+    except (OSError, ValueError, KeyError, RuntimeError, EOFError) as error:
+        raise ValueError(f"cannot load agent {spec.path!r}: {error}") from None
+    return spec.name or str(getattr(policy, "name", "agent")), policy

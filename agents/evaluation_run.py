@@ -1,0 +1,229 @@
+"""Scoring every policy on one plant, the way ``deadtime evaluate`` does, with a resumable cache.
+
+One plant, one episode: the environment (``experiments="fixed"``) is reset once with the plant and
+the seed ``seed + index``, which runs the seeds' identification procedure with its noise; then
+
+* a rule designs from :meth:`baselines.rules.RuleInputs.from_identification` of that identification
+  and is scored by the environment's own ``score_controller`` (its constraints, weights and
+  experiment time), so every policy is scored by the same code;
+* the oracle (:func:`baselines.oracle.oracle`) searches on the same identification with the
+  environment's constraints and weights; its optimum is re-scored with ``score_controller`` so that
+  its cost follows the environment's cost convention exactly (experiment cost included) -- the
+  experiment cost is the same constant for every parameter, so the optimum does not move;
+* the full-information oracle designs from the exact model and is charged no experiment;
+* an agent plays its own environment (made with the agent's ``env_kwargs`` if it has them) reset
+  with the same plant and seed, one step in fixed mode, until termination in agent mode; its cost
+  is the final step's ``info["cost"]``.
+
+A rule that raises ``ValueError`` on a plant (the Gorez-Klan PID is undefined when the SOPDT model
+has ``D_2 = 0``; a rule may need a quantity the procedure did not identify) is a *failure*: it
+counts as a constraint violation with the cost of an unstable loop,
+``FEASIBLE_CAP + 1 + UNSTABLE_GRADE`` (:mod:`envs.scoring`), and is counted separately.  The same
+holds for the oracles.
+
+Experiment time is in units of the true plant's ``T_ar``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["PolicyResult", "FAILURE_COST", "evaluate_plant", "Cache", "plant_key"]
+
+
+FAILURE_COST = 26.0
+"""The cost charged for a failure: that of an unstable loop (``FEASIBLE_CAP + 1 + UNSTABLE_GRADE``)."""
+
+
+@dataclass(frozen=True)
+class PolicyResult:
+    """The outcome of one policy on one plant.
+
+    ``controller`` is the controller's JSON (``None`` on failure); ``parameter`` the design
+    parameter where the policy has one (``mu``, ``T_r``), else ``None``; ``error`` the failure's
+    message.
+    """
+
+    cost: float
+    feasible: bool
+    failure: bool
+    experiment_time: float
+    controller: dict[str, Any] | None = None
+    parameter: float | None = None
+    error: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PolicyResult:
+        return cls(**data)
+
+    @classmethod
+    def failed(cls, error: Exception, experiment_time: float) -> PolicyResult:
+        return cls(FAILURE_COST, False, True, experiment_time, error=str(error))
+
+
+def plant_key(env_id: str, family: str, seed: int, index: int, plant_dict: dict[str, Any]) -> str:
+    """The cache key of one episode: environment, plant set, seed, index and the plant itself."""
+    text = json.dumps([env_id, family, seed, index, plant_dict], sort_keys=True)
+    return hashlib.sha1(text.encode()).hexdigest()
+
+
+class Cache:
+    """Per-plant, per-policy results appended to a JSON-lines file, read back on a rerun."""
+
+    def __init__(self, path: Path | None) -> None:
+        self.path = path
+        self.entries: dict[tuple[str, str], PolicyResult] = {}
+        if path is not None and path.is_file():
+            for line in path.read_text().splitlines():
+                try:
+                    entry = json.loads(line)
+                    self.entries[(entry["key"], entry["policy"])] = PolicyResult.from_dict(entry["result"])
+                except (json.JSONDecodeError, KeyError, TypeError):
+                    continue  # a line cut short by an interruption
+
+    def get(self, key: str, policy: str) -> PolicyResult | None:
+        return self.entries.get((key, policy))
+
+    def put(self, key: str, policy: str, result: PolicyResult) -> None:
+        self.entries[(key, policy)] = result
+        if self.path is not None:
+            with self.path.open("a") as file:
+                file.write(json.dumps({"key": key, "policy": policy, "result": result.to_dict()}) + "\n")
+
+
+def _finite(x: Any) -> float | None:
+    return float(x) if x is not None and math.isfinite(float(x)) else None
+
+
+def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
+    from baselines.rules import RuleInputs, get_rule
+
+    rule = get_rule(name)
+    try:
+        inputs = RuleInputs.from_identification(env.unwrapped.identification)
+        controller = rule(inputs)
+        parameter = rule.parameter(inputs) if rule.parameter is not None else None
+        score = env.unwrapped.score_controller(controller)
+    except ValueError as error:
+        return PolicyResult.failed(error, experiment_time)
+    return PolicyResult(float(score.cost), bool(score.feasible), False, experiment_time, controller.to_dict(), _finite(parameter))
+
+
+def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[PolicyResult, float]:
+    """The oracle's result and ``|its own cost - the environment's cost|`` of its optimum."""
+    from baselines.oracle import design, exact_models, full_information_oracle, oracle
+    from envs.scoring import score
+
+    unwrapped = env.unwrapped
+    plant, structure = unwrapped.plant, unwrapped.structure
+    options = {"constraints": unwrapped.constraints, "weights": unwrapped.weights}
+    identification = unwrapped.identification
+    try:
+        if full:
+            result = full_information_oracle(plant, structure, **options)
+            models = exact_models(plant)
+        else:
+            result = oracle(plant, identification, structure, **options)
+            models = identification
+        model = {"pid": models.sopdt, "fppi": models.fopdt, "msp": models.integrating_model}[structure]
+        controller = design(structure, model, result.parameter)
+        if full:
+            checked = score(plant, controller, experiment_time=0.0, **options)
+        else:
+            checked = unwrapped.score_controller(controller)
+    except ValueError as error:
+        return PolicyResult.failed(error, 0.0 if full else experiment_time), 0.0
+    mismatch = abs(float(checked.cost) - float(result.cost))
+    return (
+        PolicyResult(
+            float(checked.cost), bool(checked.feasible), False, 0.0 if full else experiment_time,
+            controller.to_dict(), _finite(result.relative_parameter),
+        ),
+        mismatch,
+    )  # fmt: skip
+
+
+def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
+    import numpy as np
+
+    observation, info = env.reset(seed=seed, options={"plant": plant})
+    for _ in range(10_000):
+        action, _ = policy.predict(observation, deterministic=True)
+        observation, _, terminated, truncated, info = env.step(np.asarray(action, dtype=np.float32).reshape(env.action_space.shape))
+        if terminated or truncated:
+            break
+    else:
+        raise ValueError("the agent's episode did not end within 10000 steps")
+    return PolicyResult(
+        float(info["cost"]), bool(info["feasible"]), False, float(info.get("experiment_time", math.nan)),
+        info.get("controller"), _finite(info.get("parameter")),
+    )  # fmt: skip
+
+
+def evaluate_plant(
+    env: Any,
+    plant: Any,
+    seed: int,
+    rules: list[str],
+    agents: dict[str, tuple[Any, Any, str]],
+    cache: Cache,
+    key: str,
+    *,
+    full_oracle: bool = False,
+) -> tuple[dict[str, PolicyResult], float]:
+    """Every policy's result on ``plant`` (see the module docstring), from ``cache`` where present.
+
+    Parameters
+    ----------
+    env : gymnasium.Env
+        The environment in ``experiments="fixed"`` mode (rules and oracles).
+    plant : envs.plants.Plant
+    seed : int
+        The episode seed (``--seed`` plus the plant's index).
+    rules : list of str
+        Rule names.
+    agents : dict of str to (policy, env, str)
+        Each agent with the environment it plays and its cache identity (path and modification
+        time, so that a retrained agent is not served stale results).
+    cache : Cache
+    key : str
+        The episode's :func:`plant_key`.
+    full_oracle : bool
+        Also run the full-information oracle (``"oracle-full"``).
+
+    Returns
+    -------
+    (dict of str to PolicyResult, float)
+        Results by policy name (``"oracle"`` always), and how far the oracle's own cost was from the
+        environment's for its optimum (0 when served from the cache).
+    """
+    wanted = ["oracle", *rules] + (["oracle-full"] if full_oracle else [])
+    results = {name: cache.get(key, name) for name in wanted}
+    mismatch = 0.0
+    if any(result is None for result in results.values()):
+        env.reset(seed=seed, options={"plant": plant})
+        experiment_time = env.unwrapped.identification.experiment_time / plant.residence_time
+        for name in wanted:
+            if results[name] is not None:
+                continue
+            if name in ("oracle", "oracle-full"):
+                results[name], off = _oracle_result(env, name == "oracle-full", experiment_time)
+                mismatch = max(mismatch, off) if name == "oracle" else mismatch
+            else:
+                results[name] = _rule_result(env, name, experiment_time)
+            cache.put(key, name, results[name])
+    for name, (policy, agent_env, identity) in agents.items():
+        result = cache.get(key, identity)
+        if result is None:
+            result = _agent_result(agent_env, policy, seed, plant)
+            cache.put(key, identity, result)
+        results[name] = result
+    return results, mismatch  # type: ignore[return-value]
