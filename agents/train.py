@@ -1,15 +1,358 @@
-"""``deadtime train``: not built yet (see the open issues)."""
+"""``deadtime train``: train a stable-baselines3 agent from a YAML config.
+
+Usage::
+
+    deadtime train --config configs/ppo.yaml [--env ID] [--out DIR] [--resume] [key=value ...]
+
+The resolved config (see :mod:`agents.config` for the precedence) is printed and saved as
+``<run>/config.yaml`` with the command, git commit and package versions; ``<run>/run.json`` records
+them again with the timings.  The run directory then holds ``tensorboard/`` (TensorBoard logs),
+``evaluations.json`` (validation history), ``checkpoints/``, ``best_model.zip`` (lowest mean
+validation cost), and at the end ``model.zip`` (the final agent); ``VecNormalize`` statistics, if
+used, sit beside each model as ``<stem>.vecnormalize.pkl``.
+
+``--resume`` continues an interrupted run from its latest checkpoint (model, replay buffer,
+normalization statistics, validation history) and stops at the same ``num_timesteps`` as an
+uninterrupted run.  With ``--resume`` the config may come from the run itself (``--out DIR`` without
+``--config``); a config that differs from the saved one is refused, except for ``total_timesteps``
+(which may be raised to extend a run), ``output_dir`` and ``progress_bar``.
+
+Reproducibility: one seed drives ``set_random_seed``, the algorithm and the environments
+(environment ``i`` gets ``seed + i``); torch runs single-threaded with deterministic algorithms.  The
+same config and seed give the same agent.  A resumed run reseeds with ``seed + num_timesteps`` at the
+checkpoint: it is deterministic too, though not bit-identical to an uninterrupted run (the
+environments' random streams restart).
+
+torch and stable-baselines3 are imported inside the functions.
+"""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import functools
+import json
+import platform
+import shlex
+import subprocess
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from importlib import metadata
+from pathlib import Path
+from typing import Any
 
-__all__ = ["add_arguments", "run"]
+import yaml
+
+from agents.config import TrainConfig, load_config, validate
+
+__all__ = ["TrainResult", "add_arguments", "make_env", "run", "train"]
+
+# Keys that may differ between a run's saved config and the one given on --resume.
+_RESUMABLE_CHANGES = {"total_timesteps", "output_dir", "progress_bar"}
+_VERSIONED = ("numpy", "scipy", "numba", "control", "gymnasium", "stable-baselines3", "torch", "deadtime-gym")
+_ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU", "silu": "SiLU"}
+_OPTIMIZERS = {"adam": "Adam", "adamw": "AdamW", "rmsprop": "RMSprop", "sgd": "SGD"}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime train``."""
+    parser.add_argument("--config", help="a YAML config (configs/<algorithm>.yaml, or a run's config.yaml); "
+                        "optional with --resume --out DIR")
+    parser.add_argument("--env", help="environment id (selects the config's entry; default the config's env_id)")
+    parser.add_argument("--out", help="run directory (default: the config's output_dir, else runs/<algo>-<env>-s<seed>)")
+    parser.add_argument("--resume", action="store_true", help="continue the run in the run directory from its latest checkpoint")
+    parser.add_argument("overrides", nargs="*", metavar="key=value",
+                        help="config overrides, dotted keys for nesting (e.g. hyperparameters.n_steps=32 seed=3)")
 
 
 def run(args: argparse.Namespace) -> int:
-    raise ValueError("deadtime train is not implemented yet")
+    """``deadtime train``: resolve the config, train, report where the agent is."""
+    if args.config is None:
+        if not (args.resume and args.out):
+            raise ValueError("--config is required (it may be left out only with --resume --out DIR)")
+        config_path = Path(args.out) / "config.yaml"
+        if not config_path.is_file():
+            raise ValueError(f"{args.out} holds no config.yaml to resume from")
+    else:
+        config_path = Path(args.config)
+        if not config_path.is_file():
+            raise ValueError(f"--config {args.config}: no such file")
+    config = load_config(config_path, env_id=args.env, overrides=args.overrides)
+    if args.out is not None:
+        config = dataclasses.replace(config, output_dir=args.out)
+    command = shlex.join(_command_from(args))
+    try:
+        result = train(config, resume=args.resume, command=command)
+    except KeyboardInterrupt:
+        run_dir = run_directory(config)
+        checkpoint = _checkpoint_steps(run_dir)
+        print(f"\ninterrupted; latest checkpoint at {checkpoint} steps; continue with: "
+              f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
+        return 130
+    print(f"trained {result.num_timesteps} steps in {result.train_seconds:.1f} s "
+          f"({result.steps_per_second:.1f} steps/s); best validation cost {result.best_cost:.6g}")
+    print(f"agent: {result.run_dir / 'model.zip'} (best: {result.run_dir / 'best_model.zip'})")
+    return 0
+
+
+def _command_from(args: argparse.Namespace) -> list[str]:
+    words = ["deadtime", "train"]
+    for option in ("config", "env", "out"):
+        if getattr(args, option) is not None:
+            words += [f"--{option}", str(getattr(args, option))]
+    return words + (["--resume"] if args.resume else []) + list(args.overrides)
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a finished run produced."""
+
+    run_dir: Path
+    num_timesteps: int
+    train_seconds: float
+    steps_per_second: float
+    best_cost: float
+    final_cost: float
+
+
+def run_directory(config: TrainConfig) -> Path:
+    """The run directory of a config."""
+    return Path(config.output_dir or Path("runs") / config.run_name)
+
+
+# ----------------------------------------------------------------------------------- environments
+def make_env(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
+    """``gymnasium.make(env_id, **env_kwargs)``, registering the DeadTime ids first."""
+    import gymnasium
+
+    if env_id.startswith("DeadTime/"):
+        import envs  # noqa: F401  (registers the DeadTime ids)
+    return gymnasium.make(env_id, **dict(env_kwargs))
+
+
+def _monitored_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
+    from stable_baselines3.common.monitor import Monitor
+
+    return Monitor(make_env(env_id, env_kwargs))
+
+
+def make_vec_env(config: TrainConfig) -> Any:
+    """The training environments (``Monitor``-wrapped, ``dummy`` or ``subproc``), not yet seeded."""
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    factories = [functools.partial(_monitored_env, config.env_id, dict(config.env_kwargs)) for _ in range(config.n_envs)]
+    if config.vec_env == "subproc" and config.n_envs > 1:
+        return SubprocVecEnv(factories)
+    return DummyVecEnv(factories)
+
+
+# ----------------------------------------------------------------------------------- model
+def _policy_kwargs(config: TrainConfig) -> dict[str, Any]:
+    import torch
+
+    kwargs = dict(config.policy_kwargs)
+    for key, names, module in (("activation_fn", _ACTIVATIONS, torch.nn), ("optimizer_class", _OPTIMIZERS, torch.optim)):
+        if key in kwargs:
+            if kwargs[key] not in names:
+                raise ValueError(f"policy_kwargs.{key} must be one of {', '.join(names)}, got {kwargs[key]!r}")
+            kwargs[key] = getattr(module, names[kwargs[key]])
+    return kwargs
+
+
+def _hyperparameters(config: TrainConfig, action_space: Any) -> dict[str, Any]:
+    import numpy as np
+
+    kwargs = dict(config.hyperparameters)
+    noise = kwargs.get("action_noise")
+    if noise is not None:
+        from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+        kinds = {"normal": NormalActionNoise, "ornstein-uhlenbeck": OrnsteinUhlenbeckActionNoise}
+        if not isinstance(noise, Mapping) or set(noise) != {"type", "sigma"} or noise["type"] not in kinds:
+            raise ValueError(f"hyperparameters.action_noise must be {{type: normal|ornstein-uhlenbeck, sigma: s}}, got {noise!r}")
+        size = int(np.prod(action_space.shape))
+        kwargs["action_noise"] = kinds[noise["type"]](mean=np.zeros(size), sigma=float(noise["sigma"]) * np.ones(size))
+    if isinstance(kwargs.get("train_freq"), list):
+        kwargs["train_freq"] = tuple(kwargs["train_freq"])
+    return kwargs
+
+
+def _setup_torch(config: TrainConfig) -> None:
+    import torch
+
+    torch.set_num_threads(config.torch_threads)
+    torch.use_deterministic_algorithms(True)
+
+
+# ----------------------------------------------------------------------------------- provenance
+def _git_commit() -> str | None:
+    root = Path(__file__).resolve().parents[1]
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, check=False)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
+                               capture_output=True, text=True, check=False)
+    except OSError:
+        return None
+    if commit.returncode != 0:
+        return None
+    return commit.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
+
+
+def _versions() -> dict[str, str]:
+    versions = {"python": platform.python_version()}
+    for name in _VERSIONED:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
+
+
+def _config_yaml(config: TrainConfig, provenance: Mapping[str, Any]) -> str:
+    header = [f"# deadtime train: resolved config, {provenance['started']}",
+              f"# command: {provenance['command']}",
+              f"# commit: {provenance['commit']}",
+              "# versions: " + ", ".join(f"{k} {v}" for k, v in provenance["versions"].items())]
+    return "\n".join(header) + "\n" + yaml.safe_dump(config.to_dict(), sort_keys=False)
+
+
+def _check_resumable(saved: TrainConfig, config: TrainConfig, run_dir: Path) -> None:
+    changed = [f.name for f in dataclasses.fields(TrainConfig)
+               if f.name not in _RESUMABLE_CHANGES and getattr(saved, f.name) != getattr(config, f.name)]
+    if changed:
+        raise ValueError(f"cannot resume {run_dir}: the config differs from the saved one in {', '.join(changed)}")
+
+
+def _checkpoint_steps(run_dir: Path) -> int:
+    from agents.callbacks import latest_checkpoint
+
+    checkpoint = latest_checkpoint(run_dir)
+    return 0 if checkpoint is None else int(checkpoint["num_timesteps"])
+
+
+# ----------------------------------------------------------------------------------- training
+def train(
+    config: TrainConfig,
+    *,
+    resume: bool = False,
+    command: str | None = None,
+    callbacks: Sequence[Any] = (),
+) -> TrainResult:
+    """Train an agent as the config says, in :func:`run_directory` ``(config)``.
+
+    Parameters
+    ----------
+    config : TrainConfig
+        The resolved config.
+    resume : bool
+        Continue from the run's latest checkpoint (a fresh start if it has none yet).
+    command : str, optional
+        The command line, for the provenance records.
+    callbacks : sequence of BaseCallback
+        Extra stable-baselines3 callbacks (e.g. to interrupt a run in a test).
+
+    Raises
+    ------
+    ValueError
+        If the config is invalid, the run directory already holds a run and ``resume`` is False,
+        or ``resume`` is True with a config that differs from the run's.
+    """
+    from agents.callbacks import latest_checkpoint, make_callbacks, save_model, write_text
+
+    validate(config)
+    run_dir = run_directory(config)
+    saved_config = run_dir / "config.yaml"
+    checkpoint = None
+    if resume and saved_config.is_file():
+        _check_resumable(load_config(saved_config), config, run_dir)
+        checkpoint = latest_checkpoint(run_dir)
+    elif not resume and (saved_config.exists() or (run_dir / "checkpoints").exists()):
+        raise ValueError(f"{run_dir} already holds a run; pass --resume to continue it, or choose another --out")
+    if checkpoint is not None and int(checkpoint["num_timesteps"]) >= config.total_timesteps:
+        raise ValueError(f"{run_dir}: the latest checkpoint has {checkpoint['num_timesteps']} steps, "
+                         f"total_timesteps is {config.total_timesteps}; nothing to resume")
+    run_dir.mkdir(parents=True, exist_ok=True)
+
+    provenance = {"command": command or "(python API)", "commit": _git_commit(), "versions": _versions(),
+                  "started": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+    text = _config_yaml(config, provenance)
+    print(text, end="")
+    write_text(saved_config, text)  # on --resume: the same config, but total_timesteps may have grown
+
+    _setup_torch(config)
+    import stable_baselines3
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    algorithm = getattr(stable_baselines3, config.algorithm)
+    set_random_seed(config.seed)
+    venv = make_vec_env(config)
+    eval_env = make_env(config.env_id, config.env_kwargs)
+    try:
+        if config.normalize:
+            if checkpoint is not None and checkpoint.get("vecnormalize"):
+                venv = VecNormalize.load(checkpoint["vecnormalize"], venv)
+            else:
+                venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
+        vecnormalize = venv if config.normalize else None
+        tensorboard = str(run_dir / "tensorboard")
+        if checkpoint is None:
+            model = algorithm(config.policy, venv, seed=config.seed, device=config.device, verbose=0,
+                              tensorboard_log=tensorboard, policy_kwargs=_policy_kwargs(config),
+                              **_hyperparameters(config, venv.action_space))
+        else:
+            model = algorithm.load(checkpoint["model"], env=venv, device=config.device, tensorboard_log=tensorboard)
+            if checkpoint.get("replay_buffer"):
+                model.load_replay_buffer(checkpoint["replay_buffer"])
+            model.set_random_seed(config.seed + model.num_timesteps)
+        history = checkpoint["evaluations"] if checkpoint is not None else ()
+        run_callbacks, validator = make_callbacks(
+            run_dir, config.total_timesteps, eval_env, config.n_eval_episodes, config.eval_freq,
+            config.eval_family, config.checkpoint_freq, config.progress_bar, vecnormalize, history)
+
+        start_steps = model.num_timesteps
+        started = time.perf_counter()
+        status = "interrupted"
+        try:
+            model.learn(total_timesteps=config.total_timesteps - start_steps, callback=[*run_callbacks, *callbacks],
+                        reset_num_timesteps=checkpoint is None, tb_log_name="run", progress_bar=False)
+            status = "finished"
+        finally:
+            train_seconds = time.perf_counter() - started
+            _write_run_json(run_dir, config, provenance, status, model.num_timesteps, start_steps, train_seconds,
+                            checkpoint is not None)
+        save_model(model, run_dir / "model.zip", vecnormalize)
+        if vecnormalize is not None:
+            vecnormalize.training = False
+        final = validator.validate(model)
+    finally:
+        venv.close()
+        eval_env.close()
+    steps = model.num_timesteps - start_steps
+    return TrainResult(run_dir=run_dir, num_timesteps=model.num_timesteps, train_seconds=train_seconds,
+                       steps_per_second=steps / train_seconds if train_seconds > 0 else float("nan"),
+                       best_cost=validator.best, final_cost=final.mean_cost)
+
+
+def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str, Any], status: str,
+                    num_timesteps: int, start_steps: int, train_seconds: float, resumed: bool) -> None:
+    from agents.callbacks import write_json
+
+    path = run_dir / "run.json"
+    previous = json.loads(path.read_text()) if path.is_file() else {}
+    segment = {"command": provenance["command"], "commit": provenance["commit"], "started": provenance["started"],
+               "status": status, "resumed": resumed, "from_timesteps": start_steps,
+               "num_timesteps": num_timesteps, "train_seconds": round(train_seconds, 3),
+               "steps_per_second": round((num_timesteps - start_steps) / train_seconds, 2) if train_seconds > 0 else None,
+               "finished_at": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+    segments = [*previous.get("segments", []), segment]
+    write_json(path, {
+        "algorithm": config.algorithm, "env_id": config.env_id, "seed": config.seed,
+        "status": status, "num_timesteps": num_timesteps, "total_timesteps": config.total_timesteps,
+        "command": provenance["command"], "commit": provenance["commit"], "versions": provenance["versions"],
+        "train_seconds": round(sum(s["train_seconds"] for s in segments), 3),
+        "segments": segments,
+    })

@@ -1,0 +1,281 @@
+"""stable-baselines3 callbacks of ``deadtime train``: progress, validation, atomic checkpoints.
+
+stable-baselines3 and torch are imported inside the functions that need them; the callback
+classes are built by :func:`make_callbacks` so that importing this module stays cheap.
+
+Validation (:func:`validate_policy`) runs one deterministic episode per plant of the validation set
+``envs.plant_sets.plant_set(family, "validation", n)`` (never a test set), resetting with
+``options={"plant": p}`` and the seed ``VALIDATION_SEED + k`` for plant ``k``.  Training
+environments use the seeds ``seed + i`` of a config's small integer seed, so the two never meet.
+Environments without plant sets (any non-``DeadTime`` id) are validated on ``n`` episodes reset with
+those seeds alone.
+
+Checkpoints live in ``<run>/checkpoints``: ``model_<steps>.zip``, ``replay_buffer_<steps>.pkl``
+(off-policy algorithms), ``vecnormalize_<steps>.pkl`` (if used) and ``latest.json`` naming them.  Every
+file is written to a temporary file in the same directory and moved into place with
+``os.replace``; ``latest.json`` is replaced last, so it always names a complete checkpoint.  A
+checkpoint is taken at the start of a rollout, after the previous rollout was trained on, so the
+saved state has seen every step it counts and a resumed run collects exactly the rollouts that
+an uninterrupted one would (same final ``num_timesteps``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import secrets
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+__all__ = [
+    "VALIDATION_SEED",
+    "ValidationResult",
+    "atomic_write",
+    "latest_checkpoint",
+    "make_callbacks",
+    "save_model",
+    "validate_policy",
+    "validation_plants",
+    "write_json",
+    "write_text",
+]
+
+VALIDATION_SEED = 1_000_003  # reset seed of validation plant k is VALIDATION_SEED + k
+CHECKPOINT_INDEX = "latest.json"
+
+
+# ----------------------------------------------------------------------------------- atomic files
+def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
+    """Write ``path`` through ``write(file)`` on a temporary file in the same directory, then ``os.replace``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+    try:
+        with open(temporary, "xb") as handle:  # honours the umask, unlike mkstemp's 0600
+            write(handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """Write a UTF-8 text file atomically."""
+    return atomic_write(path, lambda handle: handle.write(text.encode()))
+
+
+def write_json(path: str | Path, data: Any) -> Path:
+    """``json.dump`` atomically (indented, trailing newline)."""
+    return write_text(path, json.dumps(data, indent=2) + "\n")
+
+
+def save_model(model: Any, path: str | Path, vecnormalize: Any = None) -> Path:
+    """Save ``model`` to ``path`` (a ``.zip``) atomically, and the ``VecNormalize`` statistics beside it.
+
+    The statistics go to ``<stem>.vecnormalize.pkl`` (see :func:`agents.policies.load_policy`).
+    """
+    path = Path(path)
+    atomic_write(path, model.save)
+    if vecnormalize is not None:
+        atomic_write(path.with_suffix(".vecnormalize.pkl"), lambda handle: pickle.dump(vecnormalize, handle))
+    return path
+
+
+def latest_checkpoint(run_dir: str | Path) -> dict[str, Any] | None:
+    """The index of the run's latest complete checkpoint (paths made absolute), or None."""
+    index = Path(run_dir) / "checkpoints" / CHECKPOINT_INDEX
+    if not index.is_file():
+        return None
+    data = json.loads(index.read_text())
+    for key in ("model", "replay_buffer", "vecnormalize"):
+        if data.get(key):
+            data[key] = str(index.parent / data[key])
+    return data
+
+
+# ----------------------------------------------------------------------------------- validation
+@dataclass(frozen=True)
+class ValidationResult:
+    """Deterministic-policy costs on the validation episodes."""
+
+    num_timesteps: int
+    mean_cost: float
+    median_cost: float
+    violation_rate: float | None
+    costs: tuple[float, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        data = asdict(self)
+        data["costs"] = list(self.costs)
+        return data
+
+
+def validation_plants(env: Any, n: int, family: str | None = None) -> list[Any] | None:
+    """The validation plants of a ``DeadTime`` environment (None for other environments).
+
+    ``family`` defaults to the environment's own (``env.unwrapped.family`` if it has one, else
+    ``integrating`` for the MSP structure and ``stable`` otherwise).
+    """
+    unwrapped = env.unwrapped
+    if not hasattr(unwrapped, "structure"):
+        return None
+    from envs.plant_sets import plant_set
+
+    if family is None:
+        family = getattr(unwrapped, "family", None)
+    if family is None:
+        family = "integrating" if unwrapped.structure == "msp" else "stable"
+    return list(plant_set(family, "validation", n))
+
+
+def validate_policy(
+    predict: Callable[[np.ndarray], np.ndarray],
+    env: Any,
+    n_episodes: int,
+    plants: Sequence[Any] | None = None,
+    num_timesteps: int = 0,
+) -> ValidationResult:
+    """Run one episode per validation plant (or per seed) with deterministic actions.
+
+    The cost of an episode is ``info["cost"]`` of its last step when the environment reports one,
+    else minus the episode's return.
+    """
+    costs, feasible = [], []
+    for k in range(n_episodes if plants is None else len(plants)):
+        options = None if plants is None else {"plant": plants[k]}
+        observation, info = env.reset(seed=VALIDATION_SEED + k, options=options)
+        total, done = 0.0, False
+        while not done:
+            observation, reward, terminated, truncated, info = env.step(predict(observation))
+            total += float(reward)
+            done = terminated or truncated
+        costs.append(float(info["cost"]) if "cost" in info else -total)
+        if "feasible" in info:
+            feasible.append(bool(info["feasible"]))
+    values = np.asarray(costs)
+    return ValidationResult(
+        num_timesteps=int(num_timesteps),
+        mean_cost=float(values.mean()),
+        median_cost=float(np.median(values)),
+        violation_rate=None if not feasible else 1.0 - float(np.mean(feasible)),
+        costs=tuple(costs),
+    )
+
+
+# ----------------------------------------------------------------------------------- callbacks
+def make_callbacks(
+    run_dir: Path,
+    total_timesteps: int,
+    eval_env: Any,
+    n_eval_episodes: int,
+    eval_freq: int,
+    eval_family: str | None,
+    checkpoint_freq: int,
+    progress_bar: bool,
+    vecnormalize: Any = None,
+    history: Sequence[dict[str, Any]] = (),
+) -> tuple[list[Any], Any]:
+    """The callbacks of a run: ``(callbacks, validator)``; ``validator.validate(model)`` runs one validation."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Validator(BaseCallback):
+        """Validation every ``eval_freq`` steps; keeps ``best_model.zip`` and ``evaluations.json``."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.plants = validation_plants(eval_env, n_eval_episodes, eval_family)
+            self.history = list(history)
+            self.best = min((entry["mean_cost"] for entry in self.history), default=np.inf)
+            self.last = self.history[-1]["num_timesteps"] if self.history else 0
+
+        def _on_step(self) -> bool:
+            if eval_freq > 0 and self.model.num_timesteps - self.last >= eval_freq:
+                self.validate(self.model)
+            return True
+
+        def _predict(self, observation: np.ndarray) -> np.ndarray:
+            if vecnormalize is not None:
+                observation = vecnormalize.normalize_obs(observation)
+            return self.model.predict(observation, deterministic=True)[0]
+
+        def validate(self, model: Any) -> ValidationResult:
+            self.model = model
+            self.last = model.num_timesteps
+            result = validate_policy(self._predict, eval_env, n_eval_episodes, self.plants, model.num_timesteps)
+            self.history.append({key: value for key, value in result.to_dict().items() if key != "costs"})
+            if result.mean_cost < self.best:
+                self.best = result.mean_cost
+                save_model(model, run_dir / "best_model.zip", vecnormalize)
+            write_json(run_dir / "evaluations.json", self.history)
+            model.logger.record("eval/mean_cost", result.mean_cost)
+            model.logger.record("eval/median_cost", result.median_cost)
+            if result.violation_rate is not None:
+                model.logger.record("eval/violation_rate", result.violation_rate)
+            model.logger.record("eval/best_mean_cost", self.best)
+            model.logger.dump(model.num_timesteps)
+            return result
+
+    class Checkpointer(BaseCallback):
+        """Atomic checkpoints at rollout starts, every ``checkpoint_freq`` steps; keeps the last two."""
+
+        def _init_callback(self) -> None:
+            self.last = self.model.num_timesteps
+            self.directory = run_dir / "checkpoints"
+
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_rollout_start(self) -> None:
+            if checkpoint_freq > 0 and self.model.num_timesteps - self.last >= checkpoint_freq:
+                self.save()
+
+        def save(self) -> None:
+            steps = self.last = self.model.num_timesteps
+            index: dict[str, Any] = {"num_timesteps": steps, "model": f"model_{steps}.zip",
+                                     "replay_buffer": None, "vecnormalize": None,
+                                     "evaluations": list(validator.history)}
+            atomic_write(self.directory / index["model"], self.model.save)
+            if hasattr(self.model, "replay_buffer") and self.model.replay_buffer is not None:
+                index["replay_buffer"] = f"replay_buffer_{steps}.pkl"
+                atomic_write(self.directory / index["replay_buffer"], self.model.save_replay_buffer)
+            if vecnormalize is not None:
+                index["vecnormalize"] = f"vecnormalize_{steps}.pkl"
+                atomic_write(self.directory / index["vecnormalize"], lambda handle: pickle.dump(vecnormalize, handle))
+            write_json(self.directory / CHECKPOINT_INDEX, index)
+            self._prune(keep={index[key] for key in ("model", "replay_buffer", "vecnormalize") if index[key]})
+
+        def _prune(self, keep: set[str]) -> None:
+            for stem in ("model_", "replay_buffer_", "vecnormalize_"):
+                files = sorted(self.directory.glob(f"{stem}*"), key=lambda p: int(p.stem.rsplit("_", 1)[-1]))
+                for old in [f for f in files if f.name not in keep][:-1]:  # the current one and one before
+                    old.unlink(missing_ok=True)
+
+    class Progress(BaseCallback):
+        """A tqdm bar over the run's total timesteps (stable-baselines3's own needs ``rich``)."""
+
+        def _on_training_start(self) -> None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total_timesteps, initial=self.model.num_timesteps, unit="step",
+                            dynamic_ncols=True, smoothing=0.1)
+
+        def _on_step(self) -> bool:
+            self.bar.update(self.model.num_timesteps - self.bar.n)
+            return True
+
+        def _on_training_end(self) -> None:
+            self.bar.close()
+
+    validator = Validator()
+    callbacks: list[Any] = [validator, Checkpointer()]
+    if progress_bar:
+        callbacks.append(Progress())
+    return callbacks, validator

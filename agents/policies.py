@@ -1,0 +1,135 @@
+"""Load a trained agent as a policy: ``load_policy(path).predict(observation)`` -> ``(action, None)``.
+
+``path`` is a run directory of ``deadtime train`` or a model ``.zip``.  For a run directory the
+agent is ``best_model.zip`` (lowest mean cost on the validation plants) when it exists, else
+``model.zip``.  The algorithm is read from the ``config.yaml`` beside the model; without one, each
+stable-baselines3 algorithm is tried in turn.  ``VecNormalize`` statistics saved beside the model
+(``<stem>.vecnormalize.pkl``) are applied to the observations.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.config import ALGORITHMS, TrainConfig, load_config
+
+__all__ = ["LoadedPolicy", "load_policy", "resolve_model_path"]
+
+
+@dataclass(frozen=True)
+class LoadedPolicy:
+    """A trained agent.
+
+    Attributes
+    ----------
+    name : str
+        The run directory's name (or the model file's stem without a run directory).
+    path : Path
+        The model file.
+    algorithm : str
+        ``A2C``, ``PPO``, ``SAC`` or ``TD3``.
+    model : BaseAlgorithm
+        The stable-baselines3 model.
+    config : TrainConfig or None
+        The run's resolved config (environment id and keyword arguments), if found.
+    normalization : VecNormalize or None
+        Observation statistics applied before the network.
+    """
+
+    name: str
+    path: Path
+    algorithm: str
+    model: Any
+    config: TrainConfig | None = None
+    normalization: Any = None
+
+    def predict(self, observation: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
+        """``(action, None)`` for one observation (or a batch, first axis), as stable-baselines3's ``predict``."""
+        observation = np.asarray(observation, dtype=np.float32)
+        if self.normalization is not None:
+            observation = self.normalization.normalize_obs(observation).astype(np.float32)
+        action, _ = self.model.predict(observation, deterministic=deterministic)
+        return action, None
+
+    @property
+    def env_id(self) -> str | None:
+        """The environment id the agent was trained on, if known."""
+        return None if self.config is None else self.config.env_id
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The keyword arguments of the environment the agent was trained on (empty if unknown)."""
+        return {} if self.config is None else dict(self.config.env_kwargs)
+
+
+def resolve_model_path(path: str | Path) -> Path:
+    """The model file of a run directory (``best_model.zip``, else ``model.zip``) or of a ``.zip`` path."""
+    path = Path(path)
+    if path.is_dir():
+        for name in ("best_model.zip", "model.zip"):
+            if (path / name).is_file():
+                return path / name
+        raise ValueError(f"{path} holds no best_model.zip or model.zip (is it a deadtime train run directory?)")
+    if not path.is_file() and path.with_suffix(".zip").is_file():
+        path = path.with_suffix(".zip")
+    if not path.is_file():
+        raise ValueError(f"no trained agent at {path}")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{path} is not a stable-baselines3 model (.zip)")
+    return path
+
+
+def _likely_algorithms(model_path: Path) -> list[str]:
+    """Every algorithm, the likeliest first, from the saved policy class and attributes."""
+    try:
+        with zipfile.ZipFile(model_path) as archive:
+            data = json.loads(archive.read("data"))
+    except (KeyError, ValueError, OSError):
+        return list(ALGORITHMS)
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    guess = next((name for name in ("SAC", "TD3") if f".{name.lower()}." in module), None)
+    if guess is None:
+        guess = "PPO" if "clip_range" in data else "A2C"
+    return [guess, *(name for name in ALGORITHMS if name != guess)]
+
+
+def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
+    """Load a saved agent from a run directory or a model ``.zip``.
+
+    Raises
+    ------
+    ValueError
+        If there is no model at ``path`` or no stable-baselines3 algorithm can load it.
+    """
+    import stable_baselines3
+
+    model_path = resolve_model_path(path)
+    config_path = model_path.parent / "config.yaml"
+    config = load_config(config_path) if config_path.is_file() else None
+    candidates = [config.algorithm] if config is not None else _likely_algorithms(model_path)
+    errors = []
+    for algorithm in candidates:
+        try:
+            model = getattr(stable_baselines3, algorithm).load(model_path, device=device)
+        except Exception as error:  # noqa: BLE001  (each algorithm refuses the others' files its own way)
+            errors.append(f"{algorithm}: {error.__class__.__name__}")
+            continue
+        break
+    else:
+        raise ValueError(f"{model_path} could not be loaded by {', '.join(candidates)} ({'; '.join(errors)})")
+    normalization = None
+    statistics = model_path.with_suffix(".vecnormalize.pkl")
+    if statistics.is_file():
+        with statistics.open("rb") as handle:
+            normalization = pickle.load(handle)
+        normalization.training = False
+    name = model_path.parent.name if config is not None else model_path.stem
+    return LoadedPolicy(name=name, path=model_path, algorithm=algorithm, model=model, config=config,
+                        normalization=normalization)
