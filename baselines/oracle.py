@@ -71,7 +71,7 @@ import scipy.linalg
 import scipy.optimize
 
 from envs.controllers import Controller
-from envs.design import fppi_design, msp_design, pid_design
+from envs.design import PARAMETER_RANGES, STRUCTURES, design, relative_scale
 from envs.identification import (
     FOPDTModel,
     IntegratingModel,
@@ -98,30 +98,7 @@ __all__ = [
     "relative_scale",
 ]
 
-STRUCTURES = ("pid", "fppi", "msp")
 
-PARAMETER_RANGES: dict[str, tuple[float, float]] = {
-    "pid": (0.3, 300.0),
-    "fppi": (0.001, 10.0),
-    "msp": (0.01, 30.0),
-}
-"""Search range of the relative design parameter of each structure (log scale).
-
-* ``"pid"``: ``mu`` (Gorez-Klan eq. 3-11), dimensionless.
-* ``"fppi"``: ``T_r/T_n``, ``T_n`` the model's time constant (``kappa = T_n/T_r``).
-* ``"msp"``: ``T_r/L_n``, ``L_n`` the model's dead time.
-
-Measured with a wider search (``mu`` in [0.3, 300], ``T_r/T_n`` in [0.003, 100], ``T_r/L_n`` in
-[0.005, 100]) on the 17 benchmark plants and 40 random plants of each family
-(``sample_plants(family, 50, 0)[:40]``), noise-free identification, default constraints: every
-plant had a feasible design, with optima ``mu`` in [0.45, 105.5], ``T_r/T_n`` in [0.0053, 4.9] and ``T_r/L_n`` in [0.064, 3.0].  ``mu`` must
-reach about 30 on Ingimundarson's stable P6 (``0.5/(s+1) + 0.05/(s+0.1)``, lead: the PID is
-unstable up to ``mu`` = 13 and breaks ``Ms <= 2`` up to 28.5) and 105 on lag-chain plant 28
-(strong lead, ``D_2 = 0.007 T_ar``: ``mu`` scales with ``1/D_2``).  When the moments give
-``D_2 = 0`` (5 of 40 lag-chain plants) no ``mu`` helps: the PID is undefined (ValueError).
-The ranges leave a factor of 2 or more beyond every optimum found.  The MSP's optimum under the
-default ``Ms <= 2`` is ``T_r/L_n`` of about 2.3 (SPEC: the MSP loop has ``Ms`` of 2.2-2.4 for ``T_r/L_n <= 1``).
-"""
 
 REFINEMENT_TOLERANCE = 1e-3  # relative (in log parameter)
 REFINEMENT_EVALUATIONS = 14
@@ -177,24 +154,6 @@ class ExactModels:
 
 
 # --------------------------------------------------------------------------- designs
-def relative_scale(structure: str, model: SOPDTModel | FOPDTModel | IntegratingModel) -> float:
-    """The unit of the relative parameter: 1 (PID), ``T_n`` (FPPI) or ``L_n`` (MSP)."""
-    if structure == "pid":
-        return 1.0
-    if structure == "fppi":
-        return model.time_constant
-    return model.dead_time
-
-
-def design(structure: str, model: SOPDTModel | FOPDTModel | IntegratingModel, parameter: float) -> Controller:
-    """The controller of ``structure`` designed from ``model`` with ``parameter`` (``mu`` or ``T_r``)."""
-    if structure == "pid":
-        return pid_design(model, parameter)
-    if structure == "fppi":
-        return fppi_design(model, parameter)
-    return msp_design(model, parameter)
-
-
 def _model_for(structure: str, sopdt, fopdt, integrating_model):
     model = {"pid": sopdt, "fppi": fopdt, "msp": integrating_model}[structure]
     if model is None:
@@ -277,11 +236,6 @@ def _oracle(
     low, high = require_number(low, "parameter_range[0]", positive=True), require_number(high, "parameter_range[1]", positive=True)
     if not low < high:
         raise ValueError(f"parameter_range must be increasing, got ({low!r}, {high!r})")
-    if structure == "pid" and model.dead_time == 0:
-        raise ValueError(
-            "the SOPDT model has no dead time (D_2 = 0: the moments give tau = 0, e.g. for a plant with "
-            "strong lead), so the Gorez-Klan PID (K_i = 1/(mu K D_2)) is undefined"
-        )
     unit = relative_scale(structure, model)
 
     def cost_of(relative: float) -> Score:

@@ -23,6 +23,7 @@ from baselines.oracle import (
     oracle,
     relative_scale,
 )
+from envs.design import MIN_RELATIVE_DEAD_TIME, pid_design
 from envs.design import pid_design
 from envs.families import benchmark_plants, sample_plants
 from envs.plants import Plant
@@ -215,14 +216,18 @@ def test_bad_structure_and_missing_model_are_refused(results):
         oracle(plant, identification, "pid", parameter_range=(0.0, 1.0))
 
 
-def test_pid_on_a_model_without_dead_time_is_refused_clearly():
+def test_pid_on_a_model_without_dead_time_uses_the_floor():
     """A lag-chain plant with strong lead: the moments give ``tau = 0``, so ``D_2 = 0`` (about one in six
-    lag-chain plants of seed 0; the FPPI is still designed)."""
+    lag-chain plants of seed 0).  The design floors ``D_2`` at ``MIN_RELATIVE_DEAD_TIME T_ar``, so the
+    PID is defined and the oracle finds a feasible ``mu``."""
     plant = sample_plants("lag-chain", 1, 3)[0]
     identification = identify(plant, np.random.default_rng(0))
-    assert identification.sopdt.dead_time == 0
-    with pytest.raises(ValueError, match="SOPDT model has no dead time"):
-        oracle(plant, identification, "pid", grid=5)
+    model = identification.sopdt
+    assert model.dead_time == 0
+    controller = pid_design(model, 2.0)
+    floor = MIN_RELATIVE_DEAD_TIME * model.residence_time
+    assert controller.kp == pytest.approx(model.time_constants[0] / (2.0 * model.gain * floor), rel=1e-12)
+    assert oracle(plant, identification, "pid", grid=15).feasible
     assert oracle(plant, identification, "fppi", grid=15).feasible
 
 
