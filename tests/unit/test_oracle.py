@@ -24,7 +24,6 @@ from baselines.oracle import (
     relative_scale,
 )
 from envs.design import MIN_RELATIVE_DEAD_TIME, pid_design
-from envs.design import pid_design
 from envs.families import benchmark_plants, sample_plants
 from envs.plants import Plant
 from envs.procedure import identify
