@@ -182,8 +182,11 @@ def make_callbacks(
     progress_bar: bool,
     vecnormalize: Any = None,
     history: Sequence[dict[str, Any]] = (),
-) -> tuple[list[Any], Any]:
-    """The callbacks of a run: ``(callbacks, validator)``; ``validator.validate(model)`` runs one validation."""
+) -> tuple[list[Any], Any, Any]:
+    """The callbacks of a run: ``(callbacks, validator, checkpointer)``.
+
+    ``validator.validate(model)`` runs one validation; ``checkpointer.save()`` writes a checkpoint.
+    """
     from stable_baselines3.common.callbacks import BaseCallback
 
     class Validator(BaseCallback):
@@ -274,8 +277,8 @@ def make_callbacks(
         def _on_training_end(self) -> None:
             self.bar.close()
 
-    validator = Validator()
-    callbacks: list[Any] = [validator, Checkpointer()]
+    validator, checkpointer = Validator(), Checkpointer()
+    callbacks: list[Any] = [validator, checkpointer]
     if progress_bar:
         callbacks.append(Progress())
-    return callbacks, validator
+    return callbacks, validator, checkpointer

@@ -271,6 +271,10 @@ def train(
         checkpoint = latest_checkpoint(run_dir)
     elif not resume and (saved_config.exists() or (run_dir / "checkpoints").exists()):
         raise ValueError(f"{run_dir} already holds a run; pass --resume to continue it, or choose another --out")
+    finished = _finished(run_dir, config) if resume else None
+    if finished is not None:
+        print(f"{run_dir} already finished {finished.num_timesteps} steps (raise total_timesteps to extend it)")
+        return finished
     if checkpoint is not None and int(checkpoint["num_timesteps"]) >= config.total_timesteps:
         raise ValueError(f"{run_dir}: the latest checkpoint has {checkpoint['num_timesteps']} steps, "
                          f"total_timesteps is {config.total_timesteps}; nothing to resume")
@@ -295,6 +299,7 @@ def train(
         if config.normalize:
             if checkpoint is not None and checkpoint.get("vecnormalize"):
                 venv = VecNormalize.load(checkpoint["vecnormalize"], venv)
+                venv.training = True
             else:
                 venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
         vecnormalize = venv if config.normalize else None
@@ -309,7 +314,7 @@ def train(
                 model.load_replay_buffer(checkpoint["replay_buffer"])
             model.set_random_seed(config.seed + model.num_timesteps)
         history = checkpoint["evaluations"] if checkpoint is not None else ()
-        run_callbacks, validator = make_callbacks(
+        run_callbacks, validator, checkpointer = make_callbacks(
             run_dir, config.total_timesteps, eval_env, config.n_eval_episodes, config.eval_freq,
             config.eval_family, config.checkpoint_freq, config.progress_bar, vecnormalize, history)
 
@@ -325,16 +330,39 @@ def train(
             _write_run_json(run_dir, config, provenance, status, model.num_timesteps, start_steps, train_seconds,
                             checkpoint is not None)
         save_model(model, run_dir / "model.zip", vecnormalize)
-        if vecnormalize is not None:
-            vecnormalize.training = False
         final = validator.validate(model)
+        if config.checkpoint_freq > 0:  # the final state, so that a larger total_timesteps can extend the run
+            checkpointer.save()
     finally:
-        venv.close()
+        _close(venv)
         eval_env.close()
     steps = model.num_timesteps - start_steps
     return TrainResult(run_dir=run_dir, num_timesteps=model.num_timesteps, train_seconds=train_seconds,
                        steps_per_second=steps / train_seconds if train_seconds > 0 else float("nan"),
                        best_cost=validator.best, final_cost=final.mean_cost)
+
+
+def _close(venv: Any) -> None:
+    """Close the training environments; subprocess workers may already be gone after Ctrl-C."""
+    try:
+        venv.close()
+    except (EOFError, BrokenPipeError, ConnectionResetError):
+        pass
+
+
+def _finished(run_dir: Path, config: TrainConfig) -> TrainResult | None:
+    """The result of a run that already reached ``config.total_timesteps``, or None."""
+    try:
+        record = json.loads((run_dir / "run.json").read_text())
+        evaluations = json.loads((run_dir / "evaluations.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if record.get("status") != "finished" or record.get("num_timesteps", 0) < config.total_timesteps:
+        return None
+    seconds = float(record["train_seconds"])
+    return TrainResult(run_dir=run_dir, num_timesteps=int(record["num_timesteps"]), train_seconds=seconds,
+                       steps_per_second=record["num_timesteps"] / seconds if seconds > 0 else float("nan"),
+                       best_cost=min(e["mean_cost"] for e in evaluations), final_cost=evaluations[-1]["mean_cost"])
 
 
 def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str, Any], status: str,

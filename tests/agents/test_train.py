@@ -167,3 +167,9 @@ def test_interrupted_run_resumes_to_the_same_number_of_steps(tmp_path: Path, alg
     evaluations = json.loads((run_dir / "evaluations.json").read_text())
     steps = [e["num_timesteps"] for e in evaluations]
     assert steps == sorted(steps) and steps[-1] == 192
+
+    assert main(["train", "--out", str(run_dir), "--resume"]) == 0  # finished: nothing to do
+    assert len(json.loads((run_dir / "run.json").read_text())["segments"]) == 2
+    assert main(["train", "--out", str(run_dir), "--resume", "total_timesteps=256"]) == 0  # extended
+    assert json.loads((run_dir / "run.json").read_text())["num_timesteps"] == 256
+    assert load_policy(run_dir / "model.zip").model.num_timesteps == 256
