@@ -1,0 +1,13 @@
+"""deadtime-gym environments: ``import envs`` registers them with Gymnasium.
+
+The ids live in the ``DeadTime`` namespace (``gymnasium.make("DeadTime/PID-v0")``); the classes are
+in :mod:`envs.tuning_env`, the only module here that imports Gymnasium besides this registration.
+The numerical modules (plants, simulation, experiments, controllers, robustness, scoring) import
+numpy and scipy only.
+"""
+
+from gymnasium.envs.registration import register
+
+register(id="DeadTime/PID-v0", entry_point="envs.tuning_env:PIDEnv")
+register(id="DeadTime/FPPI-v0", entry_point="envs.tuning_env:FPPIEnv")
+register(id="DeadTime/MSP-v0", entry_point="envs.tuning_env:MSPEnv")

@@ -33,7 +33,9 @@ parallel       ``(1-c)/(s+1) + c/(Ts+1)`` (Ingimundarson P6:           ``c``: sl
 
 Ingimundarson's P7 ``64/((s+1)(s+2)(s+4)(s+8))`` is the geometric shape with ``a = 1/2``.
 
-The ``benchmark`` family draws uniformly from the fixed batches of :func:`benchmark_plants`,
+The ``stable`` family is the mixture of the three self-regulating families: each plant comes from
+``fopdt``, ``sopdt`` or ``lag-chain`` with equal probability (:class:`MixtureConfig`); it is the
+default of the environments on self-regulating plants.  The ``benchmark`` family draws uniformly from the fixed batches of :func:`benchmark_plants`,
 unscaled.  Every sampler takes a ``numpy.random.Generator`` and draws from nothing else.
 
 References
@@ -62,12 +64,13 @@ __all__ = [
     "LagChainConfig",
     "IntegratingConfig",
     "BenchmarkConfig",
+    "MixtureConfig",
     "benchmark_plants",
     "sample_plant",
     "sample_plants",
 ]
 
-FAMILIES: tuple[str, ...] = ("fopdt", "sopdt", "lag-chain", "integrating", "benchmark")
+FAMILIES: tuple[str, ...] = ("fopdt", "sopdt", "lag-chain", "integrating", "benchmark", "stable")
 
 
 def _check_interval(name: str, value: object, condition: Callable[[float, float], bool], requirement: str) -> None:
@@ -298,8 +301,27 @@ class BenchmarkConfig:
             raise ValueError(f"kind must be one of {', '.join(_KINDS)}; got {self.kind!r}")
 
 
+@dataclass(frozen=True)
+class MixtureConfig:
+    """``stable``: each plant from one of ``families`` (equal probability), with that family's config.
+
+    Attributes
+    ----------
+    fopdt, sopdt, lag_chain : family configs
+        The configs of the three self-regulating families (their defaults by default).
+    """
+
+    fopdt: FopdtConfig = field(default_factory=FopdtConfig)
+    sopdt: SopdtConfig = field(default_factory=SopdtConfig)
+    lag_chain: LagChainConfig = field(default_factory=LagChainConfig)
+
+    def members(self) -> tuple[RandomFamilyConfig, ...]:
+        return (self.fopdt, self.sopdt, self.lag_chain)
+
+
 _KINDS = ("stable", "integrating", "all")
 _CONFIGS: dict[str, type] = {
+    "stable": MixtureConfig,
     "fopdt": FopdtConfig,
     "sopdt": SopdtConfig,
     "lag-chain": LagChainConfig,
@@ -428,7 +450,7 @@ def sample_plant(family: str, rng: np.random.Generator, config: object = None) -
         The only source of randomness.
     config : family config, optional
         A :class:`FopdtConfig`, :class:`SopdtConfig`, :class:`LagChainConfig`,
-        :class:`IntegratingConfig` or :class:`BenchmarkConfig` matching ``family``; defaults to
+        :class:`IntegratingConfig`, :class:`BenchmarkConfig` or :class:`MixtureConfig` matching ``family``; defaults to
         that class's defaults.
 
     Returns
@@ -453,6 +475,9 @@ def sample_plant(family: str, rng: np.random.Generator, config: object = None) -
     if isinstance(config, BenchmarkConfig):
         plants = list(benchmark_plants(config.kind).values())
         return plants[rng.integers(len(plants))]
+    if isinstance(config, MixtureConfig):
+        members = config.members()
+        return _sample_random(rng, members[rng.integers(len(members))])
     return _sample_random(rng, config)
 
 

@@ -1,9 +1,12 @@
 """One direction of dependency (STYLE.md, Boundaries).
 
 The physics core of ``envs`` (plants, simulation, controllers, loops, robustness, performance,
-analysis) is importable without torch, stable-baselines3 or gymnasium; inside ``envs`` only
+analysis) is importable without torch or stable-baselines3; inside ``envs`` only
 ``envs/__init__.py`` (registration) and one module holding the ``gymnasium.Env`` classes may import
-gymnasium, and no module imports torch or stable-baselines3.
+gymnasium, and no module imports torch or stable-baselines3.  Importing any ``envs`` module runs
+``envs/__init__.py`` and so loads gymnasium: that is the registration on ``import envs`` that SPEC
+asks for (and STYLE's "``envs/__init__.py`` holds the ``register(...)`` calls"); the numerical
+modules themselves never import it (checked statically below).
 """
 
 from __future__ import annotations
@@ -48,10 +51,6 @@ def loaded_after_core_import() -> dict[str, bool]:
 @pytest.mark.parametrize("package", ["torch", "stable_baselines3"])
 def test_core_does_not_load_learning_packages(loaded_after_core_import, package):
     assert not loaded_after_core_import[package]
-
-
-def test_core_does_not_load_gymnasium(loaded_after_core_import):
-    assert not loaded_after_core_import["gymnasium"]
 
 
 def _imported_packages(path: Path) -> set[str]:

@@ -1,0 +1,379 @@
+"""Gymnasium environments: identify a plant with dead time, then choose one design parameter.
+
+The only module of :mod:`envs` that imports Gymnasium.  The numerics are elsewhere: the
+experiments and features in :mod:`envs.episode`, the designs in :mod:`envs.design`, the cost in
+:mod:`envs.scoring`.  Ids are registered in :mod:`envs` (``DeadTime/PID-v0``, ``DeadTime/FPPI-v0``,
+``DeadTime/MSP-v0``); see the docstrings of :class:`PIDEnv`, :class:`FPPIEnv` and :class:`MSPEnv`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from envs.design import PARAMETER_RANGES, design, relative_scale
+from envs.episode import Evidence, evidence_from_identification, feature_names, features, identification, run_experiment
+from envs.families import FAMILIES, sample_plant
+from envs.plants import Plant
+from envs.procedure import Identification, identify
+from envs.scoring import Constraints, CostWeights, Score, score
+from envs.validation import require_number
+
+__all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "MODES", "AMPLITUDE_RANGE"]
+
+MODES = ("fixed", "agent")
+AMPLITUDE_RANGE = (0.1, 10.0)  # relative experiment amplitude, log scale
+OBSERVATION_BOUND = 5.0
+MAX_SAMPLING_ATTEMPTS = 10
+
+
+def _dataclass_argument(value: Any, kind: type, name: str) -> Any:
+    """A frozen dataclass argument given as an instance, a dict of its fields or None (defaults)."""
+    if value is None:
+        return kind()
+    if isinstance(value, kind):
+        return value
+    if isinstance(value, dict):
+        known = {f.name for f in fields(kind)}
+        unknown = sorted(set(value) - known)
+        if unknown:
+            raise ValueError(f"{name}: unknown key {unknown[0]!r}; valid keys: {', '.join(sorted(known))}")
+        return kind(**value)
+    raise ValueError(f"{name} must be a {kind.__name__}, a dict or None, got {type(value).__name__}")
+
+
+class DeadTimeTuningEnv(gym.Env):
+    """Base class of the tuning environments; see :class:`PIDEnv` for the full documentation.
+
+    Subclasses set :attr:`structure` (``"pid"``, ``"fppi"`` or ``"msp"``), :attr:`integrating` and
+    :attr:`default_family`, and may override :meth:`default_constraints`.
+    """
+
+    metadata = {"render_modes": []}
+    structure: str = "pid"
+    integrating: bool = False
+    default_family: str = "stable"
+
+    def __init__(
+        self,
+        experiments: str = "fixed",
+        family: str | None = None,
+        family_config: object = None,
+        noise_std: float = 0.01,
+        constraints: Constraints | dict | None = None,
+        weights: CostWeights | dict | None = None,
+        budget: int = 4,
+        excursion_limit: float = 5.0,
+        oracle: bool = False,
+        render_mode: str | None = None,
+    ) -> None:
+        if experiments not in MODES:
+            raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
+        if render_mode is not None:
+            raise ValueError(f"render_mode: these environments do not render, got {render_mode!r}")
+        self.mode = experiments
+        self.family = self.default_family if family is None else family
+        if self.family not in FAMILIES:
+            raise ValueError(f"unknown plant family {self.family!r}; valid families: {', '.join(FAMILIES)}")
+        self.family_config = family_config
+        self.noise_std = require_number(noise_std, "noise_std", nonnegative=True)
+        self.constraints = _dataclass_argument(constraints, Constraints, "constraints") if constraints is not None else self.default_constraints()
+        self.weights = _dataclass_argument(weights, CostWeights, "weights")
+        if isinstance(budget, bool) or int(budget) != budget or budget < 1:
+            raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
+        self.budget = int(budget)
+        self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
+        self.oracle = bool(oracle)
+        self.render_mode = None
+        self.parameter_range = PARAMETER_RANGES[self.structure]
+        evidence = Evidence.empty(self.integrating)
+        self.experiment_names = evidence.experiments
+        self.feature_names = feature_names(evidence)
+        size = 1 if self.mode == "fixed" else len(self.experiment_names) + 3
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(size,), dtype=np.float32)
+        bound = OBSERVATION_BOUND
+        self.observation_space = spaces.Box(-bound, bound, shape=(len(self.feature_names),), dtype=np.float32)
+        self.plant: Plant | None = None
+        self.identification: Identification | None = None
+        self.evidence: Evidence | None = None
+        self._done = True
+
+    # ------------------------------------------------------------------ configuration
+    @classmethod
+    def default_constraints(cls) -> Constraints:
+        """``Ms <= 2`` and a delay margin of at least 0.2 times the true dead time (SPEC "Score")."""
+        return Constraints()
+
+    def parameter_from_action(self, action: float) -> float:
+        """The relative parameter (``mu``, ``T_r/T_n`` or ``T_r/L_n``) of an action in [-1, 1], log scale."""
+        low, high = (math.log(v) for v in self.parameter_range)
+        a = float(np.clip(action, -1.0, 1.0))
+        return math.exp(low + 0.5 * (a + 1.0) * (high - low))
+
+    def action_from_parameter(self, parameter: float) -> float:
+        """Inverse of :meth:`parameter_from_action` (clipped to [-1, 1])."""
+        low, high = (math.log(v) for v in self.parameter_range)
+        parameter = require_number(parameter, "parameter", positive=True)
+        return float(np.clip(2.0 * (math.log(parameter) - low) / (high - low) - 1.0, -1.0, 1.0))
+
+    # ------------------------------------------------------------------ episode
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
+        """Start an episode: draw a plant (or take ``options["plant"]``) and, in the fixed mode, identify it.
+
+        Options
+        -------
+        plant : Plant or dict
+            Use this plant (a :class:`~envs.plants.Plant` or its dict) instead of drawing one.
+        """
+        super().reset(seed=seed)
+        options = {} if options is None else dict(options)
+        unknown = sorted(set(options) - {"plant"})
+        if unknown:
+            raise ValueError(f"reset options: unknown key {unknown[0]!r}; valid keys: plant")
+        given = options.get("plant")
+        self.plant = self._given_plant(given) if given is not None else None
+        for _ in range(MAX_SAMPLING_ATTEMPTS):
+            plant = self.plant if given is not None else sample_plant(self.family, self.np_random, self.family_config)
+            try:
+                self._start(plant)
+                break
+            except ValueError:
+                if given is not None:
+                    raise
+        else:
+            raise RuntimeError(f"no plant of family {self.family!r} could be identified in {MAX_SAMPLING_ATTEMPTS} draws")
+        self._done = False
+        return self._observation(), {"plant": self.plant.to_dict(), "features": self._features()}
+
+    def _given_plant(self, plant: Plant | dict) -> Plant:
+        plant = plant if isinstance(plant, Plant) else Plant.from_dict(plant)
+        if plant.integrating != self.integrating:
+            kind = "an integrating" if self.integrating else "a self-regulating"
+            raise ValueError(f"reset options: plant must be {kind} plant for {type(self).__name__}")
+        return plant
+
+    def _start(self, plant: Plant) -> None:
+        if plant.integrating != self.integrating:
+            raise ValueError(f"family {self.family!r} drew a plant of the wrong kind for {type(self).__name__}")
+        self.plant = plant
+        if self.mode == "fixed":
+            self.identification = identify(plant, self.np_random, self.noise_std)
+            self.evidence = evidence_from_identification(self.identification, self.noise_std)
+        else:
+            self.identification = None
+            self.evidence = Evidence.empty(self.integrating)
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
+        """Run an experiment (agent mode) or commit the design; see the class docstring."""
+        if self._done:
+            raise RuntimeError("step() called on a finished episode; call reset() first")
+        action = np.asarray(action, dtype=np.float64).reshape(-1)
+        if action.shape != self.action_space.shape:
+            raise ValueError(f"action must have shape {self.action_space.shape}, got {action.shape}")
+        if not np.all(np.isfinite(action)):
+            raise ValueError(f"action must be finite, got {action.tolist()}")
+        action = np.clip(action, -1.0, 1.0)
+        if self.mode == "agent":
+            choice = int(np.argmax(action[: len(self.experiment_names) + 1]))
+            if choice > 0 and self.evidence.runs < self.budget:
+                return self._experiment(self.experiment_names[choice - 1], action[-2])
+        return self._commit(action[-1])
+
+    def _experiment(self, kind: str, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
+        low, high = (math.log10(v) for v in AMPLITUDE_RANGE)
+        amplitude = 10.0 ** (low + 0.5 * (amplitude_action + 1.0) * (high - low))
+        self.evidence = run_experiment(
+            self.evidence, kind, self.plant, self.np_random, amplitude, self.noise_std, self.excursion_limit
+        )
+        info = {"experiment": kind, "amplitude": amplitude, "features": self._features()}
+        return self._observation(), 0.0, False, False, info
+
+    def _commit(self, parameter_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
+        if self.mode == "agent":
+            self.identification, self.evidence = identification(
+                self.evidence, self.structure, self.plant, self.np_random, self.noise_std
+            )
+        relative = self.parameter_from_action(parameter_action)
+        controller = self.design(relative)
+        result = self.score_controller(controller)
+        self._done = True
+        info = self._final_info(result, relative, controller)
+        if self.oracle:
+            info.update(self._oracle_info())
+        return self._observation(), -float(result.cost), True, False, info
+
+    # ------------------------------------------------------------------ scoring
+    def model(self):
+        """The identified model the design reads (SOPDT, FOPDT or integrating)."""
+        found = self.identification
+        return {"pid": found.sopdt, "fppi": found.fopdt, "msp": found.integrating_model}[self.structure]
+
+    def design(self, relative: float):
+        """The controller for the relative parameter ``relative`` and the current identification."""
+        model = self.model()
+        return design(self.structure, model, relative * relative_scale(self.structure, model))
+
+    def score_controller(self, controller) -> Score:
+        """The cost of any ``controller`` on the true plant, with this episode's experiment time."""
+        if self.plant is None or self.evidence is None:
+            raise RuntimeError("score_controller() needs an episode; call reset() first")
+        return score(
+            self.plant, controller, experiment_time=self.evidence.experiment_time,
+            constraints=self.constraints, weights=self.weights,
+        )  # fmt: skip
+
+    def _final_info(self, result: Score, relative: float, controller) -> dict:
+        return {
+            "cost": float(result.cost),
+            "feasible": bool(result.feasible),
+            "score": result.to_dict(),
+            "plant": self.plant.to_dict(),
+            "model": self.model().to_dict(),
+            "controller": controller.to_dict(),
+            "parameter": relative,
+            "experiment_time": self.evidence.experiment_time / self.plant.residence_time,
+            "features": self._features(),
+        }
+
+    def _oracle_info(self) -> dict:
+        # The oracle is a baseline; imported here so that the environments need baselines only when asked.
+        from baselines.oracle import oracle
+
+        best = oracle(self.plant, self.identification, self.structure, constraints=self.constraints, weights=self.weights)
+        return {"oracle_cost": float(best.cost), "oracle_parameter": float(best.relative_parameter)}
+
+    # ------------------------------------------------------------------ observation
+    def _features(self) -> dict[str, float]:
+        return dict(zip(self.feature_names, (float(v) for v in features(self.evidence, self.budget))))
+
+    def _observation(self) -> np.ndarray:
+        values = features(self.evidence, self.budget)
+        return np.clip(values, -OBSERVATION_BOUND, OBSERVATION_BOUND).astype(np.float32)
+
+
+_SHARED_DOC = """
+    ## Action Space
+    ``experiments="fixed"``: ``Box(-1, 1, (1,), float32)``, the design parameter ``p`` on a log
+    scale over ``[p_min, p_max]``: ``p = p_min (p_max/p_min)^((a + 1)/2)``.
+
+    ``experiments="agent"``: ``Box(-1, 1, (n + 3,), float32)`` with ``n`` the experiment types
+    (stable plants: closed-loop step, open-loop step, open-loop ramp, relay; integrating plants:
+    closed-loop step, pulse, relay; see :mod:`envs.episode`):
+
+    | index     | meaning                                                                      |
+    |-----------|------------------------------------------------------------------------------|
+    | 0         | score of "commit the design"                                                 |
+    | 1 .. n    | score of each experiment type; the largest of 0 .. n is the choice            |
+    | n + 1     | amplitude ``a`` of the experiment, log scale over [0.1, 10] (unit output change) |
+    | n + 2     | the design parameter, as in the fixed mode (read when committing)            |
+
+    Actions outside [-1, 1] are clipped to it; a NaN or infinite action raises ``ValueError``.
+
+    ## Observation Space
+    ``Box(-5, 5, (10 + n + 1,), float32)``, every entry dimensionless (identified ``T_ar`` and
+    ``K_n`` as units): the ten identified features of :data:`envs.episode.FEATURES` (``tau``,
+    ``theta``, ``L_n/T_ar``, ``log10(T_f_bar/T_n)``, ``log10(A/(K_n L_n))``, noise-to-amplitude
+    ratio, relay gain and period, ramp ``T_n/T_ar``, experiment time), 0 where not measured; then
+    the number of runs of each experiment type over the budget, and the total runs over the budget.
+
+    ## Rewards
+    ``r = -cost`` on the step that commits the design, 0 on experiment steps, where
+    (:mod:`envs.scoring`) ``cost = w_load IAE_load/(|K| T_ar) + w_sp IAE_sp/T_ar + w_exp t_exp/T_ar``
+    on the TRUE plant (``K``, ``T_ar`` true; integrating plants: ``IAE_load/(|K_v| T_ar^2)``),
+    capped at 20 when the loop meets the constraints, and ``21 + grade`` when it does not (unstable:
+    grade 5; else the sum of the relative violations).  The cost is the one of ``deadtime analyze``
+    and :func:`envs.scoring.score` for the same plant and controller.
+
+    ## Starting State
+    A plant drawn from ``family`` with ``self.np_random`` (or ``options["plant"]`` of ``reset``).
+    Fixed mode: the seeds' procedure has run (:func:`envs.procedure.identify`: closed-loop step,
+    then open-loop step, or pulse for integrating plants, amplitude 1, noise ``noise_std``).
+    Agent mode: nothing has run; the observation is zero.
+
+    ## Episode End
+    Termination: the design is committed (fixed mode: the first step; agent mode: the commit
+    choice, or any step once ``budget`` experiments have run).  No truncation.  Committing with
+    missing data runs the missing seed experiments first (charged).
+
+    ## Arguments
+    | argument          | default                     | meaning                                                  |
+    |-------------------|-----------------------------|----------------------------------------------------------|
+    | `experiments`     | `"fixed"`                   | `"fixed"` or `"agent"`                                   |
+    | `family`          | see class                   | plant family of :mod:`envs.families`                     |
+    | `family_config`   | `None`                      | the family's config dataclass (its parameter ranges)      |
+    | `noise_std`       | `0.01`                      | measurement noise, relative to a unit output change       |
+    | `constraints`     | see class                   | :class:`envs.scoring.Constraints` or a dict of its fields |
+    | `weights`         | `CostWeights()` (1, 1, 0.01) | :class:`envs.scoring.CostWeights` or a dict              |
+    | `budget`          | `4`                         | experiments per episode (agent mode)                      |
+    | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
+    | `oracle`          | `False`                     | add the oracle's cost to the final `info` (slow: ~1 s)    |
+
+    ## Info
+    At reset: ``plant`` (dict), ``features``.  On the final step: ``cost``, ``feasible``, ``score``
+    (every figure of :class:`envs.scoring.Score`), ``plant``, ``model`` (identified), ``controller``,
+    ``parameter`` (relative), ``experiment_time`` (in true ``T_ar``), ``features``, and with
+    ``oracle=True`` ``oracle_cost`` and ``oracle_parameter``.
+
+    ## Version History
+    * v0: initial version.
+"""
+
+
+class PIDEnv(DeadTimeTuningEnv):
+    __doc__ = """Gorez-Klan PID on self-regulating plants with dead time: choose ``mu``.
+
+    ## Description
+    A self-regulating plant ``K G(s) e^{-Ls}`` is identified by experiments; the SOPDT model of the
+    method of moments (Gorez-Klan eq. 2-8) gives the series PID ``T_i = T_1``, ``T_d = T_2``,
+    ``K_i = 1/(mu K D_2)`` (eq. 3-11, derivative filter ``T_d/10``), and the agent chooses ``mu``
+    over [0.3, 300] (log scale).  The loop is then closed around the TRUE plant and scored.  Model
+    mismatch is the point: on an FOPDT plant the SOPDT model invents a second lag, and the table's
+    ``mu`` of 1.3 to 3 (Gorez-Klan table 3-1) can break ``Ms <= 2``.
+
+    Default family ``"stable"`` (fopdt, sopdt and lag-chain plants in equal shares); default
+    constraints ``Ms <= 2``, delay margin ``>= 0.2 L``.
+""" + _SHARED_DOC
+    structure = "pid"
+
+
+class FPPIEnv(DeadTimeTuningEnv):
+    __doc__ = """Hagglund's filtered predictive PI on self-regulating plants: choose ``T_r/T_n``.
+
+    ## Description
+    The FOPDT model ``K_n, T_n, L_n`` of the open-loop step (Ingimundarson eq. 11) gives the FPPI
+    with ``T_i = T_n``, ``kappa = T_n/T_r`` and the robustness filter ``T_f = T_r``
+    (Ingimundarson section 4); the agent chooses ``T_r/T_n`` over [0.001, 10] (log scale).  The
+    mismatch area ``T_f_bar/T_n`` (eq. 22) is observed: it is what eq. 28-29 tune from.
+
+    Default family ``"stable"``; default constraints ``Ms <= 2``, delay margin ``>= 0.2 L``.
+""" + _SHARED_DOC
+    structure = "fppi"
+
+
+class MSPEnv(DeadTimeTuningEnv):
+    __doc__ = """Modified Smith predictor on integrating plants: choose ``T_r/L_n``.
+
+    ## Description
+    The two-parameter model ``K_n e^{-L_n s}/s`` of the closed-loop step gives the MSP with
+    ``K_0 = 1/(2 L_n K_n)`` and ``K_r = 1/(K_n T_r)`` (Ingimundarson section 5, eq. 36-38); the
+    agent chooses ``T_r/L_n`` over [0.01, 30] (log scale).  The pulse area ``A`` (eq. 46) is
+    observed: it is what eq. 43 tunes from.
+
+    Default family ``"integrating"``.  Default constraints: delay margin ``>= 0.2 L`` only, no
+    ``Ms`` bound.  The MSP's own loop (eq. 47) has ``Ms`` of 2.2 to 2.4 for ``T_r/L_n <= 1`` even
+    with a perfect model (SPEC "Score"), so ``Ms <= 2`` would rule out every seed tuning (eq. 43,
+    eq. 50, ``T_r = T_n``) and push every design to ``T_r/L_n`` of about 2.3; the delay margin is
+    the robustness measure of Ingimundarson's own analysis (eq. 40).
+""" + _SHARED_DOC
+    structure = "msp"
+    integrating = True
+    default_family = "integrating"
+
+    @classmethod
+    def default_constraints(cls) -> Constraints:
+        return Constraints(max_sensitivity=None, min_relative_delay_margin=0.2)
