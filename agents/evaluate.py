@@ -97,7 +97,13 @@ def _plants(family: str, structure: str, n: int, benchmark: bool) -> list[tuple[
     return plants
 
 
-def _agents(specs: list, env_id: str, env_kwargs: dict[str, Any], taken: set[str]) -> dict[str, tuple[Any, Any, str]]:
+def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) -> dict[str, tuple[Any, Any, str]]:
+    """Each agent with the environment it plays and its cache identity.
+
+    The agent's environment takes the agent's own keyword arguments (``experiments``, budget: its
+    interface) but the evaluation's scoring (``scoring``: constraints, weights, noise), so that every
+    policy is scored the same way.
+    """
     import os
 
     from agents.evaluation_policies import load_agent
@@ -107,8 +113,13 @@ def _agents(specs: list, env_id: str, env_kwargs: dict[str, Any], taken: set[str
         name, policy = load_agent(spec)
         if name in taken or name in agents:
             raise ValueError(f"policy name {name!r} of agent {spec.path!r} is taken; name it with NAME=PATH")
-        kwargs = {**env_kwargs, **dict(getattr(policy, "env_kwargs", None) or {})}
-        identity = f"agent|{os.path.abspath(spec.path)}|{os.path.getmtime(spec.path)}|{json.dumps(kwargs, sort_keys=True, default=str)}"
+        trained_on = getattr(policy, "env_id", None)
+        if trained_on is not None and trained_on != env_id:
+            raise ValueError(f"agent {spec.path!r} was trained on {trained_on}, not {env_id}")
+        kwargs = {**dict(getattr(policy, "env_kwargs", None) or {}), **scoring}
+        path = str(getattr(policy, "path", spec.path))
+        stamp = os.path.getmtime(path) if os.path.exists(path) else 0.0
+        identity = f"agent|{os.path.abspath(path)}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
         agents[name] = (policy, _make_env(env_id, **kwargs), identity)
     return agents
 
@@ -156,7 +167,10 @@ def evaluate(
     listed_rules = [s.name for s in specs if s.kind == "rule"]
     own = own_rules(structure)
     rules = listed_rules + [name for name in own if name not in listed_rules]
-    agents = _agents([s for s in specs if s.kind == "agent"], env_id, env_kwargs, {*rules, "oracle", "oracle-full"})
+    scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **env_kwargs}
+    if hasattr(unwrapped, "noise_std"):
+        scoring["noise_std"] = unwrapped.noise_std
+    agents = _agents([s for s in specs if s.kind == "agent"], env_id, scoring, {*rules, "oracle", "oracle-full"})
     plants = _plants(family, structure, n, benchmark)
 
     out.mkdir(parents=True, exist_ok=True)
@@ -237,7 +251,8 @@ def _notes(best_rule: str, own: list[str]) -> list[str]:
         "- mean cost of the oracle).",
         "Regret = mean over plants of (cost - oracle cost), the oracle searched on the same identified data and "
         "re-scored by the environment (experiment cost included).",
-        f"A rule that raises on a plant (e.g. the Gorez-Klan PID when the SOPDT model has D_2 = 0) is a failure: "
+        f"A rule that raises on a plant (it needs a quantity that was not identified, e.g. msp-tr-tn a positive T_n, "
+        f"or its formula gives an invalid controller) is a failure: "
         f"it counts as a violation with the cost of an unstable loop ({FAILURE_COST:g}); `failures` is their share.",
         "Intervals: 95 % percentile bootstrap over plants, paired (every policy on the same resampled plants), the "
         "best rule fixed. Experiment time in units of the true plant's T_ar.",

@@ -64,10 +64,10 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
     Raises
     ------
     ValueError
-        For an empty list, an unknown rule, or an agent path that does not exist; the message
-        names it.
+        For an empty list or an unknown rule (the message names it).  Agent paths are checked
+        when loaded (:func:`load_agent`).
     """
-    from baselines.rules import get_rule
+    from baselines.rules import RULES, get_rule
 
     items = [item.strip() for item in text.split(",")]
     if not text.strip() or any(not item for item in items):
@@ -78,14 +78,15 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
             specs += [PolicySpec(name, "rule") for name in applicable_rules(structure)]
         elif item in ("oracle", "oracle-full"):
             specs.append(PolicySpec(item, item))
+        elif item in RULES:
+            specs.append(PolicySpec(item, "rule"))
         elif "=" in item or os.sep in item or item.endswith(".zip") or os.path.exists(item):
             name, _, path = item.rpartition("=")
-            if not os.path.exists(path):
-                raise ValueError(f"agent {path!r} (policy {item!r}) does not exist")
+            if not path:
+                raise ValueError(f"policy {item!r} names no agent path after '='")
             specs.append(PolicySpec(name, "agent", path))  # name "" -> the policy's own name
         else:
-            get_rule(item)  # unknown rule: ValueError naming it
-            specs.append(PolicySpec(item, "rule"))
+            get_rule(item)  # raises: unknown rule, naming it
     unique: dict[tuple[str, str | None], PolicySpec] = {}
     for spec in specs:
         unique.setdefault((spec.name, spec.path), spec)
@@ -101,11 +102,14 @@ def load_agent(spec: PolicySpec) -> tuple[str, Any]:
         If the agent cannot be loaded (the message names the path).
     """
     try:
-        from agents.policies import load_policy
+        from agents.policies import load_policy, resolve_model_path
     except ImportError as error:
         raise ValueError(f"cannot load agent {spec.path!r}: agents.policies is not available ({error})") from None
     try:
+        resolve_model_path(spec.path)  # a missing or unreadable file is named before torch is imported
         policy = load_policy(spec.path)
-    except (OSError, ValueError, KeyError, RuntimeError, EOFError) as error:
+    except ValueError:
+        raise
+    except (OSError, KeyError, RuntimeError, EOFError) as error:
         raise ValueError(f"cannot load agent {spec.path!r}: {error}") from None
     return spec.name or str(getattr(policy, "name", "agent")), policy

@@ -15,8 +15,8 @@ the seed ``seed + index``, which runs the seeds' identification procedure with i
   with the same plant and seed, one step in fixed mode, until termination in agent mode; its cost
   is the final step's ``info["cost"]``.
 
-A rule that raises ``ValueError`` on a plant (the Gorez-Klan PID is undefined when the SOPDT model
-has ``D_2 = 0``; a rule may need a quantity the procedure did not identify) is a *failure*: it
+A rule that raises ``ValueError`` on a plant (a rule may need a quantity the procedure did not
+identify, e.g. ``msp-tr-tn`` a positive ``T_n``; a formula may give an invalid controller) is a *failure*: it
 counts as a constraint violation with the cost of an unstable loop,
 ``FEASIBLE_CAP + 1 + UNSTABLE_GRADE`` (:mod:`envs.scoring`), and is counted separately.  The same
 holds for the oracles.
@@ -119,7 +119,8 @@ def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
 
 def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[PolicyResult, float]:
     """The oracle's result and ``|its own cost - the environment's cost|`` of its optimum."""
-    from baselines.oracle import design, exact_models, full_information_oracle, oracle
+    from baselines.oracle import exact_models, full_information_oracle, oracle
+    from envs.design import design
     from envs.scoring import score
 
     unwrapped = env.unwrapped

@@ -1,0 +1,66 @@
+"""Parsing ``--policies`` of ``deadtime evaluate``, the rule sets of each structure, the failure cost."""
+
+from __future__ import annotations
+
+import pytest
+
+from agents.evaluation_policies import PolicySpec, applicable_rules, own_rules, parse_policies
+from agents.evaluation_run import FAILURE_COST
+from baselines.rules import RULES
+
+
+def test_failure_costs_an_unstable_loop():
+    from envs.scoring import FEASIBLE_CAP, UNSTABLE_GRADE
+
+    assert FAILURE_COST == FEASIBLE_CAP + 1 + UNSTABLE_GRADE
+
+
+@pytest.mark.parametrize(
+    "structure, own",
+    [
+        ("pid", ["gorez-klan-mu-1.3", "gorez-klan-mu-1.5", "gorez-klan-mu-2", "gorez-klan-mu-3", "gorez-klan-pm-60", "gorez-klan-gm-3"]),
+        ("fppi", ["fppi-eq28", "fppi-eq34", "ppi-kappa1"]),
+        ("msp", ["msp-eq43", "msp-eq50", "msp-tr-tn"]),
+    ],
+)
+def test_own_structure_rules(structure, own):
+    assert own_rules(structure) == own
+    assert set(own) <= set(applicable_rules(structure))
+
+
+def test_all_rules_follow_the_plants():
+    stable, integrating = set(applicable_rules("pid")), set(applicable_rules("msp"))
+    assert stable == set(applicable_rules("fppi"))
+    assert {"simc-pi", "cohen-coon-pid", "haalman-pid", "fppi-eq28", "gorez-klan-mu-2"} <= stable
+    assert not {"msp-eq43", "msp-eq50", "msp-tr-tn"} & stable
+    assert {"msp-eq43", "zn-step-pi", "simc-pi"} <= integrating
+    assert not {"cohen-coon-pi", "gorez-klan-mu-2", "fppi-eq28"} & integrating
+    assert stable | integrating == set(RULES)
+
+
+def test_parse_keeps_order_and_drops_duplicates(tmp_path):
+    agent = tmp_path / "model.zip"
+    specs = parse_policies(f"oracle,simc-pi,oracle-full,simc-pi,mine={agent},{agent}", "pid")
+    assert specs == [
+        PolicySpec("oracle", "oracle"),
+        PolicySpec("simc-pi", "rule"),
+        PolicySpec("oracle-full", "oracle-full"),
+        PolicySpec("mine", "agent", str(agent)),
+        PolicySpec("", "agent", str(agent)),
+    ]
+    expanded = parse_policies("all-rules,oracle", "msp")
+    assert [s.name for s in expanded] == applicable_rules("msp") + ["oracle"]
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("simc-pi,no-such-rule", "unknown rule 'no-such-rule'"),
+        ("", "comma-separated"),
+        ("oracle,,simc-pi", "comma-separated"),
+        ("agent=", "no agent path"),
+    ],
+)
+def test_bad_policies_are_named(text, message):
+    with pytest.raises(ValueError, match=message):
+        parse_policies(text, "pid")
