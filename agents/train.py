@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"\ninterrupted; latest checkpoint at {checkpoint} steps; continue with: "
               f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
         return 130
-    print(f"trained {result.num_timesteps} steps in {result.train_seconds:.1f} s "
+    print(f"{result.num_timesteps} steps; this session trained {result.session_steps} in {result.train_seconds:.1f} s "
           f"({result.steps_per_second:.1f} steps/s); best validation cost {result.best_cost:.6g}")
     print(f"agent: {result.run_dir / 'model.zip'} (best: {result.run_dir / 'best_model.zip'})")
     return 0
@@ -112,6 +112,7 @@ class TrainResult:
 
     run_dir: Path
     num_timesteps: int
+    session_steps: int
     train_seconds: float
     steps_per_second: float
     best_cost: float
@@ -337,7 +338,7 @@ def train(
         _close(venv)
         eval_env.close()
     steps = model.num_timesteps - start_steps
-    return TrainResult(run_dir=run_dir, num_timesteps=model.num_timesteps, train_seconds=train_seconds,
+    return TrainResult(run_dir=run_dir, num_timesteps=model.num_timesteps, session_steps=steps, train_seconds=train_seconds,
                        steps_per_second=steps / train_seconds if train_seconds > 0 else float("nan"),
                        best_cost=validator.best, final_cost=final.mean_cost)
 
@@ -359,9 +360,8 @@ def _finished(run_dir: Path, config: TrainConfig) -> TrainResult | None:
         return None
     if record.get("status") != "finished" or record.get("num_timesteps", 0) < config.total_timesteps:
         return None
-    seconds = float(record["train_seconds"])
-    return TrainResult(run_dir=run_dir, num_timesteps=int(record["num_timesteps"]), train_seconds=seconds,
-                       steps_per_second=record["num_timesteps"] / seconds if seconds > 0 else float("nan"),
+    return TrainResult(run_dir=run_dir, num_timesteps=int(record["num_timesteps"]), session_steps=0, train_seconds=0.0,
+                       steps_per_second=float("nan"),
                        best_cost=min(e["mean_cost"] for e in evaluations), final_cost=evaluations[-1]["mean_cost"])
 
 
