@@ -11,9 +11,10 @@ noise-to-signal ratio is ``noise_std/amplitude`` whatever the plant's gain):
 ``closed-loop-step``   set-point step of height ``a`` with the commissioning controller: ``K_n``,
                        ``T_ar`` (Ingimundarson eq. 10), ``tau``, ``theta`` and the SOPDT model
                        (Gorez-Klan eq. 2-8 .. 2-10, appendix B)
-``open-loop-step``     input step ``a/|K_n|``: ``T_n`` (eq. 11), ``L_n``, ``T_f_bar`` (eq. 22)
-``open-loop-ramp``     input ramp of rate ``a/(|K_n| T_ar)`` for ``T_ar``: ``T_n`` (eq. 12)
-``pulse``              (integrating plants) pulse ``a/|K_n|`` of length ``L_n/3``: ``A`` (eq. 46)
+``open-loop-step``     input step ``a/K_n``: ``T_n`` (eq. 11), ``L_n``, ``T_f_bar`` (eq. 22)
+``open-loop-ramp``     input ramp of rate ``a/(K_n T_ar)`` for ``T_ar``: ``T_n`` (eq. 12)
+``pulse``              (integrating plants) pulse ``a/(K_n tau_p)`` of length ``tau_p = L_n/3``:
+                       ``A`` (eq. 46)
 ``relay``              relay of amplitude ``a/|K_n|``, hysteresis ``3 noise_std``: ultimate gain and
                        period (Astrom-Hagglund; beyond the seeds)
 =====================  ============================================================================
@@ -158,19 +159,20 @@ def _run(kind: str, plant: Plant, rng: np.random.Generator, amplitude: float, ev
         return closed_loop_step(plant, rng, amplitude=amplitude, noise_std=noise_std, excursion_limit=limit)
     first = evidence.closed_loop
     gain, scale = first.gain, first.residence_time
-    height = amplitude / abs(gain)
+    height = amplitude / gain  # the output rises by about ``amplitude``, whatever the sign of the gain
     if kind == "open-loop-step":
         return open_loop_step(plant, rng, height, scale, gain, noise_std=noise_std, excursion_limit=limit)
     if kind == "open-loop-ramp":
         return open_loop_ramp(plant, rng, height / scale, scale, gain, noise_std=noise_std, excursion_limit=limit)
     if kind == "pulse":
         model = first.integrating_model
+        duration = PULSE_LENGTH * model.dead_time
         return open_loop_pulse(
-            plant, rng, height, PULSE_LENGTH * model.dead_time, model.gain, model.dead_time,
+            plant, rng, height / duration, duration, model.gain, model.dead_time,
             noise_std=noise_std, excursion_limit=limit,
         )  # fmt: skip
     return relay_feedback(
-        plant, rng, height, hysteresis=RELAY_HYSTERESIS * noise_std, noise_std=noise_std, excursion_limit=limit
+        plant, rng, abs(height), hysteresis=RELAY_HYSTERESIS * noise_std, noise_std=noise_std, excursion_limit=limit
     )
 
 

@@ -9,8 +9,11 @@ the closed-loop step gives ``K_n`` (velocity gain) and ``L_n = T_ar``, and a pul
 the ``tau_p = 2.2`` with which Table 2 reproduces for ``L_n`` of 6 to 8 (see
 ``deadtime reproduce ingimundarson-table2``).
 
-Amplitudes are chosen for a unit change of the output (``1/|K_n|`` at the plant input), so that the
-noise-to-signal ratio is ``noise_std`` whatever the plant's gain.
+Amplitudes are chosen for a unit rise of the output (``1/K_n`` at the plant input; a pulse of
+``1/(K_n tau_p)`` into an integrating plant), so that the
+noise-to-signal ratio is ``noise_std`` whatever the plant's gain, and the noisy experiment is the
+same in every unit of gain and time, of either sign (the closed-loop set-point step is a unit rise
+too).
 """
 
 from __future__ import annotations
@@ -87,12 +90,13 @@ def identify(plant: Plant, rng: np.random.Generator, noise_std: float = 0.0) -> 
     first = closed_loop_step(plant, rng, amplitude=1.0, noise_std=noise_std)
     if not (np.isfinite(first.gain) and first.gain != 0 and np.isfinite(first.residence_time) and first.residence_time > 0):
         raise ValueError(f"the closed-loop step identified no usable model (gain {first.gain}, T_ar {first.residence_time})")
-    height = 1.0 / abs(first.gain)
+    height = 1.0 / first.gain  # a unit rise of the output, whatever the sign of the gain
     if plant.integrating:
         model = first.integrating_model
+        duration = PULSE_LENGTH * model.dead_time
         second = open_loop_pulse(
-            plant, rng, height, PULSE_LENGTH * model.dead_time, model.gain, model.dead_time, noise_std=noise_std
-        )
+            plant, rng, height / duration, duration, model.gain, model.dead_time, noise_std=noise_std
+        )  # the pulse raises the output by about 1: K_n h_p tau_p = 1
         return Identification(
             integrating=True,
             gain=model.gain,

@@ -60,7 +60,7 @@ def test_pulse_area_of_integrating_plants(noise_free, name):
     plant, result = PLANTS[name], noise_free[name]
     pulse = result.open_loop
     assert pulse.pulse_duration == pytest.approx(PULSE_LENGTH * result.integrating_model.dead_time, rel=1e-12)
-    assert pulse.height == pytest.approx(1.0 / abs(result.gain), rel=1e-12)
+    assert pulse.height == pytest.approx(1.0 / (result.gain * pulse.pulse_duration), rel=1e-12)  # a unit output rise
     reference = _reference_pulse_area(plant, pulse.height, pulse.pulse_duration)
     assert result.pulse_area == pytest.approx(reference, rel=0.02, abs=2e-3)
 
