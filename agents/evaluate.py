@@ -235,7 +235,8 @@ def evaluate(
     }
     from agents.evaluation_report import write_tables
 
-    result = write_tables(out, env_id, int(n), seed, subsets, roles, extra, per_plant, _notes(best_rule, own))
+    notes = _notes(best_rule, own) + _failure_notes(results, plants)
+    result = write_tables(out, env_id, int(n), seed, subsets, roles, extra, per_plant, notes)
     if plots:
         _plots(out, env_id, plants, results, shown, roles, best_rule, list(agents), unwrapped.constraints)
     return result
@@ -255,7 +256,21 @@ def _notes(best_rule: str, own: list[str]) -> list[str]:
         f"or its formula gives an invalid controller) is a failure: "
         f"it counts as a violation with the cost of an unstable loop ({FAILURE_COST:g}); `failures` is their share.",
         "Intervals: 95 % percentile bootstrap over plants, paired (every policy on the same resampled plants), the "
-        "best rule fixed. Experiment time in units of the true plant's T_ar.",
+        "best rule fixed (chosen on all plants, also in the subsets' tables). Experiment time in units of the true "
+        "plant's T_ar.",
+    ]
+
+
+def _failure_notes(results: list, plants: list) -> list[str]:
+    """One line per policy that failed somewhere: how often, and the first plant and message."""
+    failed: dict[str, list[tuple[str, str]]] = {}
+    for (_, label, _), found in zip(plants, results):
+        for name, result in found.items():
+            if result.failure:
+                failed.setdefault(name, []).append((label, result.error or ""))
+    return [
+        f"Failures of {name}: {len(cases)} of {len(plants)} plants; first on {cases[0][0]}: {cases[0][1]}"
+        for name, cases in sorted(failed.items())
     ]
 
 
