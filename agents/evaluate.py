@@ -7,8 +7,9 @@
 
 Plants: the fixed held-out test set ``envs.plant_sets.plant_set(family, "test", n)`` and, unless
 ``--no-benchmark``, the seeds' benchmark batch of the environment's structure
-(``envs.plant_sets.benchmark_set``).  Plant ``i`` (test plants first) is played in one episode
-reset with seed ``--seed + i``: the noise of its identification is the same for every policy.
+(``envs.plant_sets.benchmark_set``).  Each plant is played in one episode, reset with seed
+``--seed + i`` for test plant ``i`` and ``--seed + 1000000 + j`` for benchmark plant ``j`` (so that
+no seed depends on ``--n``): the noise of its identification is the same for every policy.
 How each policy is scored, and what a rule's failure costs: :mod:`agents.evaluation_run`; the
 policies: :mod:`agents.evaluation_policies`; the statistics (regret, gap closure, paired
 bootstrap seeded with ``--seed``): :mod:`agents.evaluation_stats`.
@@ -124,6 +125,26 @@ def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) 
     return agents
 
 
+BENCHMARK_SEED_OFFSET = 1_000_000
+"""Episode seed of benchmark plant ``j``: ``--seed + BENCHMARK_SEED_OFFSET + j``, whatever ``--n``."""
+
+
+def _episode_seeds(plants: list[tuple[str, str, Any]], seed: int) -> list[int]:
+    """``seed + i`` for test plant ``i``; ``seed + BENCHMARK_SEED_OFFSET + j`` for benchmark plant ``j``.
+
+    Neither depends on ``--n`` (the ``i``-th test plant does not either), so runs with different
+    ``n`` agree on their common plants and share the cache.
+    """
+    out, benchmark = [], 0
+    for i, (subset, _, _) in enumerate(plants):
+        if subset == "test":
+            out.append(seed + i)
+        else:
+            out.append(seed + BENCHMARK_SEED_OFFSET + benchmark)
+            benchmark += 1
+    return out
+
+
 # --------------------------------------------------------------------------- the run
 def evaluate(
     env_id: str,
@@ -172,6 +193,7 @@ def evaluate(
         scoring["noise_std"] = unwrapped.noise_std
     agents = _agents([s for s in specs if s.kind == "agent"], env_id, scoring, {*rules, "oracle", "oracle-full"})
     plants = _plants(family, structure, n, benchmark)
+    episode_seeds = _episode_seeds(plants, seed)
 
     out.mkdir(parents=True, exist_ok=True)
     cache = Cache(out / "cache.jsonl")
@@ -180,13 +202,14 @@ def evaluate(
     mismatch = 0.0
     full = any(s.kind == "oracle-full" for s in specs)
     for index, (subset, label, plant) in enumerate(tqdm(plants, desc=f"evaluate {env_id}", unit="plant", file=sys.stderr)):
-        key = plant_key(env_id, family, seed, index, plant.to_dict())
-        found, off = evaluate_plant(env, plant, seed + index, rules, agents, cache, key, full_oracle=full)
+        episode_seed = episode_seeds[index]
+        key = plant_key(env_id, family, episode_seed, index if subset == "test" else label, plant.to_dict())
+        found, off = evaluate_plant(env, plant, episode_seed, rules, agents, cache, key, full_oracle=full)
         mismatch = max(mismatch, off)
         results.append(found)
         for name, r in found.items():
             per_plant.append({
-                "index": index, "subset": subset, "plant": label, "policy": name, "cost": r.cost,
+                "index": index, "subset": subset, "plant": label, "seed": episode_seed, "policy": name, "cost": r.cost,
                 "feasible": r.feasible, "failure": r.failure, "experiment_time": r.experiment_time,
                 "parameter": r.parameter, "error": r.error or "",
             })  # fmt: skip

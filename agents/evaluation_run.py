@@ -69,9 +69,10 @@ class PolicyResult:
         return cls(FAILURE_COST, False, True, experiment_time, error=str(error))
 
 
-def plant_key(env_id: str, family: str, seed: int, index: int, plant_dict: dict[str, Any]) -> str:
-    """The cache key of one episode: environment, plant set, seed, index and the plant itself."""
-    text = json.dumps([env_id, family, seed, index, plant_dict], sort_keys=True)
+def plant_key(env_id: str, family: str, seed: int, position: int | str, plant_dict: dict[str, Any]) -> str:
+    """The cache key of one episode: environment, plant set, episode seed, position in the set
+    (index or name) and the plant itself."""
+    text = json.dumps([env_id, family, seed, position, plant_dict], sort_keys=True)
     return hashlib.sha1(text.encode()).hexdigest()
 
 

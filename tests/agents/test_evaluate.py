@@ -150,3 +150,12 @@ def test_oracle_is_ahead_of_every_rule_of_its_structure_without_violations(capsy
     for index in range(result["plants"]):
         for rule in own_rules(structure):
             assert float(rows[(index, "oracle")]["cost"]) <= float(rows[(index, rule)]["cost"]) + 1e-9, (index, rule)
+
+
+def test_episode_seeds_do_not_depend_on_n():
+    from agents.evaluate import BENCHMARK_SEED_OFFSET, _episode_seeds
+
+    small = [("test", "a", None), ("test", "b", None), ("benchmark", "P1", None), ("benchmark", "P2", None)]
+    large = small[:2] + [("test", "c", None)] + small[2:]
+    assert _episode_seeds(small, 5) == [5, 6, 5 + BENCHMARK_SEED_OFFSET, 6 + BENCHMARK_SEED_OFFSET]
+    assert _episode_seeds(large, 5) == [5, 6, 7, 5 + BENCHMARK_SEED_OFFSET, 6 + BENCHMARK_SEED_OFFSET]
