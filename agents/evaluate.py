@@ -64,8 +64,11 @@ def run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     if args.json:
         print(json.dumps(result, indent=2))
-    else:
-        print(f"wrote {Path(args.out) / 'results.md'}", file=sys.stderr)
+        return 0
+    from agents.evaluation_report import summary_table
+
+    print(summary_table(result))
+    print(f"wrote {Path(args.out) / 'results.md'} (and .csv, .json, per_plant.csv, plots)", file=sys.stderr)
     return 0
 
 
@@ -169,10 +172,8 @@ def evaluate(
         that cannot be loaded.
     """
     import numpy as np
-    from tqdm import tqdm
 
     from agents.evaluation_policies import own_rules, parse_policies
-    from agents.evaluation_run import Cache, evaluate_plant, plant_key
 
     if isinstance(n, bool) or int(n) != n or n <= 0:
         raise ValueError(f"--n must be a positive integer, got {n!r}")
@@ -193,57 +194,16 @@ def evaluate(
         scoring["noise_std"] = unwrapped.noise_std
     agents = _agents([s for s in specs if s.kind == "agent"], env_id, scoring, {*rules, "oracle", "oracle-full"})
     plants = _plants(family, structure, n, benchmark)
-    episode_seeds = _episode_seeds(plants, seed)
 
     out.mkdir(parents=True, exist_ok=True)
-    cache = Cache(out / "cache.jsonl")
-    per_plant: list[dict[str, Any]] = []
-    results: list[dict[str, Any]] = []
-    mismatch = 0.0
     full = any(s.kind == "oracle-full" for s in specs)
-    for index, (subset, label, plant) in enumerate(tqdm(plants, desc=f"evaluate {env_id}", unit="plant", file=sys.stderr)):
-        episode_seed = episode_seeds[index]
-        key = plant_key(env_id, family, episode_seed, index if subset == "test" else label, plant.to_dict())
-        found, off = evaluate_plant(env, plant, episode_seed, rules, agents, cache, key, full_oracle=full)
-        mismatch = max(mismatch, off)
-        results.append(found)
-        for name, r in found.items():
-            per_plant.append({
-                "index": index, "subset": subset, "plant": label, "seed": episode_seed, "policy": name, "cost": r.cost,
-                "feasible": r.feasible, "failure": r.failure, "experiment_time": r.experiment_time,
-                "parameter": r.parameter, "error": r.error or "",
-            })  # fmt: skip
-
-    def column(name: str, field: str) -> np.ndarray:
-        return np.array([getattr(found[name], field) for found in results], dtype=float)
-
-    means = {name: float(column(name, "cost").mean()) for name in own}
+    results, per_plant, mismatch = _score_plants(env, env_id, family, plants, seed, rules, agents, out, full)
+    means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
     best_rule = min(own, key=lambda name: (means[name], name))
     shown = [s.name for s in specs if s.kind != "agent"] + list(agents)
     shown += [name for name in ("oracle", best_rule) if name not in shown]
-    roles = {name: "rule" for name in shown}
-    roles.update({name: "agent" for name in agents})
-    roles.update({name: name for name in ("oracle", "oracle-full") if name in shown})
-    roles[best_rule] = "best rule" if best_rule in listed_rules else "best rule (reference)"
-
-    subsets: dict[str, Any] = {}
-    from agents.evaluation_stats import summarize
-
-    for subset_name in ("all", "test", "benchmark"):
-        rows = np.array([subset_name == "all" or plants[i][0] == subset_name for i in range(len(plants))])
-        if not rows.any():
-            continue
-        pick = {name: column(name, "cost")[rows] for name in shown}
-        subsets[subset_name] = summarize(
-            pick,
-            {name: 1.0 - column(name, "feasible")[rows] for name in shown},
-            {name: column(name, "failure")[rows] for name in shown},
-            {name: column(name, "experiment_time")[rows] for name in shown},
-            column("oracle", "cost")[rows],
-            column(best_rule, "cost")[rows],
-            resamples=resamples,
-            seed=seed,
-        )
+    roles = _roles(shown, list(agents), best_rule, listed_rules)
+    subsets = _subset_statistics(plants, results, shown, best_rule, resamples, seed)
     elapsed = time.perf_counter() - started
     extra = {
         "family": family,
@@ -263,6 +223,74 @@ def evaluate(
     if plots:
         _plots(out, env_id, plants, results, shown, roles, best_rule, list(agents), unwrapped.constraints)
     return result
+
+
+def _score_plants(
+    env: Any, env_id: str, family: str, plants: list, seed: int, rules: list[str], agents: dict, out: Path, full: bool
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], float]:
+    """Every policy on every plant (with a progress bar): results, ``per_plant.csv`` rows, and the
+    largest difference between the oracle's own cost and the environment's for its optimum."""
+    from tqdm import tqdm
+
+    from agents.evaluation_run import Cache, evaluate_plant, plant_key
+
+    cache = Cache(out / "cache.jsonl")
+    seeds = _episode_seeds(plants, seed)
+    results: list[dict[str, Any]] = []
+    rows: list[dict[str, Any]] = []
+    mismatch = 0.0
+    for index, (subset, label, plant) in enumerate(tqdm(plants, desc=f"evaluate {env_id}", unit="plant", file=sys.stderr)):
+        key = plant_key(env_id, family, seeds[index], index if subset == "test" else label, plant.to_dict())
+        found, off = evaluate_plant(env, plant, seeds[index], rules, agents, cache, key, full_oracle=full)
+        mismatch = max(mismatch, off)
+        results.append(found)
+        rows += [
+            {
+                "index": index, "subset": subset, "plant": label, "seed": seeds[index], "policy": name, "cost": r.cost,
+                "feasible": r.feasible, "failure": r.failure, "experiment_time": r.experiment_time,
+                "parameter": r.parameter, "error": r.error or "",
+            }  # fmt: skip
+            for name, r in found.items()
+        ]
+    return results, rows, mismatch
+
+
+def _roles(shown: list[str], agents: list[str], best_rule: str, listed_rules: list[str]) -> dict[str, str]:
+    """The role of each row of the tables (see :mod:`agents.evaluation_report`)."""
+    roles = {name: "rule" for name in shown}
+    roles.update({name: "agent" for name in agents})
+    roles.update({name: name for name in ("oracle", "oracle-full") if name in shown})
+    roles[best_rule] = "best rule" if best_rule in listed_rules else "best rule (reference)"
+    return roles
+
+
+def _subset_statistics(
+    plants: list, results: list[dict[str, Any]], shown: list[str], best_rule: str, resamples: int, seed: int
+) -> dict[str, list]:
+    """:func:`agents.evaluation_stats.summarize` over all plants, the test set and the benchmark batch."""
+    import numpy as np
+
+    from agents.evaluation_stats import summarize
+
+    def column(name: str, field: str, rows: np.ndarray) -> np.ndarray:
+        return np.array([getattr(found[name], field) for found in results], dtype=float)[rows]
+
+    subsets: dict[str, list] = {}
+    for subset in ("all", "test", "benchmark"):
+        rows = np.array([subset == "all" or p[0] == subset for p in plants])
+        if not rows.any():
+            continue
+        subsets[subset] = summarize(
+            {name: column(name, "cost", rows) for name in shown},
+            {name: 1.0 - column(name, "feasible", rows) for name in shown},
+            {name: column(name, "failure", rows) for name in shown},
+            {name: column(name, "experiment_time", rows) for name in shown},
+            column("oracle", "cost", rows),
+            column(best_rule, "cost", rows),
+            resamples=resamples,
+            seed=seed,
+        )
+    return subsets
 
 
 def _notes(best_rule: str, own: list[str]) -> list[str]:

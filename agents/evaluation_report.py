@@ -17,7 +17,7 @@ from typing import Any
 
 from agents.evaluation_stats import INTERVAL_FIELDS, PolicyStats
 
-__all__ = ["write_tables", "results_json", "markdown_table", "SUBSET_TITLES"]
+__all__ = ["write_tables", "results_json", "markdown_table", "summary_table", "SUBSET_TITLES"]
 
 SUBSET_TITLES = {"all": "All plants", "test": "Random held-out test set", "benchmark": "The seeds' benchmark batch"}
 _COLUMNS = ("mean_cost", "median_cost", "violation_rate", "failure_rate", "experiment_time", "regret", "gap_closure")
@@ -115,3 +115,15 @@ def write_tables(
             writer.writeheader()
             writer.writerows(per_plant)
     return result
+
+
+def summary_table(result: dict[str, Any]) -> str:
+    """A compact plain-text table of ``results.json`` (all plants) for the terminal."""
+    lines = [
+        f"{result['env']}: {result.get('plants', result['n'])} plants, seed {result['seed']}, best rule {result.get('best_rule')}",
+        f"{'policy':24s} {'role':22s} {'mean':>8s} {'median':>8s} {'viol.':>6s} {'regret':>8s} {'gap cl.':>8s}",
+    ]
+    for p in result["policies"]:
+        cells = [_number(p[k]) for k in ("mean_cost", "median_cost", "violation_rate", "regret", "gap_closure")]
+        lines.append(f"{p['name']:24s} {p['role']:22s} {cells[0]:>8s} {cells[1]:>8s} {cells[2]:>6s} {cells[3]:>8s} {cells[4]:>8s}")
+    return "\n".join(lines)

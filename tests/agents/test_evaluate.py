@@ -111,6 +111,13 @@ def test_rerun_is_served_from_the_cache(capsys, tmp_path, monkeypatch):
     second = _evaluate(capsys, tmp_path, "--policies", "ppi-kappa1,oracle", "--no-benchmark", "--no-plots")
     first.pop("wall_time_s"), second.pop("wall_time_s")
     assert first == second
+    # without --json: a plain table on stdout, the progress bar and the paths on stderr
+    assert main(["evaluate", "--env", FAST_ENV, "--n", "2", "--seed", "3", "--out", str(tmp_path),
+                 "--policies", "ppi-kappa1,oracle", "--no-benchmark", "--no-plots"]) == 0  # fmt: skip
+    captured = capsys.readouterr()
+    assert captured.out.splitlines()[0].startswith(f"{FAST_ENV}: 2 plants, seed 3, best rule ")
+    assert any(line.split()[:2] == ["oracle", "oracle"] for line in captured.out.splitlines())
+    assert "results.md" in captured.err
 
 
 @pytest.mark.parametrize(
