@@ -31,40 +31,80 @@ def _per_plant(tmp_path) -> dict[tuple[int, str], dict]:
         return {(int(row["index"]), row["policy"]): row for row in csv.DictReader(file)}
 
 
+class _Constant:
+    """Fixed mode: always action 0."""
+
+    name = "constant"
+    env_id = None
+    env_kwargs: dict = {}
+
+    def predict(self, observation, deterministic=True):
+        assert deterministic
+        return np.zeros(1, dtype=np.float32), None
+
+
+class _Explorer:
+    """Agent mode: runs the first experiment, then commits to the middle of the parameter range."""
+
+    name = "explorer"
+    env_id = FAST_ENV
+    env_kwargs = {"experiments": "agent"}
+
+    def __init__(self, size: int) -> None:
+        self.size, self.calls = size, 0
+
+    def predict(self, observation, deterministic=True):
+        self.calls += 1
+        action = np.full(self.size, -1.0, dtype=np.float32)
+        action[1 if self.calls % 2 else 0] = 1.0  # experiment 1, then commit (every episode: two steps)
+        action[-2:] = 0.0
+        return action, None
+
+
+def _explorer_actions(size: int) -> list[np.ndarray]:
+    agent = _Explorer(size)
+    return [agent.predict(None)[0], agent.predict(None)[0]]
+
+
 @pytest.fixture()
-def constant_agent(monkeypatch, tmp_path):
-    """A stand-in for ``agents.policies.load_policy``: an agent that always plays action 0."""
-    import agents.policies
-
-    class Constant:
-        name = "constant"
-        env_id = None
-        env_kwargs: dict = {}
-
-        def predict(self, observation, deterministic=True):
-            assert deterministic
-            return np.zeros(1, dtype=np.float32), None
-
-    loaded = []
-    monkeypatch.setattr(agents.policies, "load_policy", lambda path: loaded.append(path) or Constant())
-    path = tmp_path / "agent.zip"
-    with zipfile.ZipFile(path, "w") as archive:  # a zip, so that resolve_model_path accepts it
-        archive.writestr("data", "{}")
-    return SimpleNamespace(path=path, loaded=loaded)
-
-
-def test_tiny_run_writes_every_output_and_scores_the_agent_like_the_env(capsys, tmp_path, constant_agent):
+def fake_agents(monkeypatch, tmp_path):
+    """A stand-in for ``agents.policies.load_policy``: ``constant.zip`` and ``explorer.zip``."""
     import gymnasium
 
+    import agents.policies
+    import envs  # noqa: F401  (registers the environments)
+
+    size = gymnasium.make(FAST_ENV, experiments="agent").action_space.shape[0]
+    loaded = []
+
+    def load_policy(path):
+        loaded.append(path)
+        return _Constant() if "constant" in str(path) else _Explorer(size)
+
+    monkeypatch.setattr(agents.policies, "load_policy", load_policy)
+    paths = {}
+    for name in ("constant", "explorer"):
+        paths[name] = tmp_path / f"{name}.zip"
+        with zipfile.ZipFile(paths[name], "w") as archive:  # a zip, so that resolve_model_path accepts it
+            archive.writestr("data", "{}")
+    return SimpleNamespace(paths=paths, loaded=loaded, size=size)
+
+
+def test_tiny_run_writes_every_output_and_scores_the_agents_like_the_env(capsys, tmp_path, fake_agents):
+    import gymnasium
+
+    import envs  # noqa: F401  (registers the environments)
+
     out = tmp_path / "out"
-    result = _evaluate(capsys, out, "--policies", f"ppi-kappa1,simc-pi,oracle,const={constant_agent.path}", "--no-benchmark")
-    assert constant_agent.loaded == [str(constant_agent.path)]
+    agents = f"const={fake_agents.paths['constant']},{fake_agents.paths['explorer']}"
+    result = _evaluate(capsys, out, "--policies", f"ppi-kappa1,simc-pi,oracle,{agents}", "--no-benchmark")
+    assert fake_agents.loaded == [str(fake_agents.paths["constant"]), str(fake_agents.paths["explorer"])]
     assert (result["env"], result["n"], result["seed"]) == (FAST_ENV, 2, 3)
     names = {p["name"]: p for p in result["policies"]}
     best = result["best_rule"]
     assert best in own_rules("fppi")
-    assert {"ppi-kappa1", "simc-pi", "oracle", "const", best} == set(names)
-    assert names["const"]["role"] == "agent" and names["oracle"]["role"] == "oracle"
+    assert {"ppi-kappa1", "simc-pi", "oracle", "const", "explorer", best} == set(names)
+    assert names["const"]["role"] == names["explorer"]["role"] == "agent" and names["oracle"]["role"] == "oracle"
     assert [p["mean_cost"] for p in result["policies"]] == sorted(p["mean_cost"] for p in result["policies"])
     for p in result["policies"]:
         assert {"mean_cost", "median_cost", "violation_rate", "experiment_time", "regret", "gap_closure", "ci95"} <= set(p)
@@ -78,7 +118,7 @@ def test_tiny_run_writes_every_output_and_scores_the_agent_like_the_env(capsys, 
     assert len(list(out.glob("responses_*.png"))) >= 1 and len(list(out.glob("nyquist_*.png"))) >= 1
     assert json.loads((out / "results.json").read_text()) == result
     table = (out / "results.md").read_text()
-    assert "| **oracle** | oracle |" in table and "| **const** | agent |" in table
+    assert "| **oracle** | oracle |" in table and "| **const** | agent |" in table and "| **explorer** | agent |" in table
 
     # The oracle is the optimum of the structure's parameter: no rule of the structure beats it on a plant.
     rows = _per_plant(out)
@@ -87,17 +127,24 @@ def test_tiny_run_writes_every_output_and_scores_the_agent_like_the_env(capsys, 
         for rule in own_rules("fppi"):
             assert oracle <= float(rows[(index, rule)]["cost"]) + 1e-9, (index, rule)
 
-    # The agent is scored exactly as its episode in the environment: same plant, seed and action.
+    # The agents are scored exactly as their episodes in the environment: same plant, seed and actions.
     from envs.plant_sets import plant_set
 
-    env = gymnasium.make(FAST_ENV)
+    fixed, agent_mode = gymnasium.make(FAST_ENV), gymnasium.make(FAST_ENV, experiments="agent")
     for index, plant in enumerate(plant_set("stable", "test", 2)):
-        env.reset(seed=3 + index, options={"plant": plant})
-        _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
+        fixed.reset(seed=3 + index, options={"plant": plant})
+        _, reward, terminated, _, info = fixed.step(np.zeros(1, dtype=np.float32))
         assert terminated
         assert float(rows[(index, "const")]["cost"]) == pytest.approx(-reward, rel=1e-12)
         # the rules are scored on the same identification as the agent
         assert float(rows[(index, "oracle")]["experiment_time"]) == pytest.approx(info["experiment_time"])
+        agent_mode.reset(seed=3 + index, options={"plant": plant})
+        first, last = _explorer_actions(fake_agents.size)
+        assert agent_mode.step(first)[2] is False
+        _, reward, terminated, _, info = agent_mode.step(last)
+        assert terminated
+        assert float(rows[(index, "explorer")]["cost"]) == pytest.approx(-reward, rel=1e-12)
+        assert float(rows[(index, "explorer")]["experiment_time"]) == pytest.approx(info["experiment_time"])
 
 
 def test_rerun_is_served_from_the_cache(capsys, tmp_path, monkeypatch):
