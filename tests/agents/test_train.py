@@ -92,7 +92,7 @@ def test_deadtime_agent_trains_from_the_command_line_deterministically(tmp_path:
     assert costs == _episode_costs(runs[1], 2) and all(np.isfinite(costs))
 
 
-@pytest.mark.parametrize("algorithm", ["ppo", "sac"])
+@pytest.mark.parametrize("algorithm", ["ppo", "sac", "td3", "a2c"])
 def test_train_from_the_command_line_and_load(tmp_path: Path, algorithm: str, capsys: Any) -> None:
     run_dir = tmp_path / "run"
     assert main(["train", "--config", str(_config(tmp_path, algorithm)), "--out", str(run_dir), "seed=2"]) == 0
@@ -111,7 +111,7 @@ def test_train_from_the_command_line_and_load(tmp_path: Path, algorithm: str, ca
     evaluations = json.loads((run_dir / "evaluations.json").read_text())
     assert [e["num_timesteps"] for e in evaluations] == [64, 128, 192, 192]  # periodic, then the final model
     checkpoints = json.loads((run_dir / "checkpoints" / "latest.json").read_text())
-    if algorithm == "sac":
+    if algorithm in ("sac", "td3"):
         assert (run_dir / "checkpoints" / checkpoints["replay_buffer"]).is_file()
 
     from agents.policies import load_policy
