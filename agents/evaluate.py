@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["add_arguments", "run", "evaluate"]
+__all__ = ["add_arguments", "evaluate", "run"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -244,12 +244,9 @@ def _score_plants(
         found, off = evaluate_plant(env, plant, seeds[index], rules, agents, cache, key, full_oracle=full)
         mismatch = max(mismatch, off)
         results.append(found)
+        common = {"index": index, "subset": subset, "plant": label, "seed": seeds[index]}
         rows += [
-            {
-                "index": index, "subset": subset, "plant": label, "seed": seeds[index], "policy": name, "cost": r.cost,
-                "feasible": r.feasible, "failure": r.failure, "experiment_time": r.experiment_time,
-                "parameter": r.parameter, "error": r.error or "",
-            }  # fmt: skip
+            {**common, "policy": name, **r.to_dict(), "controller": json.dumps(r.controller), "error": r.error or ""}
             for name, r in found.items()
         ]
     return results, rows, mismatch
@@ -296,20 +293,27 @@ def _subset_statistics(
 def _notes(best_rule: str, own: list[str]) -> list[str]:
     from agents.evaluation_run import FAILURE_COST
 
-    return [
+    best = (
         f"Best rule: {best_rule}, the lowest mean cost among the rules of the environment's own structure "
         f"({', '.join(own)}); the oracle is the per-plant optimum of that structure's parameter, so only these "
         "rules are bounded by it. Gap closure = (mean cost of the best rule - mean cost)/(mean cost of the best rule "
-        "- mean cost of the oracle).",
+        "- mean cost of the oracle)."
+    )
+    regret = (
         "Regret = mean over plants of (cost - oracle cost), the oracle searched on the same identified data and "
-        "re-scored by the environment (experiment cost included).",
-        f"A rule that raises on a plant (it needs a quantity that was not identified, e.g. msp-tr-tn a positive T_n, "
-        f"or its formula gives an invalid controller) is a failure: "
-        f"it counts as a violation with the cost of an unstable loop ({FAILURE_COST:g}); `failures` is their share.",
+        "re-scored by the environment (experiment cost included)."
+    )
+    failure = (
+        "A rule that raises on a plant (it needs a quantity that was not identified, e.g. msp-tr-tn a positive T_n, "
+        "or its formula gives an invalid controller) is a failure: it counts as a violation with the cost of an "
+        f"unstable loop ({FAILURE_COST:g}); `failures` is their share."
+    )
+    intervals = (
         "Intervals: 95 % percentile bootstrap over plants, paired (every policy on the same resampled plants), the "
         "best rule fixed (chosen on all plants, also in the subsets' tables). Experiment time in units of the true "
-        "plant's T_ar.",
-    ]
+        "plant's T_ar."
+    )
+    return [best, regret, failure, intervals]
 
 
 def _failure_notes(results: list, plants: list) -> list[str]:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["cost_distribution_plot", "responses_plot", "nyquist_plot"]
+__all__ = ["cost_distribution_plot", "nyquist_plot", "responses_plot"]
 
 _HORIZON = 12.0  # in T_ar
 _MAX_STEPS = 20_000

@@ -19,7 +19,7 @@ import os
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["PolicySpec", "parse_policies", "own_rules", "applicable_rules", "STRUCTURE_CONTROLLER", "load_agent"]
+__all__ = ["STRUCTURE_CONTROLLER", "PolicySpec", "applicable_rules", "load_agent", "own_rules", "parse_policies"]
 
 STRUCTURE_CONTROLLER = {"pid": "pid-series", "fppi": "fppi", "msp": "msp"}
 """The controller type of each environment structure's design (the rules of its own structure)."""

@@ -17,7 +17,7 @@ from typing import Any
 
 from agents.evaluation_stats import INTERVAL_FIELDS, PolicyStats
 
-__all__ = ["write_tables", "results_json", "markdown_table", "summary_table", "SUBSET_TITLES"]
+__all__ = ["SUBSET_TITLES", "markdown_table", "results_json", "summary_table", "write_tables"]
 
 SUBSET_TITLES = {"all": "All plants", "test": "Random held-out test set", "benchmark": "The seeds' benchmark batch"}
 _COLUMNS = ("mean_cost", "median_cost", "violation_rate", "failure_rate", "experiment_time", "regret", "gap_closure")

@@ -33,7 +33,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["PolicyResult", "FAILURE_COST", "evaluate_plant", "Cache", "plant_key"]
+__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "evaluate_plant", "plant_key"]
 
 
 FAILURE_COST = 26.0
@@ -44,9 +44,9 @@ FAILURE_COST = 26.0
 class PolicyResult:
     """The outcome of one policy on one plant.
 
-    ``controller`` is the controller's JSON (``None`` on failure); ``parameter`` the design
-    parameter where the policy has one (``mu``, ``T_r``), else ``None``; ``error`` the failure's
-    message.
+    ``controller`` is the controller's JSON (``None`` on failure); ``parameter`` the dimensionless
+    design parameter where the policy has one (``mu``, ``T_r/T_n`` or ``T_r/L_n``, as the agent's
+    and the oracle's), else ``None``; ``error`` the failure's message.
     """
 
     cost: float
@@ -69,10 +69,14 @@ class PolicyResult:
         return cls(FAILURE_COST, False, True, experiment_time, error=str(error))
 
 
+CACHE_VERSION = 2
+"""Bumped whenever a cached result would change meaning (2: dimensionless rule parameters)."""
+
+
 def plant_key(env_id: str, family: str, seed: int, position: int | str, plant_dict: dict[str, Any]) -> str:
-    """The cache key of one episode: environment, plant set, episode seed, position in the set
-    (index or name) and the plant itself."""
-    text = json.dumps([env_id, family, seed, position, plant_dict], sort_keys=True)
+    """The cache key of one episode: cache version, environment, plant set, episode seed, position in
+    the set (index or name) and the plant itself."""
+    text = json.dumps([CACHE_VERSION, env_id, family, seed, position, plant_dict], sort_keys=True)
     return hashlib.sha1(text.encode()).hexdigest()
 
 
@@ -104,6 +108,21 @@ def _finite(x: Any) -> float | None:
     return float(x) if x is not None and math.isfinite(float(x)) else None
 
 
+_STRUCTURE_OF = {"pid-series": "pid", "fppi": "fppi", "msp": "msp"}
+
+
+def _relative_parameter(rule: Any, inputs: Any) -> float | None:
+    """A ``mu``/``T_r`` rule's parameter made dimensionless as the agent's and the oracle's:
+    ``mu``, ``T_r/T_n`` (FOPDT model) or ``T_r/L_n`` (two-parameter model); None for the full PI/PID rules."""
+    from envs.design import relative_scale
+
+    if rule.parameter is None:
+        return None
+    structure = _STRUCTURE_OF[rule.controller]
+    model = {"pid": inputs.sopdt, "fppi": inputs.fopdt, "msp": inputs.integrating_model}[structure]
+    return rule.parameter(inputs) / relative_scale(structure, model)
+
+
 def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
     from baselines.rules import RuleInputs, get_rule
 
@@ -111,7 +130,7 @@ def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
     try:
         inputs = RuleInputs.from_identification(env.unwrapped.identification)
         controller = rule(inputs)
-        parameter = rule.parameter(inputs) if rule.parameter is not None else None
+        parameter = _relative_parameter(rule, inputs)
         score = env.unwrapped.score_controller(controller)
     except ValueError as error:
         return PolicyResult.failed(error, experiment_time)

@@ -9,6 +9,7 @@ import csv
 import json
 import zipfile
 from types import SimpleNamespace
+from typing import ClassVar
 
 import numpy as np
 import pytest
@@ -36,7 +37,7 @@ class _Constant:
 
     name = "constant"
     env_id = None
-    env_kwargs: dict = {}
+    env_kwargs: ClassVar[dict] = {}
 
     def predict(self, observation, deterministic=True):
         assert deterministic
@@ -48,7 +49,7 @@ class _Explorer:
 
     name = "explorer"
     env_id = FAST_ENV
-    env_kwargs = {"experiments": "agent"}
+    env_kwargs: ClassVar[dict] = {"experiments": "agent"}
 
     def __init__(self, size: int) -> None:
         self.size, self.calls = size, 0

@@ -64,3 +64,17 @@ def test_parse_keeps_order_and_drops_duplicates(tmp_path):
 def test_bad_policies_are_named(text, message):
     with pytest.raises(ValueError, match=message):
         parse_policies(text, "pid")
+
+
+def test_rule_parameters_are_dimensionless_like_the_oracles():
+    """``mu`` as is; ``T_r`` over ``T_n`` (FPPI) or ``L_n`` (MSP); none for the full PI/PID rules."""
+    from agents.evaluation_run import _relative_parameter
+    from baselines.rules import RuleInputs, get_rule
+    from envs.identification import FOPDTModel, IntegratingModel
+
+    stable = RuleInputs.from_model(FOPDTModel(gain=2.0, time_constant=4.0, dead_time=1.0))
+    assert _relative_parameter(get_rule("gorez-klan-mu-2"), stable) == pytest.approx(get_rule("gorez-klan-mu-2").parameter(stable))
+    assert _relative_parameter(get_rule("ppi-kappa1"), stable) == pytest.approx(1.0)  # T_r = T_n
+    assert _relative_parameter(get_rule("simc-pi"), stable) is None
+    integrating = RuleInputs.from_model(IntegratingModel(gain=0.5, dead_time=3.0))
+    assert _relative_parameter(get_rule("msp-eq50"), integrating) == pytest.approx(0.5)  # T_r/L_n = 2*0.2/0.8
