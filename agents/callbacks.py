@@ -45,7 +45,7 @@ __all__ = [
     "write_text",
 ]
 
-VALIDATION_SEED = 1_000_003  # reset seed of validation plant k is VALIDATION_SEED + k
+VALIDATION_SEED = 3_000_000  # reset seed of validation plant k; disjoint from training (seed + i) and deadtime evaluate (seed + i, seed + 1_000_000 + j)
 CHECKPOINT_INDEX = "latest.json"
 
 

@@ -261,25 +261,16 @@ def train(
         If the config is invalid, the run directory already holds a run and ``resume`` is False,
         or ``resume`` is True with a config that differs from the run's.
     """
-    from agents.callbacks import latest_checkpoint, make_callbacks, save_model, write_text
+    from agents.callbacks import make_callbacks, save_model, write_text
 
     validate(config)
     run_dir = run_directory(config)
-    saved_config = run_dir / "config.yaml"
-    checkpoint = None
-    if resume and saved_config.is_file():
-        _check_resumable(load_config(saved_config), config, run_dir)
-        checkpoint = latest_checkpoint(run_dir)
-    elif not resume and (saved_config.exists() or (run_dir / "checkpoints").exists()):
-        raise ValueError(f"{run_dir} already holds a run; pass --resume to continue it, or choose another --out")
+    checkpoint = _prepare_run_directory(config, run_dir, resume)
     finished = _finished(run_dir, config) if resume else None
     if finished is not None:
         print(f"{run_dir} already finished {finished.num_timesteps} steps (raise total_timesteps to extend it)")
         return finished
-    if checkpoint is not None and int(checkpoint["num_timesteps"]) >= config.total_timesteps:
-        raise ValueError(f"{run_dir}: the latest checkpoint has {checkpoint['num_timesteps']} steps, "
-                         f"total_timesteps is {config.total_timesteps}; nothing to resume")
-    run_dir.mkdir(parents=True, exist_ok=True)
+    saved_config = run_dir / "config.yaml"
 
     provenance = {"command": command or "(python API)", "commit": _git_commit(), "versions": _versions(),
                   "started": datetime.now(timezone.utc).isoformat(timespec="seconds")}
@@ -288,32 +279,14 @@ def train(
     write_text(saved_config, text)  # on --resume: the same config, but total_timesteps may have grown
 
     _setup_torch(config)
-    import stable_baselines3
     from stable_baselines3.common.utils import set_random_seed
-    from stable_baselines3.common.vec_env import VecNormalize
 
-    algorithm = getattr(stable_baselines3, config.algorithm)
     set_random_seed(config.seed)
     venv = make_vec_env(config)
     eval_env = make_env(config.env_id, config.env_kwargs)
     try:
-        if config.normalize:
-            if checkpoint is not None and checkpoint.get("vecnormalize"):
-                venv = VecNormalize.load(checkpoint["vecnormalize"], venv)
-                venv.training = True
-            else:
-                venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
-        vecnormalize = venv if config.normalize else None
-        tensorboard = str(run_dir / "tensorboard")
-        if checkpoint is None:
-            model = algorithm(config.policy, venv, seed=config.seed, device=config.device, verbose=0,
-                              tensorboard_log=tensorboard, policy_kwargs=_policy_kwargs(config),
-                              **_hyperparameters(config, venv.action_space))
-        else:
-            model = algorithm.load(checkpoint["model"], env=venv, device=config.device, tensorboard_log=tensorboard)
-            if checkpoint.get("replay_buffer"):
-                model.load_replay_buffer(checkpoint["replay_buffer"])
-            model.set_random_seed(config.seed + model.num_timesteps)
+        model, vecnormalize = _model(config, checkpoint, venv, str(run_dir / "tensorboard"))
+        venv = model.get_env()
         history = checkpoint["evaluations"] if checkpoint is not None else ()
         run_callbacks, validator, checkpointer = make_callbacks(
             run_dir, config.total_timesteps, eval_env, config.n_eval_episodes, config.eval_freq,
@@ -341,6 +314,49 @@ def train(
     return TrainResult(run_dir=run_dir, num_timesteps=model.num_timesteps, session_steps=steps, train_seconds=train_seconds,
                        steps_per_second=steps / train_seconds if train_seconds > 0 else float("nan"),
                        best_cost=validator.best, final_cost=final.mean_cost)
+
+
+def _prepare_run_directory(config: TrainConfig, run_dir: Path, resume: bool) -> dict[str, Any] | None:
+    """Check that the run directory fits the request; return the checkpoint to resume from, if any."""
+    from agents.callbacks import latest_checkpoint
+
+    saved_config = run_dir / "config.yaml"
+    checkpoint = None
+    if resume and saved_config.is_file():
+        _check_resumable(load_config(saved_config), config, run_dir)
+        checkpoint = latest_checkpoint(run_dir)
+    elif not resume and (saved_config.exists() or (run_dir / "checkpoints").exists()):
+        raise ValueError(f"{run_dir} already holds a run; pass --resume to continue it, or choose another --out")
+    if checkpoint is not None and int(checkpoint["num_timesteps"]) >= config.total_timesteps and not _finished(run_dir, config):
+        raise ValueError(f"{run_dir}: the latest checkpoint has {checkpoint['num_timesteps']} steps, "
+                         f"total_timesteps is {config.total_timesteps}; nothing to resume")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    return checkpoint
+
+
+def _model(config: TrainConfig, checkpoint: Mapping[str, Any] | None, venv: Any, tensorboard: str) -> tuple[Any, Any]:
+    """``(model, vecnormalize)``: a new model on ``venv``, or the checkpoint's with its replay buffer and statistics."""
+    import stable_baselines3
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    algorithm = getattr(stable_baselines3, config.algorithm)
+    if config.normalize:
+        if checkpoint is not None and checkpoint.get("vecnormalize"):
+            venv = VecNormalize.load(checkpoint["vecnormalize"], venv)
+            venv.training = True
+        else:
+            venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
+    vecnormalize = venv if config.normalize else None
+    if checkpoint is None:
+        model = algorithm(config.policy, venv, seed=config.seed, device=config.device, verbose=0,
+                          tensorboard_log=tensorboard, policy_kwargs=_policy_kwargs(config),
+                          **_hyperparameters(config, venv.action_space))
+    else:
+        model = algorithm.load(checkpoint["model"], env=venv, device=config.device, tensorboard_log=tensorboard)
+        if checkpoint.get("replay_buffer"):
+            model.load_replay_buffer(checkpoint["replay_buffer"])
+        model.set_random_seed(config.seed + model.num_timesteps)
+    return model, vecnormalize
 
 
 def _close(venv: Any) -> None:
