@@ -22,6 +22,7 @@ Each class gives ``feedback_response``/``reference_response`` (exact, dead times
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -80,8 +81,13 @@ class PID:
             den = np.polymul(den, filt)
         return self.kp * num, den
 
+    @cached_property
+    def _coefficients(self) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`transfer_function`, computed once (the controller is immutable)."""
+        return self.transfer_function()
+
     def feedback_response(self, omega: np.ndarray) -> np.ndarray:
-        num, den = self.transfer_function()
+        num, den = self._coefficients
         s = 1j * np.asarray(omega, dtype=float)
         return np.polyval(num, s) / np.polyval(den, s)
 
@@ -138,6 +144,7 @@ class SeriesPID:
             den = np.polymul(den, [self.td / self.n, 1.0])
         return self.kp * num, den
 
+    _coefficients = PID._coefficients
     feedback_response = PID.feedback_response
     reference_response = PID.feedback_response
     block = PID.block
