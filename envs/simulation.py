@@ -260,15 +260,15 @@ def simulate_batch(discretes: Sequence[DiscreteDelaySystem], inputs: np.ndarray)
 
 
 @numba.njit(cache=True)
-def _affine(M1, M2, M3, b, row, x, d, v):  # pragma: no cover - compiled
-    """``M1[b, row] x + M2[b, row] d + M3[b, row] v``."""
+def _affine(M1, M2, M3, row, x, d, v):  # pragma: no cover - compiled
+    """``M1[row] x + M2[row] d + M3[row] v``."""
     acc = 0.0
     for k in range(x.size):
-        acc += M1[b, row, k] * x[k]
+        acc += M1[row, k] * x[k]
     for k in range(d.size):
-        acc += M2[b, row, k] * d[k]
+        acc += M2[row, k] * d[k]
     for k in range(v.size):
-        acc += M3[b, row, k] * v[k]
+        acc += M3[row, k] * v[k]
     return acc
 
 
@@ -276,42 +276,54 @@ def _affine(M1, M2, M3, b, row, x, d, v):  # pragma: no cover - compiled
 def _run(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit):  # pragma: no cover - compiled
     """The recursion of :class:`DiscreteDelaySystem` over a stacked batch (compiled with numba).
 
-    ``history[b, offset + k, i]`` holds ``w_i[k]`` (zero for ``k < 0``: the system starts at rest).
+    ``history[offset + k, i]`` holds ``w_i[k]`` (zero for ``k < 0``: the system starts at rest).
     """
     B, steps, _ = d.shape
-    n, nz, nv = Phi.shape[1], C1.shape[1], a.shape[1]
+    nv = a.shape[1]
     offset = 1
     for b in range(B):
         for i in range(nv):
             offset = max(offset, whole[b, i] + 1)
-    z = np.full((B, steps, nz), np.nan)
+    z = np.full((B, steps, C1.shape[1]), np.nan)
     alive = np.ones(B, dtype=np.bool_)
     for b in range(B):
-        history = np.zeros((offset + steps + 1, nv))
-        x = np.zeros(n)
-        x_next = np.zeros(n)
-        v = np.zeros(nv)
-        past = np.zeros(nv * 3)
-        for j in range(steps):
-            dj = d[b, j]
-            for i in range(nv):
-                base = offset + j - whole[b, i] - 1
-                v[i] = a[b, i] * history[base, i] + (1.0 - a[b, i]) * history[base + 1, i]
-            for o in range(nz):
-                z[b, j, o] = _affine(C1, D11, D12, b, o, x, dj, v)
-            for i in range(nv):
-                history[offset + j, i] = _affine(C2, D21, D22, b, i, x, dj, v)
-            for i in range(nv):  # w_i[j - m_i - 1 + k], k = 0, 1, 2; w[j] is known now
-                base = offset + j - whole[b, i] - 1
-                for k in range(3):
-                    past[3 * i + k] = history[base + k, i]
-            for r in range(n):
-                x_next[r] = _affine(Phi, Gamma, R, b, r, x, dj, past)
-            x[:] = x_next
-            if not np.all(np.abs(x) < limit[b]):
-                alive[b] = False
-                break
+        alive[b] = _run_one(
+            Phi[b], Gamma[b], R[b], C1[b], D11[b], D12[b], C2[b], D21[b], D22[b], whole[b], a[b], d[b], limit[b],
+            offset, z[b],
+        )  # fmt: skip
     return z, alive
+
+
+@numba.njit(cache=True)
+def _run_one(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit, offset, z):  # pragma: no cover
+    """One system of :func:`_run`: fills ``z`` and returns False if it diverged."""
+    n, nz, nv = Phi.shape[0], C1.shape[0], a.size
+    history = np.zeros((offset + d.shape[0] + 1, nv))
+    x = np.zeros(n)
+    x_next = np.zeros(n)
+    v = np.zeros(nv)
+    past = np.zeros(nv * 3)
+    for j in range(d.shape[0]):
+        dj = d[j]
+        for i in range(nv):
+            base = offset + j - whole[i] - 1
+            v[i] = a[i] * history[base, i] + (1.0 - a[i]) * history[base + 1, i]
+        for o in range(nz):
+            z[j, o] = _affine(C1, D11, D12, o, x, dj, v)
+        for i in range(nv):
+            history[offset + j, i] = _affine(C2, D21, D22, i, x, dj, v)
+        for i in range(nv):  # w_i[j - m_i - 1 + k], k = 0, 1, 2; w[j] is known now
+            base = offset + j - whole[i] - 1
+            for k in range(3):
+                past[3 * i + k] = history[base + k, i]
+        bounded = True
+        for r in range(n):
+            x_next[r] = _affine(Phi, Gamma, R, r, x, dj, past)
+            bounded = bounded and abs(x_next[r]) < limit
+        x[:] = x_next
+        if not bounded:
+            return False
+    return True
 
 def delayed_zoh(state_space, delay: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Exact ZOH discretization of ``G(s) e^{-L s}`` for a piecewise-constant input.
@@ -349,14 +361,32 @@ def open_loop_response(state_space, delay: float, inputs: np.ndarray, dt: float)
     padded = np.concatenate([np.zeros(m + 1), u])  # padded[k + m + 1] = u[k]
     u_now = padded[1 : steps + 1]  # u[j - m]
     u_before = padded[:steps]  # u[j - m - 1]
-    C = state_space.C.ravel()
+    C = np.ascontiguousarray(state_space.C.ravel(), dtype=float)
     D = float(state_space.D.ravel()[0]) if state_space.D.size else 0.0
     g0, g1 = gamma0.ravel(), gamma1.ravel()
-    x = np.zeros(state_space.A.shape[0])
-    y = np.empty(steps)
-    for j in range(steps):
-        y[j] = C @ x + D * (u_before[j] if fractional else u_now[j])
-        x = Phi @ x + g0 * u_now[j] + g1 * u_before[j]
+    direct = u_before if fractional else u_now
+    return _open_loop_run(np.ascontiguousarray(Phi), g0, g1, C, D, u_now, u_before, direct)
+
+
+@numba.njit(cache=True)
+def _open_loop_run(Phi, g0, g1, C, D, u_now, u_before, direct):  # pragma: no cover - compiled
+    """The recursion of :func:`open_loop_response`: ``y[j] = C x[j] + D direct[j]``,
+    ``x[j+1] = Phi x[j] + g0 u_now[j] + g1 u_before[j]`` from ``x[0] = 0``."""
+    n = Phi.shape[0]
+    x = np.zeros(n)
+    x_next = np.zeros(n)
+    y = np.empty(u_now.size)
+    for j in range(u_now.size):
+        acc = 0.0
+        for k in range(n):
+            acc += C[k] * x[k]
+        y[j] = acc + D * direct[j]
+        for r in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += Phi[r, k] * x[k]
+            x_next[r] = acc + g0[r] * u_now[j] + g1[r] * u_before[j]
+        x[:] = x_next
     return y
 
 
