@@ -65,16 +65,29 @@ def commissioning_pi(plant: Plant, max_sensitivity_target: float = COMMISSIONING
     if target <= 1.0:
         raise ValueError(f"max_sensitivity_target must be > 1, got {target!r}")
     omega = _sensitivity_grid(plant)
-    process = plant.frequency_response(omega)
     detuning = np.geomspace(1e-3, 1.0, 139)
     kp, reset_rate = (_integrating_rule if plant.integrating else _lambda_rule)(plant, detuning)
-    pi = kp[:, None] * (1.0 + reset_rate / (1j * omega[None, :]))
-    sensitivity = np.max(1.0 / np.abs(1.0 + pi * process[None, :]), axis=1)
-    bad = np.flatnonzero(sensitivity > target)
+    loop = np.sign(kp[-1]) * plant.frequency_response(omega) * (1.0 + reset_rate / (1j * omega))
+    bad = np.flatnonzero(_detuned_sensitivities(loop, np.abs(kp)) > target)
     best = detuning.size - 1 if bad.size == 0 else bad[0] - 1
     if best < 0:  # pragma: no cover - a loop detuned 1000 times is far inside the target
         raise ValueError("no PI with the required maximum sensitivity found")
     return PID(kp=float(kp[best]), ti=1.0 / reset_rate if reset_rate > 0 else None)
+
+
+def _detuned_sensitivities(loop: np.ndarray, gains: np.ndarray) -> np.ndarray:
+    """``max_omega 1/|1 + k L(i omega)|`` for each gain ``k >= 0``, or 1 where that maximum is below 1.
+
+    Only the frequencies where ``Re L < 0`` are used (elsewhere ``|1 + k L| >= 1``), which is all
+    that comparisons with a target ``> 1`` need; real arithmetic,
+    ``|1 + k L|^2 = (1 + k Re L)^2 + (k Im L)^2``.
+    """
+    left = loop[loop.real < 0]
+    if left.size == 0:
+        return np.ones_like(gains)
+    k = gains[:, None]
+    distance = (1.0 + k * left.real[None, :]) ** 2 + (k * left.imag[None, :]) ** 2
+    return 1.0 / np.sqrt(np.minimum(np.min(distance, axis=1), 1.0))
 
 
 def _sensitivity_grid(plant: Plant) -> np.ndarray:

@@ -1,0 +1,150 @@
+"""The vectorized and compiled fast paths against the straightforward methods they replace.
+
+* :func:`envs.robustness._bracketed_roots` (all crossings at once) against ``scipy.optimize.brentq``
+  on each bracket, and :func:`envs.robustness._peak` against a dense evaluation;
+* the figures of :func:`envs.robustness.loop_margins` against a point-by-point reference built on
+  ``brentq`` and ``minimize_scalar`` (the method used before the vectorization);
+* :func:`envs.commissioning._detuned_sensitivities` against ``max |1/(1 + k L)|`` in complex
+  arithmetic;
+* the compiled recursion of :func:`envs.simulation.open_loop_response` against the same recursion
+  written as a Python loop.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.optimize
+
+from envs.commissioning import _detuned_sensitivities
+from envs.controllers import FPPI, MSP, PID, SeriesPID
+from envs.loops import loop_response
+from envs.plants import Plant
+from envs.robustness import _bracketed_roots, _peak, frequency_grid, _refine, loop_margins
+from envs.simulation import delayed_zoh, open_loop_response
+
+
+# ----------------------------------------------------------------------------- roots and peaks
+ROOT_FUNCTIONS = {
+    "cubic": lambda x: x**3 - 2 * x - 5,
+    "oscillating": lambda x: np.sin(7 * x) + 0.3 * x,
+    "steep": lambda x: np.tanh(40 * (x - 0.123)),
+    "flat-near-root": lambda x: (x - 0.7) ** 3,
+}
+
+
+@pytest.mark.parametrize("name", ROOT_FUNCTIONS)
+def test_bracketed_roots_agree_with_brentq(name):
+    fun = ROOT_FUNCTIONS[name]
+    grid = np.linspace(-3.0, 3.0, 61)
+    values = fun(grid)
+    i = np.flatnonzero(values[:-1] * values[1:] < 0)
+    assert i.size > 0
+    roots = _bracketed_roots(fun, grid[i], grid[i + 1], values[i], values[i + 1])
+    expected = [scipy.optimize.brentq(fun, grid[k], grid[k + 1], xtol=1e-14) for k in i]
+    # a triple root is only defined to about eps^(1/3) by the function values
+    tolerance = 1e-4 if name == "flat-near-root" else 1e-12
+    np.testing.assert_allclose(roots, expected, rtol=0, atol=tolerance)
+
+
+def test_peak_refines_to_the_maximum_of_a_dense_evaluation():
+    fun = lambda w: 1 / np.abs(1 + 2.5 * np.exp(-1j * w) / (1j * w + 1))  # noqa: E731
+    omega = np.logspace(-1, 1, 41)
+    value, frequency = _peak(fun, omega, fun(omega))
+    dense = np.logspace(np.log10(omega[0]), np.log10(omega[-1]), 2_000_001)
+    assert value >= fun(dense).max() * (1 - 1e-12)
+    result = scipy.optimize.minimize_scalar(lambda x: -fun(np.array([math.exp(x)]))[0], bounds=(0.0, 1.0), method="bounded",
+                                            options={"xatol": 1e-12})  # fmt: skip
+    assert value == pytest.approx(-result.fun, rel=1e-12)
+    assert frequency == pytest.approx(math.exp(result.x), rel=1e-6)
+
+
+# ----------------------------------------------------------------------------- margins
+def _reference_margins(loop, integrators: int, time_scale: float) -> dict[str, float]:
+    """Crossovers by ``brentq`` one bracket at a time and peaks by bounded Brent, on the same grid."""
+    omega, _ = frequency_grid(loop, integrators, time_scale)
+    omega, values = _refine(loop, omega, loop(omega))
+
+    def crossings(fun, samples):
+        roots = list(omega[samples == 0])
+        for i in np.flatnonzero(samples[:-1] * samples[1:] < 0):
+            f = lambda x: fun(np.array([math.exp(x)]))[0]  # noqa: E731
+            roots.append(math.exp(scipy.optimize.brentq(f, math.log(omega[i]), math.log(omega[i + 1]), xtol=1e-14)))
+        return np.sort(roots)
+
+    def peak(fun, samples):
+        i = int(np.argmax(samples))
+        lo, hi = math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])
+        result = scipy.optimize.minimize_scalar(lambda x: -fun(np.array([math.exp(x)]))[0], bounds=(lo, hi),
+                                                method="bounded", options={"xatol": 1e-13})  # fmt: skip
+        return max(-result.fun, samples[i])
+
+    gains = crossings(lambda w: np.log(np.abs(loop(w))), np.log(np.abs(values)))
+    phase = crossings(lambda w: loop(w).imag, values.imag)
+    phase = phase[loop(phase).real < 0] if phase.size else phase
+    factors = [1 / abs(loop(np.array([w]))[0]) for w in phase]
+    angles = np.angle(loop(gains)) if gains.size else np.array([])
+    return {
+        "ms": peak(lambda w: 1 / np.abs(1 + loop(w)), 1 / np.abs(1 + values)),
+        "mt": peak(lambda w: np.abs(loop(w) / (1 + loop(w))), np.abs(values / (1 + values))),
+        "gain_margin": min([f for f in factors if f > 1], default=math.inf),
+        "phase_margin_deg": math.degrees(min(((angles + 2 * math.pi) % (2 * math.pi)) - math.pi, default=math.inf)),
+        "delay_margin": min(((angles + math.pi) % (2 * math.pi)) / gains, default=math.inf),
+        "crossovers": len(gains),
+    }
+
+
+MARGIN_LOOPS = {
+    "series-pid-fopdt": (Plant.from_time_constants(1.0, [1.0], 0.4), SeriesPID(2.0, 1.0, 0.2, 10.0)),
+    "pid-lag-chain": (Plant.from_time_constants(-2.0, [1.0, 0.5, 0.25, 0.125], 1.0), PID(-0.4, 1.5, 0.3, 10.0)),
+    "fppi-nmp": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5), FPPI(1.0, 2.5, 1.0, 0.8, 0.8)),
+    "msp-integrating": (Plant.from_time_constants(1.0, [1.0], 2.0, integrating=True), MSP(1.0, 3.0, 2.0)),
+    "resonant-pid": (Plant(num=[9.0], den=[1.0, 3.0, 11.0, 9.0], delay=0.3), SeriesPID(0.5, 1.0, 0.1, 10.0)),
+}
+
+
+@pytest.mark.parametrize("name", MARGIN_LOOPS)
+def test_margins_agree_with_the_point_by_point_reference(name):
+    plant, controller = MARGIN_LOOPS[name]
+    loop = lambda w: loop_response(plant, controller, w)  # noqa: E731
+    integrators = int(plant.integrating) + controller.integrators
+    fast = loop_margins(loop, integrators, plant.step_time_scale())
+    reference = _reference_margins(loop, integrators, plant.step_time_scale())
+    assert len(fast.gain_crossovers) == reference["crossovers"]
+    for key in ("ms", "mt", "gain_margin", "phase_margin_deg", "delay_margin"):
+        assert getattr(fast, key) == pytest.approx(reference[key], rel=1e-10), key
+
+
+# ----------------------------------------------------------------------------- commissioning
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+@pytest.mark.parametrize("delay", [0.0, 0.8])
+def test_detuned_sensitivities_agree_with_complex_arithmetic(sign, delay):
+    omega = np.logspace(-3, 2, 500)
+    plant = Plant.from_time_constants(sign * 1.5, [1.0], delay)
+    loop = sign * plant.frequency_response(omega)  # without delay, Re L > 0: no sensitivity above 1
+    gains = np.geomspace(1e-3, 3.0, 60)
+    expected = np.max(1 / np.abs(1 + gains[:, None] * loop[None, :]), axis=1)
+    fast = _detuned_sensitivities(loop, gains)
+    above = expected > 1
+    assert above.all() if delay > 0 else not above.any()
+    np.testing.assert_allclose(fast[above], expected[above], rtol=1e-12)
+    assert np.all(fast[~above] == 1.0)
+
+
+# ----------------------------------------------------------------------------- open-loop recursion
+@pytest.mark.parametrize("delay", [0.0, 0.3, 0.35, 1.0])
+def test_compiled_open_loop_recursion_matches_the_python_loop(delay):
+    plant = Plant(num=[-0.5, 1.0], den=[1.0, 2.2, 1.7, 0.5], delay=delay)
+    ss = plant.state_space()
+    dt = 0.1
+    u = np.where(np.arange(300) < 120, 1.5, -0.25)
+    Phi, g0, g1, m = delayed_zoh(ss, delay, dt)
+    padded = np.concatenate([np.zeros(m + 1), u])
+    x, expected = np.zeros(ss.A.shape[0]), []
+    for j in range(u.size):
+        now, before = padded[j + 1], padded[j]
+        expected.append(float((ss.C @ x)[0]) + ss.D[0, 0] * (before if np.any(g1) else now))
+        x = Phi @ x + g0.ravel() * now + g1.ravel() * before
+    np.testing.assert_allclose(open_loop_response(ss, delay, u, dt), expected, rtol=1e-12, atol=1e-14)
