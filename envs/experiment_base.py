@@ -65,9 +65,20 @@ def excursion_index(true_output: np.ndarray, limit: float | None) -> int | None:
     return int(outside[0]) if outside.size else None
 
 
+def snap_to_integer(ratio: float) -> float:
+    """``ratio`` snapped to the nearest integer when within rounding of it.
+
+    Counts of samples (``ceil`` of a duration over ``dt``) are then the same in every unit of time:
+    ``MAX_DURATION T/dt`` is an integer on paper and ``4000.0000000000005`` in some units.  A count
+    that differs by one draws one more noise sample and shifts the noise of every later experiment.
+    """
+    nearest = round(ratio)
+    return float(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, abs(ratio)) else ratio
+
+
 def cap_steps(scale: float, dt: float, max_duration: float | None, minimum: float = 0.0) -> int:
     cap = MAX_DURATION if max_duration is None else require_number(max_duration, "max_duration", positive=True)
-    return max(int(math.ceil(max(cap * scale, minimum) / dt)) + 1, 4)
+    return max(int(math.ceil(snap_to_integer(max(cap * scale, minimum) / dt))) + 1, 4)
 
 
 # --------------------------------------------------------------------------- results and runs

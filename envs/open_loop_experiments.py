@@ -34,6 +34,7 @@ from envs.experiment_base import (
     ExperimentRun,
     run_until_settled,
     sample_time,
+    snap_to_integer,
 )
 from envs.identification import (
     FOPDTModel,
@@ -101,7 +102,7 @@ def _smoothing_samples(signal: np.ndarray, change: float, residence_time: float,
     samples = (12.0 * noise_level(signal) ** 2 / (dt * slope_scale) ** 2) ** (1.0 / 3.0)
     if samples <= 2.0:
         return 1
-    return int(min(math.ceil(samples), max(residence_time / (4.0 * dt), 3)))
+    return int(min(math.ceil(samples), max(snap_to_integer(residence_time / (4.0 * dt)), 3)))
 
 
 def _moving_average(signal: np.ndarray, samples: int) -> np.ndarray:
@@ -207,7 +208,7 @@ def open_loop_step(
     steps = cap_steps(scale, dt, max_duration, minimum=2.0 * residence_time)
     noise = measurement_noise(rng, noise_std, steps)
     window = window_samples(residence_time, dt)
-    start = int(math.ceil(2.0 * residence_time / dt))
+    start = math.ceil(snap_to_integer(2.0 * residence_time / dt))
     run = _run_to_steady_state(plant, np.full(steps, height), noise, dt, window, start, excursion_limit)
     record = record_fields(run, scale)
     return OpenLoopStepResult(**record, height=height, settled=run.settled,
