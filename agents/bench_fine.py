@@ -31,7 +31,7 @@ import scipy.signal
 from envs.controllers import FPPI, MSP, PID, Controller, SeriesPID
 from envs.plants import Plant
 
-__all__ = ["FineIAE", "fine_step_iae", "STEPS_PER_TIME_SCALE"]
+__all__ = ["STEPS_PER_TIME_SCALE", "FineIAE", "fine_step_iae"]
 
 STEPS_PER_TIME_SCALE = 2000
 MIN_DELAY_STEPS = 8
@@ -58,7 +58,7 @@ def _scaled_plant(plant: Plant, scale: float) -> tuple[np.ndarray, np.ndarray, n
     # coefficient of s^k multiplied by T^-k: s = sigma / T
     num = num * scale ** -np.arange(len(num) - 1, -1, -1.0)
     den = den * scale ** -np.arange(len(den) - 1, -1, -1.0)
-    A, B, C, D = scipy.signal.tf2ss(num / den[0], den / den[0])
+    A, B, C, _ = scipy.signal.tf2ss(num / den[0], den / den[0])
     return A, B[:, 0], C[0]
 
 
@@ -159,7 +159,7 @@ def _interpolate(history, channel, position):  # pragma: no cover - compiled
     """Cubic Lagrange value of ``history[:, channel]`` at fractional index ``position`` (zero before 0)."""
     if position <= 0.0:
         return 0.0
-    k = int(math.floor(position))
+    k = math.floor(position)
     s = position - k
     weights = (
         -s * (s - 1.0) * (s - 2.0) / 6.0,
@@ -259,7 +259,7 @@ def fine_step_iae(plant: Plant, controller: Controller, *, steps_per_time_scale:
         h = float(np.min(delays)) / MIN_DELAY_STEPS
     horizon = HORIZON
     while True:
-        steps = int(math.ceil(horizon / h))
+        steps = math.ceil(horizon / h)
         values = []
         settled = True
         for d in (np.array([0.0, 1.0]), np.array([1.0, 0.0])):
