@@ -73,10 +73,10 @@ def resolve_model_path(path: str | Path) -> Path:
     """The model file of a run directory (``best_model.zip``, else ``model.zip``) or of a ``.zip`` path."""
     path = Path(path)
     if path.is_dir():
-        for name in ("best_model.zip", "model.zip"):
-            if (path / name).is_file():
-                return path / name
-        raise ValueError(f"{path} holds no best_model.zip or model.zip (is it a deadtime train run directory?)")
+        found = next((path / name for name in ("best_model.zip", "model.zip") if (path / name).is_file()), None)
+        if found is None:
+            raise ValueError(f"{path} holds no best_model.zip or model.zip (is it a deadtime train run directory?)")
+        path = found
     if not path.is_file() and path.with_suffix(".zip").is_file():
         path = path.with_suffix(".zip")
     if not path.is_file():
