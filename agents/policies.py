@@ -108,9 +108,9 @@ def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
     ValueError
         If there is no model at ``path`` or no stable-baselines3 algorithm can load it.
     """
+    model_path = resolve_model_path(path)  # a missing or unreadable file is named before torch is imported
     import stable_baselines3
 
-    model_path = resolve_model_path(path)
     config_path = model_path.parent / "config.yaml"
     config = load_config(config_path) if config_path.is_file() else None
     candidates = [config.algorithm] if config is not None else _likely_algorithms(model_path)
