@@ -224,6 +224,11 @@ def make_callbacks(
                 model.logger.record("eval/violation_rate", result.violation_rate)
             model.logger.record("eval/best_mean_cost", self.best)
             model.logger.dump(model.num_timesteps)
+            from tqdm import tqdm
+
+            violations = "" if result.violation_rate is None else f", violations {result.violation_rate:.0%}"
+            tqdm.write(f"step {model.num_timesteps}: validation mean cost {result.mean_cost:.6g} "
+                       f"(median {result.median_cost:.6g}{violations}); best {self.best:.6g}")
             return result
 
     class Checkpointer(BaseCallback):
