@@ -5,7 +5,7 @@ classes are built by :func:`make_callbacks` so that importing this module stays 
 
 Validation (:func:`validate_policy`) runs one deterministic episode per plant of the validation set
 ``envs.plant_sets.plant_set(family, "validation", n)`` (never a test set), resetting with
-``options={"plant": p}`` and the seed ``VALIDATION_SEED + k`` for plant ``k``.  Training
+``options={"plant": p}`` and the seed ``VALIDATION_SEED + k`` (3_000_000 + k) for plant ``k``.  Training
 environments use the seeds ``seed + i`` of a config's small integer seed, so the two never meet.
 Environments without plant sets (any non-``DeadTime`` id) are validated on ``n`` episodes reset with
 those seeds alone.
@@ -45,7 +45,9 @@ __all__ = [
     "write_text",
 ]
 
-VALIDATION_SEED = 3_000_000  # reset seed of validation plant k; disjoint from training (seed + i) and deadtime evaluate (seed + i, seed + 1_000_000 + j)
+# Reset seed of validation plant k is VALIDATION_SEED + k: disjoint from the training environments
+# (seed + i) and from deadtime evaluate's (seed + i, seed + 1_000_000 + j).
+VALIDATION_SEED = 3_000_000
 CHECKPOINT_INDEX = "latest.json"
 
 

@@ -145,7 +145,8 @@ class TrainConfig:
             raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}")
         object.__setattr__(self, "algorithm", self.algorithm.upper())
         for name in ("env_id", "policy", "device"):
-            _require(isinstance(getattr(self, name), str) and getattr(self, name), name, "a non-empty string", getattr(self, name))
+            value = getattr(self, name)
+            _require(isinstance(value, str) and bool(value), name, "a non-empty string", value)
         for name, low in (("total_timesteps", 1), ("seed", 0), ("n_envs", 1), ("eval_freq", 0),
                           ("n_eval_episodes", 1), ("checkpoint_freq", 0), ("torch_threads", 1)):
             value = _number(getattr(self, name))
@@ -186,7 +187,7 @@ class TrainConfig:
     def from_dict(cls, data: Mapping[str, Any], where: str = "config") -> TrainConfig:
         """Build from a mapping of field names; unknown or missing keys are errors naming them."""
         if not isinstance(data, Mapping):
-            raise ValueError(f"{where} must be a mapping of config keys, got {type(data).__name__}")
+            raise ValueError(f"{where} must be a mapping of config keys, got {type(data).__name__}")  # noqa: TRY004
         known = [f.name for f in dataclasses.fields(cls)]
         for key in data:
             if key not in known:
@@ -293,7 +294,7 @@ def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence
     if data is None:
         data = {}
     if not isinstance(data, Mapping):
-        raise ValueError(f"{path} must hold a mapping, got {type(data).__name__}")
+        raise ValueError(f"{path} must hold a mapping, got {type(data).__name__}")  # noqa: TRY004
     if "default" not in data and "algorithm" in data:  # a run's resolved config.yaml
         resolved = dict(data)
     else:

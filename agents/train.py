@@ -39,7 +39,7 @@ import sys
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -169,7 +169,10 @@ def _hyperparameters(config: TrainConfig, action_space: Any) -> dict[str, Any]:
     kwargs = dict(config.hyperparameters)
     noise = kwargs.get("action_noise")
     if noise is not None:
-        from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+        from stable_baselines3.common.noise import (
+            NormalActionNoise,
+            OrnsteinUhlenbeckActionNoise,
+        )
 
         kinds = {"normal": NormalActionNoise, "ornstein-uhlenbeck": OrnsteinUhlenbeckActionNoise}
         if not isinstance(noise, Mapping) or set(noise) != {"type", "sigma"} or noise["type"] not in kinds:
@@ -273,7 +276,7 @@ def train(
     saved_config = run_dir / "config.yaml"
 
     provenance = {"command": command or "(python API)", "commit": _git_commit(), "versions": _versions(),
-                  "started": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+                  "started": datetime.now(UTC).isoformat(timespec="seconds")}
     text = _config_yaml(config, provenance)
     print(text, end="")
     write_text(saved_config, text)  # on --resume: the same config, but total_timesteps may have grown
@@ -391,7 +394,7 @@ def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str,
                "status": status, "resumed": resumed, "from_timesteps": start_steps,
                "num_timesteps": num_timesteps, "train_seconds": round(train_seconds, 3),
                "steps_per_second": round((num_timesteps - start_steps) / train_seconds, 2) if train_seconds > 0 else None,
-               "finished_at": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+               "finished_at": datetime.now(UTC).isoformat(timespec="seconds")}
     segments = [*previous.get("segments", []), segment]
     write_json(path, {
         "algorithm": config.algorithm, "env_id": config.env_id, "seed": config.seed,

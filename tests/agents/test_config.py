@@ -10,7 +10,13 @@ from pathlib import Path
 import pytest
 import yaml
 
-from agents.config import TrainConfig, apply_overrides, load_config, merge, parse_override, validate
+from agents.config import (
+    apply_overrides,
+    load_config,
+    merge,
+    parse_override,
+    validate,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 ZOO = """
