@@ -13,6 +13,7 @@ functions of the coefficients, see :meth:`Plant.taylor_coefficients`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Sequence
 
 import numpy as np
@@ -30,6 +31,12 @@ class StateSpace:
     B: np.ndarray
     C: np.ndarray
     D: np.ndarray
+
+
+def _read_only(state_space: StateSpace) -> StateSpace:
+    for matrix in (state_space.A, state_space.B, state_space.C, state_space.D):
+        matrix.setflags(write=False)
+    return state_space
 
 
 def _as_coefficients(values: Any, field: str) -> tuple[float, ...]:
@@ -215,8 +222,12 @@ class Plant:
         """``(p1, p2)`` of ``P(s)/K = 1 + p1 s + p2 s^2 + ...`` (Gorez-Klan eq. 2-3, appendix A).
 
         For an integrating plant the expansion is that of ``s P(s)/K_v`` (the dynamics additional
-        to the integrator, with the dead time).
+        to the integrator, with the dead time).  Computed once per plant.
         """
+        return self._taylor_coefficients
+
+    @cached_property
+    def _taylor_coefficients(self) -> tuple[float, float]:
         num, den = self.rational_part
         n = np.asarray(num[::-1]) / num[-1]  # ascending, normalized: 1 + n1 s + n2 s^2
         d = np.asarray(den[::-1]) / den[-1]
@@ -249,11 +260,16 @@ class Plant:
 
         The controllable canonical form of ``G`` in normalized time ``s T`` (``T`` from
         :meth:`step_time_scale`), rescaled to the plant's time and balanced, so that the states
-        have the magnitude of the signals whatever the plant's time scale.
+        have the magnitude of the signals whatever the plant's time scale.  Computed once per
+        plant; the arrays are read-only.
         """
+        return self._realization
+
+    @cached_property
+    def _realization(self) -> StateSpace:
         if self.order == 0:  # tf2ss would pad a static gain with a dummy state
             gain = np.atleast_2d(self.num[-1] / self.den[-1])
-            return StateSpace(A=np.zeros((0, 0)), B=np.zeros((0, 1)), C=np.zeros((1, 0)), D=gain)
+            return _read_only(StateSpace(A=np.zeros((0, 0)), B=np.zeros((0, 1)), C=np.zeros((1, 0)), D=gain))
         scale = self.step_time_scale()
         powers = np.arange(self.order, -1, -1)  # descending powers of s, as in den
         num = np.asarray(self.num) * scale ** -powers[len(powers) - len(self.num) :]
@@ -261,10 +277,14 @@ class Plant:
         A, B, C, D = scipy.signal.tf2ss(num, den)
         A, B = A / scale, B / scale
         A, (factors, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
-        return StateSpace(A=A, B=B / factors[:, None], C=C * factors[None, :], D=np.atleast_2d(D))
+        return _read_only(StateSpace(A=A, B=B / factors[:, None], C=C * factors[None, :], D=np.atleast_2d(D)))
 
     def step_time_scale(self) -> float:
         """A time scale for simulation: ``T_ar`` if positive, else the slowest time constant."""
+        return self._step_time_scale
+
+    @cached_property
+    def _step_time_scale(self) -> float:
         t_ar = self.residence_time
         if t_ar > 0:
             return t_ar

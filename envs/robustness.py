@@ -34,7 +34,7 @@ import numpy as np
 __all__ = ["Margins", "loop_margins", "frequency_grid", "fppi_uncertainty_bound", "msp_uncertainty_bound"]
 
 LoopFunction = Callable[[np.ndarray], np.ndarray]
-RealFunction = Callable[[np.ndarray], np.ndarray]
+BracketFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 MAX_ARG_STEP = 0.2  # rad between neighbouring grid points
 MAX_POINTS = 50_000
@@ -129,8 +129,11 @@ def _refine(loop: LoopFunction, omega: np.ndarray, values: np.ndarray) -> tuple[
     return omega, values
 
 
-def _bracketed_roots(fun: RealFunction, a: np.ndarray, b: np.ndarray, fa: np.ndarray, fb: np.ndarray) -> np.ndarray:
+def _bracketed_roots(fun: BracketFunction, a: np.ndarray, b: np.ndarray, fa: np.ndarray, fb: np.ndarray) -> np.ndarray:
     """Roots of ``fun`` in every bracket ``[a_j, b_j]`` (``fa_j fb_j < 0``), all at once.
+
+    ``fun(x, j)`` is the function of bracket ``j[i]`` at ``x[i]`` (brackets may hold different
+    functions).
 
     Chandrupatla's method (inverse quadratic interpolation safeguarded by bisection; Scherer,
     "Computational Physics", section 6.1.7), vectorized over the brackets: one call of ``fun``
@@ -146,7 +149,7 @@ def _bracketed_roots(fun: RealFunction, a: np.ndarray, b: np.ndarray, fa: np.nda
         if open_.size == 0:
             break
         xt = x1[open_] + t[open_] * (x2[open_] - x1[open_])
-        ft = fun(xt)
+        ft = fun(xt, open_)
         same = np.sign(ft) == np.sign(f1[open_])
         k = open_
         x3[k] = np.where(same, x1[k], x2[k])
@@ -176,38 +179,60 @@ def _bracketed_roots(fun: RealFunction, a: np.ndarray, b: np.ndarray, fa: np.nda
     return root
 
 
-def _crossings(fun: RealFunction, omega: np.ndarray, samples: np.ndarray) -> np.ndarray:
-    """Roots of ``fun`` (vectorized over frequencies), sorted: grid points where ``samples`` is
-    exactly zero, and the root in log frequency between neighbours of opposite sign."""
-    exact = omega[samples == 0]
-    i = np.flatnonzero(samples[:-1] * samples[1:] < 0)
-    if i.size == 0:
-        return np.sort(exact)
-    roots = _bracketed_roots(
-        lambda x: fun(np.exp(x)), np.log(omega[i]), np.log(omega[i + 1]), samples[i], samples[i + 1]
-    )
-    return np.sort(np.concatenate([exact, np.exp(roots)]))
+def _crossovers(loop: LoopFunction, omega: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gain crossovers ``|L| = 1`` and phase crossovers ``Im L = 0`` (of either sign of ``Re L``).
 
-
-def _peak(fun: RealFunction, omega: np.ndarray, samples: np.ndarray) -> tuple[float, float]:
-    """Refine the largest value of ``samples`` between the neighbours of its grid point.
-
-    The interval (in log frequency) is sampled at ``PEAK_POINTS`` points and narrowed to the
-    neighbours of the best one, until it is narrower than ``PEAK_XTOL``.  The value is then exact
-    to far below rounding (it is flat at the peak); the peak frequency is as accurate as the
-    flatness of the peak allows (about ``sqrt(eps)`` relative, as for any maximizer).
+    Each is a grid point where ``log |L|`` (``Im L``) is exactly zero, or the root in log frequency
+    between neighbours where it changes sign; all roots are found together
+    (:func:`_bracketed_roots`, one evaluation of ``L`` per iteration).  Both are sorted.
     """
-    i = int(np.argmax(samples))
-    best, best_w = float(samples[i]), float(omega[i])
-    lo, hi = math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])
-    while hi - lo > PEAK_XTOL:
-        x = np.linspace(lo, hi, PEAK_POINTS)
-        values = fun(np.exp(x))
-        j = int(np.argmax(values))
-        if values[j] > best:
-            best, best_w = float(values[j]), float(math.exp(x[j]))
-        lo, hi = x[max(j - 1, 0)], x[min(j + 1, PEAK_POINTS - 1)]
-    return best, best_w
+    log_magnitude, imaginary = np.log(np.abs(values)), values.imag
+    brackets = [np.flatnonzero(f[:-1] * f[1:] < 0) for f in (log_magnitude, imaginary)]
+    i = np.concatenate(brackets)
+    samples = np.concatenate([log_magnitude, imaginary])
+    offset = np.repeat([0, omega.size], [b.size for b in brackets])
+    is_gain = np.arange(i.size) < brackets[0].size
+
+    def fun(x: np.ndarray, j: np.ndarray) -> np.ndarray:
+        at = loop(np.exp(x))
+        with np.errstate(divide="ignore"):
+            return np.where(is_gain[j], np.log(np.abs(at)), at.imag)
+
+    roots = np.exp(_bracketed_roots(fun, np.log(omega[i]), np.log(omega[i + 1]), samples[offset + i], samples[offset + i + 1]))
+    gains = np.sort(np.concatenate([omega[log_magnitude == 0], roots[is_gain]]))
+    phase = np.sort(np.concatenate([omega[imaginary == 0], roots[~is_gain]]))
+    return gains, phase
+
+
+def _peaks(loop: LoopFunction, omega: np.ndarray, values: np.ndarray) -> list[tuple[float, float]]:
+    """``(Ms, frequency)`` and ``(Mt, frequency)``: each grid maximum refined between its neighbours.
+
+    Each interval (in log frequency) is sampled at ``PEAK_POINTS`` points and narrowed to the
+    neighbours of the best one, until it is narrower than ``PEAK_XTOL`` (both intervals share the
+    evaluations of ``L``).  The value is then exact to far below rounding (it is flat at the
+    peak); the peak frequency is as accurate as the flatness of the peak allows (about
+    ``sqrt(eps)`` relative, as for any maximizer).
+    """
+    measures = (lambda L: 1 / np.abs(1 + L), lambda L: np.abs(L / (1 + L)))
+    best, intervals = [], []
+    for measure in measures:
+        samples = measure(values)
+        i = int(np.argmax(samples))
+        best.append((float(samples[i]), float(omega[i])))
+        intervals.append((math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])))
+    while True:
+        active = [k for k, (lo, hi) in enumerate(intervals) if hi - lo > PEAK_XTOL]
+        if not active:
+            return best
+        x = np.concatenate([np.linspace(*intervals[k], PEAK_POINTS) for k in active])
+        at = loop(np.exp(x))
+        for n, k in enumerate(active):
+            xs = x[n * PEAK_POINTS : (n + 1) * PEAK_POINTS]
+            samples = measures[k](at[n * PEAK_POINTS : (n + 1) * PEAK_POINTS])
+            j = int(np.argmax(samples))
+            if samples[j] > best[k][0]:
+                best[k] = (float(samples[j]), float(math.exp(xs[j])))
+            intervals[k] = (xs[max(j - 1, 0)], xs[min(j + 1, PEAK_POINTS - 1)])
 
 
 def _winding(values: np.ndarray, integrators: int) -> int:
@@ -264,16 +289,14 @@ def loop_margins(loop: LoopFunction, integrators: int, time_scale: float = 1.0) 
     unstable = _winding(values, integrators)
     stable = unstable == 0 and tame
 
-    gains = _crossings(lambda w: np.log(np.abs(loop(w))), omega, np.log(np.abs(values)))
-    phase = _crossings(lambda w: loop(w).imag, omega, values.imag)
-    at_phase = loop(phase)
+    gains, phase = _crossovers(loop, omega, values)
+    at_crossovers = loop(np.concatenate([gains, phase]))
+    at_gains, at_phase = at_crossovers[: gains.size], at_crossovers[gains.size :]
     phase, at_phase = phase[at_phase.real < 0], at_phase[at_phase.real < 0]
-
-    ms, ms_w = _peak(lambda w: 1 / np.abs(1 + loop(w)), omega, 1 / np.abs(1 + values))
-    mt, mt_w = _peak(lambda w: np.abs(loop(w) / (1 + loop(w))), omega, np.abs(values / (1 + values)))
+    (ms, ms_w), (mt, mt_w) = _peaks(loop, omega, values)
 
     gain_margin, pc_w = _gain_margin(phase, at_phase)
-    phase_margin, gc_w, delay_margin, dm_w = _phase_and_delay_margins(gains, loop(gains))
+    phase_margin, gc_w, delay_margin, dm_w = _phase_and_delay_margins(gains, at_gains)
     if not stable:
         delay_margin = 0.0
     return Margins(

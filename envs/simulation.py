@@ -361,7 +361,7 @@ def open_loop_response(state_space, delay: float, inputs: np.ndarray, dt: float)
     padded = np.concatenate([np.zeros(m + 1), u])  # padded[k + m + 1] = u[k]
     u_now = padded[1 : steps + 1]  # u[j - m]
     u_before = padded[:steps]  # u[j - m - 1]
-    C = np.ascontiguousarray(state_space.C.ravel(), dtype=float)
+    C = np.array(state_space.C, dtype=float).ravel()
     D = float(state_space.D.ravel()[0]) if state_space.D.size else 0.0
     g0, g1 = gamma0.ravel(), gamma1.ravel()
     direct = u_before if fractional else u_now

@@ -1,7 +1,7 @@
 """The vectorized and compiled fast paths against the straightforward methods they replace.
 
 * :func:`envs.robustness._bracketed_roots` (all crossings at once) against ``scipy.optimize.brentq``
-  on each bracket, and :func:`envs.robustness._peak` against a dense evaluation;
+  on each bracket, and :func:`envs.robustness._peaks` against a dense evaluation and bounded Brent;
 * the figures of :func:`envs.robustness.loop_margins` against a point-by-point reference built on
   ``brentq`` and ``minimize_scalar`` (the method used before the vectorization);
 * :func:`envs.commissioning._detuned_sensitivities` against ``max |1/(1 + k L)|`` in complex
@@ -22,7 +22,7 @@ from envs.commissioning import _detuned_sensitivities
 from envs.controllers import FPPI, MSP, PID, SeriesPID
 from envs.loops import loop_response
 from envs.plants import Plant
-from envs.robustness import _bracketed_roots, _peak, frequency_grid, _refine, loop_margins
+from envs.robustness import _bracketed_roots, _peaks, _refine, frequency_grid, loop_margins
 from envs.simulation import delayed_zoh, open_loop_response
 
 
@@ -42,23 +42,26 @@ def test_bracketed_roots_agree_with_brentq(name):
     values = fun(grid)
     i = np.flatnonzero(values[:-1] * values[1:] < 0)
     assert i.size > 0
-    roots = _bracketed_roots(fun, grid[i], grid[i + 1], values[i], values[i + 1])
+    roots = _bracketed_roots(lambda x, j: fun(x), grid[i], grid[i + 1], values[i], values[i + 1])
     expected = [scipy.optimize.brentq(fun, grid[k], grid[k + 1], xtol=1e-14) for k in i]
     # a triple root is only defined to about eps^(1/3) by the function values
     tolerance = 1e-4 if name == "flat-near-root" else 1e-12
     np.testing.assert_allclose(roots, expected, rtol=0, atol=tolerance)
 
 
-def test_peak_refines_to_the_maximum_of_a_dense_evaluation():
-    fun = lambda w: 1 / np.abs(1 + 2.5 * np.exp(-1j * w) / (1j * w + 1))  # noqa: E731
+def test_peaks_refine_to_the_maxima_of_a_dense_evaluation():
+    loop = lambda w: 2.5 * np.exp(-1j * w) / (1j * w + 1)  # noqa: E731
+    measures = (lambda w: 1 / np.abs(1 + loop(w)), lambda w: np.abs(loop(w) / (1 + loop(w))))
     omega = np.logspace(-1, 1, 41)
-    value, frequency = _peak(fun, omega, fun(omega))
-    dense = np.logspace(np.log10(omega[0]), np.log10(omega[-1]), 2_000_001)
-    assert value >= fun(dense).max() * (1 - 1e-12)
-    result = scipy.optimize.minimize_scalar(lambda x: -fun(np.array([math.exp(x)]))[0], bounds=(0.0, 1.0), method="bounded",
-                                            options={"xatol": 1e-12})  # fmt: skip
-    assert value == pytest.approx(-result.fun, rel=1e-12)
-    assert frequency == pytest.approx(math.exp(result.x), rel=1e-6)
+    dense = np.logspace(-1, 1, 2_000_001)
+    for (value, frequency), measure in zip(_peaks(loop, omega, loop(omega)), measures):
+        assert value >= measure(dense).max() * (1 - 1e-12)
+        i = int(np.argmax(measure(omega)))
+        result = scipy.optimize.minimize_scalar(lambda x: -measure(np.array([math.exp(x)]))[0], method="bounded",
+                                                bounds=(math.log(omega[i - 1]), math.log(omega[i + 1])),
+                                                options={"xatol": 1e-12})  # fmt: skip
+        assert value == pytest.approx(-result.fun, rel=1e-12)
+        assert frequency == pytest.approx(math.exp(result.x), rel=1e-6)
 
 
 # ----------------------------------------------------------------------------- margins
