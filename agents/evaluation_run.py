@@ -248,3 +248,65 @@ def evaluate_plant(
             cache.put(key, identity, result)
         results[name] = result
     return results, mismatch  # type: ignore[return-value]
+
+
+# --------------------------------------------------------------------------- parallel rules and oracles
+_WORKER_ENVS: dict[str, Any] = {}
+
+
+def _worker_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
+    """One environment per worker process and configuration, made on first use."""
+    import gymnasium
+
+    import envs  # noqa: F401  (registers the environments in the worker)
+
+    key = json.dumps([env_id, env_kwargs], sort_keys=True, default=str)
+    if key not in _WORKER_ENVS:
+        _WORKER_ENVS[key] = gymnasium.make(env_id, **env_kwargs)
+    return _WORKER_ENVS[key]
+
+
+def _worker(
+    env_id: str, env_kwargs: dict[str, Any], plant: Any, seed: int, rules: list[str], key: str, full_oracle: bool
+) -> tuple[str, dict[str, PolicyResult], float]:
+    env = _worker_env(env_id, env_kwargs)
+    results, mismatch = evaluate_plant(env, plant, seed, rules, {}, Cache(None), key, full_oracle=full_oracle)
+    return key, results, mismatch
+
+
+def fill_cache_in_parallel(
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    episodes: list[tuple[Any, int, str]],
+    rules: list[str],
+    cache: Cache,
+    workers: int,
+    *,
+    full_oracle: bool = False,
+    progress: Any = None,
+) -> float:
+    """Score the rules and oracles of every ``(plant, seed, key)`` episode missing from ``cache`` in
+    ``workers`` processes (``spawn``: no state is inherited), and store them in ``cache``.
+
+    Agents are not run here (their models stay in the main process).  ``progress`` is called once
+    per episode finished.  Returns the largest oracle re-scoring difference (see :func:`evaluate_plant`).
+    """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    wanted = ["oracle", *rules] + (["oracle-full"] if full_oracle else [])
+    missing = [(plant, seed, key) for plant, seed, key in episodes if any(cache.get(key, name) is None for name in wanted)]
+    mismatch = 0.0
+    if not missing:
+        return mismatch
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(_worker, env_id, env_kwargs, plant, seed, rules, key, full_oracle) for plant, seed, key in missing]
+        for future in as_completed(futures):
+            key, results, off = future.result()
+            mismatch = max(mismatch, off)
+            for name, result in results.items():
+                if cache.get(key, name) is None:
+                    cache.put(key, name, result)
+            if progress is not None:
+                progress()
+    return mismatch

@@ -148,8 +148,12 @@ def test_tiny_run_writes_every_output_and_scores_the_agents_like_the_env(capsys,
         assert float(rows[(index, "explorer")]["experiment_time"]) == pytest.approx(info["experiment_time"])
 
 
-def test_rerun_is_served_from_the_cache(capsys, tmp_path, monkeypatch):
+def test_rerun_is_served_from_the_cache_and_workers_agree(capsys, tmp_path, monkeypatch):
     first = _evaluate(capsys, tmp_path, "--policies", "ppi-kappa1,oracle", "--no-benchmark", "--no-plots")
+    parallel = _evaluate(capsys, tmp_path / "parallel", "--policies", "ppi-kappa1,oracle", "--no-benchmark", "--no-plots",
+                         "--workers", "2")  # fmt: skip
+    parallel.pop("wall_time_s")
+    assert parallel == {k: v for k, v in first.items() if k != "wall_time_s"}  # same episodes in other processes
     import baselines.oracle
 
     def no_search(*args, **kwargs):
@@ -175,10 +179,11 @@ def test_rerun_is_served_from_the_cache(capsys, tmp_path, monkeypatch):
         (["--env", FAST_ENV, "--policies", "oracle,no-such-rule"], "unknown rule 'no-such-rule'"),
         (["--env", FAST_ENV, "--policies", "oracle", "--n", "0"], "--n must be a positive integer, got 0"),
         (["--env", FAST_ENV, "--policies", "oracle", "--resamples", "0"], "--resamples must be positive"),
+        (["--env", FAST_ENV, "--policies", "oracle", "--workers", "0"], "--workers must be positive"),
         (["--env", FAST_ENV, "--policies", "runs/none/model.zip"], "runs/none/model.zip"),
         (["--env", FAST_ENV, "--policies", "a=README.md"], "README.md is not a stable-baselines3 model"),
     ],
-    ids=["env", "rule", "n", "resamples", "agent-missing", "agent-unreadable"],
+    ids=["env", "rule", "n", "resamples", "workers", "agent-missing", "agent-unreadable"],
 )
 def test_bad_input_is_one_line_and_exit_2(capsys, tmp_path, argv, message):
     code = main(["evaluate", *argv, "--out", str(tmp_path / "out")])
