@@ -15,6 +15,11 @@ Three parts, each on the same machine state:
    and vectorized (2 copies), in both modes, with and without the oracle.
 3. PPO: the share of ``PPO.learn`` spent inside the environment.
 
+Every part runs in a child process whose BLAS, OpenMP and numba pools have one thread
+(:data:`THREAD_VARIABLES`; the variables must be set before numpy is imported): on this 2-core
+machine under load, OpenBLAS's default two threads made ``scipy.linalg.expm`` of the small matrices
+of the discretizations up to ten times slower.  Vectorized workers inherit the setting.
+
 ``--json`` prints one object with every figure (see :data:`HEADLINE` for the main ones); progress
 goes to standard error.  Rates are wall-clock figures of this machine at this moment: the JSON
 records the commit, whether ``envs/`` had uncommitted changes, the CPU count and the load.
@@ -44,6 +49,8 @@ HEADLINE = (
     "episodes_per_s_agent",
     "env_share_of_ppo_time",
 )
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+CHILD_VARIABLE = "DEADTIME_BENCH_CHILD"
 ENV_ID = "DeadTime/PID-v0"
 SEED = 0
 N_ENVS = 2
@@ -93,6 +100,7 @@ def machine_info() -> dict[str, Any]:
         "versions": versions,
         "commit": _git("rev-parse", "--short", "HEAD"),
         "envs_uncommitted_changes": bool(status) if status is not None else None,
+        "thread_variables": {name: os.environ.get(name) for name in THREAD_VARIABLES},
     }
 
 
@@ -130,6 +138,11 @@ def _scoring_part(quick: bool, pade_order: int | None, samples: int | None) -> d
     return figures
 
 
+def _min_episodes(quick: bool, oracle: bool) -> int:
+    """Episodes per measurement: agent-mode episodes vary a lot in cost, oracle episodes are long."""
+    return 1 if quick else (4 if oracle else 16)
+
+
 def _env_part(quick: bool) -> dict[str, Any]:
     from agents.bench_envs import episodes_per_s, vector_episodes_per_s
 
@@ -139,14 +152,16 @@ def _env_part(quick: bool) -> dict[str, Any]:
         for oracle in (False, True):
             name = f"single/{mode}" + ("/oracle" if oracle else "")
             _progress(f"episodes: {name}")
-            rates[name] = episodes_per_s(ENV_ID, mode, oracle, min_time, SEED)
+            rates[name] = episodes_per_s(ENV_ID, mode, oracle, min_time, SEED, _min_episodes(quick, oracle))
     kinds = ("dummy",) if quick else ("sync", "dummy", "subproc")
     for kind in kinds:
         for mode in ("fixed",) if quick else ("fixed", "agent"):
             for oracle in (False,) if quick else (False, True):
                 name = f"{kind}{N_ENVS}/{mode}" + ("/oracle" if oracle else "")
                 _progress(f"episodes: {name}")
-                rates[name] = vector_episodes_per_s(kind, ENV_ID, mode, oracle, N_ENVS, min_time, SEED)
+                rates[name] = vector_episodes_per_s(
+                    kind, ENV_ID, mode, oracle, N_ENVS, min_time, SEED, _min_episodes(quick, oracle)
+                )
     return {
         "episodes_per_s_fixed": rates["single/fixed"],
         "episodes_per_s_agent": rates["single/agent"],
@@ -241,9 +256,27 @@ def format_table(figures: dict[str, Any]) -> str:
     lines.append(
         f"\nMachine: {m['cpu_count']} CPUs, load {m['load_average'][0]:.2f}, python {m['python']}, commit {m['commit']}"
         + (" (envs/ has uncommitted changes)" if m["envs_uncommitted_changes"] else "")
+        + f"; BLAS/OpenMP/numba threads {m['thread_variables'].get('OPENBLAS_NUM_THREADS') or 'default'}"
         + f"; bench took {figures['bench_seconds']:.0f} s"
     )
     return "\n".join(lines).lstrip("\n")
+
+
+def _in_child(args: argparse.Namespace) -> dict[str, Any]:
+    """Run the bench in a child process with one thread per pool (see the module docstring)."""
+    argv = [sys.executable, "-m", "agents.cli", "bench", "--json"]
+    for flag, on in (("--quick", args.quick), ("--skip-envs", args.skip_envs), ("--skip-ppo", args.skip_ppo)):
+        argv += [flag] if on else []
+    for flag, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
+        argv += [flag, str(value)] if value is not None else []
+    root = str(Path(__file__).resolve().parent.parent)
+    path = os.environ.get("PYTHONPATH")
+    env = {**os.environ, **dict.fromkeys(THREAD_VARIABLES, "1"), CHILD_VARIABLE: "1"}
+    env["PYTHONPATH"] = root if not path else f"{root}{os.pathsep}{path}"
+    done = subprocess.run(argv, env=env, cwd=root, stdout=subprocess.PIPE, text=True, check=False)
+    if done.returncode != 0:
+        raise ValueError(f"the bench's child process failed with status {done.returncode} (see its messages above)")
+    return json.loads(done.stdout)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -251,6 +284,9 @@ def run(args: argparse.Namespace) -> int:
     for name, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
         if value is not None and value < 1:
             raise ValueError(f"{name} must be >= 1, got {value}")
-    figures = bench(args.quick, not args.skip_envs, not args.skip_ppo, args.pade_order, args.reference_samples)
+    if os.environ.get(CHILD_VARIABLE) == "1":
+        figures = bench(args.quick, not args.skip_envs, not args.skip_ppo, args.pade_order, args.reference_samples)
+    else:
+        figures = _in_child(args)
     print(json.dumps(figures) if args.json else format_table(figures))
     return 0

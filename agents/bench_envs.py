@@ -1,7 +1,8 @@
 """``deadtime bench``, part two: environment episodes per second and the environment's share of PPO.
 
 Episodes are played with seeded random actions (``action_space.sample()``).  A rate is the number
-of completed episodes divided by the time at which the last one completed, measured after the
+of completed episodes (at least ``min_episodes``, over at least ``min_time``) divided by the time at
+which the last one completed, measured after the
 environments are built and reset once (start-up, worker processes and numba compilation are not
 counted).  Vectorized environments hold ``n_envs`` copies: Gymnasium's ``SyncVectorEnv`` (with
 same-step autoreset, as stable-baselines3 does), stable-baselines3's ``DummyVecEnv`` and
@@ -35,7 +36,9 @@ def make_env(env_id: str, experiments: str, oracle: bool, wrapper: Callable | No
     return wrapper(env) if wrapper is not None else env
 
 
-def episodes_per_s(env_id: str, experiments: str, oracle: bool, min_time: float, seed: int) -> float:
+def episodes_per_s(
+    env_id: str, experiments: str, oracle: bool, min_time: float, seed: int, min_episodes: int = 1
+) -> float:
     """Episodes per second of one environment (see the module docstring)."""
     env = make_env(env_id, experiments, oracle)
     env.action_space.seed(seed)
@@ -46,7 +49,7 @@ def episodes_per_s(env_id: str, experiments: str, oracle: bool, min_time: float,
         if terminated or truncated:
             episodes += 1
             last = time.perf_counter() - start
-            if last >= min_time:
+            if last >= min_time and episodes >= min_episodes:
                 break
             env.reset()
     env.close()
@@ -68,7 +71,8 @@ def _vector_env(kind: str, factory: Callable, n_envs: int):
 
 
 def vector_episodes_per_s(
-    kind: str, env_id: str, experiments: str, oracle: bool, n_envs: int, min_time: float, seed: int
+    kind: str, env_id: str, experiments: str, oracle: bool, n_envs: int, min_time: float, seed: int,
+    min_episodes: int = 1,
 ) -> float:
     """Episodes per second of ``n_envs`` environments stepped together (see the module docstring)."""
     factory = functools.partial(make_env, env_id, experiments, oracle)
@@ -92,7 +96,7 @@ def vector_episodes_per_s(
             if np.any(done):
                 episodes += int(np.sum(done))
                 last = time.perf_counter() - start
-                if last >= min_time:
+                if last >= min_time and episodes >= min_episodes:
                     return episodes / last
     finally:
         vec.close()
