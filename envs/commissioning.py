@@ -68,26 +68,33 @@ def commissioning_pi(plant: Plant, max_sensitivity_target: float = COMMISSIONING
     detuning = np.geomspace(1e-3, 1.0, 139)
     kp, reset_rate = (_integrating_rule if plant.integrating else _lambda_rule)(plant, detuning)
     loop = np.sign(kp[-1]) * plant.frequency_response(omega) * (1.0 + reset_rate / (1j * omega))
-    bad = np.flatnonzero(_detuned_sensitivities(loop, np.abs(kp)) > target)
-    best = detuning.size - 1 if bad.size == 0 else bad[0] - 1
+    best = _first_violation(loop, np.abs(kp), target) - 1
     if best < 0:  # pragma: no cover - a loop detuned 1000 times is far inside the target
         raise ValueError("no PI with the required maximum sensitivity found")
     return PID(kp=float(kp[best]), ti=1.0 / reset_rate if reset_rate > 0 else None)
 
 
-def _detuned_sensitivities(loop: np.ndarray, gains: np.ndarray) -> np.ndarray:
-    """``max_omega 1/|1 + k L(i omega)|`` for each gain ``k >= 0``, or 1 where that maximum is below 1.
+def _first_violation(loop: np.ndarray, gains: np.ndarray, target: float) -> int:
+    """Index of the first of the increasing ``gains`` ``k > 0`` with ``max_omega 1/|1 + k L| > target``
+    (``gains.size`` if none), for a target ``> 1``.
 
-    Only the frequencies where ``Re L < 0`` are used (elsewhere ``|1 + k L| >= 1``), which is all
-    that comparisons with a target ``> 1`` need; real arithmetic,
-    ``|1 + k L|^2 = (1 + k Re L)^2 + (k Im L)^2``.
+    At each frequency, ``|1 + k L|^2 = 1 + 2 k Re L + k^2 |L|^2 < 1/target^2`` holds exactly for
+    ``k`` strictly between the two roots of that quadratic (real and positive only where ``Re L < 0``);
+    the answer is the first gain inside any of these intervals.  This is the decision of comparing
+    every ``max_omega 1/|1 + k L|`` with the target, without the ``gains x omega`` table.
     """
+    threshold = 1.0 - 1.0 / target**2
     left = loop[loop.real < 0]
-    if left.size == 0:
-        return np.ones_like(gains)
-    k = gains[:, None]
-    distance = (1.0 + k * left.real[None, :]) ** 2 + (k * left.imag[None, :]) ** 2
-    return 1.0 / np.sqrt(np.minimum(np.min(distance, axis=1), 1.0))
+    a, b = left.real, np.abs(left) ** 2
+    discriminant = a * a - b * threshold
+    inside = discriminant > 0
+    a, b, root = a[inside], b[inside], np.sqrt(discriminant[inside])
+    upper = (root - a) / b
+    lower = threshold / (b * upper)  # the product of the roots is threshold/b (no cancellation)
+    first = np.searchsorted(gains, lower, side="right")
+    hit = first < gains.size
+    hit[hit] = gains[first[hit]] < upper[hit]
+    return int(first[hit].min()) if hit.any() else gains.size
 
 
 def _sensitivity_grid(plant: Plant) -> np.ndarray:

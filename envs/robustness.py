@@ -42,7 +42,8 @@ POINTS_PER_DECADE = 60
 ROOT_XTOL = 1e-13  # absolute, in log frequency
 MAX_ROOT_ITERATIONS = 100
 PEAK_POINTS = 65
-PEAK_XTOL = 1e-12  # width of the final interval around a peak, in log frequency
+LOW_FREQUENCY_CHUNK = 4  # decades evaluated at once when looking for the low-frequency asymptote
+PEAK_SPACING = 1e-5  # sample spacing around a peak (log frequency) at which its parabola is used
 
 
 @dataclass(frozen=True)
@@ -72,15 +73,22 @@ class Margins:
 
 
 def _low_frequency(loop: LoopFunction, integrators: int, start: float) -> float:
-    """Decrease ``start`` until ``L(s) s^k`` has converged to its value at ``s = 0``."""
-    w = start
+    """Decrease ``start`` decade by decade until ``L(s) s^k`` has converged to its value at ``s = 0``.
+
+    ``L`` is evaluated ``LOW_FREQUENCY_CHUNK`` decades at a time.
+    """
+    omega = [start]
     for _ in range(40):
-        a = loop(np.array([w]))[0] * (1j * w) ** integrators
-        b = loop(np.array([w / 10]))[0] * (1j * w / 10) ** integrators
-        if abs(a - b) <= 1e-3 * max(abs(b), 1e-300):
-            return w / 10
-        w /= 10
-    return w
+        omega.append(omega[-1] / 10)
+    omega = np.array(omega)
+    scaled = np.empty(0, dtype=complex)
+    for k in range(40):
+        if k + 1 >= scaled.size:
+            chunk = omega[scaled.size : scaled.size + LOW_FREQUENCY_CHUNK + 1]
+            scaled = np.concatenate([scaled, loop(chunk) * (1j * chunk) ** integrators])
+        if abs(scaled[k] - scaled[k + 1]) <= 1e-3 * max(abs(scaled[k + 1]), 1e-300):
+            return float(omega[k + 1])
+    return float(omega[40])
 
 
 def _high_frequency(loop: LoopFunction, start: float) -> tuple[float, bool]:
@@ -140,42 +148,32 @@ def _bracketed_roots(fun: BracketFunction, a: np.ndarray, b: np.ndarray, fa: np.
     per iteration for every bracket still open.  A bracket is closed when it is narrower than
     ``2 (ROOT_XTOL + 2 eps |x|)``; the result is its end with the smaller ``|fun|``.
     """
-    x1, x2, f1, f2 = b.copy(), a.copy(), fb.copy(), fa.copy()
-    x3, f3 = x2.copy(), f2.copy()
-    t = np.full(a.shape, 0.5)
     root = np.full(a.shape, np.nan)
-    open_ = np.arange(a.size)
+    index = np.arange(a.size)  # the open brackets; the arrays below hold only those
+    x1, x2, x3, f1, f2, f3 = b, a, a, fb, fa, fa
+    t = np.full(a.shape, 0.5)
     for _ in range(MAX_ROOT_ITERATIONS):
-        if open_.size == 0:
-            break
-        xt = x1[open_] + t[open_] * (x2[open_] - x1[open_])
-        ft = fun(xt, open_)
-        same = np.sign(ft) == np.sign(f1[open_])
-        k = open_
-        x3[k] = np.where(same, x1[k], x2[k])
-        f3[k] = np.where(same, f1[k], f2[k])
-        x2[k] = np.where(same, x2[k], x1[k])
-        f2[k] = np.where(same, f2[k], f1[k])
-        x1[k], f1[k] = xt, ft
-        best = np.abs(f1[k]) < np.abs(f2[k])
-        xm = np.where(best, x1[k], x2[k])
-        fm = np.where(best, f1[k], f2[k])
-        tol = 2 * np.finfo(float).eps * np.abs(xm) + ROOT_XTOL
-        tl = tol / np.abs(x2[k] - x1[k])
+        if index.size == 0:
+            return root
+        xt = x1 + t * (x2 - x1)
+        ft = fun(xt, index)
+        same = np.sign(ft) == np.sign(f1)
+        x3, f3 = np.where(same, x1, x2), np.where(same, f1, f2)
+        x2, f2 = np.where(same, x2, x1), np.where(same, f2, f1)
+        x1, f1 = xt, ft
+        best = np.abs(f1) < np.abs(f2)
+        xm, fm = np.where(best, x1, x2), np.where(best, f1, f2)
+        tl = (2 * np.finfo(float).eps * np.abs(xm) + ROOT_XTOL) / np.abs(x2 - x1)
         done = (tl > 0.5) | (fm == 0)
-        root[k[done]] = xm[done]
-        k, tl = k[~done], tl[~done]
-        xi = (x1[k] - x2[k]) / (x3[k] - x2[k])
-        phi = (f1[k] - f2[k]) / (f3[k] - f2[k])
+        root[index[done]] = xm[done]
+        index, x1, x2, x3, f1, f2, f3, tl = (v[~done] for v in (index, x1, x2, x3, f1, f2, f3, tl))
+        xi = (x1 - x2) / (x3 - x2)
+        phi = (f1 - f2) / (f3 - f2)
         quadratic = (phi**2 < xi) & ((1 - phi) ** 2 < 1 - xi)
         with np.errstate(divide="ignore", invalid="ignore"):
-            iqi = f1[k] / (f2[k] - f1[k]) * f3[k] / (f2[k] - f3[k]) + (x3[k] - x1[k]) / (x2[k] - x1[k]) * f1[k] / (
-                f3[k] - f1[k]
-            ) * f2[k] / (f3[k] - f2[k])
-        t[k] = np.clip(np.where(quadratic, iqi, 0.5), tl, 1 - tl)
-        open_ = k
-    unfinished = np.isnan(root)
-    root[unfinished] = np.where(np.abs(f1) < np.abs(f2), x1, x2)[unfinished]
+            iqi = f1 / (f2 - f1) * f3 / (f2 - f3) + (x3 - x1) / (x2 - x1) * f1 / (f3 - f1) * f2 / (f3 - f2)
+        t = np.clip(np.where(quadratic, iqi, 0.5), tl, 1 - tl)
+    root[index] = np.where(np.abs(f1) < np.abs(f2), x1, x2)
     return root
 
 
@@ -204,35 +202,58 @@ def _crossovers(loop: LoopFunction, omega: np.ndarray, values: np.ndarray) -> tu
     return gains, phase
 
 
+PEAK_MEASURES = (lambda L: 1 / np.abs(1 + L), lambda L: np.abs(L / (1 + L)))  # Ms, Mt
+
+
 def _peaks(loop: LoopFunction, omega: np.ndarray, values: np.ndarray) -> list[tuple[float, float]]:
     """``(Ms, frequency)`` and ``(Mt, frequency)``: each grid maximum refined between its neighbours.
 
     Each interval (in log frequency) is sampled at ``PEAK_POINTS`` points and narrowed to the
-    neighbours of the best one, until it is narrower than ``PEAK_XTOL`` (both intervals share the
-    evaluations of ``L``).  The value is then exact to far below rounding (it is flat at the
-    peak); the peak frequency is as accurate as the flatness of the peak allows (about
-    ``sqrt(eps)`` relative, as for any maximizer).
+    neighbours of the best one, until the samples are closer than ``PEAK_SPACING``; the vertex of
+    the parabola through the best sample and its neighbours is evaluated last.  All intervals share
+    the evaluations of ``L``.  The peak value is then exact to rounding (it is flat at the peak);
+    its frequency is as accurate as the flatness of the peak allows (about ``sqrt(eps)`` relative).
     """
-    measures = (lambda L: 1 / np.abs(1 + L), lambda L: np.abs(L / (1 + L)))
     best, intervals = [], []
-    for measure in measures:
+    for measure in PEAK_MEASURES:
         samples = measure(values)
         i = int(np.argmax(samples))
         best.append((float(samples[i]), float(omega[i])))
         intervals.append((math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])))
-    while True:
-        active = [k for k, (lo, hi) in enumerate(intervals) if hi - lo > PEAK_XTOL]
-        if not active:
-            return best
+    active, vertices = [k for k, (lo, hi) in enumerate(intervals) if hi > lo], {}
+    while active:
         x = np.concatenate([np.linspace(*intervals[k], PEAK_POINTS) for k in active])
         at = loop(np.exp(x))
         for n, k in enumerate(active):
-            xs = x[n * PEAK_POINTS : (n + 1) * PEAK_POINTS]
-            samples = measures[k](at[n * PEAK_POINTS : (n + 1) * PEAK_POINTS])
+            part = slice(n * PEAK_POINTS, (n + 1) * PEAK_POINTS)
+            xs, samples = x[part], PEAK_MEASURES[k](at[part])
             j = int(np.argmax(samples))
             if samples[j] > best[k][0]:
                 best[k] = (float(samples[j]), float(math.exp(xs[j])))
+            if xs[1] - xs[0] <= PEAK_SPACING:
+                vertices[k] = _vertex(xs, samples, j)
             intervals[k] = (xs[max(j - 1, 0)], xs[min(j + 1, PEAK_POINTS - 1)])
+        active = [k for k in active if k not in vertices]
+    keys = [k for k, x in vertices.items() if x is not None]
+    if keys:
+        at = loop(np.exp(np.array([vertices[k] for k in keys])))
+        for n, k in enumerate(keys):
+            value = float(PEAK_MEASURES[k](at[n : n + 1])[0])
+            if value > best[k][0]:
+                best[k] = (value, math.exp(vertices[k]))
+    return best
+
+
+def _vertex(x: np.ndarray, samples: np.ndarray, j: int) -> float | None:
+    """Abscissa of the parabola's vertex through samples ``j - 1, j, j + 1`` (equally spaced), or
+    None if ``j`` is at an end or the three are not concave."""
+    if j == 0 or j == x.size - 1:
+        return None
+    left, middle, right = samples[j - 1], samples[j], samples[j + 1]
+    curvature = left - 2 * middle + right
+    if not curvature < 0:
+        return None
+    return float(x[j] + 0.5 * (x[1] - x[0]) * (left - right) / curvature)
 
 
 def _winding(values: np.ndarray, integrators: int) -> int:

@@ -4,8 +4,8 @@
   on each bracket, and :func:`envs.robustness._peaks` against a dense evaluation and bounded Brent;
 * the figures of :func:`envs.robustness.loop_margins` against a point-by-point reference built on
   ``brentq`` and ``minimize_scalar`` (the method used before the vectorization);
-* :func:`envs.commissioning._detuned_sensitivities` against ``max |1/(1 + k L)|`` in complex
-  arithmetic;
+* :func:`envs.commissioning._first_violation` against the table of ``max |1/(1 + k L)|`` over
+  gains and frequencies in complex arithmetic;
 * the compiled recursion of :func:`envs.simulation.open_loop_response` against the same recursion
   written as a Python loop.
 """
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from envs.commissioning import _detuned_sensitivities
+from envs.commissioning import _first_violation
 from envs.controllers import FPPI, MSP, PID, SeriesPID
 from envs.loops import loop_response
 from envs.plants import Plant
@@ -122,18 +122,22 @@ def test_margins_agree_with_the_point_by_point_reference(name):
 
 # ----------------------------------------------------------------------------- commissioning
 @pytest.mark.parametrize("sign", [1.0, -1.0])
-@pytest.mark.parametrize("delay", [0.0, 0.8])
-def test_detuned_sensitivities_agree_with_complex_arithmetic(sign, delay):
+@pytest.mark.parametrize("delay", [0.0, 0.4, 0.8, 3.0])
+@pytest.mark.parametrize("target", [1.2, 1.4, 2.0])
+def test_first_violation_agrees_with_the_table_of_sensitivities(sign, delay, target):
     omega = np.logspace(-3, 2, 500)
-    plant = Plant.from_time_constants(sign * 1.5, [1.0], delay)
-    loop = sign * plant.frequency_response(omega)  # without delay, Re L > 0: no sensitivity above 1
+    plant = Plant.from_time_constants(sign * 1.5, [1.0, 0.2], delay)
+    loop = sign * plant.frequency_response(omega) * (1 + 1 / (1j * omega))
     gains = np.geomspace(1e-3, 3.0, 60)
-    expected = np.max(1 / np.abs(1 + gains[:, None] * loop[None, :]), axis=1)
-    fast = _detuned_sensitivities(loop, gains)
-    above = expected > 1
-    assert above.all() if delay > 0 else not above.any()
-    np.testing.assert_allclose(fast[above], expected[above], rtol=1e-12)
-    assert np.all(fast[~above] == 1.0)
+    sensitivity = np.max(1 / np.abs(1 + gains[:, None] * loop[None, :]), axis=1)
+    bad = np.flatnonzero(sensitivity > target)
+    assert _first_violation(loop, gains, target) == (bad[0] if bad.size else gains.size)
+
+
+def test_first_violation_without_any():
+    omega = np.logspace(-3, 2, 500)
+    loop = 1 / (1j * omega + 1)  # Re L > 0: |1 + k L| > 1 for every k > 0
+    assert _first_violation(loop, np.geomspace(1e-3, 3.0, 60), 1.1) == 60
 
 
 # ----------------------------------------------------------------------------- open-loop recursion
