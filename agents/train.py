@@ -296,7 +296,7 @@ def train(
             config.eval_family, config.checkpoint_freq, config.progress_bar, vecnormalize, history)
 
         start_steps = model.num_timesteps
-        started = time.perf_counter()
+        started, cpu_started = time.perf_counter(), time.process_time()
         status = "interrupted"
         try:
             model.learn(total_timesteps=config.total_timesteps - start_steps, callback=[*run_callbacks, *callbacks],
@@ -305,7 +305,7 @@ def train(
         finally:
             train_seconds = time.perf_counter() - started
             _write_run_json(run_dir, config, provenance, status, model.num_timesteps, start_steps, train_seconds,
-                            checkpoint is not None)
+                            time.process_time() - cpu_started, checkpoint is not None)
         save_model(model, run_dir / "model.zip", vecnormalize)
         final = validator.validate(model)
         if config.checkpoint_freq > 0:  # the final state, so that a larger total_timesteps can extend the run
@@ -385,7 +385,9 @@ def _finished(run_dir: Path, config: TrainConfig) -> TrainResult | None:
 
 
 def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str, Any], status: str,
-                    num_timesteps: int, start_steps: int, train_seconds: float, resumed: bool) -> None:
+                    num_timesteps: int, start_steps: int, train_seconds: float, cpu_seconds: float,
+                    resumed: bool) -> None:
+    """Record the run; ``cpu_seconds`` is the training process's own (not its subprocess workers')."""
     from agents.callbacks import write_json
 
     path = run_dir / "run.json"
@@ -393,6 +395,7 @@ def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str,
     segment = {"command": provenance["command"], "commit": provenance["commit"], "started": provenance["started"],
                "status": status, "resumed": resumed, "from_timesteps": start_steps,
                "num_timesteps": num_timesteps, "train_seconds": round(train_seconds, 3),
+               "cpu_seconds": round(cpu_seconds, 3),
                "steps_per_second": round((num_timesteps - start_steps) / train_seconds, 2) if train_seconds > 0 else None,
                "finished_at": datetime.now(UTC).isoformat(timespec="seconds")}
     segments = [*previous.get("segments", []), segment]
