@@ -3,7 +3,7 @@
 * The python-control reference (:mod:`agents.bench_reference`, Padé dead times) and our exact
   scoring (:func:`envs.scoring.score`) are independent computations of the same figures: they must
   agree within the reference's accuracy.  Margins and ``Ms`` are frequency-domain figures; the Padé
-  approximant of order 8 is accurate to ``~1e-9`` in phase up to ``omega L ~ 2`` (well beyond the
+  approximant of order 8 is accurate to better than ``1e-9`` in phase up to ``omega L ~ 2`` (beyond the
   crossovers of these loops), so they agree to ``1e-3`` (the Ms grid and root finding set the rest).
   The IAE depends on the whole time response, where a Padé dead time rings: the tolerance ``1e-2``
   is above the errors measured on these loops against the fine-step reference (``5e-3`` at most,
