@@ -368,6 +368,8 @@ def _plots(out: Path, env_id: str, plants: list, results: list, shown: list[str]
     from envs.controllers import controller_from_dict
     from envs.scoring import FEASIBLE_CAP
 
+    for stale in [*out.glob("responses_*.png"), *out.glob("nyquist_*.png")]:
+        stale.unlink()  # from an earlier run with other representative plants
     costs = {name: np.array([found[name].cost for found in results]) for name in shown}
     cost_distribution_plot(costs, roles, out / "costs.png", f"{env_id}: cost per plant ({len(plants)} plants)", FEASIBLE_CAP)
     oracle = costs["oracle"]

@@ -6,7 +6,8 @@
   with several controllers, time in units of the true ``T_ar``, the load response divided by
   ``|K|`` (``|K_v| T_ar`` for integrating plants) as in the score.
 * :func:`nyquist_plot`: the loop ``L(i omega)`` of each controller near ``-1``, with the circle
-  ``|1 + L| = 1/Ms_max`` that a loop meeting ``Ms <= Ms_max`` does not enter.
+  ``|1 + L| = 1/Ms_max`` that a loop meeting ``Ms <= Ms_max`` does not enter (``Ms = 2`` for
+  reference where the environment has no ``Ms`` constraint, as ``MSP-v0``).
 """
 
 from __future__ import annotations
@@ -99,16 +100,18 @@ def nyquist_plot(plant: Any, controllers: dict[str, Any], max_sensitivity: float
 
     plt = _pyplot()
     scale = plant.step_time_scale()
-    omega = np.logspace(-3, 3, 6000) / scale
+    omega = np.logspace(-3, 3, 24_000) / scale  # dense: loops with dead times spin fast at high frequency
     fig, ax = plt.subplots(figsize=(6, 6))
     for name, controller in controllers.items():
         values = loop_response(plant, controller, omega)
         ax.plot(values.real, values.imag, lw=1, label=name)
     ax.plot([-1], [0], "k+", ms=10)
+    angle = np.linspace(0, 2 * np.pi, 200)
     if max_sensitivity is not None:
-        angle = np.linspace(0, 2 * np.pi, 200)
         radius = 1.0 / max_sensitivity
-        ax.plot(-1 + radius * np.cos(angle), radius * np.sin(angle), "r--", lw=1, label=f"Ms = {max_sensitivity:g}")
+        ax.plot(-1 + radius * np.cos(angle), radius * np.sin(angle), "r--", lw=1, label=f"Ms = {max_sensitivity:g} (constraint)")
+    else:  # no Ms constraint (MSP-v0): the usual Ms = 2 for reference
+        ax.plot(-1 + 0.5 * np.cos(angle), 0.5 * np.sin(angle), "--", color="0.5", lw=1, label="Ms = 2 (reference, no constraint)")
     ax.set_xlim(-3, 1.5)
     ax.set_ylim(-3, 1.5)
     ax.set_aspect("equal")
