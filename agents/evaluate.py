@@ -24,7 +24,8 @@ Writes into ``--out``: ``results.md``, ``results.csv``, ``results.json`` (also p
 ``--json``), ``per_plant.csv``, ``costs.png`` and, for a few representative plants (the best
 rule's median- and largest-regret plants, and each agent's median-regret plant),
 ``responses_<plant>.png`` and ``nyquist_<plant>.png``.  Per-plant results are appended to
-``cache.jsonl``, so an interrupted run resumes where it stopped; delete the file to recompute.
+``cache.jsonl``, so an interrupted run resumes where it stopped; the key holds a hash of the source
+of ``envs`` and ``baselines``, so results of other code are recomputed, not reused.
 ``--workers N`` scores the rules and oracles in ``N`` processes (the oracle dominates: 0.5-3 s per
 plant, up to 20 s on an odd benchmark plant); results do not depend on it.
 """

@@ -73,10 +73,29 @@ CACHE_VERSION = 2
 """Bumped whenever a cached result would change meaning (2: dimensionless rule parameters)."""
 
 
+_FINGERPRINT: list[str] = []
+
+
+def code_fingerprint() -> str:
+    """A hash of the source of ``envs`` and ``baselines``: cached results of other code are not reused."""
+    if not _FINGERPRINT:
+        import baselines
+        import envs
+
+        digest = hashlib.sha1()
+        for package in (envs, baselines):
+            root = Path(package.__file__).parent
+            for path in sorted(root.rglob("*.py")):
+                digest.update(str(path.relative_to(root)).encode())
+                digest.update(path.read_bytes())
+        _FINGERPRINT.append(digest.hexdigest())
+    return _FINGERPRINT[0]
+
+
 def plant_key(env_id: str, family: str, seed: int, position: int | str, plant_dict: dict[str, Any]) -> str:
-    """The cache key of one episode: cache version, environment, plant set, episode seed, position in
-    the set (index or name) and the plant itself."""
-    text = json.dumps([CACHE_VERSION, env_id, family, seed, position, plant_dict], sort_keys=True)
+    """The cache key of one episode: cache version, :func:`code_fingerprint`, environment, plant set,
+    episode seed, position in the set (index or name) and the plant itself."""
+    text = json.dumps([CACHE_VERSION, code_fingerprint(), env_id, family, seed, position, plant_dict], sort_keys=True)
     return hashlib.sha1(text.encode()).hexdigest()
 
 
