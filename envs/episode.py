@@ -204,7 +204,7 @@ def run_experiment(
     result = _run(kind, plant, rng, amplitude, evidence, noise_std, excursion_limit)
     counts = tuple(c + (name == kind) for name, c in zip(evidence.experiments, evidence.counts))
     usable = not result.aborted and (kind != "closed-loop-step" or _usable(result))
-    changes: dict = dict(counts=counts, experiment_time=evidence.experiment_time + result.duration)
+    changes: dict = {"counts": counts, "experiment_time": evidence.experiment_time + result.duration}
     if usable:
         changes["results"] = {**evidence.results, kind: result}
         if kind == "closed-loop-step":

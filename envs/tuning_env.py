@@ -17,7 +17,14 @@ import numpy as np
 from gymnasium import spaces
 
 from envs.design import PARAMETER_RANGES, design, relative_scale
-from envs.episode import Evidence, evidence_from_identification, feature_names, features, identification, run_experiment
+from envs.episode import (
+    Evidence,
+    evidence_from_identification,
+    feature_names,
+    features,
+    identification,
+    run_experiment,
+)
 from envs.families import FAMILIES, sample_plant
 from envs.plants import Plant
 from envs.procedure import Identification, identify

@@ -88,7 +88,7 @@ print(json.dumps(out))
 def test_same_seed_same_episode_across_processes(env_id, mode):
     environment = {**os.environ, "PYTHONPATH": str(REPO)}
     runs = [
-        subprocess.run([sys.executable, "-c", _CHILD, env_id, mode], capture_output=True, text=True, env=environment, timeout=300)
+        subprocess.run([sys.executable, "-c", _CHILD, env_id, mode], capture_output=True, text=True, env=environment, timeout=300, check=False)
         for _ in range(2)
     ]
     assert all(r.returncode == 0 for r in runs), runs[0].stderr
@@ -265,7 +265,7 @@ def test_vector_environments_run_one_step_episodes():
     vector = gym.make_vec("DeadTime/PID-v0", num_envs=2, vectorization_mode="sync")
     obs, _ = vector.reset(seed=0)
     assert obs.shape == (2, 15)
-    obs, reward, terminated, truncated, info = vector.step(np.zeros((2, 1), dtype=np.float32))
+    _, reward, terminated, truncated, _ = vector.step(np.zeros((2, 1), dtype=np.float32))
     assert terminated.all() and not truncated.any() and np.all(reward < 0)
 
 
