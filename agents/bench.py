@@ -247,11 +247,11 @@ def format_table(figures: dict[str, Any]) -> str:
         if label is None:
             lines.append(f"\n{key}")
         elif key in figures:
-            lines.append(f"  {label:44s} {_format(figures[key])}")
+            lines.append(f"  {label:48s} {_format(figures[key])}")
         if key == "episodes_per_s_agent":
             for name, rate in figures.get("episodes_per_s", {}).items():
                 if name not in ("single/fixed", "single/agent"):
-                    lines.append(f"  {name:44s} {_format(rate)}")
+                    lines.append(f"  {name:48s} {_format(rate)}")
     m = figures["machine"]
     lines.append(
         f"\nMachine: {m['cpu_count']} CPUs, load {m['load_average'][0]:.2f}, python {m['python']}, commit {m['commit']}"
