@@ -20,8 +20,8 @@ Every part runs in a child process whose BLAS, OpenMP and numba pools have one t
 machine under load, OpenBLAS's default two threads made ``scipy.linalg.expm`` of the small matrices
 of the discretizations up to ten times slower.  Vectorized workers inherit the setting.
 
-``--json`` prints one object with every figure (see :data:`HEADLINE` for the main ones); progress
-goes to standard error.  Rates are wall-clock figures of this machine at this moment: the JSON
+``--json`` prints one object with every figure (see :data:`HEADLINE` for the main ones; those of a
+skipped part are null); progress goes to standard error.  Rates are wall-clock figures of this machine at this moment: the JSON
 records the commit, whether ``envs/`` had uncommitted changes, the CPU count and the load.
 """
 
@@ -186,15 +186,12 @@ def bench(quick: bool = False, envs: bool = True, ppo: bool = True, pade_order: 
     start = time.perf_counter()
     figures: dict[str, Any] = {"quick": quick, "machine": machine_info()}
     figures.update(_scoring_part(quick, pade_order, reference_samples))
-    missing = None
     if envs:
         figures.update(_env_part(quick))
-    else:
-        missing = "skipped"
     if ppo:
         figures.update(_ppo_part(quick))
-    for key in HEADLINE:
-        figures.setdefault(key, missing)
+    for key in HEADLINE:  # skipped parts: null in the JSON
+        figures.setdefault(key, None)
     figures["machine"]["load_average_end"] = list(os.getloadavg())
     figures["bench_seconds"] = time.perf_counter() - start
     return figures

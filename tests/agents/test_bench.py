@@ -116,6 +116,21 @@ def test_bench_json_quick(capsys: Any) -> None:
     assert isinstance(machine["cpu_count"], int) and isinstance(machine["versions"]["control"], str)
 
 
+def test_table_names_every_headline_figure() -> None:
+    from agents.bench import HEADLINE, format_table
+
+    figures = {key: 0.5 for key in HEADLINE}
+    figures.update(
+        bench_seconds=1.0,
+        episodes_per_s={"single/fixed": 0.5, "single/agent": 0.5, "dummy2/fixed": 2.0},
+        machine={"cpu_count": 2, "load_average": [0.1, 0.1, 0.1], "python": "3", "commit": "abc",
+                 "envs_uncommitted_changes": False, "thread_variables": {"OPENBLAS_NUM_THREADS": "1"}},
+    )  # fmt: skip
+    table = format_table(figures)
+    assert "dummy2/fixed" in table and "commit abc" in table
+    assert table.count("0.5") >= len(HEADLINE)
+
+
 def test_bench_rejects_bad_order(capsys: Any) -> None:
     from agents.cli import main
 
