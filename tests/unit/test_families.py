@@ -45,7 +45,7 @@ def moment_fopdt(plant: Plant) -> tuple[float, float]:
 
 
 def test_families_names():
-    assert FAMILIES == ("fopdt", "sopdt", "lag-chain", "integrating", "benchmark")
+    assert FAMILIES == ("fopdt", "sopdt", "lag-chain", "integrating", "benchmark", "stable")
 
 
 @pytest.mark.parametrize("family", FAMILIES)
