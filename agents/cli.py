@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from importlib import import_module
@@ -144,7 +145,16 @@ def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Nam
     return parser, handlers
 
 
+# One thread for the linear algebra and the compiled kernels, unless the user says otherwise: the
+# matrices here are tiny, and OpenBLAS's threads made ``scipy.linalg.expm`` about 10 times slower on
+# 2 cores (measured by ``deadtime bench``); parallelism comes from vectorized environments and
+# ``--workers`` instead.  Set before numpy is imported (subprocess workers inherit it).
+SINGLE_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    for name in SINGLE_THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
     parser, handlers = _parser()
     args = parser.parse_args(argv)
     try:

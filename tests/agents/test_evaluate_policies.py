@@ -28,14 +28,16 @@ def test_own_structure_rules(structure, own):
     assert set(own) <= set(applicable_rules(structure))
 
 
-def test_all_rules_follow_the_plants():
-    stable, integrating = set(applicable_rules("pid")), set(applicable_rules("msp"))
-    assert stable == set(applicable_rules("fppi"))
-    assert {"simc-pi", "cohen-coon-pid", "haalman-pid", "fppi-eq28", "gorez-klan-mu-2"} <= stable
-    assert not {"msp-eq43", "msp-eq50", "msp-tr-tn"} & stable
-    assert {"msp-eq43", "zn-step-pi", "simc-pi"} <= integrating
-    assert not {"cohen-coon-pi", "gorez-klan-mu-2", "fppi-eq28"} & integrating
-    assert stable | integrating == set(RULES)
+def test_all_rules_follow_the_plants_and_the_controller_class():
+    pid, fppi, msp = (set(applicable_rules(s)) for s in ("pid", "fppi", "msp"))
+    assert {"simc-pi", "cohen-coon-pid", "haalman-pid", "gorez-klan-mu-2"} <= pid & fppi
+    assert not {"fppi-eq28", "fppi-eq34", "ppi-kappa1"} & pid  # the other compensator's rules
+    assert {"fppi-eq28", "fppi-eq34", "ppi-kappa1"} <= fppi
+    assert fppi - pid == {"fppi-eq28", "fppi-eq34", "ppi-kappa1"}
+    assert not {"msp-eq43", "msp-eq50", "msp-tr-tn"} & (pid | fppi)
+    assert {"msp-eq43", "zn-step-pi", "simc-pi"} <= msp
+    assert not {"cohen-coon-pi", "gorez-klan-mu-2", "fppi-eq28"} & msp
+    assert pid | fppi | msp == set(RULES)
 
 
 def test_parse_keeps_order_and_drops_duplicates(tmp_path):
