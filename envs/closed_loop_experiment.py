@@ -44,8 +44,8 @@ from envs.identification import (
 )
 from envs.loops import closed_loop
 from envs.plants import Plant
-from envs.simulation import discretize, simulate
-from envs.steady_state import window_samples, steady_state_mask
+from envs.simulation import LoopRun, discretize
+from envs.steady_state import steady_state_tail, window_samples
 from envs.validation import require_number
 
 __all__ = ["ClosedLoopStepResult", "closed_loop_step"]
@@ -178,33 +178,42 @@ def _run_closed_loop(
     window: int,
     excursion_limit: float | None,
 ) -> ExperimentRun:
-    """Simulate over growing horizons (doubling) until steady state, the cap, or an excursion."""
-    discrete = discretize(closed_loop(plant, controller), dt)
+    """Simulate over growing horizons (doubling) until steady state, the cap, or an excursion.
+
+    Each horizon continues the run of the last (:class:`~envs.simulation.LoopRun`) and tests only its
+    new samples for steady state (the earlier ones did not pass): the same samples and decisions as
+    simulating and testing every horizon from the start.
+    """
+    first_steps = max(16 * window, 64)
+    run = LoopRun(discretize(closed_loop(plant, controller), dt), 2 * first_steps)
+    tested = [0]  # samples already tested for steady state
 
     def trial(steps: int) -> tuple:
-        inputs = np.column_stack([np.full(steps, amplitude), np.zeros(steps), noise[:steps]])
-        sim = simulate(discrete, inputs)
+        sim = run.advance(np.column_stack([np.full(steps, amplitude), np.zeros(steps), noise[:steps]]))
         y, u = sim.outputs[:, 0], sim.outputs[:, 1]
         measured = y + noise[:steps]
         finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
         abort = excursion_index(y[:finite], excursion_limit)
         if sim.diverged and abort is None:
             abort = max(finite - 1, 0)
-        settle = _closed_loop_settling(sim.timepts[:finite], u[:finite], measured[:finite], amplitude, window, plant.integrating)
+        settle = _closed_loop_settling(
+            sim.timepts[:finite], u[:finite], measured[:finite], amplitude, window, plant.integrating, tested[0]
+        )
+        tested[0] = finite
         return sim.timepts, u, measured, y, abort, settle
 
-    return run_until_settled(trial, max(16 * window, 64), noise.size)
+    return run_until_settled(trial, first_steps, noise.size)
 
 
 def _closed_loop_settling(
-    t: np.ndarray, u: np.ndarray, measured: np.ndarray, amplitude: float, window: int, integrating: bool
+    t: np.ndarray, u: np.ndarray, measured: np.ndarray, amplitude: float, window: int, integrating: bool, first: int = 0
 ) -> int | None:
-    """First sample where the measured output is at the set point and the input (its integral
-    for an integrating plant) has settled too."""
+    """First sample (at or after ``first``) where the measured output is at the set point and the
+    input (its integral for an integrating plant) has settled too."""
     drive = _cumulative_integral(t, u) if integrating else u
-    both = steady_state_mask(t, measured, window, target=amplitude) & steady_state_mask(t, drive, window)
+    both = steady_state_tail(measured, window, first, target=amplitude) & steady_state_tail(drive, window, first)
     hits = np.flatnonzero(both)
-    return int(hits[0]) if hits.size else None
+    return int(hits[0]) + first if hits.size else None
 
 
 def _identify_closed_loop(

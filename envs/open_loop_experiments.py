@@ -50,8 +50,8 @@ from envs.identification import (
     step_time_constant,
 )
 from envs.plants import Plant, StateSpace
-from envs.simulation import open_loop_response
-from envs.steady_state import window_samples, noise_level, steady_state_index
+from envs.simulation import OpenLoopRun, open_loop_response
+from envs.steady_state import noise_level, steady_state_tail, window_samples
 from envs.validation import require_number
 
 __all__ = [
@@ -78,14 +78,18 @@ def _run_to_steady_state(
     samples and doubling, until the measured output is steady from sample ``start`` on
     (:func:`~envs.steady_state.steady_state_index`), the cap (``inputs.size`` samples) or an
     excursion of the true output."""
-    state_space = plant.state_space()
+    response = OpenLoopRun(plant.state_space(), plant.delay, inputs, dt)
+    tested = [start]  # each horizon continues the last one's recursion and tests only its new samples
 
     def trial(steps: int) -> tuple:
-        y = open_loop_response(state_space, plant.delay, inputs[:steps], dt)
+        y = response.response(steps)
         t = np.arange(steps) * dt
         measured = y + noise[:steps]
         abort = excursion_index(y, excursion_limit)
-        return t, inputs[:steps], measured, y, abort, steady_state_index(t, measured, window, start=start)
+        first = min(tested[0], steps)
+        hits = np.flatnonzero(steady_state_tail(measured, window, first))
+        tested[0] = max(tested[0], steps)
+        return t, inputs[:steps], measured, y, abort, int(hits[0]) + first if hits.size else None
 
     return run_until_settled(trial, max(start + 6 * window, 16), inputs.size)
 

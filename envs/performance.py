@@ -26,7 +26,7 @@ import numpy as np
 from envs.controllers import Controller
 from envs.loops import closed_loop, simulation_step
 from envs.plants import Plant
-from envs.simulation import discretize, simulate_batch
+from envs.simulation import LoopRun, discretize
 
 __all__ = ["IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 
@@ -69,7 +69,12 @@ def iae(plant: Plant, controller: Controller, *, samples_per_residence_time: int
 def iae_batch(
     plants: Sequence[Plant], controllers: Sequence[Controller], *, samples_per_residence_time: int = 50
 ) -> list[IAEResult]:
-    """:func:`iae` for many loops at once (one vectorized simulation per horizon)."""
+    """:func:`iae` for many loops at once.
+
+    Every loop still pending runs to the same number of samples at each horizon (the longest any of
+    them needs); a longer horizon continues each run from its saved state
+    (:class:`~envs.simulation.LoopRun`), which gives the samples of a run from the start.
+    """
     if len(plants) != len(controllers):
         raise ValueError(f"got {len(plants)} plants but {len(controllers)} controllers")
     systems = [closed_loop(p, c) for p, c in zip(plants, controllers)]
@@ -81,15 +86,18 @@ def iae_batch(
     scales = [p.step_time_scale() for p in plants]
     results: list[IAEResult | None] = [None] * len(plants)
     pending, horizon = list(range(len(plants))), HORIZON
+    runs_of: dict[int, tuple[LoopRun, LoopRun]] = {}
     while pending:
         steps = max(int(math.ceil(horizon * scales[i] / steps_of[i])) + 1 for i in pending)
-        inputs = np.zeros((2 * len(pending), steps, 3))
-        inputs[0::2, :, 1] = 1.0  # unit load step
-        inputs[1::2, :, 0] = 1.0  # unit set-point step
-        runs = simulate_batch([discretes[i] for i in pending for _ in range(2)], inputs)
+        inputs = np.zeros((2, steps, 3))
+        inputs[0, :, 1] = 1.0  # unit load step
+        inputs[1, :, 0] = 1.0  # unit set-point step
         still: list[int] = []
-        for k, i in enumerate(pending):
-            outcome = _outcome(runs[2 * k], runs[2 * k + 1], offsets[i], steps_of[i], horizon)
+        for i in pending:
+            if i not in runs_of:  # each horizon continues the run of the last (LoopRun), same samples
+                runs_of[i] = (LoopRun(discretes[i], 2 * steps), LoopRun(discretes[i], 2 * steps))
+            load, setpoint = (run.advance(inputs[k]) for k, run in enumerate(runs_of[i]))
+            outcome = _outcome(load, setpoint, offsets[i], steps_of[i], horizon)
             if outcome is None:
                 still.append(i)
             else:

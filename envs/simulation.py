@@ -287,23 +287,25 @@ def _run(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit):  # prag
     z = np.full((B, steps, C1.shape[1]), np.nan)
     alive = np.ones(B, dtype=np.bool_)
     for b in range(B):
+        x = np.zeros(Phi.shape[1])
+        history = np.zeros((offset + steps + 1, nv))
         alive[b] = _run_one(
             Phi[b], Gamma[b], R[b], C1[b], D11[b], D12[b], C2[b], D21[b], D22[b], whole[b], a[b], d[b], limit[b],
-            offset, z[b],
+            offset, z[b], x, history, 0,
         )  # fmt: skip
     return z, alive
 
 
 @numba.njit(cache=True)
-def _run_one(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit, offset, z):  # pragma: no cover
-    """One system of :func:`_run`: fills ``z`` and returns False if it diverged."""
+def _run_one(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit, offset, z, x, history, start):  # pragma: no cover
+    """One system of :func:`_run` from sample ``start`` to ``d.shape[0]``: fills ``z[start:]`` and
+    returns False if it diverged.  ``x`` (the state at ``start``, updated in place) and ``history``
+    (the delayed signals, at least ``offset + d.shape[0] + 1`` rows) carry the run between calls."""
     n, nz, nv = Phi.shape[0], C1.shape[0], a.size
-    history = np.zeros((offset + d.shape[0] + 1, nv))
-    x = np.zeros(n)
     x_next = np.zeros(n)
     v = np.zeros(nv)
     past = np.zeros(nv * 3)
-    for j in range(d.shape[0]):
+    for j in range(start, d.shape[0]):
         dj = d[j]
         for i in range(nv):
             base = offset + j - whole[i] - 1
@@ -365,18 +367,100 @@ def open_loop_response(state_space, delay: float, inputs: np.ndarray, dt: float)
     D = float(state_space.D.ravel()[0]) if state_space.D.size else 0.0
     g0, g1 = gamma0.ravel(), gamma1.ravel()
     direct = u_before if fractional else u_now
-    return _open_loop_run(np.ascontiguousarray(Phi), g0, g1, C, D, u_now, u_before, direct)
+    y = np.empty(steps)
+    _open_loop_run(np.ascontiguousarray(Phi), g0, g1, C, D, u_now, u_before, direct, np.zeros(Phi.shape[0]), y, 0)
+    return y
+
+
+class OpenLoopRun:
+    """:func:`open_loop_response` over a growing horizon, continuing from the saved state.
+
+    ``response(steps)`` returns the first ``steps`` outputs for ``inputs`` (the longest horizon), the
+    same samples as ``open_loop_response(state_space, delay, inputs[:steps], dt)``: the recursion is
+    causal, so it is only continued from the last horizon, and the discretization is done once.
+    """
+
+    def __init__(self, state_space, delay: float, inputs: np.ndarray, dt: float) -> None:
+        u = np.asarray(inputs, dtype=float).ravel()
+        Phi, gamma0, gamma1, m = delayed_zoh(state_space, delay, dt)
+        fractional = bool(np.any(gamma1))
+        padded = np.concatenate([np.zeros(m + 1), u])
+        self._u_now, self._u_before = padded[1 : u.size + 1], padded[: u.size]
+        self._direct = self._u_before if fractional else self._u_now
+        self._C = np.array(state_space.C, dtype=float).ravel()
+        self._D = float(state_space.D.ravel()[0]) if state_space.D.size else 0.0
+        self._Phi, self._g0, self._g1 = np.ascontiguousarray(Phi), gamma0.ravel(), gamma1.ravel()
+        self._x = np.zeros(Phi.shape[0])
+        self._y = np.empty(u.size)
+        self._done = 0
+
+    def response(self, steps: int) -> np.ndarray:
+        if steps > self._done:
+            _open_loop_run(self._Phi, self._g0, self._g1, self._C, self._D, self._u_now[:steps], self._u_before[:steps],
+                           self._direct[:steps], self._x, self._y, self._done)  # fmt: skip
+            self._done = steps
+        return self._y[:steps]
+
+
+class LoopRun:
+    """:func:`simulate` of one system over a growing horizon, continuing from the saved state and
+    delay buffer.
+
+    ``advance(inputs)`` returns the :class:`SimulationResult` of ``simulate(discrete, inputs)`` for a
+    longer ``inputs`` each call (whose earlier rows are those of the previous calls), bit for bit:
+    the recursion is causal, so only the new samples are computed.  As in :func:`simulate` the
+    divergence limit is ``DIVERGENCE_LIMIT`` times the largest input so far; the earlier samples
+    stayed below the earlier, smaller limit, hence below this one.  A run that diverged stays
+    stopped (a restart with a larger limit would stop later): continue only runs that did not
+    diverge, as the experiments and the IAE do.  ``capacity`` is the expected
+    longest horizon (the buffers grow if a longer one comes).
+    """
+
+    def __init__(self, discrete: DiscreteDelaySystem, capacity: int = 0) -> None:
+        self._discrete = discrete
+        self._M = {k: v[0] for k, v in _stack([discrete]).items()}
+        self._offset = max([1] + [int(w) + 1 for w in self._M["whole"]])
+        self._history = np.zeros((self._offset + 1, self._M["a"].size))
+        self._x = np.zeros(self._M["Phi"].shape[0])
+        self._z = np.full((0, discrete.system.n_outputs), np.nan)
+        self._done = 0
+        self._alive = True
+        self._grow(capacity)
+
+    def _grow(self, capacity: int) -> None:
+        if capacity <= self._z.shape[0]:
+            return
+        z = np.full((capacity, self._z.shape[1]), np.nan)
+        z[: self._z.shape[0]] = self._z
+        history = np.zeros((self._offset + capacity + 1, self._history.shape[1]))
+        history[: self._history.shape[0]] = self._history
+        self._z, self._history = z, history
+
+    def advance(self, inputs: np.ndarray) -> SimulationResult:
+        d = np.ascontiguousarray(inputs, dtype=float).reshape(-1, self._discrete.system.n_inputs)
+        steps = d.shape[0]
+        self._grow(max(steps, 2 * self._z.shape[0]) if steps > self._z.shape[0] else 0)
+        if steps > self._done and self._alive:
+            limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(d))) if d.size else 1.0)
+            M = self._M
+            self._alive = _run_one(
+                M["Phi"], M["Gamma"], M["R"], M["C1"], M["D11"], M["D12"], M["C2"], M["D21"], M["D22"], M["whole"],
+                M["a"], d, limit, self._offset, self._z, self._x, self._history, self._done,
+            )  # fmt: skip
+        self._done = max(self._done, steps)
+        return SimulationResult(
+            timepts=np.arange(steps) * self._discrete.dt, outputs=self._z[:steps], diverged=not self._alive
+        )
 
 
 @numba.njit(cache=True)
-def _open_loop_run(Phi, g0, g1, C, D, u_now, u_before, direct):  # pragma: no cover - compiled
-    """The recursion of :func:`open_loop_response`: ``y[j] = C x[j] + D direct[j]``,
-    ``x[j+1] = Phi x[j] + g0 u_now[j] + g1 u_before[j]`` from ``x[0] = 0``."""
+def _open_loop_run(Phi, g0, g1, C, D, u_now, u_before, direct, x, y, start):  # pragma: no cover - compiled
+    """The recursion of :func:`open_loop_response` from sample ``start``: ``y[j] = C x[j] + D direct[j]``,
+    ``x[j+1] = Phi x[j] + g0 u_now[j] + g1 u_before[j]``; ``x`` is the state at ``start`` (updated in
+    place, ``x[0] = 0`` from rest)."""
     n = Phi.shape[0]
-    x = np.zeros(n)
     x_next = np.zeros(n)
-    y = np.empty(u_now.size)
-    for j in range(u_now.size):
+    for j in range(start, u_now.size):
         acc = 0.0
         for k in range(n):
             acc += C[k] * x[k]
@@ -387,7 +471,6 @@ def _open_loop_run(Phi, g0, g1, C, D, u_now, u_before, direct):  # pragma: no co
                 acc += Phi[r, k] * x[k]
             x_next[r] = acc + g0[r] * u_now[j] + g1[r] * u_before[j]
         x[:] = x_next
-    return y
 
 
 class SystemBuilder:

@@ -59,31 +59,45 @@ def steady_state_mask(timepts: np.ndarray, signal: np.ndarray, window: int, *, t
 
     The samples are taken as equally spaced (``timepts`` is for the interface's symmetry).
     """
+    return steady_state_tail(signal, window, 0, target=target)
+
+
+def steady_state_tail(signal: np.ndarray, window: int, first: int, *, target: float | None = None) -> np.ndarray:
+    """``steady_state_mask(timepts, signal, window, target=target)[first:]``, bit for bit, with the
+    tests evaluated for the windows ending at or after ``first`` only (the running sums still start at
+    sample 0, so every value is computed exactly as in the whole mask).
+
+    A run extended over a growing horizon tests only its new samples with it: the mask is causal.
+    """
     y = np.asarray(signal, dtype=float)
     n = int(window)
     if n < 3:
         raise ValueError(f"window must be >= 3 samples, got {window!r}")
-    mask = np.zeros(y.size, dtype=bool)
-    if y.size < n:
+    first = max(int(first), 0)
+    mask = np.zeros(max(y.size - first, 0), dtype=bool)
+    if y.size < n or first >= y.size:
         return mask
-    ends = np.arange(n - 1, y.size)  # window [k - n + 1, k]
-    sums = _window_sums(y, n)
+    lo = max(first - (n - 1), 0)  # index of the first window tested, among the window ends n - 1, n, ...
+    ends = np.arange(n - 1 + lo, y.size)  # window [k - n + 1, k]
+    all_sums = _window_sums(y, n)
+    sums = all_sums[lo:]
     mean = sums / n
     index = np.arange(y.size, dtype=float)
-    centered = _window_sums(index * y, n) - (ends - (n - 1) / 2.0) * sums
+    centered = _window_sums(index * y, n)[lo:] - (ends - (n - 1) / 2.0) * sums
     change = centered / (n * (n * n - 1) / 12.0) * (n - 1)  # fitted slope times the window length
     curvature = np.concatenate([[0.0, 0.0], np.diff(y, 2)])
-    sigma = np.sqrt(_window_sums(curvature**2, n) / n / 6.0)
+    sigma = np.sqrt(_window_sums(curvature**2, n)[lo:] / n / 6.0)
     scale = abs(target) if target is not None else np.abs(mean)
     tol = STEADY_STATE_TOLERANCE * scale
     ok = np.abs(change) <= CONFIDENCE * sigma * math.sqrt(12.0 / n) + tol
     if target is not None:
         ok &= np.abs(mean - target) <= CONFIDENCE * sigma / math.sqrt(n) + tol
     else:
-        previous = np.concatenate([np.full(n, np.inf), mean[:-n]])
+        all_mean = all_sums / n
+        previous = np.concatenate([np.full(n, np.inf), all_mean[:-n]])[lo:]
         ok &= np.abs(mean - previous) <= CONFIDENCE * sigma * math.sqrt(2.0 / n) + tol
         ok &= np.abs(mean) > CONFIDENCE * sigma / math.sqrt(n) + tol
-    mask[ends] = ok
+    mask[ends - first] = ok
     return mask
 
 

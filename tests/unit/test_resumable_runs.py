@@ -1,0 +1,171 @@
+"""Runs continued over growing horizons against the same runs restarted from the start.
+
+The experiments and the IAE extend a simulation by doubling its horizon until it settles.  They
+continue it from the saved state and delay buffer (:class:`envs.simulation.LoopRun`,
+:class:`envs.simulation.OpenLoopRun`) and test only the new samples for steady state
+(:func:`envs.steady_state.steady_state_tail`).  The recursions and the running sums are causal, so
+the results must be those of restarting every horizon from rest, bit for bit: every comparison here
+is exact.  The references are the methods the fast paths replaced, written out.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from envs.closed_loop_experiment import _closed_loop_settling, _cumulative_integral, _run_closed_loop
+from envs.commissioning import commissioning_pi
+from envs.controllers import FPPI, MSP, PID
+from envs.experiment_base import excursion_index, run_until_settled
+from envs.loops import closed_loop, simulation_step
+from envs.open_loop_experiments import _run_to_steady_state
+from envs.performance import OFFSET_TOLERANCE, _outcome, _steady_offsets, iae_batch, HORIZON
+from envs.plants import Plant
+from envs.simulation import LoopRun, OpenLoopRun, discretize, open_loop_response, simulate, simulate_batch
+from envs.steady_state import steady_state_mask, steady_state_tail, window_samples
+
+LOOPS = {
+    "pid-fopdt": (Plant.from_time_constants(1.0, [1.0], 0.7), PID(0.8, 1.5)),
+    "fppi-nmp": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5), FPPI(1.0, 2.5, 1.0, 0.8, 0.8)),
+    "msp-integrating": (Plant.from_time_constants(1.0, [1.0], 2.0, integrating=True), MSP(1.0, 3.0, 2.0)),
+    "unstable-pid": (Plant.from_time_constants(2.0, [1.0], 1.0), PID(5.0, 0.5)),
+}
+
+
+def _equal(a: np.ndarray, b: np.ndarray) -> None:
+    np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
+@pytest.mark.parametrize("name", LOOPS)
+def test_loop_run_continued_equals_simulation_from_rest(name):
+    plant, controller = LOOPS[name]
+    system = closed_loop(plant, controller)
+    discrete = discretize(system, simulation_step(plant, controller, 50, system=system))
+    rng = np.random.default_rng(3)
+    inputs = np.column_stack([np.ones(3000), np.zeros(3000), 0.01 * rng.standard_normal(3000)])
+    inputs[1500:, 2] *= 40.0  # a larger input later raises the divergence limit
+    run = LoopRun(discrete, 100)  # buffers grow
+    for steps in (7, 100, 101, 700, 1600, 3000):
+        continued = run.advance(inputs[:steps])
+        restarted = simulate(discrete, inputs[:steps])
+        _equal(continued.outputs, restarted.outputs)
+        _equal(continued.timepts, restarted.timepts)
+        assert continued.diverged == restarted.diverged
+        if continued.diverged:  # a run stops at its first divergence (the callers stop there too)
+            break
+    assert continued.diverged == (name == "unstable-pid")
+
+
+def test_open_loop_run_continued_equals_response_from_rest():
+    plant = Plant(num=[-0.5, 1.0], den=[1.0, 2.2, 1.7, 0.5], delay=0.37)
+    inputs = np.where(np.arange(2000) < 30, 2.0, 0.0)
+    run = OpenLoopRun(plant.state_space(), plant.delay, inputs, 0.013)
+    for steps in (5, 64, 65, 900, 2000):
+        _equal(run.response(steps), open_loop_response(plant.state_space(), plant.delay, inputs[:steps], 0.013))
+
+
+@pytest.mark.parametrize("target", [None, 1.0])
+@pytest.mark.parametrize("first", [0, 1, 7, 50, 51, 333, 1999, 2000, 2500])
+def test_steady_state_tail_equals_whole_mask(target, first):
+    t = np.linspace(0.0, 20.0, 2000)
+    y = 1.0 - np.exp(-t / 2.0) + 0.002 * np.random.default_rng(1).standard_normal(t.size)
+    _equal(steady_state_tail(y, 50, first, target=target), steady_state_mask(t, y, 50, target=target)[first:])
+
+
+def _closed_loop_from_rest(plant, controller, amplitude, noise, dt, window, excursion_limit):
+    """The closed-loop run as before: every horizon simulated and tested from the start."""
+    discrete = discretize(closed_loop(plant, controller), dt)
+
+    def trial(steps):
+        inputs = np.column_stack([np.full(steps, amplitude), np.zeros(steps), noise[:steps]])
+        sim = simulate(discrete, inputs)
+        y, u = sim.outputs[:, 0], sim.outputs[:, 1]
+        measured = y + noise[:steps]
+        finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
+        abort = excursion_index(y[:finite], excursion_limit)
+        if sim.diverged and abort is None:
+            abort = max(finite - 1, 0)
+        t = sim.timepts[:finite]
+        drive = _cumulative_integral(t, u[:finite]) if plant.integrating else u[:finite]
+        both = steady_state_mask(t, measured[:finite], window, target=amplitude) & steady_state_mask(t, drive, window)
+        hits = np.flatnonzero(both)
+        return sim.timepts, u, measured, y, abort, int(hits[0]) if hits.size else None
+
+    return run_until_settled(trial, max(16 * window, 64), noise.size)
+
+
+def _same_run(a, b) -> None:
+    for field in ("timepts", "control", "output", "true_output"):
+        _equal(getattr(a, field)[: a.end + 1], getattr(b, field)[: b.end + 1])
+    assert (a.end, a.settled, a.aborted) == (b.end, b.settled, b.aborted)
+
+
+@pytest.mark.parametrize("noise_std", [0.0, 0.02])
+@pytest.mark.parametrize("name", LOOPS)
+def test_closed_loop_run_equals_restarted_run(name, noise_std):
+    plant, controller = LOOPS[name]
+    if name == "pid-fopdt":
+        controller = commissioning_pi(plant)
+    dt = simulation_step(plant, controller, 200)
+    window = window_samples(plant.step_time_scale(), dt)
+    noise = noise_std * np.random.default_rng(5).standard_normal(6000)
+    for limit in (None, 1.5):
+        args = (plant, controller, 1.0, noise, dt, window, limit)
+        _same_run(_run_closed_loop(*args), _closed_loop_from_rest(*args))
+
+
+@pytest.mark.parametrize("noise_std", [0.0, 0.02])
+@pytest.mark.parametrize("start", [0, 300])
+def test_open_loop_run_equals_restarted_run(noise_std, start):
+    plant = Plant(num=[1.0], den=[2.0, 3.0, 1.0], delay=0.4)
+    dt, window = 0.01, 120
+    inputs = np.where(np.arange(8000) < 40, 1.5, 0.0) + 0.5
+    noise = noise_std * np.random.default_rng(6).standard_normal(inputs.size)
+
+    def trial(steps):
+        y = open_loop_response(plant.state_space(), plant.delay, inputs[:steps], dt)
+        t = np.arange(steps) * dt
+        measured = y + noise[:steps]
+        hits = np.flatnonzero(steady_state_mask(t, measured, window)[start:])
+        return t, inputs[:steps], measured, y, None, int(hits[0]) + start if hits.size else None
+
+    restarted = run_until_settled(trial, max(start + 6 * window, 16), inputs.size)
+    _same_run(_run_to_steady_state(plant, inputs, noise, dt, window, start, None), restarted)
+    assert restarted.settled
+
+
+def _iae_from_rest(plants, controllers):
+    """:func:`iae_batch` as before: every horizon one batched simulation from rest."""
+    systems = [closed_loop(p, c) for p, c in zip(plants, controllers)]
+    steps_of = [simulation_step(p, c, 50, system=s) for p, c, s in zip(plants, controllers, systems)]
+    discretes = [discretize(s, dt) for s, dt in zip(systems, steps_of)]
+    offsets = [_steady_offsets(s) for s in systems]
+    scales = [p.step_time_scale() for p in plants]
+    results = [None] * len(plants)
+    pending, horizon = list(range(len(plants))), HORIZON
+    while pending:
+        steps = max(int(math.ceil(horizon * scales[i] / steps_of[i])) + 1 for i in pending)
+        inputs = np.zeros((2 * len(pending), steps, 3))
+        inputs[0::2, :, 1] = 1.0
+        inputs[1::2, :, 0] = 1.0
+        runs = simulate_batch([discretes[i] for i in pending for _ in range(2)], inputs)
+        still = []
+        for k, i in enumerate(pending):
+            outcome = _outcome(runs[2 * k], runs[2 * k + 1], offsets[i], steps_of[i], horizon)
+            if outcome is None:
+                still.append(i)
+            else:
+                results[i] = outcome
+        pending, horizon = still, horizon * 2
+    return results
+
+
+def test_iae_batch_equals_restarted_batch():
+    plants = [p for p, _ in LOOPS.values()] + [Plant.from_time_constants(1.0, [3.0, 1.0], 0.2)]
+    controllers = [c for _, c in LOOPS.values()] + [PID(0.3, 100.0)]  # the last settles slowly
+    assert OFFSET_TOLERANCE > 0
+    fast, reference = iae_batch(plants, controllers), _iae_from_rest(plants, controllers)
+    assert fast == reference
+    assert len({r.horizon for r in fast}) > 1
