@@ -44,8 +44,8 @@ from envs.identification import (
 )
 from envs.loops import closed_loop
 from envs.plants import Plant
-from envs.simulation import LoopRun, discretize
-from envs.steady_state import steady_state_tail, window_samples
+from envs.simulation import DIVERGENCE_LIMIT, LoopRun, discretize
+from envs.steady_state import SteadyStateTest, window_samples
 from envs.validation import require_number
 
 __all__ = ["ClosedLoopStepResult", "closed_loop_step"]
@@ -180,40 +180,65 @@ def _run_closed_loop(
 ) -> ExperimentRun:
     """Simulate over growing horizons (doubling) until steady state, the cap, or an excursion.
 
-    Each horizon continues the run of the last (:class:`~envs.simulation.LoopRun`) and tests only its
-    new samples for steady state (the earlier ones did not pass): the same samples and decisions as
-    simulating and testing every horizon from the start.
+    Each horizon is reached in chunks of ``CHUNK_WINDOWS`` windows, each continuing the run
+    (:class:`~envs.simulation.LoopRun`) and testing only its new samples
+    (:class:`~envs.steady_state.SteadyStateTest`); the divergence limit is that of the whole
+    horizon.  The run stops at the first chunk that settles or aborts, with the same last sample and
+    the same samples up to it as simulating and testing every horizon from the start.
     """
     first_steps = max(16 * window, 64)
-    run = LoopRun(discretize(closed_loop(plant, controller), dt), 2 * first_steps)
-    tested = [0]  # samples already tested for steady state
+    trial = _ClosedLoopTrial(plant, controller, amplitude, noise, dt, window, excursion_limit, 2 * first_steps)
+    return run_until_settled(trial, first_steps, noise.size, chunk=CHUNK_WINDOWS * window)
 
-    def trial(steps: int) -> tuple:
-        sim = run.advance(np.column_stack([np.full(steps, amplitude), np.zeros(steps), noise[:steps]]))
+
+CHUNK_WINDOWS = 4
+"""Windows simulated and tested at a time within a horizon (a run stops within a chunk of settling)."""
+
+
+class _ClosedLoopTrial:
+    """``trial(steps, horizon)`` of :func:`~envs.experiment_base.run_until_settled` for the closed-loop
+    step, continued from the last call (see :func:`_run_closed_loop`)."""
+
+    def __init__(self, plant, controller, amplitude, noise, dt, window, excursion_limit, capacity) -> None:
+        self.run = LoopRun(discretize(closed_loop(plant, controller), dt), capacity)
+        self.amplitude, self.noise, self.limit, self.integrating = amplitude, noise, excursion_limit, plant.integrating
+        self.output_test = SteadyStateTest(window, target=amplitude)
+        self.drive_test = SteadyStateTest(window)
+        self.measured = np.empty(noise.size)
+        self.drive = np.zeros(noise.size)
+        self.done, self.horizon = 0, 0
+        self.inputs = np.zeros((0, 3))
+        self.divergence_limit = 0.0
+
+    def __call__(self, steps: int, horizon: int) -> tuple:
+        if horizon != self.horizon:  # the inputs and divergence limit of simulating the whole horizon
+            self.horizon = horizon
+            self.inputs = np.column_stack([np.full(horizon, self.amplitude), np.zeros(horizon), self.noise[:horizon]])
+            self.divergence_limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(self.inputs))))
+        sim = self.run.advance(self.inputs[:steps], limit=self.divergence_limit)
         y, u = sim.outputs[:, 0], sim.outputs[:, 1]
-        measured = y + noise[:steps]
+        old = self.done
         finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
-        abort = excursion_index(y[:finite], excursion_limit)
+        self.measured[old:steps] = y[old:] + self.noise[old:steps]
+        measured = self.measured[:steps]
+        abort = excursion_index(y[old:finite], self.limit)
+        abort = None if abort is None else abort + old
         if sim.diverged and abort is None:
             abort = max(finite - 1, 0)
-        settle = _closed_loop_settling(
-            sim.timepts[:finite], u[:finite], measured[:finite], amplitude, window, plant.integrating, tested[0]
-        )
-        tested[0] = finite
+        settle = None
+        if finite > old:
+            if self.integrating:
+                first = max(old, 1)  # drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1]), drive[0] = 0
+                increments = 0.5 * (u[first:finite] + u[first - 1 : finite - 1]) * np.diff(sim.timepts[first - 1 : finite])
+                self.drive[first:finite] = np.cumsum(np.concatenate([[self.drive[first - 1]], increments]))[1:]
+                drive = self.drive[:finite]
+            else:
+                drive = u[:finite]
+            both = self.output_test.extend(measured[:finite]) & self.drive_test.extend(drive)
+            hits = np.flatnonzero(both)
+            settle = int(hits[0]) + old if hits.size else None
+        self.done = finite
         return sim.timepts, u, measured, y, abort, settle
-
-    return run_until_settled(trial, first_steps, noise.size)
-
-
-def _closed_loop_settling(
-    t: np.ndarray, u: np.ndarray, measured: np.ndarray, amplitude: float, window: int, integrating: bool, first: int = 0
-) -> int | None:
-    """First sample (at or after ``first``) where the measured output is at the set point and the
-    input (its integral for an integrating plant) has settled too."""
-    drive = _cumulative_integral(t, u) if integrating else u
-    both = steady_state_tail(measured, window, first, target=amplitude) & steady_state_tail(drive, window, first)
-    hits = np.flatnonzero(both)
-    return int(hits[0]) + first if hits.size else None
 
 
 def _identify_closed_loop(

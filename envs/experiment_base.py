@@ -126,24 +126,38 @@ class ExperimentRun:
     aborted: bool
 
 
-def run_until_settled(trial: Callable[[int], tuple], first_steps: int, steps_max: int) -> ExperimentRun:
+def run_until_settled(
+    trial: Callable[..., tuple], first_steps: int, steps_max: int, chunk: int | None = None
+) -> ExperimentRun:
     """Run ``trial(steps)`` over growing horizons, from ``first_steps`` samples and doubling, until
     it settles, reaches the cap (``steps_max`` samples) or aborts.
 
     ``trial`` returns ``(timepts, control, measured, true_output, abort, settle)`` with ``abort``
     the first sample of an excursion (or divergence) and ``settle`` the first steady sample, each
     None if there is none; an abort at or before the steady sample wins.
+
+    With ``chunk``, each horizon is reached ``chunk`` samples at a time by ``trial(steps, horizon)``,
+    which reports on the samples up to ``steps`` of the run over ``horizon``.  A causal trial (the
+    samples, the first steady sample and the first abort up to ``steps`` are those of the whole
+    horizon's run) gives the same last sample and the same signals up to it, after fewer samples.
     """
-    steps = min(first_steps, steps_max)
+    horizon = min(first_steps, steps_max)
+    steps = 0
     while True:
-        t, control, measured, true_output, abort, settle = trial(steps)
+        if chunk is None:
+            steps = horizon
+            t, control, measured, true_output, abort, settle = trial(steps)
+        else:
+            steps = min(steps + chunk, horizon)
+            t, control, measured, true_output, abort, settle = trial(steps, horizon)
         if abort is not None and (settle is None or abort <= settle):
             return ExperimentRun(t, control, measured, true_output, abort, False, True)
         if settle is not None:
             return ExperimentRun(t, control, measured, true_output, settle, True, False)
         if steps == steps_max:
             return ExperimentRun(t, control, measured, true_output, steps - 1, False, False)
-        steps = min(2 * steps, steps_max)
+        if steps == horizon:
+            horizon = min(2 * horizon, steps_max)
 
 
 def record_fields(run: ExperimentRun, scale: float) -> dict:

@@ -51,7 +51,7 @@ from envs.identification import (
 )
 from envs.plants import Plant, StateSpace
 from envs.simulation import OpenLoopRun, open_loop_response
-from envs.steady_state import noise_level, steady_state_tail, window_samples
+from envs.steady_state import SteadyStateTest, noise_level, window_samples
 from envs.validation import require_number
 
 __all__ = [
@@ -79,19 +79,25 @@ def _run_to_steady_state(
     (:func:`~envs.steady_state.steady_state_index`), the cap (``inputs.size`` samples) or an
     excursion of the true output."""
     response = OpenLoopRun(plant.state_space(), plant.delay, inputs, dt)
-    tested = [start]  # each horizon continues the last one's recursion and tests only its new samples
+    test = SteadyStateTest(window)
+    measured = np.empty(inputs.size)
+    done = [0]  # each chunk continues the recursion and tests only its new samples (see run_until_settled)
 
-    def trial(steps: int) -> tuple:
+    def trial(steps: int, horizon: int) -> tuple:
         y = response.response(steps)
-        t = np.arange(steps) * dt
-        measured = y + noise[:steps]
-        abort = excursion_index(y, excursion_limit)
-        first = min(tested[0], steps)
-        hits = np.flatnonzero(steady_state_tail(measured, window, first))
-        tested[0] = max(tested[0], steps)
-        return t, inputs[:steps], measured, y, abort, int(hits[0]) + first if hits.size else None
+        old = done[0]
+        measured[old:steps] = y[old:] + noise[old:steps]
+        abort = excursion_index(y[old:], excursion_limit)
+        hits = np.flatnonzero(test.extend(measured[:steps])[max(start - old, 0) :])
+        done[0] = steps
+        settle = int(hits[0]) + max(start, old) if hits.size else None
+        return np.arange(steps) * dt, inputs[:steps], measured[:steps], y, None if abort is None else abort + old, settle
 
-    return run_until_settled(trial, max(start + 6 * window, 16), inputs.size)
+    return run_until_settled(trial, max(start + 6 * window, 16), inputs.size, chunk=CHUNK_WINDOWS * window)
+
+
+CHUNK_WINDOWS = 2
+"""Windows simulated and tested at a time within a horizon (a run stops within a chunk of settling)."""
 
 
 def _smoothing_samples(signal: np.ndarray, change: float, residence_time: float, dt: float) -> int:

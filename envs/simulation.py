@@ -436,12 +436,15 @@ class LoopRun:
         history[: self._history.shape[0]] = self._history
         self._z, self._history = z, history
 
-    def advance(self, inputs: np.ndarray) -> SimulationResult:
+    def advance(self, inputs: np.ndarray, limit: float | None = None) -> SimulationResult:
+        """The run up to ``len(inputs)`` samples; ``limit`` overrides the divergence limit (that of
+        :func:`simulate` for ``inputs``), e.g. with that of a longer horizon simulated in parts."""
         d = np.ascontiguousarray(inputs, dtype=float).reshape(-1, self._discrete.system.n_inputs)
         steps = d.shape[0]
         self._grow(max(steps, 2 * self._z.shape[0]) if steps > self._z.shape[0] else 0)
         if steps > self._done and self._alive:
-            limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(d))) if d.size else 1.0)
+            if limit is None:
+                limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(d))) if d.size else 1.0)
             M = self._M
             self._alive = _run_one(
                 M["Phi"], M["Gamma"], M["R"], M["C1"], M["D11"], M["D12"], M["C2"], M["D21"], M["D22"], M["whole"],

@@ -101,6 +101,65 @@ def steady_state_tail(signal: np.ndarray, window: int, first: int, *, target: fl
     return mask
 
 
+class SteadyStateTest:
+    """:func:`steady_state_mask` of a signal that grows, computed for the new samples only.
+
+    ``extend(signal)``, given the signal so far (whose earlier samples are those of the previous
+    calls), returns ``steady_state_mask(timepts, signal, window, target=target)[previous size:]`` bit for
+    bit: the running sums are continued from their last value in the same order as one ``cumsum`` of
+    the whole signal, and every test is the same elementwise expression.
+    """
+
+    def __init__(self, window: int, *, target: float | None = None) -> None:
+        self._n = int(window)
+        if self._n < 3:
+            raise ValueError(f"window must be >= 3 samples, got {window!r}")
+        self._target = target
+        self._size = 0
+        self._sums = np.zeros((3, 1025))  # running sums of y, k y and curvature^2, from 0 at sample 0
+
+    def extend(self, signal: np.ndarray) -> np.ndarray:
+        y = np.asarray(signal, dtype=float)
+        old, size, n = self._size, y.size, self._n
+        if size <= old:
+            return np.zeros(0, dtype=bool)
+        if size + 1 > self._sums.shape[1]:
+            grown = np.zeros((3, max(size + 1, 2 * self._sums.shape[1])))
+            grown[:, : old + 1] = self._sums[:, : old + 1]
+            self._sums = grown
+        new = y[old:]
+        curvature = np.concatenate([np.zeros(max(2 - old, 0)), np.diff(y[max(old - 2, 0) :], 2)])[: size - old]
+        for row, values in enumerate((new, np.arange(old, size, dtype=float) * new, curvature**2)):
+            self._sums[row, old : size + 1] = np.cumsum(np.concatenate([[self._sums[row, old]], values]))
+        self._size = size
+        mask = np.zeros(size - old, dtype=bool)
+        first = max(old, n - 1)
+        if first >= size:
+            return mask
+        c = self._sums
+        ends = np.arange(first, size)  # window [k - n + 1, k]
+        sums = c[0, first + 1 : size + 1] - c[0, first + 1 - n : size + 1 - n]
+        mean = sums / n
+        centered = (c[1, first + 1 : size + 1] - c[1, first + 1 - n : size + 1 - n]) - (ends - (n - 1) / 2.0) * sums
+        change = centered / (n * (n * n - 1) / 12.0) * (n - 1)
+        sigma = np.sqrt((c[2, first + 1 : size + 1] - c[2, first + 1 - n : size + 1 - n]) / n / 6.0)
+        target = self._target
+        scale = abs(target) if target is not None else np.abs(mean)
+        tol = STEADY_STATE_TOLERANCE * scale
+        ok = np.abs(change) <= CONFIDENCE * sigma * math.sqrt(12.0 / n) + tol
+        if target is not None:
+            ok &= np.abs(mean - target) <= CONFIDENCE * sigma / math.sqrt(n) + tol
+        else:
+            previous = np.full(ends.size, np.inf)
+            has = ends - n >= n - 1  # the previous window lies inside the signal
+            k = ends[has] - n
+            previous[has] = (c[0, k + 1] - c[0, k + 1 - n]) / n
+            ok &= np.abs(mean - previous) <= CONFIDENCE * sigma * math.sqrt(2.0 / n) + tol
+            ok &= np.abs(mean) > CONFIDENCE * sigma / math.sqrt(n) + tol
+        mask[first - old :] = ok
+        return mask
+
+
 def _window_sums(values: np.ndarray, n: int) -> np.ndarray:
     """Sums over each run of ``n`` consecutive values (one per window end ``k >= n - 1``)."""
     c = np.concatenate([[0.0], np.cumsum(values)])

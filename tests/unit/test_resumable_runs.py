@@ -2,8 +2,9 @@
 
 The experiments and the IAE extend a simulation by doubling its horizon until it settles.  They
 continue it from the saved state and delay buffer (:class:`envs.simulation.LoopRun`,
-:class:`envs.simulation.OpenLoopRun`) and test only the new samples for steady state
-(:func:`envs.steady_state.steady_state_tail`).  The recursions and the running sums are causal, so
+:class:`envs.simulation.OpenLoopRun`), the experiments reach each horizon in chunks and stop at the
+first chunk that settles, and only the new samples are tested for steady state
+(:func:`envs.steady_state.steady_state_tail`, :class:`envs.steady_state.SteadyStateTest`).  The recursions and the running sums are causal, so
 the results must be those of restarting every horizon from rest, bit for bit: every comparison here
 is exact.  The references are the methods the fast paths replaced, written out.
 """
@@ -15,16 +16,34 @@ import math
 import numpy as np
 import pytest
 
-from envs.closed_loop_experiment import _closed_loop_settling, _cumulative_integral, _run_closed_loop
+from envs.closed_loop_experiment import _cumulative_integral, _run_closed_loop
 from envs.commissioning import commissioning_pi
 from envs.controllers import FPPI, MSP, PID
 from envs.experiment_base import excursion_index, run_until_settled
 from envs.loops import closed_loop, simulation_step
 from envs.open_loop_experiments import _run_to_steady_state
-from envs.performance import OFFSET_TOLERANCE, _outcome, _steady_offsets, iae_batch, HORIZON
+from envs.performance import (
+    HORIZON,
+    OFFSET_TOLERANCE,
+    _outcome,
+    _steady_offsets,
+    iae_batch,
+)
 from envs.plants import Plant
-from envs.simulation import LoopRun, OpenLoopRun, discretize, open_loop_response, simulate, simulate_batch
-from envs.steady_state import steady_state_mask, steady_state_tail, window_samples
+from envs.simulation import (
+    LoopRun,
+    OpenLoopRun,
+    discretize,
+    open_loop_response,
+    simulate,
+    simulate_batch,
+)
+from envs.steady_state import (
+    SteadyStateTest,
+    steady_state_mask,
+    steady_state_tail,
+    window_samples,
+)
 
 LOOPS = {
     "pid-fopdt": (Plant.from_time_constants(1.0, [1.0], 0.7), PID(0.8, 1.5)),
@@ -169,3 +188,17 @@ def test_iae_batch_equals_restarted_batch():
     fast, reference = iae_batch(plants, controllers), _iae_from_rest(plants, controllers)
     assert fast == reference
     assert len({r.horizon for r in fast}) > 1
+
+
+@pytest.mark.parametrize("target", [None, 1.0])
+def test_steady_state_test_extended_equals_whole_mask(target):
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        window = int(rng.integers(3, 120))
+        size = int(rng.integers(2 * window, 2500))
+        t = np.arange(size) * 0.01
+        y = 1.0 - np.exp(-t / rng.uniform(0.1, 5.0)) + rng.uniform(0.0, 0.01) * rng.standard_normal(size)
+        test = SteadyStateTest(window, target=target)
+        cuts = sorted(set(rng.integers(1, size, 6).tolist() + [size]))
+        extended = np.concatenate([test.extend(y[:cut]) for cut in cuts])
+        _equal(extended, steady_state_mask(t, y, window, target=target))
