@@ -61,7 +61,7 @@ class DeadTimeTuningEnv(gym.Env):
     :attr:`default_family`, and may override :meth:`default_constraints`.
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 1}
     structure: str = "pid"
     integrating: bool = False
     default_family: str = "stable"
@@ -81,8 +81,8 @@ class DeadTimeTuningEnv(gym.Env):
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
-        if render_mode is not None:
-            raise ValueError(f"render_mode: these environments do not render, got {render_mode!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.mode = experiments
         self.family = self.default_family if family is None else family
         if self.family not in FAMILIES:
@@ -96,7 +96,8 @@ class DeadTimeTuningEnv(gym.Env):
         self.budget = int(budget)
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
         self.oracle = bool(oracle)
-        self.render_mode = None
+        self.render_mode = render_mode
+        self._controller = None
         self.parameter_range = PARAMETER_RANGES[self.structure]
         evidence = Evidence.empty(self.integrating)
         self.experiment_names = evidence.experiments
@@ -155,6 +156,7 @@ class DeadTimeTuningEnv(gym.Env):
         else:
             raise RuntimeError(f"no plant of family {self.family!r} could be identified in {MAX_SAMPLING_ATTEMPTS} draws")
         self._done = False
+        self._controller = None
         return self._observation(), {"plant": self.plant.to_dict(), "features": self._features()}
 
     def _given_plant(self, plant: Plant | dict) -> Plant:
@@ -207,6 +209,7 @@ class DeadTimeTuningEnv(gym.Env):
             )
         relative = self.parameter_from_action(parameter_action)
         controller = self.design(relative)
+        self._controller = controller
         result = self.score_controller(controller)
         self._done = True
         info = self._final_info(result, relative, controller)
@@ -253,6 +256,43 @@ class DeadTimeTuningEnv(gym.Env):
 
         best = oracle(self.plant, self.identification, self.structure, constraints=self.constraints, weights=self.weights)
         return {"oracle_cost": float(best.cost), "oracle_parameter": float(best.relative_parameter)}
+
+    # ------------------------------------------------------------------ rendering
+    def render(self) -> np.ndarray | None:
+        """``render_mode="rgb_array"``: an image of the experiments' measured outputs so far and,
+        once the design is committed, the loop's set-point and load responses on the true plant
+        (time in units of the true ``T_ar``)."""
+        if self.render_mode != "rgb_array" or self.evidence is None:
+            return None
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        figure = Figure(figsize=(6.4, 4.8), dpi=80)
+        canvas = FigureCanvasAgg(figure)
+        experiments, loop = figure.subplots(2, 1)
+        scale = self.plant.residence_time
+        for name, result in self.evidence.results.items():
+            experiments.plot(result.timepts / scale, result.output, lw=0.8, label=name)
+        experiments.set_title("experiments (measured output)", fontsize=9)
+        experiments.legend(fontsize=7)
+        if self._controller is not None:
+            self._plot_loop(loop, scale)
+        loop.set_xlabel("t / T_ar", fontsize=8)
+        figure.tight_layout()
+        canvas.draw()
+        return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+    def _plot_loop(self, axes, scale: float) -> None:
+        from envs.loops import closed_loop_response, simulation_step
+
+        dt = simulation_step(self.plant, self._controller)
+        steps = int(min(40.0 * scale / dt, 20_000))
+        gain = abs(self.plant.gain) * (scale if self.integrating else 1.0)
+        for label, kwargs, unit in (("set point", {"setpoint": 1.0}, 1.0), ("load", {"load": 1.0}, gain)):
+            response = closed_loop_response(self.plant, self._controller, steps, dt, **kwargs)
+            axes.plot(response.timepts / scale, response.output / unit, lw=1.0, label=label)
+        axes.set_title("designed loop on the true plant (load response / |K|)", fontsize=9)
+        axes.legend(fontsize=7)
 
     # ------------------------------------------------------------------ observation
     def _features(self) -> dict[str, float]:
@@ -319,6 +359,7 @@ _SHARED_DOC = """
     | `budget`          | `4`                         | experiments per episode (agent mode)                      |
     | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
     | `oracle`          | `False`                     | add the oracle's cost to the final `info` (slow: ~1 s)    |
+    | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
 
     ## Info
     At reset: ``plant`` (dict), ``features``.  On the final step: ``cost``, ``feasible``, ``score``

@@ -178,6 +178,7 @@ def test_oracle_cost_in_info_is_no_worse_than_the_policy():
     ({"weights": {"load": -1.0}}, "weights.load"),
     ({"budget": 0}, "budget must be an integer >= 1"),
     ({"noise_std": math.nan}, "noise_std"),
+    ({"render_mode": "human"}, "render_mode must be None or 'rgb_array'"),
 ])  # fmt: skip
 def test_bad_arguments_are_named(kwargs, message):
     with pytest.raises(ValueError, match=message):
@@ -276,7 +277,8 @@ def test_stable_baselines3_vector_environments(vec):
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
     cls = DummyVecEnv if vec == "dummy" else SubprocVecEnv
-    venv = make_vec_env("DeadTime/FPPI-v0", n_envs=2, seed=0, vec_env_cls=cls)
+    # "envs:" makes gymnasium import envs (the registration) first, also in spawned workers.
+    venv = make_vec_env("envs:DeadTime/FPPI-v0", n_envs=2, seed=0, vec_env_cls=cls)
     try:
         venv.reset()
         for _ in range(2):
@@ -285,3 +287,14 @@ def test_stable_baselines3_vector_environments(vec):
             assert np.allclose(reward, [-i["cost"] for i in info])
     finally:
         venv.close()
+
+
+def test_rgb_array_rendering():
+    env = gym.make("DeadTime/MSP-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    before = env.render()
+    env.step(np.array([0.0], dtype=np.float32))
+    after = env.render()
+    assert before.dtype == np.uint8 and before.shape == after.shape == (384, 512, 3)
+    assert not np.array_equal(before, after)  # the loop's responses are drawn after the commit
+    assert PIDEnv().render() is None
