@@ -91,6 +91,16 @@ def test_deadtime_agent_trains_from_the_command_line_deterministically(tmp_path:
     costs = _episode_costs(runs[0], 2)
     assert costs == _episode_costs(runs[1], 2) and all(np.isfinite(costs))
 
+    # deadtime evaluate with the agents beside a rule and the oracle: identical numbers for both runs
+    results = []
+    for run_dir in runs:
+        out = tmp_path / f"eval-{run_dir.name}"
+        assert main(["evaluate", "--env", "DeadTime/PID-v0", "--policies", f"agent={run_dir},gorez-klan-mu-3",
+                     "--n", "2", "--seed", "0", "--out", str(out), "--no-benchmark", "--no-plots"]) == 0
+        results.append(json.loads((out / "results.json").read_text()))
+    agents = [next(p for p in r["policies"] if p["name"] == "agent") for r in results]
+    assert agents[0] == agents[1] and np.isfinite(agents[0]["mean_cost"])
+
 
 @pytest.mark.parametrize("algorithm", ["ppo", "sac", "td3", "a2c"])
 def test_train_from_the_command_line_and_load(tmp_path: Path, algorithm: str, capsys: Any) -> None:
