@@ -42,7 +42,7 @@ from envs.identification import (
     sopdt_from_moments,
     theta_from_tau,
 )
-from envs.loops import closed_loop
+from envs.loops import closed_loop_of_block
 from envs.plants import Plant
 from envs.simulation import DIVERGENCE_LIMIT, LoopRun, discretize
 from envs.steady_state import SteadyStateTest, window_samples
@@ -147,10 +147,11 @@ def closed_loop_step(
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     controller = commissioning_pi(plant) if controller is None else _check_controller(plant, controller)
     scale = plant.step_time_scale()
-    dt = _loop_sample_time(plant, controller, dt)
+    block = controller.block()  # built once: its delays set dt, then it closes the loop
+    dt = _loop_sample_time(plant, block, dt)
     noise = measurement_noise(rng, noise_std, cap_steps(scale, dt, max_duration))
     window = window_samples(scale, dt)
-    run = _run_closed_loop(plant, controller, amplitude, noise, dt, window, excursion_limit)
+    run = _run_closed_loop(plant, controller, amplitude, noise, dt, window, excursion_limit, block=block)
     return _identify_closed_loop(plant, controller, amplitude, run, window, scale)
 
 
@@ -162,9 +163,10 @@ def _check_controller(plant: Plant, controller: Controller) -> Controller:
     return controller
 
 
-def _loop_sample_time(plant: Plant, controller: Controller, dt: float | None) -> float:
+def _loop_sample_time(plant: Plant, block, dt: float | None) -> float:
+    """The sample time, at most every positive delay of the plant and the controller's ``block()``."""
     dt = sample_time(plant, dt)
-    delays = [plant.delay] + [float(d) for d in controller.block().delays]
+    delays = [plant.delay] + [float(d) for d in block.delays]
     positive = [d for d in delays if d > 0]
     return min([dt] + positive)
 
@@ -177,8 +179,11 @@ def _run_closed_loop(
     dt: float,
     window: int,
     excursion_limit: float | None,
+    block=None,
 ) -> ExperimentRun:
     """Simulate over growing horizons (doubling) until steady state, the cap, or an excursion.
+
+    ``block`` is ``controller.block()`` if the caller has it.
 
     Each horizon is reached in chunks of ``CHUNK_WINDOWS`` windows, each continuing the run
     (:class:`~envs.simulation.LoopRun`) and testing only its new samples
@@ -187,7 +192,8 @@ def _run_closed_loop(
     the same samples up to it as simulating and testing every horizon from the start.
     """
     first_steps = max(16 * window, 64)
-    trial = _ClosedLoopTrial(plant, controller, amplitude, noise, dt, window, excursion_limit, 2 * first_steps)
+    system = closed_loop_of_block(plant, controller.block() if block is None else block)
+    trial = _ClosedLoopTrial(plant, system, amplitude, noise, dt, window, excursion_limit, 2 * first_steps)
     return run_until_settled(trial, first_steps, noise.size, chunk=CHUNK_WINDOWS * window)
 
 
@@ -199,8 +205,8 @@ class _ClosedLoopTrial:
     """``trial(steps, horizon)`` of :func:`~envs.experiment_base.run_until_settled` for the closed-loop
     step, continued from the last call (see :func:`_run_closed_loop`)."""
 
-    def __init__(self, plant, controller, amplitude, noise, dt, window, excursion_limit, capacity) -> None:
-        self.run = LoopRun(discretize(closed_loop(plant, controller), dt), capacity)
+    def __init__(self, plant, system, amplitude, noise, dt, window, excursion_limit, capacity) -> None:
+        self.run = LoopRun(discretize(system, dt), capacity)
         self.amplitude, self.noise, self.limit, self.integrating = amplitude, noise, excursion_limit, plant.integrating
         self.output_test = SteadyStateTest(window, target=amplitude)
         self.drive_test = SteadyStateTest(window)

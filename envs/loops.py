@@ -41,8 +41,12 @@ def closed_loop(plant: Plant, controller: Controller) -> DelaySystem:
 
     ``e = r - y`` is the control error on the true (noise-free) output.
     """
+    return closed_loop_of_block(plant, controller.block())
+
+
+def closed_loop_of_block(plant: Plant, cb) -> DelaySystem:
+    """:func:`closed_loop` from the controller's ``block()``, for a caller that already has it."""
     ps = plant.state_space()
-    cb = controller.block()
     n_p, n_c = ps.A.shape[0], cb.n_states
     plant_delayed = plant.delay > 0
     n_vp = 1 if plant_delayed else 0

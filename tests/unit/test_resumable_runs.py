@@ -20,7 +20,7 @@ from envs.closed_loop_experiment import _cumulative_integral, _run_closed_loop
 from envs.commissioning import commissioning_pi
 from envs.controllers import FPPI, MSP, PID
 from envs.experiment_base import excursion_index, run_until_settled
-from envs.loops import closed_loop, simulation_step
+from envs.loops import closed_loop, closed_loop_of_block, simulation_step
 from envs.open_loop_experiments import _run_to_steady_state
 from envs.performance import (
     HORIZON,
@@ -202,3 +202,11 @@ def test_steady_state_test_extended_equals_whole_mask(target):
         cuts = sorted(set(rng.integers(1, size, 6).tolist() + [size]))
         extended = np.concatenate([test.extend(y[:cut]) for cut in cuts])
         _equal(extended, steady_state_mask(t, y, window, target=target))
+
+
+@pytest.mark.parametrize("name", LOOPS)
+def test_closed_loop_of_block_equals_closed_loop(name):
+    plant, controller = LOOPS[name]
+    built, reference = closed_loop_of_block(plant, controller.block()), closed_loop(plant, controller)
+    for field in ("A", "B1", "B2", "C1", "D11", "D12", "C2", "D21", "D22", "delays"):
+        _equal(getattr(built, field), getattr(reference, field))
