@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 __all__ = [
@@ -127,37 +128,52 @@ class SteadyStateTest:
             grown = np.zeros((3, max(size + 1, 2 * self._sums.shape[1])))
             grown[:, : old + 1] = self._sums[:, : old + 1]
             self._sums = grown
-        new = y[old:]
-        curvature = np.concatenate([np.zeros(max(2 - old, 0)), np.diff(y[max(old - 2, 0) :], 2)])[: size - old]
-        for row, values in enumerate((new, np.arange(old, size, dtype=float) * new, curvature**2)):
-            self._sums[row, old : size + 1] = np.cumsum(np.concatenate([[self._sums[row, old]], values]))
+        _extend_sums(self._sums, y, old, size)
         self._size = size
         mask = np.zeros(size - old, dtype=bool)
         first = max(old, n - 1)
-        if first >= size:
-            return mask
-        c = self._sums
-        ends = np.arange(first, size)  # window [k - n + 1, k]
-        sums = c[0, first + 1 : size + 1] - c[0, first + 1 - n : size + 1 - n]
-        mean = sums / n
-        centered = (c[1, first + 1 : size + 1] - c[1, first + 1 - n : size + 1 - n]) - (ends - (n - 1) / 2.0) * sums
-        change = centered / (n * (n * n - 1) / 12.0) * (n - 1)
-        sigma = np.sqrt((c[2, first + 1 : size + 1] - c[2, first + 1 - n : size + 1 - n]) / n / 6.0)
-        target = self._target
-        scale = abs(target) if target is not None else np.abs(mean)
-        tol = STEADY_STATE_TOLERANCE * scale
-        ok = np.abs(change) <= CONFIDENCE * sigma * math.sqrt(12.0 / n) + tol
-        if target is not None:
-            ok &= np.abs(mean - target) <= CONFIDENCE * sigma / math.sqrt(n) + tol
-        else:
-            previous = np.full(ends.size, np.inf)
-            has = ends - n >= n - 1  # the previous window lies inside the signal
-            k = ends[has] - n
-            previous[has] = (c[0, k + 1] - c[0, k + 1 - n]) / n
-            ok &= np.abs(mean - previous) <= CONFIDENCE * sigma * math.sqrt(2.0 / n) + tol
-            ok &= np.abs(mean) > CONFIDENCE * sigma / math.sqrt(n) + tol
-        mask[first - old :] = ok
+        if first < size:
+            target = self._target
+            _tests(self._sums, n, first, size, 0.0 if target is None else float(target), target is not None,
+                   mask[first - old :])  # fmt: skip
         return mask
+
+
+@numba.njit(cache=True)
+def _extend_sums(sums, y, old, size):  # pragma: no cover - compiled
+    """Continue the running sums of ``y``, ``k y`` and the squared second difference to ``size``
+    (``sums[:, k + 1]`` is the sum over samples ``0..k``), in the order of ``numpy.cumsum``."""
+    for k in range(old, size):
+        v = y[k]
+        curvature = (y[k] - y[k - 1]) - (y[k - 1] - y[k - 2]) if k >= 2 else 0.0
+        sums[0, k + 1] = sums[0, k] + v
+        sums[1, k + 1] = sums[1, k] + float(k) * v
+        sums[2, k + 1] = sums[2, k] + curvature * curvature
+
+
+@numba.njit(cache=True)
+def _tests(c, n, first, size, target, has_target, out):  # pragma: no cover - compiled
+    """The tests of :func:`steady_state_mask` for the windows ending at ``first..size-1`` (``out``),
+    each the same expression, in the same order, as the vectorized mask."""
+    slope_bound = math.sqrt(12.0 / n)
+    mean_bound = math.sqrt(n)
+    change_bound = math.sqrt(2.0 / n)
+    denominator = n * (n * n - 1) / 12.0
+    for k in range(first, size):
+        total = c[0, k + 1] - c[0, k + 1 - n]
+        mean = total / n
+        centered = (c[1, k + 1] - c[1, k + 1 - n]) - (float(k) - (n - 1) / 2.0) * total
+        change = centered / denominator * (n - 1)
+        sigma = math.sqrt((c[2, k + 1] - c[2, k + 1 - n]) / n / 6.0)
+        tol = STEADY_STATE_TOLERANCE * (abs(target) if has_target else abs(mean))
+        ok = abs(change) <= CONFIDENCE * sigma * slope_bound + tol
+        if has_target:
+            ok = ok and abs(mean - target) <= CONFIDENCE * sigma / mean_bound + tol
+        else:
+            previous = (c[0, k + 1 - n] - c[0, k + 1 - 2 * n]) / n if k - n >= n - 1 else np.inf
+            ok = ok and abs(mean - previous) <= CONFIDENCE * sigma * change_bound + tol
+            ok = ok and abs(mean) > CONFIDENCE * sigma / mean_bound + tol
+        out[k - first] = ok
 
 
 def _window_sums(values: np.ndarray, n: int) -> np.ndarray:
