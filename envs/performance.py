@@ -55,8 +55,9 @@ def integrated_absolute_error(error: np.ndarray, dt: float) -> float:
     return float(np.sum(areas) * dt)
 
 
-def _settled(error: np.ndarray, dt: float) -> bool:
-    total = integrated_absolute_error(error, dt)
+def _settled(error: np.ndarray, dt: float, total: float | None = None) -> bool:
+    """Whether the IAE over the last tenth is below ``SETTLED_SHARE`` of ``total`` (the whole IAE)."""
+    total = integrated_absolute_error(error, dt) if total is None else total
     tail = integrated_absolute_error(error[-max(error.size // 10, 2) :], dt)
     return tail <= SETTLED_SHARE * max(total, 1e-300)
 
@@ -95,7 +96,8 @@ def iae_batch(
         still: list[int] = []
         for i in pending:
             if i not in runs_of:  # each horizon continues the run of the last (LoopRun), same samples
-                runs_of[i] = (LoopRun(discretes[i], 2 * steps), LoopRun(discretes[i], 2 * steps))
+                load_run = LoopRun(discretes[i], 2 * steps)
+                runs_of[i] = (load_run, load_run.sibling())
             load, setpoint = (run.advance(inputs[k]) for k, run in enumerate(runs_of[i]))
             outcome = _outcome(load, setpoint, offsets[i], steps_of[i], horizon)
             if outcome is None:
@@ -111,10 +113,17 @@ def _outcome(load, setpoint, offsets: tuple[bool, bool], dt: float, horizon: flo
     if load.diverged or setpoint.diverged:
         return IAEResult(math.inf, math.inf, True, horizon, dt)
     errors = (load.outputs[:, 2], setpoint.outputs[:, 2])
-    settled = all(_settled(e, dt) for e, offset in zip(errors, offsets) if not offset)
+    totals: dict[int, float] = {}  # each IAE computed once, for the settling test and the result
+
+    def total(k: int) -> float:
+        if k not in totals:
+            totals[k] = integrated_absolute_error(errors[k], dt)
+        return totals[k]
+
+    settled = all(_settled(errors[k], dt, total(k)) for k in (0, 1) if not offsets[k])
     if not settled and horizon < MAX_HORIZON:
         return None
-    values = [math.inf if offset else integrated_absolute_error(e, dt) for e, offset in zip(errors, offsets)]
+    values = [math.inf if offsets[k] else total(k) for k in (0, 1)]
     return IAEResult(values[0], values[1], settled, horizon, dt)
 
 

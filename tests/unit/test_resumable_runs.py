@@ -210,3 +210,18 @@ def test_closed_loop_of_block_equals_closed_loop(name):
     built, reference = closed_loop_of_block(plant, controller.block()), closed_loop(plant, controller)
     for field in ("A", "B1", "B2", "C1", "D11", "D12", "C2", "D21", "D22", "delays"):
         _equal(getattr(built, field), getattr(reference, field))
+
+
+def test_loop_run_sibling_runs_from_rest():
+    plant, controller = LOOPS["fppi-nmp"]
+    system = closed_loop(plant, controller)
+    discrete = discretize(system, simulation_step(plant, controller, 50, system=system))
+    inputs = np.zeros((2, 900, 3))
+    inputs[0, :, 1] = 1.0
+    inputs[1, :, 0] = 1.0
+    first = LoopRun(discrete, 300)
+    first.advance(inputs[0, :200])
+    second = first.sibling()
+    for steps in (450, 900):
+        _equal(first.advance(inputs[0, :steps]).outputs, simulate(discrete, inputs[0, :steps]).outputs)
+        _equal(second.advance(inputs[1, :steps]).outputs, simulate(discrete, inputs[1, :steps]).outputs)
