@@ -202,7 +202,9 @@ def make_callbacks(
             self.last = self.history[-1]["num_timesteps"] if self.history else 0
 
         def _on_step(self) -> bool:
-            if eval_freq > 0 and self.model.num_timesteps - self.last >= eval_freq:
+            steps = self.model.num_timesteps
+            # the last step is validated once, after the last update, by the end of training
+            if eval_freq > 0 and steps - self.last >= eval_freq and steps < total_timesteps:
                 self.validate(self.model)
             return True
 

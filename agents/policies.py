@@ -4,7 +4,9 @@
 agent is ``best_model.zip`` (lowest mean cost on the validation plants) when it exists, else
 ``model.zip``.  The algorithm is read from the ``config.yaml`` beside the model; without one, each
 stable-baselines3 algorithm is tried in turn.  ``VecNormalize`` statistics saved beside the model
-(``<stem>.vecnormalize.pkl``) are applied to the observations.
+(``<stem>.vecnormalize.pkl``) are applied to the observations.  A checkpoint
+(``<run>/checkpoints/model_<N>.zip``) takes its statistics from ``vecnormalize_<N>.pkl`` beside it
+and its config from the run directory.
 """
 
 from __future__ import annotations
@@ -100,6 +102,16 @@ def _likely_algorithms(model_path: Path) -> list[str]:
     return [guess, *(name for name in ALGORITHMS if name != guess)]
 
 
+def _statistics_path(model_path: Path) -> Path | None:
+    """The ``VecNormalize`` statistics of a model: ``<stem>.vecnormalize.pkl``, or for a checkpoint
+    ``model_<N>.zip`` the ``vecnormalize_<N>.pkl`` beside it; None if there are none."""
+    candidates = [model_path.with_suffix(".vecnormalize.pkl")]
+    prefix, _, steps = model_path.stem.rpartition("_")
+    if prefix == "model" and steps.isdigit():
+        candidates.append(model_path.with_name(f"vecnormalize_{steps}.pkl"))
+    return next((c for c in candidates if c.is_file()), None)
+
+
 def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
     """Load a saved agent from a run directory or a model ``.zip``.
 
@@ -111,7 +123,8 @@ def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
     model_path = resolve_model_path(path)  # a missing or unreadable file is named before torch is imported
     import stable_baselines3
 
-    config_path = model_path.parent / "config.yaml"
+    run_dir = model_path.parent.parent if model_path.parent.name == "checkpoints" else model_path.parent
+    config_path = run_dir / "config.yaml"
     config = load_config(config_path) if config_path.is_file() else None
     candidates = [config.algorithm] if config is not None else _likely_algorithms(model_path)
     errors = []
@@ -125,11 +138,11 @@ def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
     else:
         raise ValueError(f"{model_path} could not be loaded by {', '.join(candidates)} ({'; '.join(errors)})")
     normalization = None
-    statistics = model_path.with_suffix(".vecnormalize.pkl")
-    if statistics.is_file():
+    statistics = _statistics_path(model_path)
+    if statistics is not None:
         with statistics.open("rb") as handle:
             normalization = pickle.load(handle)
         normalization.training = False
-    name = model_path.parent.name if config is not None else model_path.stem
+    name = run_dir.name if config is not None else model_path.stem
     return LoadedPolicy(name=name, path=model_path, algorithm=algorithm, model=model, config=config,
                         normalization=normalization)

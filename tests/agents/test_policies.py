@@ -27,3 +27,26 @@ def test_run_directory_prefers_the_best_model(tmp_path: Path) -> None:
             archive.writestr("data", "{}")
     assert resolve_model_path(tmp_path) == tmp_path / "best_model.zip"
     assert resolve_model_path(tmp_path / "model") == tmp_path / "model.zip"
+
+
+def test_a_checkpoint_takes_the_statistics_and_config_of_its_run(tmp_path: Path) -> None:
+    """``<run>/checkpoints/model_<N>.zip`` pairs with ``vecnormalize_<N>.pkl`` and ``<run>/config.yaml``."""
+    import pickle
+    import shutil
+
+    import gymnasium
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    import envs  # noqa: F401  (registers the ids)
+
+    checkpoints = tmp_path / "run" / "checkpoints"
+    checkpoints.mkdir(parents=True)
+    venv = VecNormalize(DummyVecEnv([lambda: gymnasium.make("DeadTime/PID-v0")]))
+    PPO("MlpPolicy", venv, n_steps=8, batch_size=8, device="cpu").save(checkpoints / "model_64.zip")
+    with (checkpoints / "vecnormalize_64.pkl").open("wb") as handle:
+        pickle.dump(venv, handle)
+    shutil.copy(Path(__file__).resolve().parents[2] / "configs" / "ppo.yaml", tmp_path / "run" / "config.yaml")
+    loaded = load_policy(checkpoints / "model_64.zip")
+    assert loaded.normalization is not None and not loaded.normalization.training
+    assert loaded.algorithm == "PPO" and loaded.config is not None and loaded.name == "run"
