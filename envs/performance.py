@@ -13,6 +13,13 @@ when the IAE accumulated over the last tenth of the horizon is below ``1e-5`` of
 decaying tail beyond the horizon is then of that order too); otherwise the horizon is doubled,
 up to ``MAX_HORIZON`` residence times, and ``settled`` is False if that is not enough.  A
 diverging or unstable loop has infinite IAE.
+
+Stopping at a bound.  A caller that needs the IAE only below a threshold (the scoring, whose cost
+is capped) passes an :class:`IAEBound`: a run that has not settled at a horizon, and whose weighted
+IAE so far already exceeds the bound's budget, stops there.  As ``|e| >= 0``, the IAE of a longer
+run can only be larger, so the values returned are lower bounds (``lower_bound=True``) and the
+weighted IAE is certainly above the budget.  The test keeps a relative margin of
+``BOUND_MARGIN`` so that the rounding of the sums cannot matter.
 """
 
 from __future__ import annotations
@@ -28,23 +35,48 @@ from envs.loops import closed_loop, simulation_step
 from envs.plants import Plant
 from envs.simulation import LoopRun, discretize
 
-__all__ = ["IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
+__all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 
 HORIZON = 40.0
 MAX_HORIZON = 1280.0
 SETTLED_SHARE = 1e-5
 OFFSET_TOLERANCE = 1e-9
+BOUND_MARGIN = 1e-9
+
+
+@dataclass(frozen=True)
+class IAEBound:
+    """Stop once ``load_weight IAE_load + setpoint_weight IAE_setpoint`` exceeds ``budget``.
+
+    The weights are non-negative; the test is ``weighted > budget + BOUND_MARGIN |budget|`` at the
+    end of each horizon of a run that has not settled (see the module docstring).
+    """
+
+    load_weight: float
+    setpoint_weight: float
+    budget: float
+
+    def exceeded(self, load: float, setpoint: float) -> bool:
+        """Whether IAEs of at least ``load`` and ``setpoint`` are certainly above the budget."""
+        weighted = self.load_weight * load + self.setpoint_weight * setpoint
+        return weighted > self.budget + BOUND_MARGIN * abs(self.budget)  # False for nan (0 inf)
 
 
 @dataclass(frozen=True)
 class IAEResult:
-    """IAE for unit load and set-point steps; ``inf`` when the loop diverges."""
+    """IAE for unit load and set-point steps; ``inf`` when the loop diverges.
+
+    ``lower_bound`` is True when the run stopped at an :class:`IAEBound` before settling: ``load``
+    and ``setpoint`` are then the IAE up to ``horizon`` only (lower bounds of the IAE; ``inf``
+    where the error keeps an offset, which is exact).
+    """
 
     load: float
     setpoint: float
     settled: bool
     horizon: float
     dt: float
+    lower_bound: bool = False
 
 
 def integrated_absolute_error(error: np.ndarray, dt: float) -> float:
@@ -62,15 +94,25 @@ def _settled(error: np.ndarray, dt: float, total: float | None = None) -> bool:
     return tail <= SETTLED_SHARE * max(total, 1e-300)
 
 
-def iae(plant: Plant, controller: Controller, *, samples_per_residence_time: int = 50) -> IAEResult:
-    """IAE of the loop for a unit load step and a unit set-point step (see the module docstring)."""
-    return iae_batch([plant], [controller], samples_per_residence_time=samples_per_residence_time)[0]
+def iae(
+    plant: Plant, controller: Controller, *, samples_per_residence_time: int = 50, bound: IAEBound | None = None
+) -> IAEResult:
+    """IAE of the loop for a unit load step and a unit set-point step (see the module docstring).
+
+    With ``bound``, a run that exceeds it stops early and returns lower bounds (``lower_bound``).
+    """
+    bounds = None if bound is None else [bound]
+    return iae_batch([plant], [controller], samples_per_residence_time=samples_per_residence_time, bounds=bounds)[0]
 
 
 def iae_batch(
-    plants: Sequence[Plant], controllers: Sequence[Controller], *, samples_per_residence_time: int = 50
+    plants: Sequence[Plant],
+    controllers: Sequence[Controller],
+    *,
+    samples_per_residence_time: int = 50,
+    bounds: Sequence[IAEBound | None] | None = None,
 ) -> list[IAEResult]:
-    """:func:`iae` for many loops at once.
+    """:func:`iae` for many loops at once (``bounds``: one per loop, or None).
 
     Every loop still pending runs to the same number of samples at each horizon (the longest any of
     them needs); a longer horizon continues each run from its saved state
@@ -78,6 +120,9 @@ def iae_batch(
     """
     if len(plants) != len(controllers):
         raise ValueError(f"got {len(plants)} plants but {len(controllers)} controllers")
+    bounds = [None] * len(plants) if bounds is None else list(bounds)
+    if len(bounds) != len(plants):
+        raise ValueError(f"got {len(plants)} plants but {len(bounds)} bounds")
     systems = [closed_loop(p, c) for p, c in zip(plants, controllers)]
     steps_of = [
         simulation_step(p, c, samples_per_residence_time, system=s) for p, c, s in zip(plants, controllers, systems)
@@ -99,7 +144,7 @@ def iae_batch(
                 load_run = LoopRun(discretes[i], 2 * steps)
                 runs_of[i] = (load_run, load_run.sibling())
             load, setpoint = (run.advance(inputs[k]) for k, run in enumerate(runs_of[i]))
-            outcome = _outcome(load, setpoint, offsets[i], steps_of[i], horizon)
+            outcome = _outcome(load, setpoint, offsets[i], steps_of[i], horizon, bounds[i])
             if outcome is None:
                 still.append(i)
             else:
@@ -108,8 +153,11 @@ def iae_batch(
     return results  # type: ignore[return-value]
 
 
-def _outcome(load, setpoint, offsets: tuple[bool, bool], dt: float, horizon: float) -> IAEResult | None:
-    """The IAE of one loop, or None if it has not settled within ``horizon`` and may run longer."""
+def _outcome(
+    load, setpoint, offsets: tuple[bool, bool], dt: float, horizon: float, bound: IAEBound | None = None
+) -> IAEResult | None:
+    """The IAE of one loop, or None if it has not settled within ``horizon`` and may run longer
+    (and has not exceeded ``bound``)."""
     if load.diverged or setpoint.diverged:
         return IAEResult(math.inf, math.inf, True, horizon, dt)
     errors = (load.outputs[:, 2], setpoint.outputs[:, 2])
@@ -122,6 +170,10 @@ def _outcome(load, setpoint, offsets: tuple[bool, bool], dt: float, horizon: flo
 
     settled = all(_settled(errors[k], dt, total(k)) for k in (0, 1) if not offsets[k])
     if not settled and horizon < MAX_HORIZON:
+        if bound is not None:
+            values = [math.inf if offsets[k] else total(k) for k in (0, 1)]
+            if bound.exceeded(*values):
+                return IAEResult(values[0], values[1], False, horizon, dt, lower_bound=True)
         return None
     values = [math.inf if offsets[k] else total(k) for k in (0, 1)]
     return IAEResult(values[0], values[1], settled, horizon, dt)

@@ -18,6 +18,14 @@ feasible design and graded by how far it violates.  The grade sums the relative 
 ``Ms/Ms_max - 1``, ``1 - DM_rel/DM_min``, ``1 - GM/GM_min``, ``1 - PM/PM_min`` (each when positive),
 plus ``UNSTABLE_GRADE`` for an unstable loop (whose margins are then undefined and not graded).
 The delay margin is relative to the true dead time ``L`` (to ``T_ar`` if ``L = 0``).
+
+A feasible design whose cost is capped is simulated only until that is certain: the IAE terms
+are non-negative integrals, so once ``w_load J_load + w_setpoint J_setpoint`` over the horizon
+simulated so far exceeds ``FEASIBLE_CAP - w_experiment J_experiment`` (an
+:class:`~envs.performance.IAEBound`), the cost is ``FEASIBLE_CAP`` whatever follows.  The
+:class:`Score` then says ``iae_lower_bound=True``: its IAE and load/set-point cost terms are
+those of the horizon simulated, lower bounds of the full ones.  The cost is the same as with the
+full simulation, bit for bit.
 """
 
 from __future__ import annotations
@@ -28,7 +36,7 @@ from typing import Any
 
 from envs.analysis import plant_margins
 from envs.controllers import Controller
-from envs.performance import iae
+from envs.performance import IAEBound, iae
 from envs.plants import Plant
 from envs.robustness import Margins
 from envs.validation import require_number
@@ -79,7 +87,13 @@ class CostWeights:
 
 @dataclass(frozen=True)
 class Score:
-    """The cost of one design on the true plant, with every figure behind it."""
+    """The cost of one design on the true plant, with every figure behind it.
+
+    ``iae_lower_bound`` is True when the design's cost is capped and its simulation stopped as soon
+    as that was certain: ``iae_load``, ``iae_setpoint``, ``load_cost`` and ``setpoint_cost`` are
+    then lower bounds (the figures of the horizon simulated), not the full IAE; the full IAE is that
+    of :func:`envs.analysis.analyze`.
+    """
 
     cost: float
     feasible: bool
@@ -96,6 +110,7 @@ class Score:
     setpoint_cost: float
     experiment_cost: float
     margins: Margins = field(repr=False)
+    iae_lower_bound: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready figures (``None`` for infinite or undefined values)."""
@@ -130,7 +145,8 @@ def score(
     """The cost of ``controller`` on the true ``plant`` (see the module docstring).
 
     An infeasible design is not simulated (its cost does not depend on the IAE); its IAE is
-    reported as ``inf`` if the loop is unstable and ``nan`` otherwise.
+    reported as ``inf`` if the loop is unstable and ``nan`` otherwise.  A capped feasible design
+    is simulated only until its cap is certain (``iae_lower_bound``, see the module docstring).
     """
     scale = plant.residence_time
     margins = plant_margins(plant, controller)
@@ -145,12 +161,14 @@ def score(
             margins.gain_margin, margins.phase_margin_deg, margins.delay_margin, relative_dm,
             undefined, undefined, undefined, undefined, experiment_cost, margins,
         )  # fmt: skip
-    performance = iae(plant, controller)
     load_scale = abs(plant.gain) * scale * (scale if plant.integrating else 1.0)
+    bound = IAEBound(weights.load / load_scale, weights.setpoint / scale, FEASIBLE_CAP - experiment_cost)
+    performance = iae(plant, controller, bound=bound)
     load_cost = weights.load * performance.load / load_scale
     setpoint_cost = weights.setpoint * performance.setpoint / scale
     cost = min(load_cost + setpoint_cost + experiment_cost, FEASIBLE_CAP)
     return Score(
         cost, True, {}, True, margins.ms, margins.gain_margin, margins.phase_margin_deg, margins.delay_margin,
         relative_dm, performance.load, performance.setpoint, load_cost, setpoint_cost, experiment_cost, margins,
+        performance.lower_bound,
     )  # fmt: skip
