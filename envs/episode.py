@@ -28,6 +28,7 @@ is charged and its result discarded (SPEC: "stopped and penalized").
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -215,9 +216,22 @@ def run_experiment(
 
 
 def _log(value: float) -> float:
-    if not (np.isfinite(value) and value > 0):
+    if not (math.isfinite(value) and value > 0):
         return -LOG_CLIP if value == 0 else 0.0
-    return float(np.clip(math.log10(value), -LOG_CLIP, LOG_CLIP))
+    return _clip(math.log10(value), -LOG_CLIP, LOG_CLIP)
+
+
+def _clip(value: float, low: float, high: float) -> float:
+    """``float(numpy.clip(value, low, high))`` of a number (NaN stays NaN)."""
+    return min(max(float(value), low), high)
+
+
+def _finite(value: float) -> float:
+    """``float(numpy.nan_to_num(value))`` of a number: NaN is 0, an infinity the largest float of its sign."""
+    value = float(value)
+    if math.isfinite(value):
+        return value
+    return 0.0 if math.isnan(value) else math.copysign(sys.float_info.max, value)
 
 
 def _identified(evidence: Evidence) -> dict[str, float]:
@@ -227,7 +241,7 @@ def _identified(evidence: Evidence) -> dict[str, float]:
         return out
     scale = first.residence_time
     out.update(tau=first.normalized_dead_time, theta=first.theta, log_noise_ratio=_log(evidence.noise_ratio))
-    out["log_experiment_time"] = float(np.clip(math.log10(1.0 + evidence.experiment_time / scale), 0.0, LOG_CLIP))
+    out["log_experiment_time"] = _clip(math.log10(1.0 + evidence.experiment_time / scale), 0.0, LOG_CLIP)
     step: OpenLoopStepResult | None = evidence.results.get("open-loop-step")
     if step is not None and step.model is not None:
         out["dead_time_fraction"] = step.dead_time / scale
@@ -241,8 +255,8 @@ def _identified(evidence: Evidence) -> dict[str, float]:
     relay: RelayResult | None = evidence.results.get("relay")
     if relay is not None and relay.converged:
         out["log_relay_gain"] = _log(relay.ultimate_gain * abs(first.gain))
-        out["relay_period"] = float(np.clip(relay.ultimate_period / scale, 0.0, LOG_CLIP))
-    return {k: float(np.nan_to_num(v)) for k, v in out.items()}
+        out["relay_period"] = _clip(relay.ultimate_period / scale, 0.0, LOG_CLIP)
+    return {k: _finite(v) for k, v in out.items()}
 
 
 def features(evidence: Evidence, budget: int) -> np.ndarray:

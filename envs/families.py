@@ -142,7 +142,7 @@ class ShapeRanges:
 def _lags(*time_constants: float) -> np.ndarray:
     den = np.array([1.0])
     for t in time_constants:
-        den = np.polymul(den, [t, 1.0])
+        den = np.convolve(den, [t, 1.0])  # numpy.polymul of polynomials without leading zeros
     return den
 
 
@@ -158,7 +158,7 @@ def _nmp(rng: np.random.Generator, r: ShapeRanges) -> tuple[np.ndarray, np.ndarr
 
 def _resonant(rng: np.random.Generator, r: ShapeRanges) -> tuple[np.ndarray, np.ndarray]:
     w, zeta = rng.uniform(*r.resonant_frequency), rng.uniform(*r.resonant_damping)
-    return np.array([1.0]), np.polymul([1.0, 1.0], [1.0 / w**2, 2.0 * zeta / w, 1.0])
+    return np.array([1.0]), np.convolve([1.0, 1.0], [1.0 / w**2, 2.0 * zeta / w, 1.0])
 
 
 def _parallel(rng: np.random.Generator, r: ShapeRanges) -> tuple[np.ndarray, np.ndarray]:
@@ -330,6 +330,9 @@ _CONFIGS: dict[str, type] = {
 }
 
 
+_DEFAULT_CONFIGS: dict[str, object] = {}
+
+
 # --------------------------------------------------------------------------- benchmark batches
 def benchmark_plants(kind: str = "all") -> dict[str, Plant]:
     """The fixed test batches of the seeds, by name.
@@ -379,6 +382,16 @@ def benchmark_plants(kind: str = "all") -> dict[str, Plant]:
     return plants
 
 
+def _benchmark_batch(kind: str) -> tuple[Plant, ...]:
+    """``benchmark_plants(kind)`` as a tuple, built once (the plants are immutable)."""
+    if kind not in _BENCHMARK_BATCHES:
+        _BENCHMARK_BATCHES[kind] = tuple(benchmark_plants(kind).values())
+    return _BENCHMARK_BATCHES[kind]
+
+
+_BENCHMARK_BATCHES: dict[str, tuple[Plant, ...]] = {}
+
+
 def _ingimundarson_stable() -> list[tuple[np.ndarray, np.ndarray]]:
     """``P_1 .. P_7`` of section 4.4 as ``(num, den)``."""
     return [
@@ -409,8 +422,10 @@ def _config_for(family: str, config: object) -> object:
     if family not in _CONFIGS:
         raise ValueError(f"unknown plant family {family!r}; valid families: {', '.join(FAMILIES)}")
     expected = _CONFIGS[family]
-    if config is None:
-        return expected()
+    if config is None:  # the configs are frozen: the default of each family is built once
+        if family not in _DEFAULT_CONFIGS:
+            _DEFAULT_CONFIGS[family] = expected()
+        return _DEFAULT_CONFIGS[family]
     if type(config) is not expected:
         raise TypeError(f"config for family {family!r} must be a {expected.__name__}, got {type(config).__name__}")
     return config
@@ -435,7 +450,7 @@ def _sample_random(rng: np.random.Generator, config: RandomFamilyConfig) -> Plan
     scale = (1.0 - fraction) * residence_time / Plant(tuple(num), tuple(den), 0.0).residence_time
     num, den = gain * _time_scaled(num, scale), _time_scaled(den, scale)
     if config.integrating:
-        den = np.polymul(den, [1.0, 0.0])
+        den = np.convolve(den, [1.0, 0.0])
     return Plant(tuple(num), tuple(den), fraction * residence_time)
 
 
@@ -473,7 +488,7 @@ def sample_plant(family: str, rng: np.random.Generator, config: object = None) -
     """
     config = _config_for(family, config)
     if isinstance(config, BenchmarkConfig):
-        plants = list(benchmark_plants(config.kind).values())
+        plants = _benchmark_batch(config.kind)
         return plants[rng.integers(len(plants))]
     if isinstance(config, MixtureConfig):
         members = config.members()

@@ -83,14 +83,14 @@ def _signals(timepts: Any, **signals: Any) -> tuple[np.ndarray, ...]:
     t = np.asarray(timepts, dtype=float).ravel()
     if t.size < 2:
         raise ValueError(f"timepts must hold at least 2 samples, got {t.size}")
-    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+    if not np.isfinite(t).all() or (t[1:] <= t[:-1]).any():
         raise ValueError("timepts must be finite and strictly increasing")
     out = [t]
     for name, values in signals.items():
         v = np.asarray(values, dtype=float).ravel()
         if v.shape != t.shape:
             raise ValueError(f"{name} must have one value per time point ({t.size}), got {v.size}")
-        if not np.all(np.isfinite(v)):
+        if not np.isfinite(v).all():
             raise ValueError(f"{name} must be finite")
         out.append(v)
     return tuple(out)
@@ -424,7 +424,11 @@ def normalized_moments(timepts: np.ndarray, signal: np.ndarray, initial: float, 
         If ``final == initial`` or the signals are not finite.
     """
     t, s = _signals(timepts, signal=signal)
-    initial, final = require_number(initial, "initial"), require_number(final, "final")
+    return _normalized_moments(t, s, require_number(initial, "initial"), require_number(final, "final"))
+
+
+def _normalized_moments(t: np.ndarray, s: np.ndarray, initial: float, final: float) -> tuple[float, float]:
+    """:func:`normalized_moments` of signals already validated by :func:`_signals`."""
     if final == initial:
         raise ValueError(f"final must differ from initial, both are {final!r}")
     complement = 1.0 - (s - initial) / (final - initial)
@@ -518,8 +522,8 @@ def closed_loop_moments(
     Gorez-Klan appendix B (and appendix A for the Taylor-McLaurin algebra); Ingimundarson eq. 9.
     """
     t, u, y = _signals(timepts, control=control, output=output)
-    first_y, second_y = normalized_moments(t, y, 0.0, final_output)
-    first_u, second_u = normalized_moments(t, u, 0.0, final_control)
+    first_y, second_y = _normalized_moments(t, y, 0.0, require_number(final_output, "final"))
+    first_u, second_u = _normalized_moments(t, u, 0.0, require_number(final_control, "final"))
     g1, g2, q1, q2 = -first_y, second_y, -first_u, second_u
     residence_time = q1 - g1
     square = 2.0 * (g2 - q2) + residence_time * (residence_time + 2.0 * g1)

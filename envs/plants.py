@@ -12,6 +12,7 @@ functions of the coefficients, see :meth:`Plant.taylor_coefficients`.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Sequence
@@ -40,6 +41,11 @@ def _read_only(state_space: StateSpace) -> StateSpace:
 
 
 def _as_coefficients(values: Any, field: str) -> tuple[float, ...]:
+    if type(values) is tuple and values and all(isinstance(v, float) and math.isfinite(v) for v in values):  # usual
+        for k, v in enumerate(values):
+            if v != 0.0:
+                return tuple(float(c) for c in values[k:])
+        raise ValueError(f"{field} must not be all zero")
     try:
         array = np.asarray(values, dtype=float).ravel()
     except (TypeError, ValueError, OverflowError):
@@ -52,6 +58,19 @@ def _as_coefficients(values: Any, field: str) -> tuple[float, ...]:
     if nonzero.size == 0:
         raise ValueError(f"{field} must not be all zero")
     return tuple(float(v) for v in array[nonzero[0]:])
+
+
+def _roots(coefficients: np.ndarray) -> np.ndarray:
+    """``numpy.roots`` of coefficients without leading or trailing zeros: the eigenvalues of the same
+    companion matrix, without its trimming (and, for a single root, without LAPACK)."""
+    p = np.asarray(coefficients, dtype=float)
+    if p.size < 2:
+        return np.zeros(0)
+    if p.size == 2:
+        return np.array([-p[1] / p[0]])
+    companion = np.diag(np.ones(p.size - 2), -1)
+    companion[0, :] = -p[1:] / p[0]
+    return np.linalg.eigvals(companion)
 
 
 @dataclass(frozen=True)
@@ -113,7 +132,7 @@ class Plant:
         if self.num[-1] == 0.0:
             raise ValueError("num has a zero at s=0: the plant has zero gain")
         rest = den[: len(den) - origin_poles]
-        poles = np.roots(rest)
+        poles = _roots(rest)
         if poles.size and np.max(poles.real) >= 0.0:
             worst = poles[np.argmax(poles.real)]
             raise ValueError(f"den has an unstable pole at s={worst:.6g}: the plant must be stable or integrating")

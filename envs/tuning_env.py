@@ -157,7 +157,8 @@ class DeadTimeTuningEnv(gym.Env):
             raise RuntimeError(f"no plant of family {self.family!r} could be identified in {MAX_SAMPLING_ATTEMPTS} draws")
         self._done = False
         self._controller = None
-        return self._observation(), {"plant": self.plant.to_dict(), "features": self._features()}
+        observation, named = self._observation_and_features()
+        return observation, {"plant": self.plant.to_dict(), "features": named}
 
     def _given_plant(self, plant: Plant | dict) -> Plant:
         plant = plant if isinstance(plant, Plant) else Plant.from_dict(plant)
@@ -199,8 +200,9 @@ class DeadTimeTuningEnv(gym.Env):
         self.evidence = run_experiment(
             self.evidence, kind, self.plant, self.np_random, amplitude, self.noise_std, self.excursion_limit
         )
-        info = {"experiment": kind, "amplitude": amplitude, "features": self._features()}
-        return self._observation(), 0.0, False, False, info
+        observation, named = self._observation_and_features()
+        info = {"experiment": kind, "amplitude": amplitude, "features": named}
+        return observation, 0.0, False, False, info
 
     def _commit(self, parameter_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         if self.mode == "agent":
@@ -212,10 +214,11 @@ class DeadTimeTuningEnv(gym.Env):
         self._controller = controller
         result = self.score_controller(controller)
         self._done = True
-        info = self._final_info(result, relative, controller)
+        observation, named = self._observation_and_features()
+        info = self._final_info(result, relative, controller, named)
         if self.oracle:
             info.update(self._oracle_info())
-        return self._observation(), -float(result.cost), True, False, info
+        return observation, -float(result.cost), True, False, info
 
     # ------------------------------------------------------------------ scoring
     def model(self):
@@ -237,7 +240,7 @@ class DeadTimeTuningEnv(gym.Env):
             constraints=self.constraints, weights=self.weights,
         )  # fmt: skip
 
-    def _final_info(self, result: Score, relative: float, controller) -> dict:
+    def _final_info(self, result: Score, relative: float, controller, named: dict[str, float]) -> dict:
         return {
             "cost": float(result.cost),
             "feasible": bool(result.feasible),
@@ -247,7 +250,7 @@ class DeadTimeTuningEnv(gym.Env):
             "controller": controller.to_dict(),
             "parameter": relative,
             "experiment_time": self.evidence.experiment_time / self.plant.residence_time,
-            "features": self._features(),
+            "features": named,
         }
 
     def _oracle_info(self) -> dict:
@@ -295,12 +298,11 @@ class DeadTimeTuningEnv(gym.Env):
         axes.legend(fontsize=7)
 
     # ------------------------------------------------------------------ observation
-    def _features(self) -> dict[str, float]:
-        return dict(zip(self.feature_names, (float(v) for v in features(self.evidence, self.budget))))
-
-    def _observation(self) -> np.ndarray:
+    def _observation_and_features(self) -> tuple[np.ndarray, dict[str, float]]:
+        """The observation (features clipped to the bounds, float32) and the features by name."""
         values = features(self.evidence, self.budget)
-        return np.clip(values, -OBSERVATION_BOUND, OBSERVATION_BOUND).astype(np.float32)
+        observation = np.clip(values, -OBSERVATION_BOUND, OBSERVATION_BOUND).astype(np.float32)
+        return observation, dict(zip(self.feature_names, values.tolist()))
 
 
 _SHARED_DOC = """
