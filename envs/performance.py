@@ -33,7 +33,8 @@ import numpy as np
 from envs.controllers import Controller
 from envs.loops import closed_loop, simulation_step
 from envs.plants import Plant
-from envs.simulation import LoopRun, discretize
+from envs.simulation import DelaySystem, DiscreteDelaySystem, discretize
+from envs.step_error_runs import RunSums, StepErrorRuns
 
 __all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 
@@ -87,13 +88,6 @@ def integrated_absolute_error(error: np.ndarray, dt: float) -> float:
     return float(np.sum(areas) * dt)
 
 
-def _settled(error: np.ndarray, dt: float, total: float | None = None) -> bool:
-    """Whether the IAE over the last tenth is below ``SETTLED_SHARE`` of ``total`` (the whole IAE)."""
-    total = integrated_absolute_error(error, dt) if total is None else total
-    tail = integrated_absolute_error(error[-max(error.size // 10, 2) :], dt)
-    return tail <= SETTLED_SHARE * max(total, 1e-300)
-
-
 def iae(
     plant: Plant, controller: Controller, *, samples_per_residence_time: int = 50, bound: IAEBound | None = None
 ) -> IAEResult:
@@ -112,71 +106,59 @@ def iae_batch(
     samples_per_residence_time: int = 50,
     bounds: Sequence[IAEBound | None] | None = None,
 ) -> list[IAEResult]:
-    """:func:`iae` for many loops at once (``bounds``: one per loop, or None).
-
-    Every loop still pending runs to the same number of samples at each horizon (the longest any of
-    them needs); a longer horizon continues each run from its saved state
-    (:class:`~envs.simulation.LoopRun`), which gives the samples of a run from the start.
-    """
+    """:func:`iae` for many loops (``bounds``: one per loop, or None); each is that of :func:`iae`."""
     if len(plants) != len(controllers):
         raise ValueError(f"got {len(plants)} plants but {len(controllers)} controllers")
     bounds = [None] * len(plants) if bounds is None else list(bounds)
     if len(bounds) != len(plants):
         raise ValueError(f"got {len(plants)} plants but {len(bounds)} bounds")
-    systems = [closed_loop(p, c) for p, c in zip(plants, controllers)]
-    steps_of = [
-        simulation_step(p, c, samples_per_residence_time, system=s) for p, c, s in zip(plants, controllers, systems)
-    ]
-    discretes = [discretize(system, dt) for system, dt in zip(systems, steps_of)]
-    offsets = [_steady_offsets(system) for system in systems]
-    scales = [p.step_time_scale() for p in plants]
-    results: list[IAEResult | None] = [None] * len(plants)
-    pending, horizon = list(range(len(plants))), HORIZON
-    runs_of: dict[int, tuple[LoopRun, LoopRun]] = {}
-    while pending:
-        steps = max(int(math.ceil(horizon * scales[i] / steps_of[i])) + 1 for i in pending)
-        inputs = np.zeros((2, steps, 3))
-        inputs[0, :, 1] = 1.0  # unit load step
-        inputs[1, :, 0] = 1.0  # unit set-point step
-        still: list[int] = []
-        for i in pending:
-            if i not in runs_of:  # each horizon continues the run of the last (LoopRun), same samples
-                load_run = LoopRun(discretes[i], 2 * steps)
-                runs_of[i] = (load_run, load_run.sibling())
-            load, setpoint = (run.advance(inputs[k]) for k, run in enumerate(runs_of[i]))
-            outcome = _outcome(load, setpoint, offsets[i], steps_of[i], horizon, bounds[i])
-            if outcome is None:
-                still.append(i)
-            else:
-                results[i] = outcome
-        pending, horizon = still, horizon * 2
-    return results  # type: ignore[return-value]
+    return [_loop_iae(p, c, samples_per_residence_time, b) for p, c, b in zip(plants, controllers, bounds)]
+
+
+def _loop_iae(plant: Plant, controller: Controller, samples_per_residence_time: int, bound: IAEBound | None) -> IAEResult:
+    """:func:`iae` of one loop: both step runs over doubling horizons, each continuing the last."""
+    system, discrete = discrete_loop(plant, controller, samples_per_residence_time)
+    dt = discrete.dt
+    runs = StepErrorRuns(discrete)
+    offsets = _steady_offsets(system)
+    scale = plant.step_time_scale()
+    horizon = HORIZON
+    while True:
+        sums = runs.advance(int(math.ceil(horizon * scale / dt)) + 1)
+        outcome = _outcome(sums, offsets, dt, horizon, bound)
+        if outcome is not None:
+            return outcome
+        horizon *= 2
+
+
+def discrete_loop(
+    plant: Plant, controller: Controller, samples_per_residence_time: int = 50
+) -> tuple[DelaySystem, DiscreteDelaySystem]:
+    """The closed loop (:func:`~envs.loops.closed_loop`) and its one-step map at the IAE's sample time."""
+    system = closed_loop(plant, controller)
+    dt = simulation_step(plant, controller, samples_per_residence_time, system=system)
+    return system, discretize(system, dt)
 
 
 def _outcome(
-    load, setpoint, offsets: tuple[bool, bool], dt: float, horizon: float, bound: IAEBound | None = None
+    sums: RunSums, offsets: tuple[bool, bool], dt: float, horizon: float, bound: IAEBound | None = None
 ) -> IAEResult | None:
-    """The IAE of one loop, or None if it has not settled within ``horizon`` and may run longer
-    (and has not exceeded ``bound``)."""
-    if load.diverged or setpoint.diverged:
+    """The IAE of one loop from its runs' sums, or None if it has not settled within ``horizon``
+    and may run longer (and has not exceeded ``bound``)."""
+    if sums.diverged:
         return IAEResult(math.inf, math.inf, True, horizon, dt)
-    errors = (load.outputs[:, 2], setpoint.outputs[:, 2])
-    totals: dict[int, float] = {}  # each IAE computed once, for the settling test and the result
-
-    def total(k: int) -> float:
-        if k not in totals:
-            totals[k] = integrated_absolute_error(errors[k], dt)
-        return totals[k]
-
-    settled = all(_settled(errors[k], dt, total(k)) for k in (0, 1) if not offsets[k])
+    values = [math.inf if offsets[k] else sums.totals[k] for k in (0, 1)]
+    settled = all(is_settled(sums.tails[k], sums.totals[k]) for k in (0, 1) if not offsets[k])
     if not settled and horizon < MAX_HORIZON:
-        if bound is not None:
-            values = [math.inf if offsets[k] else total(k) for k in (0, 1)]
-            if bound.exceeded(*values):
-                return IAEResult(values[0], values[1], False, horizon, dt, lower_bound=True)
+        if bound is not None and bound.exceeded(*values):
+            return IAEResult(values[0], values[1], False, horizon, dt, lower_bound=True)
         return None
-    values = [math.inf if offsets[k] else total(k) for k in (0, 1)]
     return IAEResult(values[0], values[1], settled, horizon, dt)
+
+
+def is_settled(tail: float, total: float) -> bool:
+    """The settling test: the IAE over the last tenth is below ``SETTLED_SHARE`` of the whole."""
+    return tail <= SETTLED_SHARE * max(total, 1e-300)
 
 
 def _steady_offsets(system) -> tuple[bool, bool]:

@@ -18,16 +18,21 @@ import pytest
 
 from envs.closed_loop_experiment import _cumulative_integral, _run_closed_loop
 from envs.commissioning import commissioning_pi
-from envs.controllers import FPPI, MSP, PID
+from envs.controllers import FPPI, MSP, PID, SeriesPID
 from envs.experiment_base import excursion_index, run_until_settled
 from envs.loops import closed_loop, closed_loop_of_block, simulation_step
 from envs.open_loop_experiments import _run_to_steady_state
 from envs.performance import (
     HORIZON,
+    MAX_HORIZON,
     OFFSET_TOLERANCE,
-    _outcome,
+    SETTLED_SHARE,
+    IAEResult,
     _steady_offsets,
+    discrete_loop,
+    iae,
     iae_batch,
+    integrated_absolute_error,
 )
 from envs.plants import Plant
 from envs.simulation import (
@@ -155,39 +160,57 @@ def test_open_loop_run_equals_restarted_run(noise_std, start):
     assert restarted.settled
 
 
-def _iae_from_rest(plants, controllers):
-    """:func:`iae_batch` as before: every horizon one batched simulation from rest."""
-    systems = [closed_loop(p, c) for p, c in zip(plants, controllers)]
-    steps_of = [simulation_step(p, c, 50, system=s) for p, c, s in zip(plants, controllers, systems)]
-    discretes = [discretize(s, dt) for s, dt in zip(systems, steps_of)]
-    offsets = [_steady_offsets(s) for s in systems]
-    scales = [p.step_time_scale() for p in plants]
-    results = [None] * len(plants)
-    pending, horizon = list(range(len(plants))), HORIZON
-    while pending:
-        steps = max(int(math.ceil(horizon * scales[i] / steps_of[i])) + 1 for i in pending)
-        inputs = np.zeros((2 * len(pending), steps, 3))
-        inputs[0::2, :, 1] = 1.0
-        inputs[1::2, :, 0] = 1.0
-        runs = simulate_batch([discretes[i] for i in pending for _ in range(2)], inputs)
-        still = []
-        for k, i in enumerate(pending):
-            outcome = _outcome(runs[2 * k], runs[2 * k + 1], offsets[i], steps_of[i], horizon)
-            if outcome is None:
-                still.append(i)
-            else:
-                results[i] = outcome
-        pending, horizon = still, horizon * 2
-    return results
+def _iae_from_rest(plant, controller):
+    """:func:`iae` by the general path: every horizon both step runs simulated from rest
+    (:func:`simulate_batch`), the IAE and the settling test of ``integrated_absolute_error`` on the
+    error samples (the module docstring of :mod:`envs.performance`)."""
+    system, discrete = discrete_loop(plant, controller, 50)
+    dt, offsets, horizon = discrete.dt, _steady_offsets(system), HORIZON
+    while True:
+        steps = int(math.ceil(horizon * plant.step_time_scale() / dt)) + 1
+        inputs = np.zeros((2, steps, 3))
+        inputs[0, :, 1] = 1.0  # load
+        inputs[1, :, 0] = 1.0  # set point
+        runs = simulate_batch([discrete, discrete], inputs)
+        if any(run.diverged for run in runs):
+            return IAEResult(math.inf, math.inf, True, horizon, dt)
+        errors = [run.outputs[:, 2] for run in runs]
+        totals = [integrated_absolute_error(e, dt) for e in errors]
+        tails = [integrated_absolute_error(e[-max(e.size // 10, 2) :], dt) for e in errors]
+        settled = all(tails[k] <= SETTLED_SHARE * max(totals[k], 1e-300) for k in (0, 1) if not offsets[k])
+        if settled or horizon >= MAX_HORIZON:
+            values = [math.inf if offsets[k] else totals[k] for k in (0, 1)]
+            return IAEResult(values[0], values[1], settled, horizon, dt)
+        horizon *= 2
 
 
-def test_iae_batch_equals_restarted_batch():
-    plants = [p for p, _ in LOOPS.values()] + [Plant.from_time_constants(1.0, [3.0, 1.0], 0.2)]
-    controllers = [c for _, c in LOOPS.values()] + [PID(0.3, 100.0)]  # the last settles slowly
+IAE_LOOPS = {
+    **LOOPS,
+    "slowly-settling-pi": (Plant.from_time_constants(1.0, [3.0, 1.0], 0.2), PID(0.3, 100.0)),
+    "p-only-offset": (Plant.from_time_constants(1.0, [1.0], 0.5), PID(0.5, None)),
+    "pd-integrating-load-offset": (Plant([1.0], [1.0, 0.0], 1.0), PID(0.3, None, 0.5, 10.0)),
+    "no-dead-time-fppi": (Plant.from_time_constants(1.0, [2.0, 0.5], 0.0), FPPI(1.0, 2.3, 0.2, 1.0, 1.0)),
+    "series-pid-fast-filter": (Plant.from_time_constants(-2.0, [1.0, 0.3], 0.4), SeriesPID(-0.8, 1.2, 0.3, 10.0)),
+    "msp-extension": (Plant.from_time_constants(2.0, [0.3, 0.3], 1.2, integrating=True), MSP(2.0, 1.5, 2.0, True)),
+}
+
+
+@pytest.mark.parametrize("name", IAE_LOOPS)
+def test_iae_equals_simulation_from_rest(name):
+    """The compiled step runs (envs.step_error_runs), continued over the horizons, give the IAE of the
+    general path bit for bit."""
+    plant, controller = IAE_LOOPS[name]
+    assert iae(plant, controller) == _iae_from_rest(plant, controller)
+
+
+def test_iae_batch_equals_single_loops():
+    plants = [p for p, _ in IAE_LOOPS.values()]
+    controllers = [c for _, c in IAE_LOOPS.values()]
     assert OFFSET_TOLERANCE > 0
-    fast, reference = iae_batch(plants, controllers), _iae_from_rest(plants, controllers)
-    assert fast == reference
+    fast = iae_batch(plants, controllers)
+    assert fast == [iae(p, c) for p, c in zip(plants, controllers)]
     assert len({r.horizon for r in fast}) > 1
+    assert any(math.isinf(r.load) for r in fast) and any(math.isfinite(r.load) for r in fast)
 
 
 @pytest.mark.parametrize("target", [None, 1.0])
