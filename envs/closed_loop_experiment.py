@@ -27,6 +27,8 @@ from envs.experiment_base import (
     check_plant,
     check_rng,
     excursion_index,
+    MeasurementNoise,
+    as_noise,
     measurement_noise,
     record_fields,
     ExperimentRun,
@@ -39,7 +41,7 @@ from envs.identification import (
     SOPDTModel,
     closed_loop_moments,
     fopdt_from_moments,
-    sopdt_from_moments,
+    sopdt_from_theta,
     theta_from_tau,
 )
 from envs.loops import closed_loop_of_block
@@ -175,7 +177,7 @@ def _run_closed_loop(
     plant: Plant,
     controller: Controller,
     amplitude: float,
-    noise: np.ndarray,
+    noise: MeasurementNoise | np.ndarray,
     dt: float,
     window: int,
     excursion_limit: float | None,
@@ -183,7 +185,8 @@ def _run_closed_loop(
 ) -> ExperimentRun:
     """Simulate over growing horizons (doubling) until steady state, the cap, or an excursion.
 
-    ``block`` is ``controller.block()`` if the caller has it.
+    ``block`` is ``controller.block()`` if the caller has it; ``noise`` is drawn as the horizons grow
+    (or given, one sample per sample of the longest run allowed).
 
     Each horizon is reached in chunks of ``CHUNK_WINDOWS`` windows, each continuing the run
     (:class:`~envs.simulation.LoopRun`) and testing only its new samples
@@ -192,6 +195,7 @@ def _run_closed_loop(
     the same samples up to it as simulating and testing every horizon from the start.
     """
     first_steps = max(16 * window, 64)
+    noise = as_noise(noise)
     system = closed_loop_of_block(plant, controller.block() if block is None else block)
     trial = _ClosedLoopTrial(plant, system, amplitude, noise, dt, window, excursion_limit, 2 * first_steps)
     return run_until_settled(trial, first_steps, noise.size, chunk=CHUNK_WINDOWS * window)
@@ -219,13 +223,14 @@ class _ClosedLoopTrial:
     def __call__(self, steps: int, horizon: int) -> tuple:
         if horizon != self.horizon:  # the inputs and divergence limit of simulating the whole horizon
             self.horizon = horizon
-            self.inputs = np.column_stack([np.full(horizon, self.amplitude), np.zeros(horizon), self.noise[:horizon]])
+            noise = self.noise.first(horizon)
+            self.inputs = np.column_stack([np.full(horizon, self.amplitude), np.zeros(horizon), noise])
             self.divergence_limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(self.inputs))))
         sim = self.run.advance(self.inputs[:steps], limit=self.divergence_limit)
         y, u = sim.outputs[:, 0], sim.outputs[:, 1]
         old = self.done
         finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
-        self.measured[old:steps] = y[old:] + self.noise[old:steps]
+        self.measured[old:steps] = y[old:] + self.inputs[old:steps, 2]
         measured = self.measured[:steps]
         abort = excursion_index(y[old:finite], self.limit)
         abort = None if abort is None else abort + old
@@ -271,13 +276,14 @@ def _moment_models(gain: float, residence_time: float, apparent: float, integrat
     if not residence_time > 0:  # NaN (aborted) or a plant with lead: no model
         return fields
     tau = min(max(1.0 - apparent / residence_time, 0.0), 1.0)
-    fields.update(normalized_dead_time=tau, theta=theta_from_tau(tau))
+    theta = theta_from_tau(tau)
+    fields.update(normalized_dead_time=tau, theta=theta)
     if integrating:
         fields.update(integrating_model=IntegratingModel(gain=gain, dead_time=residence_time))
     else:
         fields.update(
             fopdt=fopdt_from_moments(gain, residence_time, apparent),
-            sopdt=sopdt_from_moments(gain, residence_time, tau),
+            sopdt=sopdt_from_theta(gain, residence_time, theta),  # sopdt_from_moments(gain, residence_time, tau)
         )
     return fields
 

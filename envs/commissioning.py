@@ -65,7 +65,7 @@ def commissioning_pi(plant: Plant, max_sensitivity_target: float = COMMISSIONING
     if target <= 1.0:
         raise ValueError(f"max_sensitivity_target must be > 1, got {target!r}")
     omega = _sensitivity_grid(plant)
-    detuning = np.geomspace(1e-3, 1.0, 139)
+    detuning = _DETUNING
     kp, reset_rate = (_integrating_rule if plant.integrating else _lambda_rule)(plant, detuning)
     loop = np.sign(kp[-1]) * plant.frequency_response(omega) * (1.0 + reset_rate / (1j * omega))
     best = _first_violation(loop, np.abs(kp), target) - 1
@@ -98,7 +98,13 @@ def _first_violation(loop: np.ndarray, gains: np.ndarray, target: float) -> int:
 
 
 def _sensitivity_grid(plant: Plant) -> np.ndarray:
-    return np.logspace(-4, 3, 2500) / plant.step_time_scale()
+    return _UNIT_GRID / plant.step_time_scale()
+
+
+_DETUNING = np.geomspace(1e-3, 1.0, 139)  # the detuning factors c of commissioning_pi, increasing
+_UNIT_GRID = np.logspace(-4, 3, 2500)  # the frequencies of max_sensitivity, times T
+_DETUNING.setflags(write=False)
+_UNIT_GRID.setflags(write=False)
 
 
 def max_sensitivity(plant: Plant, controller: Controller) -> float:

@@ -8,9 +8,20 @@ Conventions (see :mod:`envs.experiments` for the full list)
 ------------------------------------------------------------
 * The default ``dt`` is ``T/SAMPLES_PER_RESIDENCE_TIME`` with ``T = plant.step_time_scale()``
   (``T_ar`` of the true plant when positive), so the noise bandwidth is fixed relative to the plant.
-* Measurement noise is white and Gaussian, ``noise_std`` per sample; exactly ``n_max`` standard
-  normals are drawn per experiment (``n_max`` samples of the longest run allowed), so a seed gives
-  the same noise whatever the noise level.
+* Measurement noise is white and Gaussian, ``noise_std`` per sample (:class:`MeasurementNoise`).
+  Each experiment draws its noise from a child stream of its own: :func:`measurement_noise` seeds
+  a new generator with 128 bits drawn from the episode's ``rng`` (always exactly these, whatever
+  the noise level, duration or outcome of the experiment), and the child's standard normals are
+  drawn only for the samples actually simulated, as the run grows.  So a seed gives the same noise
+  whatever the noise level; the noise of an experiment does not depend on how long the earlier
+  ones ran; and an experiment that settles after ``n`` samples draws ``n`` normals, not the
+  ``n_max`` of the longest run allowed (drawing those up front was the largest single cost of an
+  environment's reset).  Drawn in parts or at once, a stream gives the same normals, so the
+  noise of a sample does not depend on how the run was split into horizons and chunks either.
+  The child is seeded from the parent's stream rather than by ``Generator.spawn``: spawned
+  children depend on the ``SeedSequence``'s count of children, which is not part of the
+  generator's state (a copied, pickled or restored generator would give other noise), while a
+  drawn seed makes the noise a function of the generator's state alone.
 * A run is simulated over growing horizons (doubling) until it settles, reaches the cap, or the
   true output leaves ``[-excursion_limit, excursion_limit]``.
 """
@@ -26,7 +37,7 @@ import numpy as np
 from envs.plants import Plant
 from envs.validation import require_number
 
-__all__ = ["SAMPLES_PER_RESIDENCE_TIME", "MAX_DURATION", "ExperimentResult"]
+__all__ = ["SAMPLES_PER_RESIDENCE_TIME", "MAX_DURATION", "ExperimentResult", "MeasurementNoise"]
 
 SAMPLES_PER_RESIDENCE_TIME = 200
 """Default samples per time scale ``T`` (``T_ar``); fine enough for ``K``, ``T_ar`` to 1e-3."""
@@ -53,8 +64,50 @@ def sample_time(plant: Plant, dt: float | None) -> float:
     return require_number(dt, "dt", positive=True)
 
 
-def measurement_noise(rng: np.random.Generator, noise_std: float, steps: int) -> np.ndarray:
-    return noise_std * rng.standard_normal(steps)
+def measurement_noise(rng: np.random.Generator, noise_std: float, steps: int) -> MeasurementNoise:
+    """The noise of one experiment of at most ``steps`` samples, from a child stream seeded by ``rng``.
+
+    Draws the child's seed (four 32-bit integers) from ``rng``, and nothing else, whatever
+    ``noise_std`` and however long the experiment runs (see the module docstring).
+    """
+    seed = rng.integers(0, 2**32, size=4, dtype=np.uint64)
+    return MeasurementNoise(noise_std, steps, np.random.Generator(np.random.PCG64(seed)))
+
+
+class MeasurementNoise:
+    """White Gaussian noise ``noise_std * z`` of the samples of one experiment, drawn as needed.
+
+    ``first(count)`` is the noise of samples ``0 .. count - 1``: the standard normals ``z`` of the
+    child stream ``source`` in order, drawn up to the largest ``count`` asked so far (none at all when
+    ``noise_std`` is 0).  ``size`` is the cap, the number of samples of the longest run allowed.
+    """
+
+    def __init__(self, noise_std: float, size: int, source: np.random.Generator | None) -> None:
+        self.noise_std, self.size, self._source = noise_std, int(size), source
+        self._values = np.zeros(0)
+
+    @classmethod
+    def given(cls, values: np.ndarray) -> MeasurementNoise:
+        """Noise with the given samples (e.g. to replay a run)."""
+        noise = cls(0.0, np.size(values), None)
+        noise._values = np.asarray(values, dtype=float).ravel()
+        return noise
+
+    def first(self, count: int) -> np.ndarray:
+        count = min(int(count), self.size)
+        drawn = self._values.size
+        if count > drawn:
+            if self.noise_std == 0.0 or self._source is None:
+                fresh = np.zeros(count - drawn)
+            else:
+                fresh = self.noise_std * self._source.standard_normal(count - drawn)
+            self._values = np.concatenate([self._values, fresh])
+        return self._values[:count]
+
+
+def as_noise(noise: MeasurementNoise | np.ndarray) -> MeasurementNoise:
+    """``noise``, or the noise with the given samples."""
+    return noise if isinstance(noise, MeasurementNoise) else MeasurementNoise.given(noise)
 
 
 def excursion_index(true_output: np.ndarray, limit: float | None) -> int | None:

@@ -32,8 +32,10 @@ Conventions
   ``dt``, held over the sample.  The default ``dt`` is ``T/SAMPLES_PER_RESIDENCE_TIME`` with
   ``T = plant.step_time_scale()`` (``T_ar`` of the true plant when positive), so the noise
   bandwidth is fixed relative to the plant and the results are time-scale invariant.
-  Exactly ``n_max`` standard normals are drawn per experiment, where ``n_max`` is the number of
-  samples of the longest run allowed, so a seed gives the same noise whatever the noise level.
+  Each experiment draws its noise from a child stream seeded from ``rng`` (always the same amount
+  taken from ``rng``), as its samples are simulated: a seed gives the same noise whatever the noise
+  level, and the noise of an experiment does not depend on how long the earlier ones ran (see
+  :mod:`envs.experiment_base`).
 * Steady state is detected causally (:func:`steady_state_index`): the first time the mean of the
   last window is within ``CONFIDENCE`` standard errors of its target (or of the previous window)
   and the fitted slope is insignificant; without noise, the tolerance floor is

@@ -52,6 +52,7 @@ __all__ = [
     "model_from_dict",
     "theta_from_tau",
     "sopdt_from_moments",
+    "sopdt_from_theta",
     "fopdt_from_moments",
     "apparent_time_constant",
     "normalized_moments",
@@ -75,6 +76,7 @@ MIN_TIME_CONSTANT_FRACTION = 1e-3
 # Marlin's Method II levels: 1 - e^{-1/3} (printed 28.3%) and 1 - e^{-1} (63.2%), eq. 6.5.
 _LEVEL_28 = 1.0 - math.exp(-1.0 / 3.0)
 _LEVEL_63 = 1.0 - math.exp(-1.0)
+_THETA_STEP = 2.0 * float(np.finfo(float).eps)  # convergence of theta_from_tau: the step is below machine precision
 
 
 # --------------------------------------------------------------------------- validation
@@ -335,7 +337,7 @@ def theta_from_tau(tau: float) -> float:
     theta = tau
     for _ in range(200):
         updated = 1.0 - (1.0 - tau) / math.sqrt(1.0 + theta * theta)
-        if abs(updated - theta) <= 2.0 * np.finfo(float).eps:
+        if abs(updated - theta) <= _THETA_STEP:
             return updated
         theta = updated
     return theta
@@ -358,7 +360,11 @@ def sopdt_from_moments(gain: float, residence_time: float, tau: float) -> SOPDTM
     """
     gain = require_number(gain, "gain", nonzero=True)
     residence_time = require_number(residence_time, "residence_time", positive=True)
-    theta = theta_from_tau(tau)
+    return sopdt_from_theta(gain, residence_time, theta_from_tau(tau))
+
+
+def sopdt_from_theta(gain: float, residence_time: float, theta: float) -> SOPDTModel:
+    """:func:`sopdt_from_moments` with ``theta`` already solved (eq. 2-8)."""
     return SOPDTModel(
         gain=gain,
         time_constants=(residence_time * (1.0 - theta), residence_time * theta * (1.0 - theta)),

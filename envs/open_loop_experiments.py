@@ -19,7 +19,8 @@ References
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -29,6 +30,8 @@ from envs.experiment_base import (
     check_plant,
     check_rng,
     excursion_index,
+    MeasurementNoise,
+    as_noise,
     measurement_noise,
     record_fields,
     ExperimentRun,
@@ -68,7 +71,7 @@ __all__ = [
 def _run_to_steady_state(
     plant: Plant,
     inputs: np.ndarray,
-    noise: np.ndarray,
+    noise: MeasurementNoise | np.ndarray,
     dt: float,
     window: int,
     start: int,
@@ -77,7 +80,8 @@ def _run_to_steady_state(
     """Simulate ``inputs`` (held per sample) over growing horizons, from ``start + 6 window``
     samples and doubling, until the measured output is steady from sample ``start`` on
     (:func:`~envs.steady_state.steady_state_index`), the cap (``inputs.size`` samples) or an
-    excursion of the true output."""
+    excursion of the true output.  ``noise`` is drawn as the run grows (or given, one sample per input)."""
+    noise = as_noise(noise)
     response = OpenLoopRun(plant.state_space(), plant.delay, inputs, dt)
     test = SteadyStateTest(window)
     measured = np.empty(inputs.size)
@@ -86,7 +90,7 @@ def _run_to_steady_state(
     def trial(steps: int, horizon: int) -> tuple:
         y = response.response(steps)
         old = done[0]
-        measured[old:steps] = y[old:] + noise[old:steps]
+        measured[old:steps] = y[old:] + noise.first(steps)[old:]
         abort = excursion_index(y[old:], excursion_limit)
         hits = np.flatnonzero(test.extend(measured[:steps])[max(start - old, 0) :])
         done[0] = steps
@@ -152,7 +156,8 @@ class OpenLoopStepResult(ExperimentResult):
     mismatch_time : float
         ``T_f_bar = int_0^{t_f} |y/h - y_n| dt / |K_n|`` (eq. 22).
     tangent_model, two_point_model : FOPDTModel or None
-        Marlin's process reaction curve, Methods I and II (section 6.3).
+        Marlin's process reaction curve, Methods I and II (section 6.3); computed when first read
+        (the environments never read them).
     """
 
     height: float
@@ -164,8 +169,26 @@ class OpenLoopStepResult(ExperimentResult):
     model: FOPDTModel | None
     final_output: float
     mismatch_time: float
-    tangent_model: FOPDTModel | None
-    two_point_model: FOPDTModel | None
+    _reaction_curves: _ReactionCurves | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def tangent_model(self) -> FOPDTModel | None:
+        return None if self._reaction_curves is None else self._reaction_curves.models["tangent_model"]
+
+    @property
+    def two_point_model(self) -> FOPDTModel | None:
+        return None if self._reaction_curves is None else self._reaction_curves.models["two_point_model"]
+
+
+class _ReactionCurves:
+    """The reaction-curve models of a settled step, computed on first use (:func:`_reaction_curve_models`)."""
+
+    def __init__(self, t: np.ndarray, y: np.ndarray, height: float, final: float, residence_time: float) -> None:
+        self._arguments = (t, y, height, final, residence_time)
+
+    @cached_property
+    def models(self) -> dict:
+        return _reaction_curve_models(*self._arguments)
 
 
 def open_loop_step(
@@ -229,7 +252,7 @@ def _step_identification(record: dict, height: float, residence_time: float, gai
     t, y = record["timepts"], record["output"]
     nan = float("nan")
     out = dict(area=nan, raw_time_constant=nan, time_constant=nan, dead_time=nan, model=None,
-               final_output=nan, mismatch_time=nan, tangent_model=None, two_point_model=None)
+               final_output=nan, mismatch_time=nan, _reaction_curves=None)
     if t[-1] < residence_time:
         return out
     area = integrate(t, y, end=residence_time)
@@ -240,11 +263,11 @@ def _step_identification(record: dict, height: float, residence_time: float, gai
         return out
     final = float(np.mean(y[-window:]))
     out.update(final_output=final, mismatch_time=mismatch_time(t, y / height, model))
-    out.update(_reaction_curves(t, y, height, final, residence_time))
+    out.update(_reaction_curves=_ReactionCurves(t, y, height, final, residence_time))
     return out
 
 
-def _reaction_curves(t: np.ndarray, y: np.ndarray, height: float, final: float, residence_time: float) -> dict:
+def _reaction_curve_models(t: np.ndarray, y: np.ndarray, height: float, final: float, residence_time: float) -> dict:
     dt = t[1] - t[0]
     smoothing = _smoothing_samples(y, final, residence_time, dt)
     curves = dict(tangent_model=None, two_point_model=None)
@@ -317,7 +340,7 @@ def open_loop_ramp(
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     dt, scale = sample_time(plant, dt), plant.step_time_scale()
     steps = int(math.ceil(residence_time / dt - 1e-9)) + 1
-    noise = measurement_noise(rng, noise_std, steps)
+    noise = measurement_noise(rng, noise_std, steps).first(steps)  # the ramp runs to its end
     y = open_loop_response(_with_input_integrator(plant.state_space()), plant.delay, np.full(steps, rate), dt)
     t = np.arange(steps) * dt
     abort = excursion_index(y, excursion_limit)

@@ -135,16 +135,23 @@ def relay_feedback(
     dt, scale = _relay_sample_time(plant, dt), plant.step_time_scale()
     steps = cap_steps(scale, dt, max_duration)
     noise = measurement_noise(rng, noise_std, steps)
+    values = noise.first(NOISE_BLOCK)
     sign = 1.0 if plant.gain > 0 else -1.0
-    relay = _RelaySimulation(plant, dt, amplitude * sign, hysteresis, noise[0])
+    relay = _RelaySimulation(plant, dt, amplitude * sign, hysteresis, values[0])
     aborted = converged = False
     for j in range(1, steps):
-        switched = relay.step(noise[j])
+        if j == values.size:
+            values = noise.first(j + NOISE_BLOCK)
+        switched = relay.step(values[j])
         aborted = relay.aborted(excursion_limit)
         converged = not aborted and switched and relay.periodic(period_tolerance)
         if aborted or converged or (switched and relay.unresolved()):
             break
     return _relay_result(relay, scale, amplitude, hysteresis, aborted, converged)
+
+
+NOISE_BLOCK = 1024
+"""Noise samples drawn at a time as the relay runs."""
 
 
 def _relay_sample_time(plant: Plant, dt: float | None) -> float:

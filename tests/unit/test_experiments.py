@@ -23,6 +23,7 @@ from envs.experiments import (
     relay_feedback,
     steady_state_index,
 )
+from envs.experiment_base import measurement_noise
 from envs.identification import FOPDTModel, SOPDTModel
 from envs.loops import loop_response
 from envs.plants import Plant
@@ -209,6 +210,34 @@ def test_closed_loop_step_same_noise_whatever_its_level():
     high = closed_loop_step(plant, rng(3), noise_std=2e-3, max_duration=20)
     k = min(low.timepts.size, high.timepts.size)
     assert np.allclose(2 * (low.output - low.true_output)[:k], (high.output - high.true_output)[:k])
+
+
+def test_noise_is_drawn_as_needed_and_the_same_in_parts():
+    """The noise of an experiment comes from a child stream, drawn only for the samples simulated;
+    in parts or at once, the samples are the same."""
+    parts = measurement_noise(rng(5), 0.5, 5000)
+    whole = measurement_noise(rng(5), 0.5, 5000).first(5000)
+    assert parts.first(0).size == 0 and parts.first(10).size == 10
+    pieces = [parts.first(k)[start:] for start, k in ((0, 10), (10, 700), (700, 701), (701, 9999))]
+    assert np.array_equal(np.concatenate(pieces), whole) and whole.size == 5000
+    assert np.array_equal(measurement_noise(rng(5), 0.25, 5000).first(5000), 0.5 * whole)
+    assert not np.any(measurement_noise(rng(5), 0.0, 5000).first(5000))
+
+
+def test_experiment_noise_does_not_depend_on_earlier_experiments():
+    """Each experiment takes the same from the episode's generator (its child's seed), whatever its
+    noise level, duration or outcome: the next experiment's noise is the same."""
+    plant = lags(1.0, [1.0], 1.0)
+    durations, states, outputs = [], [], []
+    for kwargs in ({"noise_std": 0.0}, {"noise_std": 0.05}, {"noise_std": 0.05, "max_duration": 3.0},
+                   {"noise_std": 0.05, "amplitude": 20.0, "excursion_limit": 2.0}):
+        generator = rng(9)
+        durations.append(closed_loop_step(plant, generator, **kwargs).duration)
+        states.append(generator.bit_generator.state)
+        outputs.append(open_loop_step(plant, generator, 1.0, 2.0, 1.0, noise_std=0.05).output)
+    assert len(set(durations)) == len(durations)
+    assert all(state == states[0] for state in states)
+    assert all(np.array_equal(output, outputs[0]) for output in outputs)
 
 
 def test_closed_loop_step_excursion_aborts():
