@@ -2,7 +2,8 @@
 
 :func:`analyze` is what ``deadtime analyze`` prints and what the environments score: stability,
 ``Ms``, ``Mt``, gain, phase and delay margins of ``L = P C_fb`` on the exact frequency response
-(:mod:`envs.robustness`), and the IAE for unit load and set-point steps (:mod:`envs.performance`).
+(the algorithm of :mod:`envs.robustness`, compiled in :mod:`envs.compiled_robustness` on the
+loop's quasi-rational form of :mod:`envs.loop_transfer`), and the IAE for unit load and set-point steps (:mod:`envs.performance`).
 An unstable loop is a result (``stable=False``, infinite IAE), not an error.
 """
 
@@ -12,11 +13,12 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from envs.compiled_robustness import quasi_rational_margins
 from envs.controllers import Controller
-from envs.loops import loop_response
+from envs.loop_transfer import loop_transfer
 from envs.performance import IAEResult, iae
 from envs.plants import Plant
-from envs.robustness import Margins, loop_margins
+from envs.robustness import Margins
 
 __all__ = ["LoopAnalysis", "analyze", "plant_margins"]
 
@@ -62,9 +64,14 @@ class LoopAnalysis:
 
 
 def plant_margins(plant: Plant, controller: Controller) -> Margins:
-    """Robustness figures of ``L = P C_fb`` (see :func:`envs.robustness.loop_margins`)."""
+    """Robustness figures of ``L = P C_fb``: :func:`envs.robustness.loop_margins` compiled
+    (:func:`envs.compiled_robustness.quasi_rational_margins` on :func:`envs.loop_transfer.loop_transfer`).
+
+    The figures equal those of ``loop_margins(lambda w: loop_response(plant, controller, w), ...)``
+    to rounding, at about a fifteenth of its cost.
+    """
     integrators = int(plant.integrating) + controller.integrators
-    return loop_margins(lambda w: loop_response(plant, controller, w), integrators, plant.step_time_scale())
+    return quasi_rational_margins(loop_transfer(plant, controller), integrators, plant.step_time_scale())
 
 
 def analyze(plant: Plant, controller: Controller) -> LoopAnalysis:

@@ -20,7 +20,9 @@ every gain crossover, with the phase margin ``phi_i`` taken in ``[0, 2 pi)`` (In
 section 3, after Landau et al.).
 
 Every step evaluates ``L`` on arrays of frequencies, never point by point: the cost of an analysis
-is a few dozen vectorized evaluations.
+is a few dozen vectorized evaluations.  :func:`loop_margins` takes any such ``L``; for a loop of a
+plant and a controller of deadtime-gym, :func:`envs.analysis.plant_margins` runs the same algorithm
+compiled (:mod:`envs.compiled_robustness`), and the tests hold the two to rounding.
 """
 
 from __future__ import annotations
@@ -308,30 +310,47 @@ def loop_margins(loop: LoopFunction, integrators: int, time_scale: float = 1.0) 
     values = loop(omega)
     omega, values = _refine(loop, omega, values)
     unstable = _winding(values, integrators)
-    stable = unstable == 0 and tame
 
     gains, phase = _crossovers(loop, omega, values)
     at_crossovers = loop(np.concatenate([gains, phase]))
     at_gains, at_phase = at_crossovers[: gains.size], at_crossovers[gains.size :]
     phase, at_phase = phase[at_phase.real < 0], at_phase[at_phase.real < 0]
     (ms, ms_w), (mt, mt_w) = _peaks(loop, omega, values)
+    return assemble_margins(
+        unstable, tame, (ms, ms_w, mt, mt_w), _gain_margin(phase, at_phase), _phase_and_delay_margins(gains, at_gains), gains, phase
+    )
 
-    gain_margin, pc_w = _gain_margin(phase, at_phase)
-    phase_margin, gc_w, delay_margin, dm_w = _phase_and_delay_margins(gains, at_gains)
-    if not stable:
-        delay_margin = 0.0
+
+def assemble_margins(
+    unstable: int,
+    tame: bool,
+    peaks: tuple[float, float, float, float],
+    gain_margin: tuple[float, float],
+    phase_and_delay_margins: tuple[float, float, float, float],
+    gains: np.ndarray,
+    phase: np.ndarray,
+) -> Margins:
+    """The :class:`Margins` from the figures of :func:`loop_margins` (shared with
+    :mod:`envs.compiled_robustness`): ``unstable`` from :func:`_winding`, ``tame`` from
+    :func:`_high_frequency`, ``peaks = (Ms, its frequency, Mt, its frequency)``, the results of
+    :func:`_gain_margin` and :func:`_phase_and_delay_margins`, the gain crossovers and the phase
+    crossovers with ``Re L < 0``.  The delay margin of an unstable loop is 0."""
+    stable = unstable == 0 and tame
+    ms, ms_w, mt, mt_w = peaks
+    gm, pc_w = gain_margin
+    phase_margin, gc_w, delay_margin, dm_w = phase_and_delay_margins
     return Margins(
         stable=bool(stable),
-        unstable_poles=max(unstable, 0) if tame else -1,
-        ms=ms,
-        ms_frequency=ms_w,
-        mt=mt,
-        mt_frequency=mt_w,
-        gain_margin=float(gain_margin),
+        unstable_poles=max(int(unstable), 0) if tame else -1,
+        ms=float(ms),
+        ms_frequency=float(ms_w),
+        mt=float(mt),
+        mt_frequency=float(mt_w),
+        gain_margin=float(gm),
         phase_crossover_frequency=float(pc_w),
         phase_margin_deg=math.degrees(phase_margin) if math.isfinite(phase_margin) else math.inf,
         gain_crossover_frequency=float(gc_w),
-        delay_margin=float(delay_margin),
+        delay_margin=float(delay_margin) if stable else 0.0,
         delay_margin_frequency=float(dm_w),
         gain_crossovers=tuple(float(w) for w in gains),
         phase_crossovers=tuple(float(w) for w in phase),
