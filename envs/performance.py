@@ -31,9 +31,10 @@ from typing import Sequence
 import numpy as np
 
 from envs.controllers import Controller
-from envs.loops import closed_loop, simulation_step
 from envs.plants import Plant
-from envs.simulation import DelaySystem, DiscreteDelaySystem, discretize
+from envs.compiled_discretization import discretize_compiled
+from envs.loops import closed_loop, simulation_step
+from envs.simulation import DelaySystem, DiscreteDelaySystem
 from envs.step_error_runs import RunSums, StepErrorRuns
 
 __all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
@@ -134,10 +135,12 @@ def _loop_iae(plant: Plant, controller: Controller, samples_per_residence_time: 
 def discrete_loop(
     plant: Plant, controller: Controller, samples_per_residence_time: int = 50
 ) -> tuple[DelaySystem, DiscreteDelaySystem]:
-    """The closed loop (:func:`~envs.loops.closed_loop`) and its one-step map at the IAE's sample time."""
+    """The closed loop (:func:`~envs.loops.closed_loop`) and its one-step map at the IAE's sample time
+    (:func:`~envs.compiled_discretization.discretize_compiled`, that of
+    :func:`~envs.simulation.discretize` to rounding)."""
     system = closed_loop(plant, controller)
     dt = simulation_step(plant, controller, samples_per_residence_time, system=system)
-    return system, discretize(system, dt)
+    return system, discretize_compiled(system, dt)
 
 
 def _outcome(
