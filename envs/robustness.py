@@ -352,8 +352,8 @@ def assemble_margins(
         gain_crossover_frequency=float(gc_w),
         delay_margin=float(delay_margin) if stable else 0.0,
         delay_margin_frequency=float(dm_w),
-        gain_crossovers=tuple(float(w) for w in gains),
-        phase_crossovers=tuple(float(w) for w in phase),
+        gain_crossovers=tuple(gains.tolist()),
+        phase_crossovers=tuple(phase.tolist()),
     )
 
 
