@@ -135,13 +135,13 @@ def relay_feedback(
     dt, scale = _relay_sample_time(plant, dt), plant.step_time_scale()
     steps = cap_steps(scale, dt, max_duration)
     noise = measurement_noise(rng, noise_std, steps)
-    values = noise.first(NOISE_BLOCK)
+    values = noise.first(NOISE_BLOCK).tolist()
     sign = 1.0 if plant.gain > 0 else -1.0
     relay = _RelaySimulation(plant, dt, amplitude * sign, hysteresis, values[0])
     aborted = converged = False
     for j in range(1, steps):
-        if j == values.size:
-            values = noise.first(j + NOISE_BLOCK)
+        if j == len(values):
+            values = noise.first(j + NOISE_BLOCK).tolist()
         switched = relay.step(values[j])
         aborted = relay.aborted(excursion_limit)
         converged = not aborted and switched and relay.periodic(period_tolerance)
@@ -172,6 +172,8 @@ class _RelaySimulation:
         self.C, self.D = ss.C[0], float(ss.D[0, 0])
         self.delay, self.dt, self.level, self.hysteresis = plant.delay, dt, level, hysteresis
         self.full_step = self._propagator(dt)
+        self.event_tolerance = 1e-12 * dt  # an event this close to the end of a step belongs to the next
+        self._forced = (None, None)  # (plant input u, gamma u) of the full step, for the last u
         self.x = np.zeros(self.A.shape[0])
         self.state = 1.0  # relay output sign
         self.events: list[tuple[float, float]] = [(self.delay, level)]  # plant input changes
@@ -193,7 +195,7 @@ class _RelaySimulation:
     def _advance(self, x: np.ndarray, start: float, plant_input: float, next_event: int) -> tuple[np.ndarray, float, int]:
         """Exact state at ``start + dt`` through the plant-input events inside the interval."""
         now, end = start, start + self.dt
-        while next_event < len(self.events) and self.events[next_event][0] < end - 1e-12 * self.dt:
+        while next_event < len(self.events) and self.events[next_event][0] < end - self.event_tolerance:
             when, value = self.events[next_event]
             if when > now:
                 phi, gamma = self._propagator(when - now)
@@ -208,19 +210,24 @@ class _RelaySimulation:
     def step(self, noise: float) -> bool:
         """Advance one sample; True if the relay switched."""
         start = self.times[-1]
-        saved = (self.x, self.plant_input, self.next_event)
-        self.x, self.plant_input, self.next_event = self._advance(saved[0], start, saved[1], saved[2])
         end = start + self.dt
-        true = float(self.C @ self.x + self.D * self.plant_input)
+        saved = (self.x, self.plant_input, self.next_event)
+        if self.next_event < len(self.events) and self.events[self.next_event][0] < end - self.event_tolerance:
+            self.x, self.plant_input, self.next_event = self._advance(saved[0], start, saved[1], saved[2])
+        else:  # no event inside the step (most steps): _advance's full step, with gamma u kept while u holds
+            if self._forced[0] != self.plant_input:
+                self._forced = (self.plant_input, self.full_step[1] * self.plant_input)
+            self.x = self.full_step[0] @ self.x + self._forced[1]
+        true = float(self.C @ self.x) + self.D * self.plant_input
         measured = true + noise
         switch = self._crossing(start, self.measured[-1], measured)
         if switch is not None:
             self.state = -self.state
             self.switches.append(switch)
             self.events.append((switch + self.delay, self.state * self.level))
-            if switch + self.delay < end - 1e-12 * self.dt:  # dead time shorter than the step
+            if switch + self.delay < end - self.event_tolerance:  # dead time shorter than the step
                 self.x, self.plant_input, self.next_event = self._advance(saved[0], start, saved[1], saved[2])
-                true = float(self.C @ self.x + self.D * self.plant_input)
+                true = float(self.C @ self.x) + self.D * self.plant_input
                 measured = true + noise
         self.times.append(end)
         self.true.append(true)
