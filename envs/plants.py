@@ -73,6 +73,27 @@ def _roots(coefficients: np.ndarray) -> np.ndarray:
     return np.linalg.eigvals(companion)
 
 
+def _controllable_form(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``scipy.signal.tf2ss(num, den)``, bit for bit, of a proper ``num/den`` with ``den[0] != 0``
+    and at least one pole, without its generic conversions and checks (most of its cost).
+
+    A numerator whose normalized leading coefficient is within 1e-14 of zero, which tf2ss trims
+    with a warning, is left to tf2ss.
+    """
+    num, den = num / den[0], den / den[0]
+    if abs(num[0]) <= 1e-14:
+        return scipy.signal.tf2ss(num, den)
+    n = den.size - 1
+    num = np.concatenate([np.zeros(den.size - num.size), num])
+    A = np.zeros((n, n))
+    A[0] = -den[1:]
+    A[1:, :-1] = np.eye(n - 1)
+    B = np.zeros((n, 1))
+    B[0, 0] = 1.0
+    C = num[None, 1:] - num[0] * den[None, 1:]
+    return A, B, C, np.array([[num[0]]])
+
+
 @dataclass(frozen=True)
 class Plant:
     """A validated plant ``G(s) e^{-L s}``.
@@ -293,7 +314,7 @@ class Plant:
         powers = np.arange(self.order, -1, -1)  # descending powers of s, as in den
         num = np.asarray(self.num) * scale ** -powers[len(powers) - len(self.num) :]
         den = np.asarray(self.den) * scale**-powers
-        A, B, C, D = scipy.signal.tf2ss(num, den)
+        A, B, C, D = _controllable_form(num, den)
         A, B = A / scale, B / scale
         A, (factors, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
         return _read_only(StateSpace(A=A, B=B / factors[:, None], C=C * factors[None, :], D=np.atleast_2d(D)))
