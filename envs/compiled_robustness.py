@@ -4,8 +4,9 @@
 deadtime-gym most of its time is numpy's overhead on small arrays (the low- and high-frequency
 searches, the grid and its refinement, the winding number, the root and peak searches), not
 arithmetic.  A plant-controller loop is a ratio of quasi-polynomials (:mod:`envs.loop_transfer`)
-that compiled code evaluates at one frequency (:func:`~envs.loop_transfer.transfer_at`, 50-110 ns
-on the bench loops); this module runs the same algorithm on it, point by point, in numba.
+that compiled code evaluates at one frequency (:func:`transfer_at`, 50-110 ns on the bench loops,
+accurate to rounding at every frequency: see :mod:`envs.loop_transfer`); this module runs the same
+algorithm on it, point by point, in numba.
 
 Design:
 
@@ -17,11 +18,12 @@ Design:
   the winding number counts the crossings of the negative real axis by the polyline of ``1 + L``
   (the sum of its angle steps, with two arctangents instead of one per interval); an interval
   left unrefined by one pass is not tested again; ``10^y`` is ``e^{y ln 10}``.
-* The constants are passed in (:data:`SETTINGS`, built from :mod:`envs.robustness`): numba's
-  cache would keep a stale copy of another module's global (its index is invalidated only by
-  changes to this file).
+* Everything compiled is in this file: numba invalidates its cache of a function only when the
+  function's own file changes, so a compiled callee or a constant imported from another module
+  would be kept stale.  The constants are passed in (:data:`SETTINGS`, built from
+  :mod:`envs.robustness`).
 * The figures agree with :func:`envs.robustness.loop_margins` on the same loop to rounding: the
-  values of ``L`` differ in the last bits (and :func:`~envs.loop_transfer.transfer_at` is the more
+  values of ``L`` differ in the last bits (and :func:`transfer_at` is the more
   accurate at low frequencies), so a stability verdict or a crossover count could differ only for
   a loop on the boundary; ``tests/unit/test_fast_paths.py`` compares both on a few hundred loops.
   :func:`envs.robustness.assemble_margins` builds the :class:`~envs.robustness.Margins` of both.
@@ -38,7 +40,7 @@ import math
 import numba
 import numpy as np
 
-from envs.loop_transfer import QuasiRational, transfer_at
+from envs.loop_transfer import QuasiRational
 from envs.robustness import (
     MAX_ARG_STEP,
     MAX_POINTS,
@@ -51,7 +53,7 @@ from envs.robustness import (
     assemble_margins,
 )
 
-__all__ = ["SETTINGS", "quasi_rational_margins"]
+__all__ = ["SETTINGS", "quasi_rational_margins", "transfer_at"]
 
 SETTINGS = (float(POINTS_PER_DECADE), MAX_ARG_STEP, MAX_POINTS, ROOT_XTOL, MAX_ROOT_ITERATIONS, PEAK_POINTS, PEAK_SPACING)
 """The constants of :mod:`envs.robustness`, in the order :func:`_analysis` unpacks them (a plain
@@ -114,10 +116,52 @@ def _analysis(transfer, integrators, time_scale, high_points, low_decades, setti
     return unstable, tame, peaks, _gain_margin(phase, at_phase), _phase_and_delay_margins(gains, at_gains), gains, phase
 
 
+@inline
+def _polynomial_at(rows, i, w):  # pragma: no cover - compiled
+    """``(Re, Im)`` of ``a(i w)``, ``a = rows[i]``, by Horner's rule in real arithmetic."""
+    re, im = 0.0, 0.0
+    for k in range(rows.shape[1]):
+        re, im = rows[i, k] - im * w, re * w
+    return re, im
+
+
+@inline
+def _quasi_polynomial_at(rows, delays, w):  # pragma: no cover - compiled
+    """``sum_i a_i(i w) e^{-i w alpha_i}`` as ``(sum_i a_i)(i w) + sum_i a_i(i w) (e^{-i w alpha_i} - 1)``,
+    ``a_i = rows[i]``, ``alpha_i = delays[i]``: the polynomial ``sum_i a_i`` from the summed
+    coefficients, so that its root at the origin is exact."""
+    re, im = 0.0, 0.0
+    for k in range(rows.shape[1]):
+        c = 0.0
+        for i in range(rows.shape[0]):
+            c += rows[i, k]
+        re, im = c - im * w, re * w
+    for i in range(rows.shape[0]):
+        if delays[i] == 0.0:
+            continue
+        a_re, a_im = _polynomial_at(rows, i, w)
+        half = 0.5 * w * delays[i]
+        sin, cos = math.sin(half), math.cos(half)
+        e_re, e_im = -2.0 * sin * sin, -2.0 * sin * cos  # e^{-i w alpha} - 1
+        re += a_re * e_re - a_im * e_im
+        im += a_re * e_im + a_im * e_re
+    return complex(re, im)
+
+
+@inline
+def transfer_at(transfer, w):  # pragma: no cover - compiled
+    """``L(i w)`` of ``transfer = QuasiRational.arrays`` at one frequency.
+
+    Inlined where it is called (:func:`_evaluate`, :func:`_crossing_function`): a call of a compiled
+    function with array arguments costs more than the evaluation itself (reference counting).
+    """
+    numerator, numerator_delays, denominator, denominator_delays = transfer
+    return _quasi_polynomial_at(numerator, numerator_delays, w) / _quasi_polynomial_at(denominator, denominator_delays, w)
+
+
 @jit
 def _evaluate(transfer, omega):  # pragma: no cover - compiled
-    """``L(i omega)`` on an array (one of the two places where
-    :func:`~envs.loop_transfer.transfer_at` is inlined; :func:`_crossing_function` is the other)."""
+    """``L(i omega)`` on an array."""
     values = np.empty(omega.size, dtype=np.complex128)
     for i in range(omega.size):
         values[i] = transfer_at(transfer, omega[i])

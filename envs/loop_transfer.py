@@ -29,9 +29,9 @@ with polynomials ``a_i``, ``b_j`` and dead times ``alpha_i, beta_j >= 0``.  The 
 The integral actions of FPPI and MSP are roots at ``s = 0`` of the denominators above, not
 factored out.  Near ``s = 0`` such a side is a difference of nearly equal terms; evaluated as
 written (and as :func:`envs.loops.loop_response` does) it loses ``log10(1/(omega T))`` digits.
-:func:`transfer_at`, the compiled evaluation used by :mod:`envs.compiled_robustness`, writes each
-side as ``sum_i a_i(s) + sum_i a_i(s) (e^{-alpha_i s} - 1)``: the polynomial ``sum_i a_i`` is
-formed once from the coefficients (its root at the origin is then exact) and
+The compiled evaluation (:func:`envs.compiled_robustness.transfer_at`) writes each side as
+``(sum_i a_i)(s) + sum_i a_i(s) (e^{-alpha_i s} - 1)``: the polynomial ``sum_i a_i`` is evaluated
+from the summed coefficients (its root at the origin is then exact) and
 ``e^{-i x} - 1 = -2 sin(x/2)^2 - 2 i sin(x/2) cos(x/2)`` has no cancellation, so the value is
 accurate to rounding at every frequency.
 
@@ -43,17 +43,15 @@ the controllers' ``transfer_function`` (the tests check that they are equal).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import cached_property
 
-import numba
 import numpy as np
 
 from envs.controllers import FPPI, MSP, PID, Controller, SeriesPID
 from envs.plants import Plant
 
-__all__ = ["QuasiRational", "feedback_transfer", "loop_transfer", "transfer_at"]
+__all__ = ["QuasiRational", "feedback_transfer", "loop_transfer"]
 
 Polynomial = tuple[float, ...]  # coefficients in descending powers of s
 Terms = tuple[tuple[Polynomial, float], ...]  # (a_i, alpha_i): sum_i a_i(s) e^{-alpha_i s}
@@ -81,18 +79,11 @@ def _scale(factor: float, a: Polynomial) -> Polynomial:
 
 
 def _rows(terms: Terms) -> tuple[np.ndarray, np.ndarray]:
-    """The layout of :func:`transfer_at` for one side: row 0 is ``sum_i a_i`` (dead time 0), the
-    other rows the ``a_i`` with ``alpha_i > 0``, all padded with leading zeros to one width."""
-    total: Polynomial = ()
-    for coefficients, _ in terms:
-        total = _add(total, coefficients)
-    rows, delays = [total], [0.0]
-    for coefficients, delay in terms:
-        if delay != 0:
-            rows.append(coefficients)
-            delays.append(delay)
-    width = len(max(rows, key=len))
-    return np.array([(0.0,) * (width - len(row)) + row for row in rows]), np.array(delays)
+    """One side as :func:`envs.compiled_robustness.transfer_at` takes it: the coefficient rows, padded with leading zeros to
+    one width, and the dead times."""
+    width = max(len(coefficients) for coefficients, _ in terms)
+    rows = [(0.0,) * (width - len(coefficients)) + coefficients for coefficients, _ in terms]
+    return np.array(rows, dtype=float), np.array([delay for _, delay in terms], dtype=float)
 
 
 @dataclass(frozen=True)
@@ -120,8 +111,8 @@ class QuasiRational:
 
     @cached_property
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(rows, dead times)`` of the numerator, then of the denominator, as :func:`transfer_at`
-        takes them (see :func:`_rows`)."""
+        """``(rows, dead times)`` of the numerator, then of the denominator, as
+        :func:`envs.compiled_robustness.transfer_at` takes them."""
         return _rows(self.numerator) + _rows(self.denominator)
 
 
@@ -176,38 +167,3 @@ def loop_transfer(plant: Plant, controller: Controller) -> QuasiRational:
         tuple((_multiply(plant.num, a), plant.delay + alpha) for a, alpha in c.numerator),
         tuple((_multiply(plant.den, b), beta) for b, beta in c.denominator),
     )
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _polynomial_at(rows, i, w):  # pragma: no cover - compiled
-    """``(Re, Im)`` of ``a(i w)``, ``a = rows[i]``, by Horner's rule in real arithmetic."""
-    re, im = 0.0, 0.0
-    for k in range(rows.shape[1]):
-        re, im = rows[i, k] - im * w, re * w
-    return re, im
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _quasi_polynomial_at(rows, delays, w):  # pragma: no cover - compiled
-    """``sum_i a_i(i w) e^{-i w alpha_i}`` as ``sum_i a_i(i w) + sum_i a_i(i w) (e^{-i w alpha_i} - 1)``
-    (row 0 is ``sum_i a_i``, the others the ``a_i`` with ``alpha_i > 0``)."""
-    re, im = _polynomial_at(rows, 0, w)
-    for i in range(1, rows.shape[0]):
-        a_re, a_im = _polynomial_at(rows, i, w)
-        half = 0.5 * w * delays[i]
-        sin, cos = math.sin(half), math.cos(half)
-        e_re, e_im = -2.0 * sin * sin, -2.0 * sin * cos  # e^{-i w alpha} - 1
-        re += a_re * e_re - a_im * e_im
-        im += a_re * e_im + a_im * e_re
-    return complex(re, im)
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def transfer_at(transfer, w):  # pragma: no cover - compiled
-    """``L(i w)`` of ``transfer = QuasiRational.arrays`` at one frequency (compiled).
-
-    Inlined where it is called: a call of a compiled function with array arguments costs more
-    than the evaluation itself (reference counting), so callers keep the call sites few.
-    """
-    numerator, numerator_delays, denominator, denominator_delays = transfer
-    return _quasi_polynomial_at(numerator, numerator_delays, w) / _quasi_polynomial_at(denominator, denominator_delays, w)

@@ -104,10 +104,17 @@ def test_pid_coefficients_are_those_of_transfer_function(controller):
 
 
 def test_fppi_integrator_is_exact_without_model_dead_time():
-    """``L_n = 0``: both denominator terms have dead time 0 and are added into one polynomial whose
-    constant coefficient ``K K_n - K K_n`` is exactly zero (an exact integrator)."""
-    rows, delays = feedback_transfer(CONTROLLERS["fppi-no-model-delay"]).arrays[2:]
-    assert rows.shape == (1, 3) and rows[0, -1] == 0.0 and list(delays) == [0.0]
+    """``L_n = 0``: both denominator terms have dead time 0; the polynomial of their summed
+    coefficients, ``T_n s (T_f s + 1) + K K_n T_f s``, has an exact root at the origin, and
+    ``Re(L s) -> P(0) K/(T_n + K K_n T_f)`` to rounding at ``omega = 1e-12`` (``Im(L s)`` is of order
+    ``omega``)."""
+    plant, controller = PLANTS["fopdt"], CONTROLLERS["fppi-no-model-delay"]
+    rows, delays = feedback_transfer(controller).arrays[2:]
+    assert list(delays) == [0.0, 0.0] and rows[:, -1].sum() == 0.0
+    k, k_kn = controller.proportional_gain, controller.time_constant / controller.tr
+    limit = plant.gain * k / (controller.time_constant + k_kn * controller.tf)
+    scaled = _compiled(loop_transfer(plant, controller).arrays, np.array([1e-12]))[0] * 1e-12j
+    assert abs(scaled.real / limit - 1) < 1e-14
 
 
 def test_plant_dead_time_goes_to_every_numerator_term():
