@@ -26,7 +26,6 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
-import scipy.signal
 
 from envs.simulation import DelaySystem, SystemBuilder
 from envs.validation import check_keys, require_number
@@ -35,15 +34,34 @@ __all__ = ["PID", "SeriesPID", "FPPI", "MSP", "Controller", "controller_from_dic
 
 
 def _rational_block(num: np.ndarray, den: np.ndarray) -> DelaySystem:
-    """A 1-DOF rational controller ``C = num/den`` acting on ``e = r - y``."""
-    A, B, C, D = scipy.signal.tf2ss(num, den)
-    n = len(np.trim_zeros(np.asarray(den, dtype=float), "f")) - 1  # tf2ss pads a static gain with a dummy state
-    b = SystemBuilder(n_states=n, n_inputs=2, n_delays=0)
-    error = b.input(0) - b.input(1)
-    states = [b.state(i) for i in range(n)]
-    derivatives = [sum((A[i, k] * states[k] for k in range(n)), b.zero()) + B[i, 0] * error for i in range(n)]
-    output = sum((C[0, k] * states[k] for k in range(n)), b.zero()) + D[0, 0] * error
-    return b.build(derivatives, [output], [], [])
+    """A 1-DOF rational controller ``C = num/den`` acting on ``e = r - y``.
+
+    The controller canonical form of ``scipy.signal.tf2ss`` (same arithmetic), without its dummy
+    state for a static gain and without its trimming of numerator coefficients below ``1e-14``:
+    ``x' = A x + b e``, ``u = c x + d e`` with ``A``'s first row ``-den[1:]/den[0]`` and ones below
+    the diagonal, ``b = e_1``, ``c = num[1:] - num[0] den[1:]`` and ``d = num[0]`` (``num`` padded to
+    the length of ``den``, both divided by ``den[0]``).
+    """
+    den = np.asarray(den, dtype=float)
+    den = den[np.flatnonzero(den)[0] :]  # without leading zeros
+    num, den = np.asarray(num, dtype=float) / den[0], den / den[0]
+    num = np.concatenate([np.zeros(den.size - num.size), num])
+    n = den.size - 1
+    A = np.eye(n, k=-1)
+    A[:1] = -den[1:]
+    b = np.eye(n, 1)
+    c = (num[1:] - num[0] * den[1:]).reshape(1, n)
+    d = num[0]
+    return DelaySystem(
+        A, np.hstack([b, -b]), np.zeros((n, 0)), c, np.array([[d, -d]]), np.zeros((1, 0)),
+        np.zeros((0, n)), np.zeros((0, 2)), np.zeros((0, 0)), np.zeros(0),
+    )  # fmt: skip
+
+
+def _polyadd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.polyadd`` of coefficient arrays (without its poly1d handling)."""
+    size = max(a.size, b.size)
+    return np.concatenate([np.zeros(size - a.size), a]) + np.concatenate([np.zeros(size - b.size), b])
 
 
 @dataclass(frozen=True)
@@ -77,8 +95,8 @@ class PID:
             num, den = np.array([self.ti, 1.0]), np.array([self.ti, 0.0])
         if self.td > 0:  # + td s/(1 + td s/n)
             filt = np.array([self.td / self.n, 1.0])
-            num = np.polyadd(np.polymul(num, filt), np.polymul(den, [self.td, 0.0]))
-            den = np.polymul(den, filt)
+            num = _polyadd(np.convolve(num, filt), np.convolve(den, [self.td, 0.0]))  # np.polymul is np.convolve
+            den = np.convolve(den, filt)
         return self.kp * num, den
 
     @cached_property
@@ -140,8 +158,8 @@ class SeriesPID:
         if self.ti is not None:
             num, den = np.array([self.ti, 1.0]), np.array([self.ti, 0.0])
         if self.td > 0:
-            num = np.polymul(num, [self.td, 1.0])
-            den = np.polymul(den, [self.td / self.n, 1.0])
+            num = np.convolve(num, [self.td, 1.0])  # np.polymul
+            den = np.convolve(den, [self.td / self.n, 1.0])
         return self.kp * num, den
 
     _coefficients = PID._coefficients

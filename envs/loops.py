@@ -15,7 +15,7 @@ import numpy as np
 
 from envs.controllers import Controller
 from envs.plants import Plant
-from envs.simulation import DelaySystem, SystemBuilder, discretize, simulate
+from envs.simulation import DelaySystem, discretize, simulate
 
 __all__ = [
     "closed_loop",
@@ -47,15 +47,18 @@ def closed_loop(plant: Plant, controller: Controller) -> DelaySystem:
 def closed_loop_of_block(plant: Plant, cb) -> DelaySystem:
     """:func:`closed_loop` from the controller's ``block()``, for a caller that already has it."""
     ps = plant.state_space()
+    if plant.delay > 0:
+        return _delayed_plant_loop(ps, plant.delay, cb)
     n_p, n_c = ps.A.shape[0], cb.n_states
     plant_delayed = plant.delay > 0
     n_vp = 1 if plant_delayed else 0
     n_vc = cb.delays.size
-    b = SystemBuilder(n_states=n_p + n_c, n_inputs=3, n_delays=n_vp + n_vc)
-    xp = np.array([b.state(i) for i in range(n_p)]).reshape(n_p, b.size)
-    xc = np.array([b.state(n_p + i) for i in range(n_c)]).reshape(n_c, b.size)
-    r, load, noise = b.input(0), b.input(1), b.input(2)
-    vc = np.array([b.delayed(n_vp + i) for i in range(n_vc)]).reshape(n_vc, b.size)
+    n_x = n_p + n_c
+    # Each signal is a row of coefficients over [x_p, x_c, r, l, n, v_p, v_c] (see SystemBuilder).
+    basis = np.eye(n_x + 3 + n_vp + n_vc)
+    xp, xc, vc = basis[:n_p], basis[n_p:n_x], basis[n_x + 3 + n_vp :]
+    r, load, noise = basis[n_x], basis[n_x + 1], basis[n_x + 2]
+    zero = np.zeros(basis.shape[0])
 
     def controller_rows(y_measured: np.ndarray, M: np.ndarray, N: np.ndarray, P: np.ndarray) -> np.ndarray:
         """Rows of ``M x_c + N [r, y_m] + P v_c`` for a controller matrix triple."""
@@ -64,10 +67,10 @@ def closed_loop_of_block(plant: Plant, cb) -> DelaySystem:
     plant_free = (ps.C @ xp).ravel()  # C_p x_p
     d_p = float(ps.D[0, 0])
     # u = a + k_y * y_m where a collects everything but the measured output.
-    u_base = controller_rows(b.zero(), cb.C1, cb.D11, cb.D12).ravel()
+    u_base = controller_rows(zero, cb.C1, cb.D11, cb.D12).ravel()
     k_y = float(cb.D11[0, 1])
     if plant_delayed:
-        y = b.delayed(0)
+        y = basis[n_x + 3]
     else:  # y = C_p x_p + D_p (u + l), u = u_base + k_y (y + n): solve the algebraic loop.
         denominator = 1.0 - k_y * d_p
         if abs(denominator) < 1e-12:
@@ -75,14 +78,65 @@ def closed_loop_of_block(plant: Plant, cb) -> DelaySystem:
         y = (plant_free + d_p * (u_base + k_y * noise + load)) / denominator
     u = u_base + k_y * (y + noise)
     plant_input = u + load
-    derivatives = list(ps.A @ xp + np.outer(ps.B[:, 0], plant_input))
-    derivatives += list(controller_rows(y + noise, cb.A, cb.B1, cb.B2))
-    delayed = []
+    derivatives = np.vstack([ps.A @ xp + np.outer(ps.B[:, 0], plant_input), controller_rows(y + noise, cb.A, cb.B1, cb.B2)])
+    delayed = controller_rows(y + noise, cb.C2, cb.D21, cb.D22)
     if plant_delayed:
-        delayed.append(plant_free + d_p * plant_input)
-    delayed += list(controller_rows(y + noise, cb.C2, cb.D21, cb.D22))
-    delays = ([plant.delay] if plant_delayed else []) + list(cb.delays)
-    return b.build(derivatives, [y, u, r - y], delayed, delays)
+        delayed = np.vstack([plant_free + d_p * plant_input, delayed])
+    delays = np.concatenate([[plant.delay] if plant_delayed else [], cb.delays])
+    outputs = np.vstack([y, u, r - y])
+    split = (n_x, n_x + 3)  # the columns of x, d = [r, l, n] and v
+
+    def matrices(rows: np.ndarray) -> list[np.ndarray]:
+        return np.hsplit(rows, split)
+
+    return DelaySystem(*matrices(derivatives), *matrices(outputs), *matrices(delayed), delays)
+
+
+def _delayed_plant_loop(ps, delay: float, cb) -> DelaySystem:
+    """:func:`closed_loop_of_block` for a plant with a dead time, written out (the same numbers).
+
+    The plant output is then the delayed signal ``v_p``, so the loop has no algebraic part: with
+    ``u = C1c x_c + D11c [r, v_p + n] + D12c v_c`` and ``u_p = u + l``,
+
+    * ``x_p' = A_p x_p + B_p u_p``,  ``x_c' = A_c x_c + B1c [r, v_p + n] + B2c v_c``;
+    * outputs ``y = v_p``, ``u``, ``e = r - v_p``;
+    * delayed signals ``w_p = C_p x_p + D_p u_p`` (delay ``L``) and
+      ``w_c = C2c x_c + D21c [r, v_p + n] + D22c v_c``.
+
+    Every coefficient is one entry or one product of the plant's and the controller's matrices.
+    """
+    n_p, n_c, n_vc = ps.A.shape[0], cb.n_states, cb.delays.size
+    n_x = n_p + n_c
+    r, load, noise, v_p = n_x, n_x + 1, n_x + 2, n_x + 3  # columns of [x_p, x_c, r, l, n, v_p, v_c]
+    size = n_x + 4 + n_vc
+
+    def controller_rows(rows: np.ndarray, M: np.ndarray, N: np.ndarray, P: np.ndarray) -> None:
+        """Fill ``rows`` (zero) with the coefficients of ``M x_c + N [r, v_p + n] + P v_c``."""
+        rows[:, n_p:n_x], rows[:, v_p + 1 :] = M, P
+        rows[:, r], rows[:, noise], rows[:, v_p] = N[:, 0], N[:, 1], N[:, 1]
+
+    outputs = np.zeros((3, size))  # y, u, e
+    u = outputs[1]
+    controller_rows(outputs[1:2], cb.C1, cb.D11, cb.D12)
+    outputs[0, v_p], outputs[2, r], outputs[2, v_p] = 1.0, 1.0, -1.0
+    plant_input = u.copy()
+    plant_input[load] = 1.0
+    derivatives = np.zeros((n_x, size))
+    derivatives[:n_p] = ps.B * plant_input  # B_p u_p (B_p is a column)
+    derivatives[:n_p, :n_p] = ps.A
+    controller_rows(derivatives[n_p:], cb.A, cb.B1, cb.B2)
+    delayed = np.zeros((1 + n_vc, size))
+    delayed[0] = float(ps.D[0, 0]) * plant_input
+    delayed[0, :n_p] = ps.C[0]
+    controller_rows(delayed[1:], cb.C2, cb.D21, cb.D22)
+    delays = np.empty(1 + n_vc)
+    delays[0], delays[1:] = delay, cb.delays
+    x, d = slice(0, n_x), slice(n_x, n_x + 3)
+    v = slice(n_x + 3, size)
+    return DelaySystem(
+        derivatives[:, x], derivatives[:, d], derivatives[:, v], outputs[:, x], outputs[:, d], outputs[:, v],
+        delayed[:, x], delayed[:, d], delayed[:, v], delays,
+    )  # fmt: skip
 
 
 def simulation_step(

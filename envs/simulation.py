@@ -80,8 +80,9 @@ class DelaySystem:
         ``numpy.linalg.LinAlgError`` if the system has a pole at the origin.
         """
         n, nv = self.n_states, self.delays.size
-        lhs = np.block([[self.A, self.B2], [self.C2, self.D22 - np.eye(nv)]])
-        state = np.linalg.solve(lhs, -np.vstack([self.B1, self.D21]))
+        lhs = np.empty((n + nv, n + nv))  # [[A, B2], [C2, D22 - I]]
+        lhs[:n, :n], lhs[:n, n:], lhs[n:, :n], lhs[n:, n:] = self.A, self.B2, self.C2, self.D22 - np.eye(nv)
+        state = np.linalg.solve(lhs, -np.concatenate([self.B1, self.D21]))
         return self.C1 @ state[:n] + self.D12 @ state[n:] + self.D11
 
     def frequency_response(self, omega: np.ndarray) -> np.ndarray:

@@ -52,18 +52,18 @@ class StepErrorRuns:
         n, nv = s.n_states, s.delays.size
         self._dt = discrete.dt
         self._matrices = (
-            np.ascontiguousarray(discrete.Phi), np.ascontiguousarray(discrete.Gamma[:, [LOAD, SETPOINT]].T),
+            np.ascontiguousarray(discrete.Phi), np.ascontiguousarray(discrete.Gamma[:, [LOAD, SETPOINT]]),
             np.ascontiguousarray(discrete.R.reshape(n, nv * 3)), np.ascontiguousarray(s.C1[ERROR]),
             np.array([s.D11[ERROR, LOAD], s.D11[ERROR, SETPOINT]]), np.ascontiguousarray(s.D12[ERROR]),
-            np.ascontiguousarray(s.C2), np.ascontiguousarray(s.D21[:, [LOAD, SETPOINT]].T),
+            np.ascontiguousarray(s.C2), np.ascontiguousarray(s.D21[:, [LOAD, SETPOINT]]),
             np.ascontiguousarray(s.D22), np.asarray(discrete.whole_samples, dtype=np.int64),
             discrete.fraction / discrete.dt,
         )  # fmt: skip
         size = 4
-        while size < int(max(discrete.whole_samples, default=0)) + 3:
+        while size < int(np.max(discrete.whole_samples, initial=0)) + 3:
             size *= 2
-        self._x = np.zeros((2, n))
-        self._history = np.zeros((2, size, nv))  # a ring buffer of the delayed signals w
+        self._x = np.zeros((n, 2))
+        self._history = np.zeros((size, nv, 2))  # a ring buffer of the delayed signals w
         self._last = np.zeros(2)  # the last error of each run
         self._areas = np.zeros((2, 0))
         self._done = 0
@@ -87,58 +87,65 @@ class StepErrorRuns:
 
 @numba.njit(cache=True)
 def _advance(Phi, gamma, R, c_e, d_e, f_e, C2, d_w, D22, whole, a, limit, x, history, last, areas, start, stop):  # pragma: no cover
-    """Samples ``start .. stop - 1`` of both runs (index 0: load, 1: set point); stores the areas
+    """Samples ``start .. stop - 1`` of both runs (column 0: load, 1: set point); stores the areas
     of ``|e|`` between consecutive samples; returns False if a run diverged (stopped there).
 
-    ``gamma[k]``, ``d_e[k]``, ``d_w[k]`` are the columns of ``Gamma``, ``D11[e]``, ``D21`` for the input
-    of run ``k``; ``c_e``, ``f_e`` the rows of ``C1``, ``D12`` for the error.  The order of every sum is
-    that of :func:`envs.simulation._run_one`.
+    ``x[:, k]`` is the state of run ``k``, ``history[j mod size, i, k]`` its delayed signal ``w_i[j]``;
+    ``gamma[:, k]``, ``d_e[k]``, ``d_w[:, k]`` are the columns of ``Gamma``, ``D11[e]``, ``D21`` for
+    the input of run ``k``; ``c_e``, ``f_e`` the rows of ``C1``, ``D12`` for the error.  Every sum is
+    in the order of :func:`envs.simulation._run_one`; the two runs share each coefficient load.
     """
     n, nv = Phi.shape[0], a.size
-    mask = history.shape[1] - 1
-    v = np.zeros((2, nv))
-    past = np.zeros((2, 3 * nv))
-    x_next = np.zeros((2, n))
+    mask = history.shape[0] - 1
+    v = np.zeros((nv, 2))
+    past = np.zeros((3 * nv, 2))
+    x_next = np.zeros((n, 2))
     for j in range(start, stop):
-        for i in range(nv):
+        for i in range(nv):  # v_i[j] = a_i w_i[j - m_i - 1] + (1 - a_i) w_i[j - m_i]
             early, late = (j - whole[i] - 1) & mask, (j - whole[i]) & mask
             for k in range(2):
-                v[k, i] = a[i] * history[k, early, i] + (1.0 - a[i]) * history[k, late, i]
-        for k in range(2):
-            acc = 0.0
+                v[i, k] = a[i] * history[early, i, k] + (1.0 - a[i]) * history[late, i, k]
+        load, setpoint = 0.0, 0.0  # the error e[j] = C1[e] x + D11[e] d + D12[e] v
+        for c in range(n):
+            load += c_e[c] * x[c, 0]
+            setpoint += c_e[c] * x[c, 1]
+        load += d_e[0]
+        setpoint += d_e[1]
+        for c in range(nv):
+            load += f_e[c] * v[c, 0]
+            setpoint += f_e[c] * v[c, 1]
+        if j > 0:
+            areas[0, j - 1] = _area(last[0], load)
+            areas[1, j - 1] = _area(last[1], setpoint)
+        last[0], last[1] = load, setpoint
+        for i in range(nv):  # w_i[j] = C2 x + D21 d + D22 v
+            load, setpoint = 0.0, 0.0
             for c in range(n):
-                acc += c_e[c] * x[k, c]
-            acc += d_e[k]
+                load += C2[i, c] * x[c, 0]
+                setpoint += C2[i, c] * x[c, 1]
+            load += d_w[i, 0]
+            setpoint += d_w[i, 1]
             for c in range(nv):
-                acc += f_e[c] * v[k, c]
-            if j > 0:
-                areas[k, j - 1] = _area(last[k], acc)
-            last[k] = acc
-        for i in range(nv):
-            for k in range(2):
-                acc = 0.0
-                for c in range(n):
-                    acc += C2[i, c] * x[k, c]
-                acc += d_w[k, i]
-                for c in range(nv):
-                    acc += D22[i, c] * v[k, c]
-                history[k, j & mask, i] = acc
-        for i in range(nv):
+                load += D22[i, c] * v[c, 0]
+                setpoint += D22[i, c] * v[c, 1]
+            history[j & mask, i, 0], history[j & mask, i, 1] = load, setpoint
+        for i in range(nv):  # w_i[j - m_i - 1 + m], m = 0, 1, 2
             for m in range(3):
                 row = (j - whole[i] - 1 + m) & mask
-                for k in range(2):
-                    past[k, 3 * i + m] = history[k, row, i]
+                past[3 * i + m, 0], past[3 * i + m, 1] = history[row, i, 0], history[row, i, 1]
         bounded = True
-        for k in range(2):
-            for r in range(n):
-                acc = 0.0
-                for c in range(n):
-                    acc += Phi[r, c] * x[k, c]
-                acc += gamma[k, r]
-                for c in range(3 * nv):
-                    acc += R[r, c] * past[k, c]
-                x_next[k, r] = acc
-                bounded = bounded and abs(acc) < limit
+        for r in range(n):  # x[j + 1] = Phi x + Gamma d + R past
+            load, setpoint = 0.0, 0.0
+            for c in range(n):
+                load += Phi[r, c] * x[c, 0]
+                setpoint += Phi[r, c] * x[c, 1]
+            load += gamma[r, 0]
+            setpoint += gamma[r, 1]
+            for c in range(3 * nv):
+                load += R[r, c] * past[c, 0]
+                setpoint += R[r, c] * past[c, 1]
+            x_next[r, 0], x_next[r, 1] = load, setpoint
+            bounded = bounded and abs(load) < limit and abs(setpoint) < limit
         x[:, :] = x_next
         if not bounded:
             return False
