@@ -13,7 +13,8 @@ Three parts, each on the same machine state:
    (:mod:`agents.bench_fine`).  This part runs pinned to one CPU (``os.sched_setaffinity``).
 2. Environments (:mod:`agents.bench_envs`): episodes per second of ``DeadTime/PID-v0``, single
    and vectorized (2 copies), in both modes, with and without the oracle.
-3. PPO: the share of ``PPO.learn`` spent inside the environment.
+3. Training: the share of ``learn`` spent inside the environment, for PPO (``configs/ppo.yaml``, the
+   issue's yardstick) and for SAC (``configs/sac.yaml``, the agent of the demo).
 
 Every part runs in a child process whose BLAS, OpenMP and numba pools have one thread
 (:data:`THREAD_VARIABLES`; the variables must be set before numpy is imported): on this 2-core
@@ -61,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object with every figure")
     parser.add_argument("--quick", action="store_true", help="a small version (4 loops, short timings, well under a minute)")
     parser.add_argument("--skip-envs", action="store_true", help="skip the environment episodes")
-    parser.add_argument("--skip-ppo", action="store_true", help="skip the PPO share")
+    parser.add_argument("--skip-ppo", action="store_true", help="skip the training shares (PPO and SAC)")
     parser.add_argument("--pade-order", type=int, default=None, help="Padé order of the python-control reference")
     parser.add_argument("--reference-samples", type=int, default=None,
                         help="python-control reference steps per plant time scale T_ar")  # fmt: skip
@@ -172,12 +173,23 @@ def _env_part(quick: bool) -> dict[str, Any]:
     }
 
 
-def _ppo_part(quick: bool) -> dict[str, Any]:
-    from agents.bench_envs import ppo_env_share
+def _training_part(quick: bool) -> dict[str, Any]:
+    from agents.bench_envs import training_env_share
 
+    root = Path(__file__).resolve().parent.parent / "configs"
     n_steps = 16 if quick else 128
-    _progress(f"PPO: one rollout of {n_steps} steps and one update")
-    return {**ppo_env_share(ENV_ID, n_steps, SEED), "ppo_n_steps": n_steps}
+    _progress(f"PPO (configs/ppo.yaml): one rollout of {n_steps} steps and one update")
+    ppo = training_env_share(str(root / "ppo.yaml"), ENV_ID, n_steps, (f"hyperparameters.n_steps={n_steps}",))
+    starts, sac_steps = (16, 16) if quick else (256, 256)
+    _progress(f"SAC (configs/sac.yaml): {sac_steps} steps after {starts} random ones")
+    sac = training_env_share(str(root / "sac.yaml"), ENV_ID, sac_steps, (f"hyperparameters.learning_starts={starts}",),
+                             warmup_steps=starts)  # fmt: skip
+    return {
+        "env_share_of_ppo_time": ppo["share"], "ppo_learn_seconds": ppo["learn_seconds"],
+        "ppo_env_seconds": ppo["env_seconds"], "ppo_timesteps": ppo["timesteps"], "ppo_n_steps": n_steps,
+        "env_share_of_sac_time": sac["share"], "sac_learn_seconds": sac["learn_seconds"],
+        "sac_env_seconds": sac["env_seconds"], "sac_timesteps": sac["timesteps"],
+    }  # fmt: skip
 
 
 def bench(quick: bool = False, envs: bool = True, ppo: bool = True, pade_order: int | None = None,
@@ -189,7 +201,7 @@ def bench(quick: bool = False, envs: bool = True, ppo: bool = True, pade_order: 
     if envs:
         figures.update(_env_part(quick))
     if ppo:
-        figures.update(_ppo_part(quick))
+        figures.update(_training_part(quick))
     for key in HEADLINE:  # skipped parts: null in the JSON
         figures.setdefault(key, None)
     figures["machine"]["load_average_end"] = list(os.getloadavg())
@@ -230,10 +242,13 @@ ROWS = (
     ("Environments (episodes/s, DeadTime/PID-v0, random actions)", None),
     ("episodes_per_s_fixed", "single, fixed"),
     ("episodes_per_s_agent", "single, agent"),
-    ("PPO", None),
+    ("Training (one environment)", None),
     ("env_share_of_ppo_time", "environment share of PPO.learn"),
     ("ppo_learn_seconds", "learn seconds"),
     ("ppo_timesteps", "timesteps"),
+    ("env_share_of_sac_time", "environment share of SAC.learn (configs/sac.yaml)"),
+    ("sac_learn_seconds", "learn seconds"),
+    ("sac_timesteps", "timesteps"),
 )
 
 

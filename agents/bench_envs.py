@@ -8,10 +8,10 @@ counted).  Vectorized environments hold ``n_envs`` copies: Gymnasium's ``SyncVec
 same-step autoreset, as stable-baselines3 does), stable-baselines3's ``DummyVecEnv`` and
 ``SubprocVecEnv`` (one worker process per environment).
 
-The PPO share: stable-baselines3 PPO with the hyperparameters of ``configs/ppo.yaml`` (``n_steps``
-possibly reduced), each environment wrapped in a timer of ``reset`` and ``step``; the share is the
-timed environment time over the wall time of ``PPO.learn`` for ``n_steps`` steps (one rollout and
-one update).
+The training shares: the agent of a config file (``configs/ppo.yaml``: PPO, one rollout of
+``n_steps`` and its update; ``configs/sac.yaml``: SAC, the demo's agent, some steps after its
+``learning_starts``), one environment wrapped in a timer of ``reset`` and ``step``; the share is
+the timed environment time over the wall time of ``learn``.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["episodes_per_s", "make_env", "ppo_env_share", "vector_episodes_per_s"]
+__all__ = ["episodes_per_s", "make_env", "training_env_share", "vector_episodes_per_s"]
 
 
 def make_env(env_id: str, experiments: str, oracle: bool, wrapper: Callable | None = None):
@@ -133,28 +133,32 @@ class _Timer:
         return Timed(env)
 
 
-def ppo_env_share(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
-    """PPO (``configs/ppo.yaml`` settings, ``n_steps`` per rollout, one rollout): the env's share of ``learn``."""
+def training_env_share(config_file: str, env_id: str, steps: int, overrides: tuple[str, ...] = (),
+                       warmup_steps: int = 0) -> dict[str, float]:
+    """The environment's share of ``learn`` for the agent of ``config_file`` (see the module docstring).
+
+    The model is that of ``deadtime train --config config_file --env env_id`` with ``overrides``
+    (one environment, ``VecNormalize`` as configured); ``warmup_steps`` are learned first and not
+    timed (an off-policy algorithm's ``learning_starts`` of random actions without updates).
+    """
     import torch
-    from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
+    from agents.config import load_config
+    from agents.train import new_model
+
     torch.set_num_threads(1)
+    config = load_config(config_file, env_id, ["n_envs=1", "vec_env=dummy", "device=cpu", *overrides])
     timer = _Timer()
-    vec = VecNormalize(DummyVecEnv([functools.partial(make_env, env_id, "fixed", False, timer.wrap)]))
-    model = PPO(
-        "MlpPolicy", vec, n_steps=n_steps, batch_size=min(64, n_steps), n_epochs=10, learning_rate=3e-4,
-        gamma=0.99, clip_range=0.2, ent_coef=0.0, seed=seed, device="cpu", verbose=0,
-        policy_kwargs={"net_arch": [64, 64], "activation_fn": torch.nn.Tanh, "log_std_init": -0.5},
-    )  # fmt: skip
+    vec = DummyVecEnv([functools.partial(make_env, env_id, "fixed", False, timer.wrap)])
+    if config.normalize:
+        vec = VecNormalize(vec, norm_obs=True, norm_reward=config.normalize_reward)
+    model = new_model(config, vec)
+    if warmup_steps:
+        model.learn(total_timesteps=warmup_steps)
     timer.seconds, timer.steps = 0.0, 0
     start = time.perf_counter()
-    model.learn(total_timesteps=n_steps)
+    model.learn(total_timesteps=steps, reset_num_timesteps=not warmup_steps)
     total = time.perf_counter() - start
     vec.close()
-    return {
-        "env_share_of_ppo_time": timer.seconds / total,
-        "ppo_learn_seconds": total,
-        "ppo_env_seconds": timer.seconds,
-        "ppo_timesteps": timer.steps,
-    }
+    return {"share": timer.seconds / total, "learn_seconds": total, "env_seconds": timer.seconds, "timesteps": timer.steps}

@@ -337,6 +337,15 @@ def _prepare_run_directory(config: TrainConfig, run_dir: Path, resume: bool) -> 
     return checkpoint
 
 
+def new_model(config: TrainConfig, venv: Any, tensorboard: str | None = None) -> Any:
+    """A new stable-baselines3 model of ``config`` (algorithm, policy, hyperparameters, seed) on ``venv``."""
+    import stable_baselines3
+
+    algorithm = getattr(stable_baselines3, config.algorithm)
+    return algorithm(config.policy, venv, seed=config.seed, device=config.device, verbose=0, tensorboard_log=tensorboard,
+                     policy_kwargs=_policy_kwargs(config), **_hyperparameters(config, venv.action_space))
+
+
 def _model(config: TrainConfig, checkpoint: Mapping[str, Any] | None, venv: Any, tensorboard: str) -> tuple[Any, Any]:
     """``(model, vecnormalize)``: a new model on ``venv``, or the checkpoint's with its replay buffer and statistics."""
     import stable_baselines3
@@ -351,9 +360,7 @@ def _model(config: TrainConfig, checkpoint: Mapping[str, Any] | None, venv: Any,
             venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
     vecnormalize = venv if config.normalize else None
     if checkpoint is None:
-        model = algorithm(config.policy, venv, seed=config.seed, device=config.device, verbose=0,
-                          tensorboard_log=tensorboard, policy_kwargs=_policy_kwargs(config),
-                          **_hyperparameters(config, venv.action_space))
+        model = new_model(config, venv, tensorboard)
     else:
         model = algorithm.load(checkpoint["model"], env=venv, device=config.device, tensorboard_log=tensorboard)
         if checkpoint.get("replay_buffer"):

@@ -108,7 +108,8 @@ def test_bench_json_quick(capsys: Any) -> None:
     figures = json.loads(capsys.readouterr().out)
     for key in NUMBERS:
         assert isinstance(figures[key], float) and math.isfinite(figures[key]) and figures[key] >= 0, key
-    assert 0 < figures["env_share_of_ppo_time"] <= 1
+    assert 0 < figures["env_share_of_ppo_time"] <= 1 and 0 < figures["env_share_of_sac_time"] <= 1
+    assert figures["sac_timesteps"] >= 16  # the timed SAC steps, after its learning_starts
     assert figures["accuracy_ours"] < 1e-2 and figures["accuracy_python_control"] < 1
     assert isinstance(figures["pade_order"], int) and isinstance(figures["loops"], int)
     assert all(isinstance(v, float) and v > 0 for v in figures["episodes_per_s"].values())
