@@ -5,8 +5,8 @@ Cross-checks:
 * the quasi-rational form of every controller type (the derivations in the module docstring:
   Ingimundarson eq. 13-16 for the FPPI, eq. 35-38 and 51 for the MSP) against
   :func:`envs.loops.loop_response`, which evaluates the controllers' own block-diagram formulas,
-  in numpy (:meth:`QuasiRational.response`) and compiled (:func:`transfer_at`, through
-  ``envs.compiled_robustness._evaluate``);
+  in numpy (:meth:`QuasiRational.response`) and compiled
+  (:func:`envs.compiled_robustness.transfer_at`, through ``_evaluate``);
 * the compiled evaluation against the same quasi-polynomials evaluated with 40 significant digits
   (mpmath), down to ``omega T = 1e-9`` where ``loop_response`` has lost digits;
 * the PID coefficients against the controllers' ``transfer_function``.
@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envs.controllers import FPPI, MSP, PID, SeriesPID
 from envs.compiled_robustness import _evaluate as _compiled  # transfer_at on an array
+from envs.controllers import FPPI, MSP, PID, SeriesPID
 from envs.loop_transfer import QuasiRational, _pid, feedback_transfer, loop_transfer
 from envs.loops import loop_response
 from envs.plants import Plant
