@@ -14,6 +14,7 @@ References
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -164,7 +165,11 @@ def _relay_sample_time(plant: Plant, dt: float | None) -> float:
 
 
 class _RelaySimulation:
-    """Exact time stepping of ``G e^{-Ls}`` under relay feedback with interpolated switching."""
+    """Exact time stepping of ``G e^{-Ls}`` under relay feedback with interpolated switching.
+
+    The products are ``ndarray.dot``: the same BLAS calls as ``@`` on these small arrays (hence the
+    same numbers), with far less overhead per call.
+    """
 
     def __init__(self, plant: Plant, dt: float, level: float, hysteresis: float, initial_noise: float) -> None:
         ss = plant.state_space()
@@ -199,13 +204,13 @@ class _RelaySimulation:
             when, value = self.events[next_event]
             if when > now:
                 phi, gamma = self._propagator(when - now)
-                x, now = phi @ x + gamma * plant_input, when
+                x, now = phi.dot(x) + gamma * plant_input, when
             plant_input, next_event = value, next_event + 1
         if now == start:
             phi, gamma = self.full_step
         else:
             phi, gamma = self._propagator(end - now)
-        return phi @ x + gamma * plant_input, plant_input, next_event
+        return phi.dot(x) + gamma * plant_input, plant_input, next_event
 
     def step(self, noise: float) -> bool:
         """Advance one sample; True if the relay switched."""
@@ -217,8 +222,8 @@ class _RelaySimulation:
         else:  # no event inside the step (most steps): _advance's full step, with gamma u kept while u holds
             if self._forced[0] != self.plant_input:
                 self._forced = (self.plant_input, self.full_step[1] * self.plant_input)
-            self.x = self.full_step[0] @ self.x + self._forced[1]
-        true = float(self.C @ self.x) + self.D * self.plant_input
+            self.x = self.full_step[0].dot(self.x) + self._forced[1]
+        true = float(self.C.dot(self.x)) + self.D * self.plant_input
         measured = true + noise
         switch = self._crossing(start, self.measured[-1], measured)
         if switch is not None:
@@ -227,7 +232,7 @@ class _RelaySimulation:
             self.events.append((switch + self.delay, self.state * self.level))
             if switch + self.delay < end - self.event_tolerance:  # dead time shorter than the step
                 self.x, self.plant_input, self.next_event = self._advance(saved[0], start, saved[1], saved[2])
-                true = float(self.C @ self.x) + self.D * self.plant_input
+                true = float(self.C.dot(self.x)) + self.D * self.plant_input
                 measured = true + noise
         self.times.append(end)
         self.true.append(true)
@@ -266,7 +271,7 @@ class _RelaySimulation:
         """``tolerance`` plus three times the relative period jitter expected from the noise:
         a switching instant moves by ``sigma/|y'|``, and ``|y'| ~ 2 pi a/T`` for an oscillation of
         amplitude ``a`` and period ``T``."""
-        first = int(np.searchsorted(self.times, since))
+        first = bisect.bisect_left(self.times, since)  # numpy.searchsorted of the list, without converting it
         y = np.asarray(self.measured[first:])
         noise, spread = noise_level(y), 0.5 * np.ptp(y) if y.size else 0.0
         if noise == 0.0:
