@@ -31,7 +31,7 @@ full simulation, bit for bit.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from envs.analysis import plant_margins
@@ -114,7 +114,8 @@ class Score:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready figures (``None`` for infinite or undefined values)."""
-        out = {k: v for k, v in asdict(self).items() if k != "margins"}
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "margins"}  # asdict would copy margins
+        out["violations"] = dict(self.violations)
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
 
 

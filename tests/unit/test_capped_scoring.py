@@ -104,3 +104,14 @@ def test_bound_test_keeps_a_margin_and_ignores_nan():
     assert not bound.exceeded(10.0 * (1 + 1e-12), 0.0)  # inside the rounding margin
     assert bound.exceeded(10.0 * (1 + 1e-8), 0.0)
     assert not bound.exceeded(1.0, math.inf)  # 0 * inf = nan: never a reason to stop
+
+
+def test_to_dict_is_asdict_without_margins():
+    """``Score.to_dict`` skips ``asdict``'s deep copy of the margins; the figures are the same."""
+    from dataclasses import asdict
+
+    result = score(PLANTS["fopdt"], PID(0.02, 1.0))
+    expected = {k: v for k, v in asdict(result).items() if k != "margins"}
+    expected = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in expected.items()}
+    assert result.to_dict() == expected and list(result.to_dict()) == list(expected)
+    assert result.to_dict()["violations"] is not result.violations
