@@ -20,6 +20,14 @@ IAE so far already exceeds the bound's budget, stops there.  As ``|e| >= 0``, th
 run can only be larger, so the values returned are lower bounds (``lower_bound=True``) and the
 weighted IAE is certainly above the budget.  The test keeps a relative margin of
 ``BOUND_MARGIN`` so that the rounding of the sums cannot matter.
+
+How it is computed.  The loop's one-step map comes from
+:func:`~envs.compiled_discretization.discretize_compiled` (that of
+:func:`~envs.simulation.discretize` to rounding: within ``1e-10`` relative in the IAE, measured
+<= 1.1e-11); both step runs, the trapezoidal areas and their sums advance in one compiled call per
+horizon (:class:`~envs.step_error_runs.StepErrorRuns`), which gives the numbers of
+:func:`~envs.simulation.simulate` and :func:`integrated_absolute_error` on the same map bit for bit
+(``tests/unit/test_resumable_runs.py`` keeps that general path as the reference).
 """
 
 from __future__ import annotations
@@ -151,7 +159,7 @@ def _outcome(
     if sums.diverged:
         return IAEResult(math.inf, math.inf, True, horizon, dt)
     values = [math.inf if offsets[k] else sums.totals[k] for k in (0, 1)]
-    settled = all(is_settled(sums.tails[k], sums.totals[k]) for k in (0, 1) if not offsets[k])
+    settled = all(_is_settled(sums.tails[k], sums.totals[k]) for k in (0, 1) if not offsets[k])
     if not settled and horizon < MAX_HORIZON:
         if bound is not None and bound.exceeded(*values):
             return IAEResult(values[0], values[1], False, horizon, dt, lower_bound=True)
@@ -159,7 +167,7 @@ def _outcome(
     return IAEResult(values[0], values[1], settled, horizon, dt)
 
 
-def is_settled(tail: float, total: float) -> bool:
+def _is_settled(tail: float, total: float) -> bool:
     """The settling test: the IAE over the last tenth is below ``SETTLED_SHARE`` of the whole."""
     return tail <= SETTLED_SHARE * max(total, 1e-300)
 
