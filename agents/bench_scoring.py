@@ -119,8 +119,8 @@ def scoring_figures(
     n = len(loops)
     progress("warm-up (numba compilation)")
     ours = [score(p, c) for p, c in zip(plants, controllers)]
-    if not all(s.feasible for s in ours):
-        raise ValueError("a benchmark loop is infeasible: its scoring would skip the simulations")
+    if not all(s.feasible and not s.iae_lower_bound for s in ours):
+        raise ValueError("a benchmark loop is infeasible or capped: its scoring would skip or stop the simulations")
 
     def each(function: Callable[[Any, Any], Any]) -> Callable[[], None]:
         return lambda: [function(p, c) for p, c in zip(plants, controllers)]
