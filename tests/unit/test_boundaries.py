@@ -29,6 +29,11 @@ CORE = [
     "envs.robustness",
     "envs.performance",
     "envs.analysis",
+    "envs.loop_transfer",
+    "envs.compiled_robustness",
+    "envs.compiled_discretization",
+    "envs.step_error_runs",
+    "envs.scoring",
 ]
 HEAVY = ("torch", "stable_baselines3", "gymnasium")
 
