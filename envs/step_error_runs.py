@@ -105,51 +105,42 @@ def _advance(Phi, gamma, R, c_e, d_e, f_e, C2, d_w, D22, whole, a, limit, x, his
             early, late = (j - whole[i] - 1) & mask, (j - whole[i]) & mask
             for k in range(2):
                 v[i, k] = a[i] * history[early, i, k] + (1.0 - a[i]) * history[late, i, k]
-        load, setpoint = 0.0, 0.0  # the error e[j] = C1[e] x + D11[e] d + D12[e] v
-        for c in range(n):
-            load += c_e[c] * x[c, 0]
-            setpoint += c_e[c] * x[c, 1]
-        load += d_e[0]
-        setpoint += d_e[1]
-        for c in range(nv):
-            load += f_e[c] * v[c, 0]
-            setpoint += f_e[c] * v[c, 1]
+        load, setpoint = _pair(c_e, x, d_e, f_e, v)  # the error e[j] = C1[e] x + D11[e] d + D12[e] v
         if j > 0:
             areas[0, j - 1] = _area(last[0], load)
             areas[1, j - 1] = _area(last[1], setpoint)
         last[0], last[1] = load, setpoint
         for i in range(nv):  # w_i[j] = C2 x + D21 d + D22 v
-            load, setpoint = 0.0, 0.0
-            for c in range(n):
-                load += C2[i, c] * x[c, 0]
-                setpoint += C2[i, c] * x[c, 1]
-            load += d_w[i, 0]
-            setpoint += d_w[i, 1]
-            for c in range(nv):
-                load += D22[i, c] * v[c, 0]
-                setpoint += D22[i, c] * v[c, 1]
-            history[j & mask, i, 0], history[j & mask, i, 1] = load, setpoint
+            history[j & mask, i, 0], history[j & mask, i, 1] = _pair(C2[i], x, d_w[i], D22[i], v)
         for i in range(nv):  # w_i[j - m_i - 1 + m], m = 0, 1, 2
             for m in range(3):
                 row = (j - whole[i] - 1 + m) & mask
                 past[3 * i + m, 0], past[3 * i + m, 1] = history[row, i, 0], history[row, i, 1]
         bounded = True
         for r in range(n):  # x[j + 1] = Phi x + Gamma d + R past
-            load, setpoint = 0.0, 0.0
-            for c in range(n):
-                load += Phi[r, c] * x[c, 0]
-                setpoint += Phi[r, c] * x[c, 1]
-            load += gamma[r, 0]
-            setpoint += gamma[r, 1]
-            for c in range(3 * nv):
-                load += R[r, c] * past[c, 0]
-                setpoint += R[r, c] * past[c, 1]
+            load, setpoint = _pair(Phi[r], x, gamma[r], R[r], past)
             x_next[r, 0], x_next[r, 1] = load, setpoint
             bounded = bounded and abs(load) < limit and abs(setpoint) < limit
         x[:, :] = x_next
         if not bounded:
             return False
     return True
+
+
+@numba.njit(cache=True, inline="always")
+def _pair(row, x, inputs, weights, signals):  # pragma: no cover - compiled
+    """``row . x[:, k] + inputs[k] + weights . signals[:, k]`` for both runs ``k``, summed in that
+    order (that of :func:`envs.simulation._affine`); the two runs share each coefficient load."""
+    load, setpoint = 0.0, 0.0
+    for c in range(x.shape[0]):
+        load += row[c] * x[c, 0]
+        setpoint += row[c] * x[c, 1]
+    load += inputs[0]
+    setpoint += inputs[1]
+    for c in range(signals.shape[0]):
+        load += weights[c] * signals[c, 0]
+        setpoint += weights[c] * signals[c, 1]
+    return load, setpoint
 
 
 @numba.njit(cache=True, inline="always")
