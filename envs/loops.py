@@ -19,10 +19,12 @@ from envs.simulation import DelaySystem, discretize, simulate
 
 __all__ = [
     "closed_loop",
+    "loop_rows",
     "loop_response",
     "ClosedLoopResponse",
     "closed_loop_response",
     "simulation_step",
+    "sample_time",
     "INPUTS",
     "OUTPUTS",
 ]
@@ -46,9 +48,28 @@ def closed_loop(plant: Plant, controller: Controller) -> DelaySystem:
 
 def closed_loop_of_block(plant: Plant, cb) -> DelaySystem:
     """:func:`closed_loop` from the controller's ``block()``, for a caller that already has it."""
+    derivatives, outputs, delayed, delays = _rows(plant, cb)
+    split = (derivatives.shape[0], derivatives.shape[0] + 3)  # the columns of x, d = [r, l, n] and v
+
+    def matrices(rows: np.ndarray) -> list[np.ndarray]:
+        return np.hsplit(rows, split)
+
+    return DelaySystem(*matrices(derivatives), *matrices(outputs), *matrices(delayed), delays)
+
+
+def loop_rows(plant: Plant, controller: Controller) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The matrices of :func:`closed_loop` as rows over ``[x, d, v]``, unsplit (for compiled code).
+
+    Returns ``([A, B1, B2], [C1, D11, D12], [C2, D21, D22], delays)``, C-contiguous float arrays.
+    """
+    return _rows(plant, controller.block())
+
+
+def _rows(plant: Plant, cb) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`loop_rows` from the controller's ``block()``."""
     ps = plant.state_space()
     if plant.delay > 0:
-        return _delayed_plant_loop(ps, plant.delay, cb)
+        return _delayed_plant_rows(ps, plant.delay, cb)
     n_p, n_c = ps.A.shape[0], cb.n_states
     plant_delayed = plant.delay > 0
     n_vp = 1 if plant_delayed else 0
@@ -84,16 +105,11 @@ def closed_loop_of_block(plant: Plant, cb) -> DelaySystem:
         delayed = np.vstack([plant_free + d_p * plant_input, delayed])
     delays = np.concatenate([[plant.delay] if plant_delayed else [], cb.delays])
     outputs = np.vstack([y, u, r - y])
-    split = (n_x, n_x + 3)  # the columns of x, d = [r, l, n] and v
-
-    def matrices(rows: np.ndarray) -> list[np.ndarray]:
-        return np.hsplit(rows, split)
-
-    return DelaySystem(*matrices(derivatives), *matrices(outputs), *matrices(delayed), delays)
+    return derivatives, outputs, np.ascontiguousarray(delayed, dtype=float), delays
 
 
-def _delayed_plant_loop(ps, delay: float, cb) -> DelaySystem:
-    """:func:`closed_loop_of_block` for a plant with a dead time, written out (the same numbers).
+def _delayed_plant_rows(ps, delay: float, cb) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_rows` for a plant with a dead time, written out (the same numbers).
 
     The plant output is then the delayed signal ``v_p``, so the loop has no algebraic part: with
     ``u = C1c x_c + D11c [r, v_p + n] + D12c v_c`` and ``u_p = u + l``,
@@ -131,12 +147,7 @@ def _delayed_plant_loop(ps, delay: float, cb) -> DelaySystem:
     controller_rows(delayed[1:], cb.C2, cb.D21, cb.D22)
     delays = np.empty(1 + n_vc)
     delays[0], delays[1:] = delay, cb.delays
-    x, d = slice(0, n_x), slice(n_x, n_x + 3)
-    v = slice(n_x + 3, size)
-    return DelaySystem(
-        derivatives[:, x], derivatives[:, d], derivatives[:, v], outputs[:, x], outputs[:, d], outputs[:, v],
-        delayed[:, x], delayed[:, d], delayed[:, v], delays,
-    )  # fmt: skip
+    return derivatives, outputs, delayed, delays
 
 
 def simulation_step(
@@ -149,7 +160,11 @@ def simulation_step(
     :func:`envs.simulation.discretize` is explicit then).  ``system`` is the loop's
     :func:`closed_loop`, if already built.
     """
-    delays = (closed_loop(plant, controller) if system is None else system).delays
+    return sample_time(plant, (closed_loop(plant, controller) if system is None else system).delays, samples_per_residence_time)
+
+
+def sample_time(plant: Plant, delays: np.ndarray, samples_per_residence_time: int = 50) -> float:
+    """:func:`simulation_step` of a loop of ``plant`` whose delays are ``delays``."""
     dt = plant.step_time_scale() / samples_per_residence_time
     return float(min(dt, delays.min())) if delays.size else dt
 

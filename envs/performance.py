@@ -26,12 +26,12 @@ run can only be larger, so the values returned are lower bounds (``lower_bound=T
 weighted IAE is certainly above the budget.  The test keeps a relative margin of
 ``BOUND_MARGIN`` so that the rounding of the sums cannot matter.
 
-How it is computed.  The loop's one-step map comes from
-:func:`~envs.compiled_discretization.discretize_compiled` (that of
-:func:`~envs.simulation.discretize` to rounding: within ``1e-10`` relative in the IAE, measured
-<= 1.1e-11); both step runs, the trapezoidal areas and their sums advance in one compiled call per
-horizon (:class:`~envs.step_error_runs.StepErrorRuns`), which gives the numbers of
-:func:`~envs.simulation.simulate` and :func:`integrated_absolute_error` on the same map bit for bit
+How it is computed.  The loop is assembled as rows of coefficients (:func:`~envs.loops.loop_rows`),
+and everything else is one compiled call (:func:`~envs.compiled_iae.step_iae`): the loop's one-step
+map (that of :func:`~envs.simulation.discretize` to rounding: within ``1e-10`` relative in the IAE,
+measured <= 1.1e-11), the steady offsets, both step runs over the horizons with the trapezoidal
+areas, their sums and the tests above.  It gives the numbers of :func:`~envs.simulation.simulate`
+and :func:`integrated_absolute_error` on the same map bit for bit
 (``tests/unit/test_resumable_runs.py`` keeps that general path as the reference).
 """
 
@@ -43,12 +43,11 @@ from typing import Sequence
 
 import numpy as np
 
+from envs.compiled_iae import step_iae
 from envs.controllers import Controller
+from envs.loops import loop_rows, sample_time
 from envs.plants import Plant
-from envs.compiled_discretization import discretize_compiled
-from envs.loops import closed_loop, simulation_step
-from envs.simulation import DelaySystem, DiscreteDelaySystem
-from envs.step_error_runs import RunSums, StepErrorRuns
+from envs.simulation import DIVERGENCE_LIMIT
 
 __all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 
@@ -71,10 +70,15 @@ class IAEBound:
     setpoint_weight: float
     budget: float
 
+    @property
+    def threshold(self) -> float:
+        """The budget with its rounding margin: the weighted IAE that is certainly above the budget."""
+        return self.budget + BOUND_MARGIN * abs(self.budget)
+
     def exceeded(self, load: float, setpoint: float) -> bool:
-        """Whether IAEs of at least ``load`` and ``setpoint`` are certainly above the budget."""
-        weighted = self.load_weight * load + self.setpoint_weight * setpoint
-        return weighted > self.budget + BOUND_MARGIN * abs(self.budget)  # False for nan (0 inf)
+        """Whether IAEs of at least ``load`` and ``setpoint`` are certainly above the budget (the
+        test that :func:`~envs.compiled_iae.step_iae` applies)."""
+        return self.load_weight * load + self.setpoint_weight * setpoint > self.threshold  # False for nan (0 inf)
 
 
 @dataclass(frozen=True)
@@ -109,8 +113,7 @@ def iae(
 
     With ``bound``, a run that exceeds it stops early and returns lower bounds (``lower_bound``).
     """
-    bounds = None if bound is None else [bound]
-    return iae_batch([plant], [controller], samples_per_residence_time=samples_per_residence_time, bounds=bounds)[0]
+    return _loop_iae(plant, controller, samples_per_residence_time, bound)
 
 
 def iae_batch(
@@ -130,61 +133,14 @@ def iae_batch(
 
 
 def _loop_iae(plant: Plant, controller: Controller, samples_per_residence_time: int, bound: IAEBound | None) -> IAEResult:
-    """:func:`iae` of one loop: both step runs over doubling horizons, each continuing the last."""
-    system, discrete = discrete_loop(plant, controller, samples_per_residence_time)
-    dt = discrete.dt
-    runs = StepErrorRuns(discrete)
-    offsets = _steady_offsets(system)
-    scale = plant.step_time_scale()
-    horizon = HORIZON
-    while True:
-        sums = runs.advance(int(math.ceil(horizon * scale / dt)) + 1)
-        outcome = _outcome(sums, offsets, dt, horizon, bound)
-        if outcome is not None:
-            return outcome
-        horizon *= 2
-
-
-def discrete_loop(
-    plant: Plant, controller: Controller, samples_per_residence_time: int = 50
-) -> tuple[DelaySystem, DiscreteDelaySystem]:
-    """The closed loop (:func:`~envs.loops.closed_loop`) and its one-step map at the IAE's sample time
-    (:func:`~envs.compiled_discretization.discretize_compiled`, that of
-    :func:`~envs.simulation.discretize` to rounding)."""
-    system = closed_loop(plant, controller)
-    dt = simulation_step(plant, controller, samples_per_residence_time, system=system)
-    return system, discretize_compiled(system, dt)
-
-
-def _outcome(
-    sums: RunSums, offsets: tuple[bool, bool], dt: float, horizon: float, bound: IAEBound | None = None
-) -> IAEResult | None:
-    """The IAE of one loop from its runs' sums, or None if it has not settled within ``horizon``
-    and may run longer (and has not exceeded ``bound``)."""
-    if sums.diverged:
-        return IAEResult(math.inf, math.inf, True, horizon, dt)
-    values = [math.inf if offsets[k] else sums.totals[k] for k in (0, 1)]
-    settled = all(_is_settled(sums.tails[k], sums.totals[k]) for k in (0, 1) if not offsets[k])
-    if not settled and horizon < MAX_HORIZON:
-        if bound is not None and bound.exceeded(*values):
-            return IAEResult(values[0], values[1], False, horizon, dt, lower_bound=True)
-        return None
-    return IAEResult(values[0], values[1], settled, horizon, dt)
-
-
-def _is_settled(tail: float, total: float) -> bool:
-    """The settling test: the IAE over the last tenth is below ``SETTLED_SHARE`` of the whole."""
-    return tail <= SETTLED_SHARE * max(total, 1e-300)
-
-
-def _steady_offsets(system) -> tuple[bool, bool]:
-    """Whether the error keeps a steady offset after a unit load and a unit set-point step.
-
-    Such a loop (no integral action for that input) has an infinite IAE.  The final error is the
-    closed loop's exact DC gain; a loop with a pole at the origin is left to the simulation.
-    """
-    try:
-        gain = system.dc_gain()
-    except np.linalg.LinAlgError:
-        return False, False
-    return abs(gain[2, 1]) > OFFSET_TOLERANCE, abs(gain[2, 0]) > OFFSET_TOLERANCE
+    """:func:`iae` of one loop: its rows, its sample time, then one compiled call."""
+    derivatives, outputs, delayed, delays = loop_rows(plant, controller)
+    dt = sample_time(plant, delays, samples_per_residence_time)
+    if not dt > 0 or not math.isfinite(dt):
+        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    weights = (0.0, 0.0, math.inf) if bound is None else (bound.load_weight, bound.setpoint_weight, bound.threshold)
+    load, setpoint, settled, horizon, lower_bound = step_iae(
+        derivatives, outputs, delayed, delays, dt, plant.step_time_scale(), HORIZON, MAX_HORIZON, SETTLED_SHARE,
+        OFFSET_TOLERANCE, DIVERGENCE_LIMIT, *weights,
+    )  # fmt: skip
+    return IAEResult(load, setpoint, settled, horizon, dt, lower_bound)

@@ -31,8 +31,7 @@ CORE = [
     "envs.analysis",
     "envs.loop_transfer",
     "envs.compiled_robustness",
-    "envs.compiled_discretization",
-    "envs.step_error_runs",
+    "envs.compiled_iae",
     "envs.scoring",
 ]
 HEAVY = ("torch", "stable_baselines3", "gymnasium")

@@ -17,10 +17,11 @@ import numpy as np
 import pytest
 
 from envs.closed_loop_experiment import _cumulative_integral, _run_closed_loop
+from envs.compiled_iae import discretize_compiled
 from envs.commissioning import commissioning_pi
 from envs.controllers import FPPI, MSP, PID, SeriesPID
 from envs.experiment_base import excursion_index, run_until_settled
-from envs.loops import closed_loop, closed_loop_of_block, simulation_step
+from envs.loops import closed_loop, closed_loop_of_block, loop_rows, simulation_step
 from envs.open_loop_experiments import _run_to_steady_state
 from envs.performance import (
     HORIZON,
@@ -28,8 +29,6 @@ from envs.performance import (
     OFFSET_TOLERANCE,
     SETTLED_SHARE,
     IAEResult,
-    _steady_offsets,
-    discrete_loop,
     iae,
     iae_batch,
     integrated_absolute_error,
@@ -160,11 +159,23 @@ def test_open_loop_run_equals_restarted_run(noise_std, start):
     assert restarted.settled
 
 
+def _steady_offsets(system) -> tuple[bool, bool]:
+    """Whether the error keeps an offset after a unit load and set-point step, by numpy's DC gain
+    (a loop with a pole at the origin is left to the simulation)."""
+    try:
+        gain = system.dc_gain()
+    except np.linalg.LinAlgError:
+        return False, False
+    return abs(gain[2, 1]) > OFFSET_TOLERANCE, abs(gain[2, 0]) > OFFSET_TOLERANCE
+
+
 def _iae_from_rest(plant, controller):
     """:func:`iae` by the general path: every horizon both step runs simulated from rest
-    (:func:`simulate_batch`), the IAE and the settling test of ``integrated_absolute_error`` on the
-    error samples (the module docstring of :mod:`envs.performance`)."""
-    system, discrete = discrete_loop(plant, controller, 50)
+    (:func:`simulate_batch`) on the compiled one-step map, the IAE and the settling test of
+    ``integrated_absolute_error`` on the error samples, the offsets by numpy (the module docstring
+    of :mod:`envs.performance`)."""
+    system = closed_loop(plant, controller)
+    discrete = discretize_compiled(system, simulation_step(plant, controller, 50, system=system))
     dt, offsets, horizon = discrete.dt, _steady_offsets(system), HORIZON
     while True:
         steps = int(math.ceil(horizon * plant.step_time_scale() / dt)) + 1
@@ -197,8 +208,8 @@ IAE_LOOPS = {
 
 @pytest.mark.parametrize("name", IAE_LOOPS)
 def test_iae_equals_simulation_from_rest(name):
-    """The compiled step runs (envs.step_error_runs), continued over the horizons, give the IAE of the
-    general path bit for bit."""
+    """The compiled IAE (envs.compiled_iae), the runs continued over the horizons, gives the IAE of
+    the general path bit for bit."""
     plant, controller = IAE_LOOPS[name]
     assert iae(plant, controller) == _iae_from_rest(plant, controller)
 
@@ -248,3 +259,16 @@ def test_loop_run_sibling_runs_from_rest():
     for steps in (450, 900):
         _equal(first.advance(inputs[0, :steps]).outputs, simulate(discrete, inputs[0, :steps]).outputs)
         _equal(second.advance(inputs[1, :steps]).outputs, simulate(discrete, inputs[1, :steps]).outputs)
+
+
+@pytest.mark.parametrize("name", IAE_LOOPS)
+def test_loop_rows_are_the_matrices_of_closed_loop(name):
+    """The IAE's unsplit rows (C-contiguous, for the compiled call) hold the loop's matrices."""
+    plant, controller = IAE_LOOPS[name]
+    rows, reference = loop_rows(plant, controller), closed_loop(plant, controller)
+    n = reference.n_states
+    for matrix, fields in zip(rows[:3], (("A", "B1", "B2"), ("C1", "D11", "D12"), ("C2", "D21", "D22"))):
+        assert matrix.flags.c_contiguous and matrix.dtype == np.float64
+        for part, field in zip(np.hsplit(matrix, (n, n + 3)), fields):
+            _equal(part, getattr(reference, field))
+    _equal(rows[3], reference.delays)
