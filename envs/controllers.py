@@ -28,7 +28,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from envs.simulation import DelaySystem, SystemBuilder
+from envs.simulation import DelaySystem
 from envs.validation import check_keys, require_number
 
 __all__ = ["PID", "SeriesPID", "FPPI", "MSP", "Controller", "controller_from_dict"]
@@ -251,21 +251,11 @@ class FPPI:
         return c / loop
 
     def block(self) -> DelaySystem:
-        filtered = self.tf > 0
-        delayed = self.dead_time > 0
-        b = SystemBuilder(n_states=3 if filtered else 2, n_inputs=2, n_delays=1 if delayed else 0)
-        integral, model = b.state(0), b.state(1)
-        r, y = b.input(0), b.input(1)
-        model_delayed = b.delayed(0) if delayed else model
-        correction = b.state(2) if filtered else y - model_delayed
-        error = r - model - correction
-        k, ti = self.proportional_gain, self.time_constant
-        u = k * error + (k / ti) * integral
-        derivatives = [error, (self.gain * u - model) / self.time_constant]
-        if filtered:
-            derivatives.append((y - model_delayed - b.state(2)) / self.tf)
-        delayed_signals = [model] if delayed else []
-        return b.build(derivatives, [u], delayed_signals, [self.dead_time] if delayed else [])
+        """``u = K (e + (1/T_i) int e)``, ``e = r - m - c``, with the model output ``m`` (``T_n m' =
+        K_n u - m``) and the correction ``c = y - m(t - L_n)``, filtered (``T_f c' = y - m(t - L_n) -
+        c``) if ``T_f > 0``: the rows of these equations over ``[int e, m, (c), r, y, (m(t - L_n))]``,
+        filled in by one compiled call (:func:`_fppi_matrices`)."""
+        return DelaySystem(*_fppi_matrices(self.proportional_gain, self.gain, self.time_constant, self.tf, self.dead_time))
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -335,18 +325,11 @@ class MSP:
         return smith * (1 + f * model)
 
     def block(self) -> DelaySystem:
-        b = SystemBuilder(n_states=2 if self.extension else 1, n_inputs=2, n_delays=1)
-        model, r, y = b.state(0), b.input(0), b.input(1)
-        disturbance = y - b.delayed(0)
-        u_r = self.kr * (r - model - disturbance)
-        derivatives = [self.gain * u_r]
-        if self.extension:
-            lead = self.derivative_time / 10
-            derivatives.append((disturbance - b.state(1)) / lead)
-            correction = self.k0 * (10 * disturbance - 9 * b.state(1))
-        else:
-            correction = self.k0 * disturbance
-        return b.build(derivatives, [u_r - correction], [model], [self.dead_time])
+        """``u = u_r - F e_d``, ``u_r = K_r (r - m - e_d)``, ``e_d = y - m(t - L_n)``, with the model
+        output ``m' = K_n u_r`` and, with the extension, the lead state of ``F``: the rows of these
+        equations, filled in by one compiled call (:func:`_msp_matrices`)."""
+        lead = self.derivative_time / 10 if self.extension else 1.0
+        return DelaySystem(*_msp_matrices(self.kr, self.k0, self.gain, lead, self.dead_time, self.extension))
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -390,3 +373,62 @@ def controller_from_dict(data: Any) -> Controller:
         return cls(**model, **fields)
     except ValueError as error:
         raise ValueError(f"controller.{error}") from None
+
+
+@numba.njit(cache=True)
+def _unit(size, index):  # pragma: no cover - compiled
+    """The coefficient row of one state, input or delayed signal (:class:`~envs.simulation.SystemBuilder`)."""
+    row = np.zeros(size)
+    row[index] = 1.0
+    return row
+
+
+@numba.njit(cache=True)
+def _built(derivatives, outputs, delayed, n, delays):  # pragma: no cover - compiled
+    """The ten matrices of ``SystemBuilder(n, 2, delays.size).build(...)`` from its rows."""
+    d = n + 2
+    return (
+        derivatives[:, :n].copy(), derivatives[:, n:d].copy(), derivatives[:, d:].copy(), outputs[:, :n].copy(),
+        outputs[:, n:d].copy(), outputs[:, d:].copy(), delayed[:, :n].copy(), delayed[:, n:d].copy(),
+        delayed[:, d:].copy(), delays,
+    )  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _fppi_matrices(k, gain, time_constant, tf, dead_time):  # pragma: no cover - compiled
+    """:meth:`FPPI.block`'s matrices: the rows of its equations, the same operations as with numpy."""
+    filtered, delayed = tf > 0, dead_time > 0
+    n = 3 if filtered else 2
+    size = n + 2 + (1 if delayed else 0)
+    integral, model, r, y = _unit(size, 0), _unit(size, 1), _unit(size, n), _unit(size, n + 1)
+    model_delayed = _unit(size, n + 2) if delayed else model
+    correction = _unit(size, 2) if filtered else y - model_delayed
+    error = r - model - correction
+    u = k * error + (k / time_constant) * integral  # T_i = T_n
+    derivatives = np.empty((n, size))
+    derivatives[0], derivatives[1] = error, (gain * u - model) / time_constant
+    if filtered:
+        derivatives[2] = (y - model_delayed - _unit(size, 2)) / tf
+    outputs = u.reshape(1, size).copy()
+    delayed_rows = model.reshape(1, size).copy() if delayed else np.zeros((0, size))
+    delays = np.full(1, dead_time) if delayed else np.zeros(0)
+    return _built(derivatives, outputs, delayed_rows, n, delays)
+
+
+@numba.njit(cache=True)
+def _msp_matrices(kr, k0, gain, lead, dead_time, extension):  # pragma: no cover - compiled
+    """:meth:`MSP.block`'s matrices: the rows of its equations, the same operations as with numpy."""
+    n = 2 if extension else 1
+    size = n + 3
+    model, r, y = _unit(size, 0), _unit(size, n), _unit(size, n + 1)
+    disturbance = y - _unit(size, n + 2)
+    u_r = kr * (r - model - disturbance)
+    derivatives = np.empty((n, size))
+    derivatives[0] = gain * u_r
+    if extension:
+        derivatives[1] = (disturbance - _unit(size, 1)) / lead
+        correction = k0 * (10 * disturbance - 9 * _unit(size, 1))
+    else:
+        correction = k0 * disturbance
+    outputs = (u_r - correction).reshape(1, size).copy()
+    return _built(derivatives, outputs, model.reshape(1, size).copy(), n, np.full(1, dead_time))

@@ -1,10 +1,10 @@
 """The assembly of closed loops and controller blocks against the row algebra it replaced.
 
 :func:`envs.loops.closed_loop` writes the loop of a plant with a dead time out as block matrices,
-and the PID blocks build scipy's controller canonical form directly.  The experiments simulate
-these matrices too, so they must be the same numbers as before, bit for bit: the references
-below are the previous implementations (:class:`envs.simulation.SystemBuilder` rows and
-``scipy.signal.tf2ss``), written out.
+the PID blocks build scipy's controller canonical form directly, and the FPPI and MSP blocks do
+their row algebra in one compiled call.  The experiments simulate these matrices too, so they must
+be the same numbers as before, bit for bit: the references below are the previous implementations
+(:class:`envs.simulation.SystemBuilder` rows and ``scipy.signal.tf2ss``), written out.
 """
 
 from __future__ import annotations
@@ -95,6 +95,7 @@ CONTROLLERS = {
     "fppi": FPPI(1.0, 2.5, 1.0, 0.8, 0.8),
     "ppi": FPPI(-2.0, 1.0, 3.0, 2.0, 0.0),
     "fppi-no-dead-time": FPPI(1.0, 1.0, 0.0, 0.5, 0.5),
+    "ppi-no-dead-time": FPPI(0.7, 2.0, 0.0, 1.5, 0.0),
     "msp": MSP(1.0, 3.0, 2.0),
     "msp-extension": MSP(2.0, 1.5, 2.0, True),
 }
@@ -103,6 +104,49 @@ CONTROLLERS = {
 @pytest.mark.parametrize("controller", [c for c in CONTROLLERS.values() if isinstance(c, (PID, SeriesPID))], ids=lambda c: repr(c))
 def test_pid_blocks_equal_tf2ss_rows(controller):
     _same(controller.block(), _reference_rational_block(*controller.transfer_function()))
+
+
+def _reference_fppi_block(c: FPPI) -> DelaySystem:
+    filtered = c.tf > 0
+    delayed = c.dead_time > 0
+    b = SystemBuilder(n_states=3 if filtered else 2, n_inputs=2, n_delays=1 if delayed else 0)
+    integral, model = b.state(0), b.state(1)
+    r, y = b.input(0), b.input(1)
+    model_delayed = b.delayed(0) if delayed else model
+    correction = b.state(2) if filtered else y - model_delayed
+    error = r - model - correction
+    k, ti = c.proportional_gain, c.time_constant
+    u = k * error + (k / ti) * integral
+    derivatives = [error, (c.gain * u - model) / c.time_constant]
+    if filtered:
+        derivatives.append((y - model_delayed - b.state(2)) / c.tf)
+    delayed_signals = [model] if delayed else []
+    return b.build(derivatives, [u], delayed_signals, [c.dead_time] if delayed else [])
+
+
+def _reference_msp_block(c: MSP) -> DelaySystem:
+    b = SystemBuilder(n_states=2 if c.extension else 1, n_inputs=2, n_delays=1)
+    model, r, y = b.state(0), b.input(0), b.input(1)
+    disturbance = y - b.delayed(0)
+    u_r = c.kr * (r - model - disturbance)
+    derivatives = [c.gain * u_r]
+    if c.extension:
+        lead = c.derivative_time / 10
+        derivatives.append((disturbance - b.state(1)) / lead)
+        correction = c.k0 * (10 * disturbance - 9 * b.state(1))
+    else:
+        correction = c.k0 * disturbance
+    return b.build(derivatives, [u_r - correction], [model], [c.dead_time])
+
+
+@pytest.mark.parametrize("controller", [c for c in CONTROLLERS.values() if isinstance(c, (FPPI, MSP))], ids=lambda c: repr(c))
+def test_fppi_and_msp_blocks_equal_builder_rows(controller):
+    """The same bytes (signed zeros included) as the :class:`SystemBuilder` rows."""
+    reference = (_reference_fppi_block if isinstance(controller, FPPI) else _reference_msp_block)(controller)
+    block = controller.block()
+    for field in FIELDS:
+        actual, expected = getattr(block, field), getattr(reference, field)
+        assert actual.shape == expected.shape and actual.tobytes() == np.ascontiguousarray(expected).tobytes(), field
 
 
 @pytest.mark.parametrize("controller_name", CONTROLLERS)
