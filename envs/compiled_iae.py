@@ -168,7 +168,8 @@ def _steady_offsets(derivatives, outputs, delayed, tolerance):  # pragma: no cov
     lhs, rhs = np.empty((n + nv, n + nv)), np.empty((n + nv, 2))  # [[A, B2], [C2, D22 - I]], -[B1; D21]
     for r in range(n + nv):
         row = derivatives[r] if r < n else delayed[r - n]
-        lhs[r, :n], lhs[r, n:] = row[:n], row[n + 3 :]
+        for c in range(n + nv):
+            lhs[r, c] = row[c] if c < n else row[c + 3]
         rhs[r, 0], rhs[r, 1] = -row[n + LOAD], -row[n + SETPOINT]
         if r >= n:
             lhs[r, r] -= 1.0
@@ -187,13 +188,24 @@ def _steady_offsets(derivatives, outputs, delayed, tolerance):  # pragma: no cov
 def _run_rows(Gamma, outputs, delayed, n):  # pragma: no cover - compiled
     """The rows of the map and of the loop that the runs use, contiguous (see :func:`_advance`):
     ``gamma``, ``c_e``, ``d_e``, ``f_e``, ``C2``, ``d_w``, ``D22``."""
-    inputs = np.array([LOAD, SETPOINT])
-    gamma, d_w = np.empty((n, 2)), np.empty((delayed.shape[0], 2))
-    for k in range(2):
-        gamma[:, k], d_w[:, k] = Gamma[:, inputs[k]], delayed[:, n + inputs[k]]
-    c_e, f_e = outputs[ERROR, :n].copy(), outputs[ERROR, n + 3 :].copy()
-    d_e = np.array([outputs[ERROR, n + LOAD], outputs[ERROR, n + SETPOINT]])
-    return gamma, c_e, d_e, f_e, delayed[:, :n].copy(), d_w, delayed[:, n + 3 :].copy()
+    nv = delayed.shape[0]
+    gamma, d_w, d_e = np.empty((n, 2)), np.empty((nv, 2)), np.empty(2)
+    c_e, f_e, C2, D22 = np.empty(n), np.empty(nv), np.empty((nv, n)), np.empty((nv, nv))
+    for k, column in enumerate((LOAD, SETPOINT)):  # explicit loops: quicker to compile than slicing
+        d_e[k] = outputs[ERROR, n + column]
+        for r in range(n):
+            gamma[r, k] = Gamma[r, column]
+        for i in range(nv):
+            d_w[i, k] = delayed[i, n + column]
+    for c in range(n):
+        c_e[c] = outputs[ERROR, c]
+        for i in range(nv):
+            C2[i, c] = delayed[i, c]
+    for c in range(nv):
+        f_e[c] = outputs[ERROR, n + 3 + c]
+        for i in range(nv):
+            D22[i, c] = delayed[i, n + 3 + c]
+    return gamma, c_e, d_e, f_e, C2, d_w, D22
 
 
 @numba.njit(cache=True)
@@ -211,7 +223,9 @@ def _room(areas, steps):  # pragma: no cover - compiled
     if steps <= areas.shape[1] + 1:
         return areas
     grown = np.zeros((2, max(steps - 1, 2 * areas.shape[1])))
-    grown[:, : areas.shape[1]] = areas
+    for k in range(2):
+        for j in range(areas.shape[1]):
+            grown[k, j] = areas[k, j]
     return grown
 
 

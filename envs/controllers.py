@@ -53,16 +53,17 @@ def _rational_matrices(num, den):  # pragma: no cover - compiled
     first = 0
     while den[first] == 0.0:  # without leading zeros
         first += 1
-    den = den[first:]
-    n = den.size - 1
+    n = den.size - first - 1
     if num.size > n + 1:
         raise ValueError("the controller must be proper")
-    padded = np.zeros(n + 1)
-    padded[n + 1 - num.size :] = num / den[0]
-    den = den / den[0]
+    padded, normalized = np.zeros(n + 1), np.empty(n + 1)  # num and den divided by den[first]
+    for i in range(num.size):
+        padded[n + 1 - num.size + i] = num[i] / den[first]
+    for i in range(n + 1):
+        normalized[i] = den[first + i] / den[first]
     A = np.zeros((n, n))
     for i in range(n):
-        A[0, i] = -den[i + 1]
+        A[0, i] = -normalized[i + 1]
         if i > 0:
             A[i, i - 1] = 1.0
     B1 = np.zeros((n, 2))
@@ -72,7 +73,7 @@ def _rational_matrices(num, den):  # pragma: no cover - compiled
         B1[0, 0], B1[0, 1] = 1.0, -1.0
     c = np.empty((1, n))
     for i in range(n):
-        c[0, i] = padded[i + 1] - padded[0] * den[i + 1]
+        c[0, i] = padded[i + 1] - padded[0] * normalized[i + 1]
     d = padded[0]
     D11 = np.array([[d, -d]])
     return A, B1, np.zeros((n, 0)), c, D11, np.zeros((1, 0)), np.zeros((0, n)), np.zeros((0, 2)), np.zeros((0, 0)), np.zeros(0)
@@ -376,11 +377,9 @@ def controller_from_dict(data: Any) -> Controller:
 
 
 @numba.njit(cache=True)
-def _unit(size, index):  # pragma: no cover - compiled
-    """The coefficient row of one state, input or delayed signal (:class:`~envs.simulation.SystemBuilder`)."""
-    row = np.zeros(size)
-    row[index] = 1.0
-    return row
+def _unit(column, index):  # pragma: no cover - compiled
+    """Column ``column`` of the coefficient row of signal ``index`` (:class:`~envs.simulation.SystemBuilder`)."""
+    return 1.0 if column == index else 0.0
 
 
 @numba.njit(cache=True)
@@ -396,39 +395,44 @@ def _built(derivatives, outputs, delayed, n, delays):  # pragma: no cover - comp
 
 @numba.njit(cache=True)
 def _fppi_matrices(k, gain, time_constant, tf, dead_time):  # pragma: no cover - compiled
-    """:meth:`FPPI.block`'s matrices: the rows of its equations, the same operations as with numpy."""
+    """:meth:`FPPI.block`'s matrices: the rows of its equations, column by column, with the scalar
+    operations that the row algebra of numpy does on each column."""
     filtered, delayed = tf > 0, dead_time > 0
     n = 3 if filtered else 2
     size = n + 2 + (1 if delayed else 0)
-    integral, model, r, y = _unit(size, 0), _unit(size, 1), _unit(size, n), _unit(size, n + 1)
-    model_delayed = _unit(size, n + 2) if delayed else model
-    correction = _unit(size, 2) if filtered else y - model_delayed
-    error = r - model - correction
-    u = k * error + (k / time_constant) * integral  # T_i = T_n
-    derivatives = np.empty((n, size))
-    derivatives[0], derivatives[1] = error, (gain * u - model) / time_constant
-    if filtered:
-        derivatives[2] = (y - model_delayed - _unit(size, 2)) / tf
-    outputs = u.reshape(1, size).copy()
-    delayed_rows = model.reshape(1, size).copy() if delayed else np.zeros((0, size))
-    delays = np.full(1, dead_time) if delayed else np.zeros(0)
-    return _built(derivatives, outputs, delayed_rows, n, delays)
+    derivatives, outputs, delayed_rows = np.empty((n, size)), np.empty((1, size)), np.empty((1 if delayed else 0, size))
+    for j in range(size):  # the states [int e, m, (c)], the inputs [r, y], the delayed [m(t - L_n)]
+        integral, model, r, y = _unit(j, 0), _unit(j, 1), _unit(j, n), _unit(j, n + 1)
+        model_delayed = _unit(j, n + 2) if delayed else model
+        correction = _unit(j, 2) if filtered else y - model_delayed
+        error = r - model - correction
+        u = k * error + (k / time_constant) * integral  # T_i = T_n
+        derivatives[0, j], derivatives[1, j] = error, (gain * u - model) / time_constant
+        if filtered:
+            derivatives[2, j] = (y - model_delayed - _unit(j, 2)) / tf
+        outputs[0, j] = u
+        if delayed:
+            delayed_rows[0, j] = model
+    return _built(derivatives, outputs, delayed_rows, n, np.full(1 if delayed else 0, dead_time))
 
 
 @numba.njit(cache=True)
 def _msp_matrices(kr, k0, gain, lead, dead_time, extension):  # pragma: no cover - compiled
-    """:meth:`MSP.block`'s matrices: the rows of its equations, the same operations as with numpy."""
+    """:meth:`MSP.block`'s matrices: the rows of its equations, column by column, with the scalar
+    operations that the row algebra of numpy does on each column."""
     n = 2 if extension else 1
     size = n + 3
-    model, r, y = _unit(size, 0), _unit(size, n), _unit(size, n + 1)
-    disturbance = y - _unit(size, n + 2)
-    u_r = kr * (r - model - disturbance)
-    derivatives = np.empty((n, size))
-    derivatives[0] = gain * u_r
-    if extension:
-        derivatives[1] = (disturbance - _unit(size, 1)) / lead
-        correction = k0 * (10 * disturbance - 9 * _unit(size, 1))
-    else:
-        correction = k0 * disturbance
-    outputs = (u_r - correction).reshape(1, size).copy()
-    return _built(derivatives, outputs, model.reshape(1, size).copy(), n, np.full(1, dead_time))
+    derivatives, outputs, delayed_rows = np.empty((n, size)), np.empty((1, size)), np.empty((1, size))
+    for j in range(size):  # the states [m, (lead)], the inputs [r, y], the delayed [m(t - L_n)]
+        model, r, y = _unit(j, 0), _unit(j, n), _unit(j, n + 1)
+        disturbance = y - _unit(j, n + 2)
+        u_r = kr * (r - model - disturbance)
+        derivatives[0, j] = gain * u_r
+        if extension:
+            derivatives[1, j] = (disturbance - _unit(j, 1)) / lead
+            correction = k0 * (10 * disturbance - 9 * _unit(j, 1))
+        else:
+            correction = k0 * disturbance
+        outputs[0, j] = u_r - correction
+        delayed_rows[0, j] = model
+    return _built(derivatives, outputs, delayed_rows, n, np.full(1, dead_time))

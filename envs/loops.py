@@ -152,25 +152,30 @@ def _fill_delayed_plant_rows(A_p, B_p, C_p, d_p, delay, A_c, B1_c, B2_c, C1_c, D
     derivatives = np.zeros((n_x, size))
     for i in range(n_p):
         for j in range(size):
-            derivatives[i, j] = B_p[i, 0] * plant_input[j]  # B_p u_p
-        derivatives[i, :n_p] = A_p[i]
+            derivatives[i, j] = A_p[i, j] if j < n_p else B_p[i, 0] * plant_input[j]  # A_p x_p + B_p u_p
     _controller_rows(derivatives[n_p:], A_c, B1_c, B2_c, n_p)
     delayed = np.zeros((1 + n_vc, size))
     for j in range(size):
-        delayed[0, j] = d_p * plant_input[j]
-    delayed[0, :n_p] = C_p[0]
+        delayed[0, j] = C_p[0, j] if j < n_p else d_p * plant_input[j]  # C_p x_p + D_p u_p
     _controller_rows(delayed[1:], C2_c, D21_c, D22_c, n_p)
     delays = np.empty(1 + n_vc)
-    delays[0], delays[1:] = delay, delays_c
+    delays[0] = delay
+    for i in range(n_vc):
+        delays[1 + i] = delays_c[i]
     return derivatives, outputs, delayed, delays
 
 
 @numba.njit(cache=True)
 def _controller_rows(rows, M, N, P, n_p):  # pragma: no cover - compiled
-    """Fill ``rows`` (zero) with the coefficients of ``M x_c + N [r, v_p + n] + P v_c``."""
+    """Fill ``rows`` (zero) with the coefficients of ``M x_c + N [r, v_p + n] + P v_c`` (explicit
+    loops: they compile several times faster than numba's slice assignments)."""
     n_x = n_p + M.shape[1]
-    rows[:, n_p:n_x], rows[:, n_x + 4 :] = M, P
-    rows[:, n_x], rows[:, n_x + 2], rows[:, n_x + 3] = N[:, 0], N[:, 1], N[:, 1]
+    for i in range(rows.shape[0]):
+        for c in range(M.shape[1]):
+            rows[i, n_p + c] = M[i, c]
+        for c in range(P.shape[1]):
+            rows[i, n_x + 4 + c] = P[i, c]
+        rows[i, n_x], rows[i, n_x + 2], rows[i, n_x + 3] = N[i, 0], N[i, 1], N[i, 1]
 
 
 def simulation_step(
