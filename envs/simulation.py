@@ -428,17 +428,6 @@ class LoopRun:
         self._alive = True
         self._grow(capacity)
 
-    def sibling(self) -> LoopRun:
-        """A new run of the same system from rest (sharing the stacked, read-only matrices)."""
-        run = LoopRun.__new__(LoopRun)
-        run._discrete, run._M, run._offset = self._discrete, self._M, self._offset
-        run._history = np.zeros((self._offset + 1, self._M["a"].size))
-        run._x = np.zeros(self._M["Phi"].shape[0])
-        run._z = np.full((0, self._z.shape[1]), np.nan)
-        run._done, run._alive = 0, True
-        run._grow(self._z.shape[0])
-        return run
-
     def _grow(self, capacity: int) -> None:
         if capacity <= self._z.shape[0]:
             return

@@ -246,21 +246,6 @@ def test_closed_loop_of_block_equals_closed_loop(name):
         _equal(getattr(built, field), getattr(reference, field))
 
 
-def test_loop_run_sibling_runs_from_rest():
-    plant, controller = LOOPS["fppi-nmp"]
-    system = closed_loop(plant, controller)
-    discrete = discretize(system, simulation_step(plant, controller, 50, system=system))
-    inputs = np.zeros((2, 900, 3))
-    inputs[0, :, 1] = 1.0
-    inputs[1, :, 0] = 1.0
-    first = LoopRun(discrete, 300)
-    first.advance(inputs[0, :200])
-    second = first.sibling()
-    for steps in (450, 900):
-        _equal(first.advance(inputs[0, :steps]).outputs, simulate(discrete, inputs[0, :steps]).outputs)
-        _equal(second.advance(inputs[1, :steps]).outputs, simulate(discrete, inputs[1, :steps]).outputs)
-
-
 @pytest.mark.parametrize("name", IAE_LOOPS)
 def test_loop_rows_are_the_matrices_of_closed_loop(name):
     """The IAE's unsplit rows (C-contiguous, for the compiled call) hold the loop's matrices."""
