@@ -67,18 +67,20 @@ def loop_rows(plant: Plant, controller: Controller) -> tuple[np.ndarray, np.ndar
 
 
 def _rows(plant: Plant, cb) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`loop_rows` from the controller's ``block()``."""
+    """:func:`loop_rows` from the controller's ``block()``.
+
+    Without a plant dead time the plant output ``y = C_p x_p + D_p (u + l)`` enters the controller
+    directly, so the loop can have an algebraic part, solved here; with one, the rows are those of
+    :func:`_delayed_plant_rows`.
+    """
     ps = plant.state_space()
     if plant.delay > 0:
         return _delayed_plant_rows(ps, plant.delay, cb)
     n_p, n_c = ps.A.shape[0], cb.n_states
-    plant_delayed = plant.delay > 0
-    n_vp = 1 if plant_delayed else 0
-    n_vc = cb.delays.size
     n_x = n_p + n_c
-    # Each signal is a row of coefficients over [x_p, x_c, r, l, n, v_p, v_c] (see SystemBuilder).
-    basis = np.eye(n_x + 3 + n_vp + n_vc)
-    xp, xc, vc = basis[:n_p], basis[n_p:n_x], basis[n_x + 3 + n_vp :]
+    # Each signal is a row of coefficients over [x_p, x_c, r, l, n, v_c] (see SystemBuilder).
+    basis = np.eye(n_x + 3 + cb.delays.size)
+    xp, xc, vc = basis[:n_p], basis[n_p:n_x], basis[n_x + 3 :]
     r, load, noise = basis[n_x], basis[n_x + 1], basis[n_x + 2]
     zero = np.zeros(basis.shape[0])
 
@@ -91,20 +93,16 @@ def _rows(plant: Plant, cb) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     # u = a + k_y * y_m where a collects everything but the measured output.
     u_base = controller_rows(zero, cb.C1, cb.D11, cb.D12).ravel()
     k_y = float(cb.D11[0, 1])
-    if plant_delayed:
-        y = basis[n_x + 3]
-    else:  # y = C_p x_p + D_p (u + l), u = u_base + k_y (y + n): solve the algebraic loop.
-        denominator = 1.0 - k_y * d_p
-        if abs(denominator) < 1e-12:
-            raise ValueError("the loop has an ill-posed algebraic loop (1 - D_c D_p = 0)")
-        y = (plant_free + d_p * (u_base + k_y * noise + load)) / denominator
+    # y = C_p x_p + D_p (u + l), u = u_base + k_y (y + n): solve the algebraic loop.
+    denominator = 1.0 - k_y * d_p
+    if abs(denominator) < 1e-12:
+        raise ValueError("the loop has an ill-posed algebraic loop (1 - D_c D_p = 0)")
+    y = (plant_free + d_p * (u_base + k_y * noise + load)) / denominator
     u = u_base + k_y * (y + noise)
     plant_input = u + load
     derivatives = np.vstack([ps.A @ xp + np.outer(ps.B[:, 0], plant_input), controller_rows(y + noise, cb.A, cb.B1, cb.B2)])
     delayed = controller_rows(y + noise, cb.C2, cb.D21, cb.D22)
-    if plant_delayed:
-        delayed = np.vstack([plant_free + d_p * plant_input, delayed])
-    delays = np.concatenate([[plant.delay] if plant_delayed else [], cb.delays])
+    delays = np.array(cb.delays, dtype=float)
     outputs = np.vstack([y, u, r - y])
     return derivatives, outputs, np.ascontiguousarray(delayed, dtype=float), delays
 
