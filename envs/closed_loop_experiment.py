@@ -15,6 +15,7 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,13 +27,11 @@ from envs.experiment_base import (
     cap_steps,
     check_plant,
     check_rng,
-    excursion_index,
     MeasurementNoise,
     as_noise,
     measurement_noise,
     record_fields,
     ExperimentRun,
-    run_until_settled,
     sample_time,
 )
 from envs.identification import (
@@ -46,8 +45,9 @@ from envs.identification import (
 )
 from envs.loops import closed_loop_of_block
 from envs.plants import Plant
-from envs.simulation import DIVERGENCE_LIMIT, LoopRun, discretize
-from envs.steady_state import SteadyStateTest, window_samples
+from envs.run_kernels import ABORTED, NO_EVENT, SETTLED, _closed_loop_run
+from envs.simulation import DIVERGENCE_LIMIT, discretize, loop_arrays
+from envs.steady_state import window_samples
 from envs.validation import require_number
 
 __all__ = ["ClosedLoopStepResult", "closed_loop_step"]
@@ -188,68 +188,55 @@ def _run_closed_loop(
     ``block`` is ``controller.block()`` if the caller has it; ``noise`` is drawn as the horizons grow
     (or given, one sample per sample of the longest run allowed).
 
-    Each horizon is reached in chunks of ``CHUNK_WINDOWS`` windows, each continuing the run
-    (:class:`~envs.simulation.LoopRun`) and testing only its new samples
-    (:class:`~envs.steady_state.SteadyStateTest`); the divergence limit is that of the whole
-    horizon.  The run stops at the first chunk that settles or aborts, with the same last sample and
-    the same samples up to it as simulating and testing every horizon from the start.
+    The run is that of :func:`~envs.experiment_base.run_until_settled` with chunks of
+    ``CHUNK_WINDOWS`` windows, each continuing the loop's recursion and testing only its new samples;
+    the divergence limit is that of the whole horizon.  It stops at the first chunk that settles or
+    aborts, with the same last sample and the same samples up to it as simulating and testing every
+    horizon from the start.  Each horizon is one compiled call
+    (:func:`envs.run_kernels._closed_loop_run`), which simulates and tests sample by sample and gives
+    the outcome of those chunks; the signals returned end at the last sample used.
     """
     first_steps = max(16 * window, 64)
     noise = as_noise(noise)
     system = closed_loop_of_block(plant, controller.block() if block is None else block)
-    trial = _ClosedLoopTrial(plant, system, amplitude, noise, dt, window, excursion_limit, 2 * first_steps)
-    return run_until_settled(trial, first_steps, noise.size, chunk=CHUNK_WINDOWS * window)
+    discrete = discretize(system, dt)
+    arrays = loop_arrays(discrete)
+    whole = arrays[-2]
+    offset = max([1] + [int(w) + 1 for w in whole])
+    steps_max = noise.size
+    reference = float(amplitude)
+    x = np.zeros(discrete.Phi.shape[0])
+    history = np.zeros((offset + steps_max + 1, whole.size))
+    z = np.empty((steps_max, discrete.system.n_outputs))
+    measured, drive = np.empty(steps_max), np.empty(steps_max)
+    sums = np.empty((2, 3, steps_max + 1))
+    sums[:, :, 0] = 0.0  # the running sums start from 0 (before sample 0)
+    chunk = CHUNK_WINDOWS * window
+    limit = 0.0 if excursion_limit is None else float(excursion_limit)
+    start, horizon = 0, min(first_steps, steps_max)
+    while True:
+        values = noise.first(horizon)
+        divergence_limit = DIVERGENCE_LIMIT * max(1.0, _input_peak(reference, values))
+        outcome, end = _closed_loop_run(
+            *arrays, offset, reference, values, divergence_limit, x, history, z, measured, drive, sums, int(window),
+            bool(plant.integrating), float(discrete.dt), limit, excursion_limit is not None, start, horizon, chunk,
+        )  # fmt: skip
+        if outcome != NO_EVENT or horizon == steps_max:
+            break
+        start, horizon = horizon, min(2 * horizon, steps_max)
+    k = end + 1
+    t = np.arange(k) * discrete.dt
+    return ExperimentRun(t, z[:k, 1], measured[:k], z[:k, 0], end, outcome == SETTLED, outcome == ABORTED)
+
+
+def _input_peak(reference: float, noise: np.ndarray) -> float:
+    """``max |d|`` over the inputs ``[reference, 0, noise]`` of a horizon, NaN if one is (as ``np.max``)."""
+    peak = float(np.max(np.abs(noise)))
+    return peak if math.isnan(peak) else max(abs(reference), peak)
 
 
 CHUNK_WINDOWS = 4
 """Windows simulated and tested at a time within a horizon (a run stops within a chunk of settling)."""
-
-
-class _ClosedLoopTrial:
-    """``trial(steps, horizon)`` of :func:`~envs.experiment_base.run_until_settled` for the closed-loop
-    step, continued from the last call (see :func:`_run_closed_loop`)."""
-
-    def __init__(self, plant, system, amplitude, noise, dt, window, excursion_limit, capacity) -> None:
-        self.run = LoopRun(discretize(system, dt), capacity)
-        self.amplitude, self.noise, self.limit, self.integrating = amplitude, noise, excursion_limit, plant.integrating
-        self.output_test = SteadyStateTest(window, target=amplitude)
-        self.drive_test = SteadyStateTest(window)
-        self.measured = np.empty(noise.size)
-        self.drive = np.zeros(noise.size)
-        self.done, self.horizon = 0, 0
-        self.inputs = np.zeros((0, 3))
-        self.divergence_limit = 0.0
-
-    def __call__(self, steps: int, horizon: int) -> tuple:
-        if horizon != self.horizon:  # the inputs and divergence limit of simulating the whole horizon
-            self.horizon = horizon
-            noise = self.noise.first(horizon)
-            self.inputs = np.column_stack([np.full(horizon, self.amplitude), np.zeros(horizon), noise])
-            self.divergence_limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(self.inputs))))
-        sim = self.run.advance(self.inputs[:steps], limit=self.divergence_limit)
-        y, u = sim.outputs[:, 0], sim.outputs[:, 1]
-        old = self.done
-        finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
-        self.measured[old:steps] = y[old:] + self.inputs[old:steps, 2]
-        measured = self.measured[:steps]
-        abort = excursion_index(y[old:finite], self.limit)
-        abort = None if abort is None else abort + old
-        if sim.diverged and abort is None:
-            abort = max(finite - 1, 0)
-        settle = None
-        if finite > old:
-            if self.integrating:
-                first = max(old, 1)  # drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1]), drive[0] = 0
-                increments = 0.5 * (u[first:finite] + u[first - 1 : finite - 1]) * np.diff(sim.timepts[first - 1 : finite])
-                self.drive[first:finite] = np.cumsum(np.concatenate([[self.drive[first - 1]], increments]))[1:]
-                drive = self.drive[:finite]
-            else:
-                drive = u[:finite]
-            both = self.output_test.extend(measured[:finite]) & self.drive_test.extend(drive)
-            hits = np.flatnonzero(both)
-            settle = int(hits[0]) + old if hits.size else None
-        self.done = finite
-        return sim.timepts, u, measured, y, abort, settle
 
 
 def _identify_closed_loop(

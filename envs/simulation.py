@@ -29,6 +29,8 @@ import numba
 import numpy as np
 import scipy.linalg
 
+from envs.run_kernels import _run, _run_one
+
 __all__ = [
     "DelaySystem",
     "DiscreteDelaySystem",
@@ -229,6 +231,18 @@ def _stack(discretes: Sequence[DiscreteDelaySystem]) -> dict[str, np.ndarray]:
     return out
 
 
+def loop_arrays(discrete: DiscreteDelaySystem) -> tuple[np.ndarray, ...]:
+    """The arrays of the compiled recursion (:func:`envs.run_kernels._loop_sample`) of one system:
+    ``Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a`` with ``R`` of shape ``(n, 3 n_v)`` and
+    ``a = fraction/dt``, the values of ``_stack([discrete])`` (contiguous, float64 and int64)."""
+    s = discrete.system
+    n, nv = s.n_states, s.delays.size
+    floats = [discrete.Phi, discrete.Gamma, discrete.R.reshape(n, 3 * nv), s.C1, s.D11, s.D12, s.C2, s.D21, s.D22]
+    arrays = [np.ascontiguousarray(m, dtype=np.float64) for m in floats]
+    whole = np.ascontiguousarray(discrete.whole_samples, dtype=np.int64)
+    return (*arrays, whole, discrete.fraction / discrete.dt)
+
+
 def simulate_batch(discretes: Sequence[DiscreteDelaySystem], inputs: np.ndarray) -> list[SimulationResult]:
     """Simulate many systems at once, from rest, vectorized over the batch.
 
@@ -259,74 +273,6 @@ def simulate_batch(discretes: Sequence[DiscreteDelaySystem], inputs: np.ndarray)
         for b, dis in enumerate(discretes)
     ]
 
-
-@numba.njit(cache=True)
-def _affine(M1, M2, M3, row, x, d, v):  # pragma: no cover - compiled
-    """``M1[row] x + M2[row] d + M3[row] v``."""
-    acc = 0.0
-    for k in range(x.size):
-        acc += M1[row, k] * x[k]
-    for k in range(d.size):
-        acc += M2[row, k] * d[k]
-    for k in range(v.size):
-        acc += M3[row, k] * v[k]
-    return acc
-
-
-@numba.njit(cache=True)
-def _run(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit):  # pragma: no cover - compiled
-    """The recursion of :class:`DiscreteDelaySystem` over a stacked batch (compiled with numba).
-
-    ``history[offset + k, i]`` holds ``w_i[k]`` (zero for ``k < 0``: the system starts at rest).
-    """
-    B, steps, _ = d.shape
-    nv = a.shape[1]
-    offset = 1
-    for b in range(B):
-        for i in range(nv):
-            offset = max(offset, whole[b, i] + 1)
-    z = np.full((B, steps, C1.shape[1]), np.nan)
-    alive = np.ones(B, dtype=np.bool_)
-    for b in range(B):
-        x = np.zeros(Phi.shape[1])
-        history = np.zeros((offset + steps + 1, nv))
-        alive[b] = _run_one(
-            Phi[b], Gamma[b], R[b], C1[b], D11[b], D12[b], C2[b], D21[b], D22[b], whole[b], a[b], d[b], limit[b],
-            offset, z[b], x, history, 0,
-        )  # fmt: skip
-    return z, alive
-
-
-@numba.njit(cache=True)
-def _run_one(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, limit, offset, z, x, history, start):  # pragma: no cover
-    """One system of :func:`_run` from sample ``start`` to ``d.shape[0]``: fills ``z[start:]`` and
-    returns False if it diverged.  ``x`` (the state at ``start``, updated in place) and ``history``
-    (the delayed signals, at least ``offset + d.shape[0] + 1`` rows) carry the run between calls."""
-    n, nz, nv = Phi.shape[0], C1.shape[0], a.size
-    x_next = np.zeros(n)
-    v = np.zeros(nv)
-    past = np.zeros(nv * 3)
-    for j in range(start, d.shape[0]):
-        dj = d[j]
-        for i in range(nv):
-            base = offset + j - whole[i] - 1
-            v[i] = a[i] * history[base, i] + (1.0 - a[i]) * history[base + 1, i]
-        for o in range(nz):
-            z[j, o] = _affine(C1, D11, D12, o, x, dj, v)
-        for i in range(nv):
-            history[offset + j, i] = _affine(C2, D21, D22, i, x, dj, v)
-        for i in range(nv):  # w_i[j - m_i - 1 + k], k = 0, 1, 2; w[j] is known now
-            base = offset + j - whole[i] - 1
-            for k in range(3):
-                past[3 * i + k] = history[base + k, i]
-        bounded = True
-        for r in range(n):
-            x_next[r] = _affine(Phi, Gamma, R, r, x, dj, past)
-            bounded = bounded and abs(x_next[r]) < limit
-        x[:] = x_next
-        if not bounded:
-            return False
-    return True
 
 def delayed_zoh(state_space, delay: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Exact ZOH discretization of ``G(s) e^{-L s}`` for a piecewise-constant input.

@@ -6,14 +6,18 @@ and the fitted slope is insignificant; without noise, the tolerance floor is
 ``STEADY_STATE_TOLERANCE`` times the change of the signal.  The noise is estimated from the data
 (second differences inside a window, fourth differences for :func:`noise_level`), so no noise
 level has to be known in advance.
+
+The compiled running sums and window tests live in :mod:`envs.run_kernels`, with the loop
+recursion, so that the closed-loop step can simulate and test in one compiled call.
 """
 
 from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from envs.run_kernels import CONFIDENCE, STEADY_STATE_TOLERANCE, _extend_sums, _tests
 
 __all__ = [
     "STEADY_STATE_TOLERANCE",
@@ -22,11 +26,6 @@ __all__ = [
     "steady_state_mask",
     "noise_level",
 ]
-
-STEADY_STATE_TOLERANCE = 1e-5
-"""Noise-free steady-state tolerance, relative to the change of the signal (a resolution)."""
-CONFIDENCE = 3.0
-"""Standard errors within which a window is "at" its target and "flat"."""
 
 
 def steady_state_index(
@@ -137,43 +136,6 @@ class SteadyStateTest:
             _tests(self._sums, n, first, size, 0.0 if target is None else float(target), target is not None,
                    mask[first - old :])  # fmt: skip
         return mask
-
-
-@numba.njit(cache=True)
-def _extend_sums(sums, y, old, size):  # pragma: no cover - compiled
-    """Continue the running sums of ``y``, ``k y`` and the squared second difference to ``size``
-    (``sums[:, k + 1]`` is the sum over samples ``0..k``), in the order of ``numpy.cumsum``."""
-    for k in range(old, size):
-        v = y[k]
-        curvature = (y[k] - y[k - 1]) - (y[k - 1] - y[k - 2]) if k >= 2 else 0.0
-        sums[0, k + 1] = sums[0, k] + v
-        sums[1, k + 1] = sums[1, k] + float(k) * v
-        sums[2, k + 1] = sums[2, k] + curvature * curvature
-
-
-@numba.njit(cache=True)
-def _tests(c, n, first, size, target, has_target, out):  # pragma: no cover - compiled
-    """The tests of :func:`steady_state_mask` for the windows ending at ``first..size-1`` (``out``),
-    each the same expression, in the same order, as the vectorized mask."""
-    slope_bound = math.sqrt(12.0 / n)
-    mean_bound = math.sqrt(n)
-    change_bound = math.sqrt(2.0 / n)
-    denominator = n * (n * n - 1) / 12.0
-    for k in range(first, size):
-        total = c[0, k + 1] - c[0, k + 1 - n]
-        mean = total / n
-        centered = (c[1, k + 1] - c[1, k + 1 - n]) - (float(k) - (n - 1) / 2.0) * total
-        change = centered / denominator * (n - 1)
-        sigma = math.sqrt((c[2, k + 1] - c[2, k + 1 - n]) / n / 6.0)
-        tol = STEADY_STATE_TOLERANCE * (abs(target) if has_target else abs(mean))
-        ok = abs(change) <= CONFIDENCE * sigma * slope_bound + tol
-        if has_target:
-            ok = ok and abs(mean - target) <= CONFIDENCE * sigma / mean_bound + tol
-        else:
-            previous = (c[0, k + 1 - n] - c[0, k + 1 - 2 * n]) / n if k - n >= n - 1 else np.inf
-            ok = ok and abs(mean - previous) <= CONFIDENCE * sigma * change_bound + tol
-            ok = ok and abs(mean) > CONFIDENCE * sigma / mean_bound + tol
-        out[k - first] = ok
 
 
 def _window_sums(values: np.ndarray, n: int) -> np.ndarray:

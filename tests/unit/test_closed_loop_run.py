@@ -1,0 +1,211 @@
+"""The compiled closed-loop step run and recursion against the paths they replaced, bit for bit.
+
+* :func:`envs.closed_loop_experiment._run_closed_loop` (one compiled call per horizon,
+  :func:`envs.run_kernels._closed_loop_run`) against the chunked run it replaced, written out here
+  (:class:`_ChunkedTrial`: :class:`~envs.simulation.LoopRun` continued chunk by chunk, the new
+  samples tested by :class:`~envs.steady_state.SteadyStateTest`, through
+  :func:`~envs.experiment_base.run_until_settled`): the same last sample, outcome and signals up to
+  it, on random plants of every family with and without noise, with excursions, divergences and
+  small caps, including a divergence at the last sample of a chunk;
+* the recursion of :func:`envs.simulation.simulate` (:func:`envs.run_kernels._run_one`) against the
+  same recursion written as a Python loop.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from envs.closed_loop_experiment import CHUNK_WINDOWS, _loop_sample_time, _run_closed_loop
+from envs.commissioning import commissioning_pi
+from envs.controllers import FPPI, MSP, PID
+from envs.experiment_base import excursion_index, run_until_settled
+from envs.families import FAMILIES, sample_plants
+from envs.loops import closed_loop_of_block, simulation_step
+from envs.plants import Plant
+from envs.simulation import DIVERGENCE_LIMIT, LoopRun, discretize, simulate
+from envs.steady_state import SteadyStateTest, window_samples
+
+
+class _ChunkedTrial:
+    """``trial(steps, horizon)`` of the closed-loop step as it was before the compiled run."""
+
+    def __init__(self, plant, system, amplitude, noise, dt, window, excursion_limit, capacity) -> None:
+        self.run = LoopRun(discretize(system, dt), capacity)
+        self.amplitude, self.noise, self.limit, self.integrating = amplitude, noise, excursion_limit, plant.integrating
+        self.output_test = SteadyStateTest(window, target=amplitude)
+        self.drive_test = SteadyStateTest(window)
+        self.measured = np.empty(noise.size)
+        self.drive = np.zeros(noise.size)
+        self.done, self.horizon = 0, 0
+        self.inputs = np.zeros((0, 3))
+        self.divergence_limit = 0.0
+
+    def __call__(self, steps: int, horizon: int) -> tuple:
+        if horizon != self.horizon:  # the inputs and divergence limit of simulating the whole horizon
+            self.horizon = horizon
+            noise = self.noise[:horizon]
+            self.inputs = np.column_stack([np.full(horizon, self.amplitude), np.zeros(horizon), noise])
+            self.divergence_limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(self.inputs))))
+        sim = self.run.advance(self.inputs[:steps], limit=self.divergence_limit)
+        y, u = sim.outputs[:, 0], sim.outputs[:, 1]
+        old = self.done
+        finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
+        self.measured[old:steps] = y[old:] + self.inputs[old:steps, 2]
+        measured = self.measured[:steps]
+        abort = excursion_index(y[old:finite], self.limit)
+        abort = None if abort is None else abort + old
+        if sim.diverged and abort is None:
+            abort = max(finite - 1, 0)
+        settle = None
+        if finite > old:
+            if self.integrating:
+                first = max(old, 1)
+                increments = 0.5 * (u[first:finite] + u[first - 1 : finite - 1]) * np.diff(sim.timepts[first - 1 : finite])
+                self.drive[first:finite] = np.cumsum(np.concatenate([[self.drive[first - 1]], increments]))[1:]
+                drive = self.drive[:finite]
+            else:
+                drive = u[:finite]
+            both = self.output_test.extend(measured[:finite]) & self.drive_test.extend(drive)
+            hits = np.flatnonzero(both)
+            settle = int(hits[0]) + old if hits.size else None
+        self.done = finite
+        return sim.timepts, u, measured, y, abort, settle
+
+
+def _chunked_run(plant, controller, amplitude, noise, dt, window, excursion_limit):
+    first_steps = max(16 * window, 64)
+    system = closed_loop_of_block(plant, controller.block())
+    trial = _ChunkedTrial(plant, system, amplitude, noise, dt, window, excursion_limit, 2 * first_steps)
+    return run_until_settled(trial, first_steps, noise.size, chunk=CHUNK_WINDOWS * window)
+
+
+def _assert_same_run(new, old) -> None:
+    assert (new.end, new.settled, new.aborted) == (old.end, old.settled, old.aborted)
+    k = old.end + 1
+    for field in ("timepts", "control", "output", "true_output"):
+        a, b = getattr(new, field)[:k], getattr(old, field)[:k]
+        assert a.shape == b.shape and a.tobytes() == b.tobytes(), field
+
+
+def _cases():
+    """Random plants of every family under their commissioning PI (or a too aggressive one), with
+    noise, excursion limits and caps."""
+    cases = []
+    for f, family in enumerate(FAMILIES):
+        for i, plant in enumerate(sample_plants(family, 12, 40 + f)):
+            pi = commissioning_pi(plant)
+            hot = PID(pi.kp * (2.0 + 2.0 * (i % 3)), pi.ti)
+            controller = hot if i % 4 == 3 else pi
+            noise_std = (0.0, 0.01, 0.1)[i % 3]
+            limit = (None, 1.05, 1.5, None)[i % 4]
+            cap = (60.0, 150.0, 3.0)[i % 3] if i % 5 else 150.0
+            cases.append((f"{family}-{i}", plant, controller, noise_std, limit, cap))
+    return cases
+
+
+@pytest.mark.parametrize("name, plant, controller, noise_std, limit, cap", _cases(), ids=lambda v: v if isinstance(v, str) else "")
+def test_closed_loop_run_equals_the_chunked_run(name, plant, controller, noise_std, limit, cap):
+    scale = plant.step_time_scale()
+    dt = _loop_sample_time(plant, controller.block(), None)
+    window = window_samples(scale, dt)
+    steps = int(np.ceil(cap * scale / dt)) + 1
+    noise = noise_std * np.random.default_rng(len(name)).standard_normal(steps)
+    _assert_same_run(
+        _run_closed_loop(plant, controller, 1.0, noise, dt, window, limit),
+        _chunked_run(plant, controller, 1.0, noise, dt, window, limit),
+    )
+
+
+LOOPS = {
+    "unstable-pid": (Plant.from_time_constants(2.0, [1.0], 1.0), PID(5.0, 0.5)),
+    "unstable-fppi": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5), FPPI(1.0, 2.5, 1.0, 0.3, 0.3)),
+    "unstable-msp": (Plant.from_time_constants(1.0, [1.0], 2.0, integrating=True), MSP(0.3, 3.0, 0.3)),
+}
+
+
+def _divergence(plant, controller, dt, noise):
+    """The sample whose state step diverges in the run over ``noise``."""
+    system = closed_loop_of_block(plant, controller.block())
+    inputs = np.column_stack([np.ones(noise.size), np.zeros(noise.size), noise])
+    y = simulate(discretize(system, dt), inputs).outputs[:, 0]
+    assert not np.isfinite(y[-1])
+    return int(np.argmax(~np.isfinite(y))) - 1
+
+
+@pytest.mark.parametrize("name", LOOPS)
+def test_divergence_at_the_last_sample_of_a_chunk(name):
+    """The chunked run found no non-finite sample after a divergence at the last sample of a chunk
+    and aborted at sample 0; the compiled run keeps that, with an excursion before it in the chunk
+    or not, and aborts at the divergence (or the excursion) elsewhere."""
+    plant, controller = LOOPS[name]
+    dt = simulation_step(plant, controller, 40)
+    noise = 0.01 * np.random.default_rng(2).standard_normal(20000)
+    j = _divergence(plant, controller, dt, noise)
+    window = j // 3 + 1  # one chunk of 4 windows covers the run up to j
+    for steps, limit, expected in ((j + 1, None, 0), (j + 2, None, j), (j + 1, 1.5, 0), (j + 2, 1.5, None)):
+        args = (plant, controller, 1.0, noise[:steps], dt, window, limit)
+        new, old = _run_closed_loop(*args), _chunked_run(*args)
+        _assert_same_run(new, old)
+        assert new.aborted and not new.settled
+        if expected is not None:
+            assert new.end == expected
+        else:
+            assert 0 < new.end < j and abs(new.true_output[new.end]) > limit
+
+
+def _recursion_reference(discrete, inputs):
+    """The recursion of :class:`~envs.simulation.DiscreteDelaySystem` as a Python loop, every sum in
+    the order of the compiled one (over the state, the inputs, then the delayed signals)."""
+    s = discrete.system
+    n, nv, steps = s.n_states, s.delays.size, inputs.shape[0]
+    whole, a = discrete.whole_samples, discrete.fraction / discrete.dt
+    R = discrete.R.reshape(n, 3 * nv)
+    limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(inputs))))
+    w = np.zeros((steps + 1, nv))  # w[j] of sample j; w[j] = 0 for j < 0
+    z = np.full((steps, s.n_outputs), np.nan)
+    x = [0.0] * n
+
+    def past(i, j):
+        return float(w[j, i]) if j >= 0 else 0.0
+
+    def affine(row_x, row_d, row_v, d, v):
+        acc = 0.0
+        for c in range(n):
+            acc += float(row_x[c]) * x[c]
+        for c in range(d.size):
+            acc += float(row_d[c]) * float(d[c])
+        for c in range(len(v)):
+            acc += float(row_v[c]) * v[c]
+        return acc
+
+    for j in range(steps):
+        d = inputs[j]
+        v = [a[i] * past(i, j - whole[i] - 1) + (1.0 - a[i]) * past(i, j - whole[i]) for i in range(nv)]
+        for o in range(s.n_outputs):
+            z[j, o] = affine(s.C1[o], s.D11[o], s.D12[o], d, v)
+        for i in range(nv):
+            w[j, i] = affine(s.C2[i], s.D21[i], s.D22[i], d, v)
+        window = [past(i, j - whole[i] - 1 + k) for i in range(nv) for k in range(3)]
+        x = [affine(discrete.Phi[r], discrete.Gamma[r], R[r], d, window) for r in range(n)]
+        if not all(abs(value) < limit for value in x):
+            break
+    return z
+
+
+@pytest.mark.parametrize("name", ["stable-pi", "fppi", "msp", *LOOPS])
+def test_compiled_recursion_matches_the_python_loop(name):
+    loops = {
+        **LOOPS,
+        "stable-pi": (Plant.from_time_constants(1.0, [1.0, 0.4], 0.73), PID(0.6, 1.4, 0.2, 8.0)),
+        "fppi": (Plant.from_time_constants(2.0, [1.0], 0.5), FPPI(2.0, 1.0, 0.5, 1.0, 1.0)),
+        "msp": (Plant.from_time_constants(1.0, [0.5], 1.3, integrating=True), MSP(1.0, 1.3, 2.0, True)),
+    }
+    plant, controller = loops[name]
+    system = closed_loop_of_block(plant, controller.block())
+    discrete = discretize(system, simulation_step(plant, controller, 30))
+    rng = np.random.default_rng(9)
+    inputs = np.column_stack([np.ones(700), np.where(np.arange(700) > 300, 0.5, 0.0), 0.05 * rng.standard_normal(700)])
+    z = simulate(discrete, inputs).outputs
+    reference = _recursion_reference(discrete, inputs)
+    assert z.tobytes() == reference.tobytes()
