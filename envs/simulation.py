@@ -126,27 +126,35 @@ class DiscreteDelaySystem:
     fraction: np.ndarray
 
 
-def _integrals(A: np.ndarray, span: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``e^{A T}``, ``int_0^T e^{A s} ds`` and ``int_0^T e^{A s} (T - s) ds`` for ``T = span``."""
+def _integrals(A: np.ndarray, span: float, unit: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``e^{A T}``, ``int_0^T e^{A s} ds`` and ``int_0^T e^{A s} (T - s) ds`` for ``T = span``.
+
+    They are blocks of the exponential of ``[[A, I, 0], [0, 0, I], [0, 0, 0]] T`` (``unit``, that
+    matrix for ``T = 1``, if the caller has it: its product by ``T`` is the same block, bit for bit).
+    """
     n = A.shape[0]
-    block = np.zeros((3 * n, 3 * n))
-    block[:n, :n] = A * span
-    block[:n, n : 2 * n] = np.eye(n) * span
-    block[n : 2 * n, 2 * n :] = np.eye(n) * span
-    e = scipy.linalg.expm(block)
+    e = scipy.linalg.expm((_unit_block(A) if unit is None else unit) * span)
     return e[:n, :n], e[:n, n : 2 * n], e[:n, 2 * n :]
 
 
-def _channel_weights(s: float, fraction: np.ndarray, dt: float) -> np.ndarray:
+def _unit_block(A: np.ndarray) -> np.ndarray:
+    """``[[A, I, 0], [0, 0, I], [0, 0, 0]]`` (zeros elsewhere)."""
+    n = A.shape[0]
+    block = np.zeros((3 * n, 3 * n))
+    block[:n, :n] = A
+    index = np.arange(n)
+    block[index, index + n] = 1.0
+    block[index + n, index + 2 * n] = 1.0
+    return block
+
+
+def _channel_weights(s: float, fraction: list[float], dt: float) -> np.ndarray:
     """Weights ``c[i, k]`` with ``v_i(j dt + s) = sum_k c[i, k] w_i[j - m_i - 1 + k]``."""
-    c = np.zeros((fraction.size, 3))
-    before = s <= fraction
-    c[before, 0] = (fraction[before] - s) / dt
-    c[before, 1] = (dt - fraction[before] + s) / dt
-    after = ~before
-    c[after, 1] = 1.0 - (s - fraction[after]) / dt
-    c[after, 2] = (s - fraction[after]) / dt
-    return c
+    rows = [
+        [(f - s) / dt, (dt - f + s) / dt, 0.0] if s <= f else [0.0, 1.0 - (s - f) / dt, (s - f) / dt]
+        for f in fraction
+    ]
+    return np.array(rows, dtype=float).reshape(len(fraction), 3)
 
 
 def discretize(system: DelaySystem, dt: float) -> DiscreteDelaySystem:
@@ -167,13 +175,17 @@ def discretize(system: DelaySystem, dt: float) -> DiscreteDelaySystem:
     fraction = delays - whole * dt
     fraction[fraction < 1e-9 * dt] = 0.0
     n, nv = system.n_states, delays.size
-    breaks = np.unique(np.concatenate([[0.0, dt], fraction[(fraction > 0)]]))
+    fractions = fraction.tolist()
+    breaks = sorted({0.0, float(dt), *(f for f in fractions if f > 0)})  # the values of np.unique
+    unit = _unit_block(system.A) if n else None
+    weights = [_channel_weights(s, fractions, dt) for s in breaks]
     P = np.eye(n)
     Q = np.zeros((n, system.n_inputs))
     R = np.zeros((n, nv, 3))
-    for a, b in zip(breaks[:-1], breaks[1:]):
-        E, psi0, psi1 = _integrals(system.A, b - a) if n else (np.eye(0),) * 3
-        ca, cb = _channel_weights(a, fraction, dt), _channel_weights(b, fraction, dt)
+    for m in range(len(breaks) - 1):
+        a, b = breaks[m], breaks[m + 1]
+        E, psi0, psi1 = _integrals(system.A, b - a, unit) if n else (np.eye(0),) * 3
+        ca, cb = weights[m], weights[m + 1]
         slope = (cb - ca) / (b - a)
         P = E @ P
         Q = E @ Q + psi0 @ system.B1
@@ -289,11 +301,12 @@ def delayed_zoh(state_space, delay: float, dt: float) -> tuple[np.ndarray, np.nd
     f = delay - m * dt
     if f < 1e-9 * dt:
         f = 0.0
-    Phi, psi_full, _ = _integrals(A, dt)
+    unit = _unit_block(A)
+    Phi, psi_full, _ = _integrals(A, dt, unit)
     if f == 0.0:
         return Phi, psi_full @ B, np.zeros_like(B), m
-    E_rest, psi_rest, _ = _integrals(A, dt - f)
-    _, psi_f, _ = _integrals(A, f)
+    E_rest, psi_rest, _ = _integrals(A, dt - f, unit)
+    _, psi_f, _ = _integrals(A, f, unit)
     return Phi, psi_rest @ B, E_rest @ psi_f @ B, m
 
 
