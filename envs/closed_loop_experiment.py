@@ -205,28 +205,57 @@ def _run_closed_loop(
     offset = max([1] + [int(w) + 1 for w in whole])
     steps_max = noise.size
     reference = float(amplitude)
-    x = np.zeros(discrete.Phi.shape[0])
-    history = np.zeros((offset + steps_max + 1, whole.size))
-    z = np.empty((steps_max, discrete.system.n_outputs))
-    measured, drive = np.empty(steps_max), np.empty(steps_max)
-    sums = np.empty((2, 3, steps_max + 1))
-    sums[:, :, 0] = 0.0  # the running sums start from 0 (before sample 0)
+    buffers = _RunBuffers(discrete.Phi.shape[0], whole.size, offset, discrete.system.n_outputs)
     chunk = CHUNK_WINDOWS * window
     limit = 0.0 if excursion_limit is None else float(excursion_limit)
     start, horizon = 0, min(first_steps, steps_max)
     while True:
         values = noise.first(horizon)
         divergence_limit = DIVERGENCE_LIMIT * max(1.0, _input_peak(reference, values))
+        b = buffers.reserve(horizon)
         outcome, end = _closed_loop_run(
-            *arrays, offset, reference, values, divergence_limit, x, history, z, measured, drive, sums, int(window),
-            bool(plant.integrating), float(discrete.dt), limit, excursion_limit is not None, start, horizon, chunk,
+            *arrays, offset, reference, values, divergence_limit, b.x, b.history, b.z, b.measured, b.drive, b.sums,
+            int(window), bool(plant.integrating), float(discrete.dt), limit, excursion_limit is not None, start, horizon,
+            chunk,
         )  # fmt: skip
         if outcome != NO_EVENT or horizon == steps_max:
             break
         start, horizon = horizon, min(2 * horizon, steps_max)
     k = end + 1
     t = np.arange(k) * discrete.dt
-    return ExperimentRun(t, z[:k, 1], measured[:k], z[:k, 0], end, outcome == SETTLED, outcome == ABORTED)
+    z = buffers.z
+    return ExperimentRun(t, z[:k, 1], buffers.measured[:k], z[:k, 0], end, outcome == SETTLED, outcome == ABORTED)
+
+
+class _RunBuffers:
+    """The arrays :func:`envs.run_kernels._closed_loop_run` continues from one horizon to the next
+    (state, delayed signals, outputs, measurement, drive, running sums), grown with the horizon."""
+
+    def __init__(self, n_states: int, n_delays: int, offset: int, n_outputs: int) -> None:
+        self.offset, self.size = offset, 0
+        self.x = np.zeros(n_states)
+        self.history = np.zeros((offset + 1, n_delays))  # zero before sample 0: the loop starts at rest
+        self.z = np.empty((0, n_outputs))
+        self.measured, self.drive = np.empty(0), np.empty(0)
+        self.sums = np.zeros((2, 3, 1))  # the running sums before sample 0
+
+    def reserve(self, size: int) -> _RunBuffers:
+        """Room for ``size`` samples, the samples so far kept."""
+        if size > self.size:
+            old, self.size = self.size, size
+            self.history = _grown(self.history, self.offset + size + 1, self.offset + old + 1, np.zeros)
+            self.z, self.measured, self.drive = (_grown(a, size, old) for a in (self.z, self.measured, self.drive))
+            sums = np.empty((2, 3, size + 1))
+            sums[:, :, : old + 1] = self.sums
+            self.sums = sums
+        return self
+
+
+def _grown(array: np.ndarray, rows: int, kept: int, new=np.empty) -> np.ndarray:
+    """``array`` with ``rows`` rows, its first ``kept`` rows copied (the others from ``new``)."""
+    grown = new((rows, *array.shape[1:]))
+    grown[:kept] = array[:kept]
+    return grown
 
 
 def _input_peak(reference: float, noise: np.ndarray) -> float:
