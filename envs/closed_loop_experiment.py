@@ -205,63 +205,74 @@ def _run_closed_loop(
     offset = max([1] + [int(w) + 1 for w in whole])
     steps_max = noise.size
     reference = float(amplitude)
-    buffers = _RunBuffers(discrete.Phi.shape[0], whole.size, offset, discrete.system.n_outputs)
+    b = _RunBuffers(discrete.Phi.shape[0], whole.size, offset, discrete.system.n_outputs, steps_max)
     chunk = CHUNK_WINDOWS * window
-    limit = 0.0 if excursion_limit is None else float(excursion_limit)
+    settings = (int(window), bool(plant.integrating), float(discrete.dt), 0.0 if excursion_limit is None else float(excursion_limit),
+                excursion_limit is not None)  # fmt: skip
+    peak = _InputPeak(reference)
     start, horizon = 0, min(first_steps, steps_max)
-    while True:
-        values = noise.first(horizon)
-        divergence_limit = DIVERGENCE_LIMIT * max(1.0, _input_peak(reference, values))
-        b = buffers.reserve(horizon)
-        outcome, end = _closed_loop_run(
-            *arrays, offset, reference, values, divergence_limit, b.x, b.history, b.z, b.measured, b.drive, b.sums,
-            int(window), bool(plant.integrating), float(discrete.dt), limit, excursion_limit is not None, start, horizon,
-            chunk,
-        )  # fmt: skip
+    while True:  # the horizons
+        saved = b.x.copy()  # the state at the start of the horizon
+        begin, block = start, (2 * chunk if noise.drawn_as_needed else horizon)
+        while True:  # the horizon in blocks of doubling length, each ending at a chunk end
+            until = min(begin + block, horizon)
+            values = noise.first(until)
+            limit = DIVERGENCE_LIMIT * max(1.0, peak.over(values))  # that of the horizon if until == horizon
+            outcome, end, diverged = _closed_loop_run(
+                *arrays, offset, reference, values, limit, b.x, b.history, b.z, b.measured, b.drive, b.sums, *settings,
+                start, horizon, chunk, begin, until,
+            )  # fmt: skip
+            if diverged and until < horizon:
+                whole_limit = DIVERGENCE_LIMIT * max(1.0, peak.over(noise.first(horizon)))
+                if whole_limit != limit:  # the limit of the horizon is higher: the horizon again, under it
+                    b.x[:] = saved
+                    until = horizon
+                    outcome, end, diverged = _closed_loop_run(
+                        *arrays, offset, reference, noise.first(horizon), whole_limit, b.x, b.history, b.z, b.measured,
+                        b.drive, b.sums, *settings, start, horizon, chunk, start, horizon,
+                    )  # fmt: skip
+            if outcome != NO_EVENT or until == horizon:
+                break
+            begin, block = until, 2 * block
         if outcome != NO_EVENT or horizon == steps_max:
             break
         start, horizon = horizon, min(2 * horizon, steps_max)
-    k = end + 1
-    t = np.arange(k) * discrete.dt
-    z = buffers.z
-    return ExperimentRun(t, z[:k, 1], buffers.measured[:k], z[:k, 0], end, outcome == SETTLED, outcome == ABORTED)
+    k = end + 1  # the signals up to the last sample used, copied out of the buffers of the longest run
+    signals = np.arange(k) * discrete.dt, b.z[:k, 1].copy(), b.measured[:k].copy(), b.z[:k, 0].copy()
+    return ExperimentRun(*signals, end, outcome == SETTLED, outcome == ABORTED)
+
+
+class _InputPeak:
+    """``max |d|`` over the inputs ``[reference, 0, noise[:count]]``, continued as ``count`` grows;
+    NaN if one is (as ``np.max``)."""
+
+    def __init__(self, reference: float) -> None:
+        self._peak, self._count = abs(reference), 0
+
+    def over(self, noise: np.ndarray) -> float:
+        if noise.size > self._count:
+            fresh = float(np.max(np.abs(noise[self._count :])))
+            self._peak = fresh if math.isnan(fresh) or math.isnan(self._peak) else max(self._peak, fresh)
+            self._count = noise.size
+        return self._peak
 
 
 class _RunBuffers:
     """The arrays :func:`envs.run_kernels._closed_loop_run` continues from one horizon to the next
-    (state, delayed signals, outputs, measurement, drive, running sums), grown with the horizon."""
+    (state, delayed signals, outputs, measurement, drive, running sums), for the longest run allowed.
 
-    def __init__(self, n_states: int, n_delays: int, offset: int, n_outputs: int) -> None:
-        self.offset, self.size = offset, 0
+    Uninitialized but for the rows before sample 0 (a run fills each row before it reads it): only
+    the pages a run reaches are touched, and a horizon needs no copy of the earlier ones.
+    """
+
+    def __init__(self, n_states: int, n_delays: int, offset: int, n_outputs: int, size: int) -> None:
         self.x = np.zeros(n_states)
-        self.history = np.zeros((offset + 1, n_delays))  # zero before sample 0: the loop starts at rest
-        self.z = np.empty((0, n_outputs))
-        self.measured, self.drive = np.empty(0), np.empty(0)
-        self.sums = np.zeros((2, 3, 1))  # the running sums before sample 0
-
-    def reserve(self, size: int) -> _RunBuffers:
-        """Room for ``size`` samples, the samples so far kept."""
-        if size > self.size:
-            old, self.size = self.size, size
-            self.history = _grown(self.history, self.offset + size + 1, self.offset + old + 1, np.zeros)
-            self.z, self.measured, self.drive = (_grown(a, size, old) for a in (self.z, self.measured, self.drive))
-            sums = np.empty((2, 3, size + 1))
-            sums[:, :, : old + 1] = self.sums
-            self.sums = sums
-        return self
-
-
-def _grown(array: np.ndarray, rows: int, kept: int, new=np.empty) -> np.ndarray:
-    """``array`` with ``rows`` rows, its first ``kept`` rows copied (the others from ``new``)."""
-    grown = new((rows, *array.shape[1:]))
-    grown[:kept] = array[:kept]
-    return grown
-
-
-def _input_peak(reference: float, noise: np.ndarray) -> float:
-    """``max |d|`` over the inputs ``[reference, 0, noise]`` of a horizon, NaN if one is (as ``np.max``)."""
-    peak = float(np.max(np.abs(noise)))
-    return peak if math.isnan(peak) else max(abs(reference), peak)
+        self.history = np.empty((offset + size + 1, n_delays))
+        self.history[: offset + 1] = 0.0  # w[k] = 0 for k < 0: the loop starts at rest (every delay >= dt)
+        self.z = np.empty((size, n_outputs))
+        self.measured, self.drive = np.empty(size), np.empty(size)
+        self.sums = np.empty((2, 3, size + 1))
+        self.sums[:, :, 0] = 0.0  # the running sums before sample 0
 
 
 CHUNK_WINDOWS = 4

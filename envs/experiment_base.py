@@ -84,24 +84,35 @@ class MeasurementNoise:
 
     def __init__(self, noise_std: float, size: int, source: np.random.Generator | None) -> None:
         self.noise_std, self.size, self._source = noise_std, int(size), source
-        self._values = np.zeros(0)
+        self._values = np.empty(0)  # the samples, drawn into this buffer of ``size`` when first needed
+        self._drawn = 0
 
     @classmethod
     def given(cls, values: np.ndarray) -> MeasurementNoise:
         """Noise with the given samples (e.g. to replay a run)."""
         noise = cls(0.0, np.size(values), None)
         noise._values = np.asarray(values, dtype=float).ravel()
+        noise._drawn = noise.size
         return noise
+
+    @property
+    def drawn_as_needed(self) -> bool:
+        """Whether samples are drawn from the child stream when first asked for (not given or zero)."""
+        return self._source is not None and self.noise_std != 0.0 and self._drawn < self.size
 
     def first(self, count: int) -> np.ndarray:
         count = min(int(count), self.size)
-        drawn = self._values.size
+        drawn = self._drawn
         if count > drawn:
+            if self._values.size < self.size:
+                self._values = np.empty(self.size)
+            fresh = self._values[drawn:count]
             if self.noise_std == 0.0 or self._source is None:
-                fresh = np.zeros(count - drawn)
-            else:
-                fresh = self.noise_std * self._source.standard_normal(count - drawn)
-            self._values = np.concatenate([self._values, fresh])
+                fresh[:] = 0.0
+            else:  # the normals of standard_normal(count - drawn), scaled in place: the same products
+                self._source.standard_normal(out=fresh)
+                fresh *= self.noise_std
+            self._drawn = count
         return self._values[:count]
 
 

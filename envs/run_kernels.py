@@ -195,18 +195,19 @@ def _tests(c, n, first, size, target, has_target, out):  # pragma: no cover - co
 @numba.njit(cache=True)
 def _closed_loop_run(
     Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, offset, reference, noise, limit,
-    x, history, z, measured, drive, sums, window, integrating, dt, excursion, has_excursion, start, stop, chunk,
+    x, history, z, measured, drive, sums, window, integrating, dt, excursion, has_excursion, start, stop, chunk, begin, until,
 ):  # pragma: no cover - compiled  # fmt: skip
     """The closed-loop step of :func:`envs.closed_loop_experiment._run_closed_loop` over the samples
-    ``start .. stop - 1`` of the horizon ``stop`` (which began at ``start``); returns
-    ``(outcome, index)``: ``(SETTLED, k)``, ``(ABORTED, k)`` or ``(NO_EVENT, stop - 1)``.
+    ``begin .. until - 1`` of the horizon ``start .. stop - 1`` (``begin`` and ``until`` are ends of
+    its chunks); returns ``(outcome, index, diverged)``: ``(SETTLED, k, ...)``, ``(ABORTED, k, ...)``
+    or ``(NO_EVENT, until - 1, False)``, ``diverged`` if a state step reached ``limit``.
 
     Sample ``k`` of the loop (:func:`_loop_sample`, inputs ``[reference, 0, noise[k]]``, outputs
     ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` and the drive
     (``u``, or its trapezoidal integral ``drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1])``
     with ``t[k] = k dt`` if ``integrating``), whose running sums ``sums[0]`` and ``sums[1]`` give the
     steady-state tests of the windows ending at ``k`` (the measurement against ``reference``).  ``x``,
-    ``history``, ``z``, ``measured``, ``drive`` and ``sums`` carry the run from one horizon to the next.
+    ``history``, ``z``, ``measured``, ``drive`` and ``sums`` carry the run from one call to the next.
 
     The outcome is that of the chunks of ``chunk`` samples of the horizon that the run simulated and
     tested one at a time before (:func:`envs.experiment_base.run_until_settled`): the first sample
@@ -221,8 +222,8 @@ def _closed_loop_run(
     past = np.zeros(3 * nv)
     d = np.zeros((1, 3))  # the input [reference, 0, noise[k]] of sample k
     d[0, 0] = reference
-    outcome, index = NO_EVENT, stop - 1
-    for k in range(start, stop):
+    outcome, index = NO_EVENT, until - 1
+    for k in range(begin, until):
         d[0, 2] = noise[k]
         bounded = _loop_sample(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, 0, limit, offset, k, z, x,
                                x_next, v, past, history)  # fmt: skip
@@ -245,7 +246,7 @@ def _closed_loop_run(
             ):
                 outcome, index = SETTLED, k
         if not bounded:
-            return (ABORTED, 0) if chunk_end else (outcome, index)
+            return (ABORTED, 0, True) if chunk_end else (outcome, index, True)
         if outcome != NO_EVENT and chunk_end:
-            return outcome, index
-    return outcome, index
+            return outcome, index, False
+    return outcome, index, False

@@ -19,7 +19,7 @@ import pytest
 from envs.closed_loop_experiment import CHUNK_WINDOWS, _loop_sample_time, _run_closed_loop
 from envs.commissioning import commissioning_pi
 from envs.controllers import FPPI, MSP, PID
-from envs.experiment_base import excursion_index, run_until_settled
+from envs.experiment_base import MeasurementNoise, excursion_index, run_until_settled
 from envs.families import FAMILIES, sample_plants
 from envs.loops import closed_loop_of_block, simulation_step
 from envs.plants import Plant
@@ -209,3 +209,41 @@ def test_compiled_recursion_matches_the_python_loop(name):
     z = simulate(discrete, inputs).outputs
     reference = _recursion_reference(discrete, inputs)
     assert z.tobytes() == reference.tobytes()
+
+
+class _SpikyNoise(MeasurementNoise):
+    """Given samples, handed out as if drawn as needed (so the run works under provisional limits)."""
+
+    def __init__(self, values: np.ndarray) -> None:
+        super().__init__(1.0, values.size, None)
+        self._given = values
+
+    @property
+    def drawn_as_needed(self) -> bool:
+        return True
+
+    def first(self, count: int) -> np.ndarray:
+        return self._given[: min(count, self.size)]
+
+
+@pytest.mark.parametrize("name", LOOPS)
+@pytest.mark.parametrize("spike", [0.5, 3.0, 50.0, 1e6])
+def test_divergence_under_the_limit_of_noise_not_drawn_yet(name, spike):
+    """Noise is drawn block by block within a horizon (blocks of 2, 4, ... chunks), under the
+    divergence limit of the samples drawn so far; a divergence under it is checked against the limit
+    of the whole horizon (a larger sample later in the horizon raises it) and the horizon is run
+    again under that: the same run as the chunked one."""
+    plant, controller = LOOPS[name]
+    dt = simulation_step(plant, controller, 40)
+    noise = 0.01 * np.random.default_rng(3).standard_normal(20000)
+    j = _divergence(plant, controller, dt, noise)
+    for window in (j // 6 + 1, j // 20 + 1):  # j in the first block of the first or of the second horizon
+        block_end, horizon_end = (8 * window, 16 * window) if j < 8 * window else (24 * window, 32 * window)
+        assert block_end - 8 * window <= j < block_end
+        for at, later in ((block_end + 1, True), (horizon_end - 1, True), (horizon_end + 5, False)):
+            spiky = noise.copy()
+            spiky[at] = spike
+            args, rest = (plant, controller, 1.0), (dt, window, None)
+            new = _run_closed_loop(*args, _SpikyNoise(spiky), *rest)
+            _assert_same_run(new, _chunked_run(*args, spiky, *rest))
+            assert new.aborted and (new.end > j if later and spike > 1.0 else new.end in (j, 0))
