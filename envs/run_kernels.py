@@ -202,10 +202,11 @@ def _closed_loop_run(
     its chunks); returns ``(outcome, index, diverged)``: ``(SETTLED, k, ...)``, ``(ABORTED, k, ...)``
     or ``(NO_EVENT, until - 1, False)``, ``diverged`` if a state step reached ``limit``.
 
-    Sample ``k`` of the loop (:func:`_loop_sample`, inputs ``[reference, 0, noise[k]]``, outputs
-    ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` and the drive
+    Sample ``k`` of the loop (:func:`_loop_sample`, inputs ``[reference, 0, noise[k]]``, or
+    ``[reference, noise[k]]`` if the caller dropped the columns of the zero input, outputs ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` and the drive
     (``u``, or its trapezoidal integral ``drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1])``
-    with ``t[k] = k dt`` if ``integrating``), whose running sums ``sums[0]`` and ``sums[1]`` give the
+    with ``t[k] = k dt`` if ``integrating``, the numbers of
+    :func:`envs.closed_loop_experiment._cumulative_integral`), whose running sums ``sums[0]`` and ``sums[1]`` give the
     steady-state tests of the windows ending at ``k`` (the measurement against ``reference``).  ``x``,
     ``history``, ``z``, ``measured``, ``drive`` and ``sums`` carry the run from one call to the next.
 
@@ -220,11 +221,12 @@ def _closed_loop_run(
     x_next = np.zeros(n)
     v = np.zeros(nv)
     past = np.zeros(3 * nv)
-    d = np.zeros((1, 3))  # the input [reference, 0, noise[k]] of sample k
+    inputs = Gamma.shape[1]
+    d = np.zeros((1, inputs))  # the input [reference, 0, noise[k]] of sample k, or [reference, noise[k]]
     d[0, 0] = reference
     outcome, index = NO_EVENT, until - 1
     for k in range(begin, until):
-        d[0, 2] = noise[k]
+        d[0, inputs - 1] = noise[k]
         bounded = _loop_sample(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, 0, limit, offset, k, z, x,
                                x_next, v, past, history)  # fmt: skip
         chunk_end = (k + 1 - start) % chunk == 0 or k + 1 == stop
@@ -235,6 +237,8 @@ def _closed_loop_run(
                 drive[k] = u
             elif k == 0:
                 drive[k] = 0.0
+            elif k == 1:  # not 0.0 + the area: the sum of numpy.cumsum, -0.0 if the area is (the tests are the same)
+                drive[k] = 0.5 * (u + z[k - 1, 1]) * (float(k) * dt - float(k - 1) * dt)
             else:
                 drive[k] = drive[k - 1] + 0.5 * (u + z[k - 1, 1]) * (float(k) * dt - float(k - 1) * dt)
             _add_sample(sums[0], measured, k)
