@@ -199,47 +199,13 @@ def _run_closed_loop(
     first_steps = max(16 * window, 64)
     noise = as_noise(noise)
     system = closed_loop_of_block(plant, controller.block() if block is None else block)
-    discrete = discretize(system, dt)
-    arrays = _without_load(loop_arrays(discrete))
-    whole = arrays[-2]
-    offset = max([1] + [int(w) + 1 for w in whole])
-    steps_max = noise.size
-    reference = float(amplitude)
-    b = _RunBuffers(discrete.Phi.shape[0], whole.size, offset, discrete.system.n_outputs, steps_max)
-    chunk = CHUNK_WINDOWS * window
-    settings = (int(window), bool(plant.integrating), float(discrete.dt), 0.0 if excursion_limit is None else float(excursion_limit),
-                excursion_limit is not None)  # fmt: skip
-    peak = _InputPeak(reference)
-    start, horizon = 0, min(first_steps, steps_max)
-    while True:  # the horizons
-        saved = b.x.copy()  # the state at the start of the horizon
-        begin, block = start, (2 * chunk if noise.drawn_as_needed else horizon)
-        while True:  # the horizon in blocks of doubling length, each ending at a chunk end
-            until = min(begin + block, horizon)
-            values = noise.first(until)
-            limit = DIVERGENCE_LIMIT * max(1.0, peak.over(values))  # that of the horizon if until == horizon
-            outcome, end, diverged = _closed_loop_run(
-                *arrays, offset, reference, values, limit, b.x, b.history, b.z, b.measured, b.drive, b.sums, *settings,
-                start, horizon, chunk, begin, until,
-            )  # fmt: skip
-            if diverged and until < horizon:
-                whole_limit = DIVERGENCE_LIMIT * max(1.0, peak.over(noise.first(horizon)))
-                if whole_limit != limit:  # the limit of the horizon is higher: the horizon again, under it
-                    b.x[:] = saved
-                    until = horizon
-                    outcome, end, diverged = _closed_loop_run(
-                        *arrays, offset, reference, noise.first(horizon), whole_limit, b.x, b.history, b.z, b.measured,
-                        b.drive, b.sums, *settings, start, horizon, chunk, start, horizon,
-                    )  # fmt: skip
-            if outcome != NO_EVENT or until == horizon:
-                break
-            begin, block = until, 2 * block
-        if outcome != NO_EVENT or horizon == steps_max:
-            break
-        start, horizon = horizon, min(2 * horizon, steps_max)
-    k = end + 1  # the signals up to the last sample used, copied out of the buffers of the longest run
-    signals = np.arange(k) * discrete.dt, b.z[:k, 1].copy(), b.measured[:k].copy(), b.z[:k, 0].copy()
-    return _ClosedLoopRun(*signals, end, outcome == SETTLED, outcome == ABORTED, b.drive[:k].copy())
+    run = _CompiledRun(plant.integrating, discretize(system, dt), amplitude, noise, window, excursion_limit)
+    start, horizon = 0, min(first_steps, noise.size)
+    while True:
+        outcome, end = run.horizon(start, horizon)
+        if outcome != NO_EVENT or horizon == noise.size:
+            return run.result(outcome, end)
+        start, horizon = horizon, min(2 * horizon, noise.size)
 
 
 @dataclass(frozen=True)
@@ -247,6 +213,58 @@ class _ClosedLoopRun(ExperimentRun):
     """The run with its drive (``u``, or ``_cumulative_integral(timepts, u)`` for an integrating plant)."""
 
     drive: np.ndarray
+
+
+class _CompiledRun:
+    """The run of :func:`_run_closed_loop`, horizon by horizon in compiled calls
+    (:func:`envs.run_kernels._closed_loop_run`), continued in :class:`_RunBuffers`."""
+
+    def __init__(self, integrating, discrete, amplitude, noise, window, excursion_limit) -> None:
+        self.arrays = _without_load(loop_arrays(discrete))
+        whole = self.arrays[-2]
+        self.offset = max([1] + [int(w) + 1 for w in whole])
+        self.noise, self.reference, self.dt = noise, float(amplitude), float(discrete.dt)
+        self.chunk = CHUNK_WINDOWS * window
+        limit = 0.0 if excursion_limit is None else float(excursion_limit)
+        self.settings = (int(window), bool(integrating), self.dt, limit, excursion_limit is not None)
+        self.peak = _InputPeak(self.reference)
+        self.buffers = _RunBuffers(discrete.Phi.shape[0], whole.size, self.offset, discrete.system.n_outputs, noise.size)
+
+    def horizon(self, start: int, stop: int) -> tuple[int, int]:
+        """The horizon of samples ``start .. stop - 1`` (after those before it): ``(outcome, end)``.
+
+        Noise drawn as needed is drawn in blocks of 2, 4, ... chunks, each run under the divergence
+        limit of the samples drawn so far; a divergence under it is checked against the limit of the
+        whole horizon, and if that is higher (a larger sample later) the horizon runs again under it.
+        """
+        saved = self.buffers.x.copy()  # the state at the start of the horizon
+        begin, block = start, (2 * self.chunk if self.noise.drawn_as_needed else stop - start)
+        while True:
+            until = min(begin + block, stop)
+            values = self.noise.first(until)
+            limit = DIVERGENCE_LIMIT * max(1.0, self.peak.over(values))  # that of the horizon if until == stop
+            outcome, end, diverged = self._call(values, limit, start, stop, begin, until)
+            if diverged and until < stop:
+                whole_limit = DIVERGENCE_LIMIT * max(1.0, self.peak.over(self.noise.first(stop)))
+                if whole_limit != limit:
+                    self.buffers.x[:] = saved
+                    return self._call(self.noise.first(stop), whole_limit, start, stop, start, stop)[:2]
+            if outcome != NO_EVENT or until == stop:
+                return outcome, end
+            begin, block = until, 2 * block
+
+    def _call(self, values, limit, start, stop, begin, until) -> tuple[int, int, bool]:
+        b = self.buffers
+        return _closed_loop_run(
+            *self.arrays, self.offset, self.reference, values, limit, b.x, b.history, b.z, b.measured, b.drive, b.sums,
+            *self.settings, start, stop, self.chunk, begin, until,
+        )  # fmt: skip
+
+    def result(self, outcome: int, end: int) -> _ClosedLoopRun:
+        """The signals up to the last sample used, copied out of the buffers of the longest run."""
+        b, k = self.buffers, end + 1
+        signals = np.arange(k) * self.dt, b.z[:k, 1].copy(), b.measured[:k].copy(), b.z[:k, 0].copy()
+        return _ClosedLoopRun(*signals, end, outcome == SETTLED, outcome == ABORTED, b.drive[:k].copy())
 
 
 class _InputPeak:
