@@ -225,11 +225,14 @@ def _closed_loop_run(
     d = np.zeros((1, inputs))  # the input [reference, 0, noise[k]] of sample k, or [reference, noise[k]]
     d[0, 0] = reference
     outcome, index = NO_EVENT, until - 1
+    next_end = min(start + ((begin - start) // chunk + 1) * chunk, stop)  # the end of the chunk of sample begin
     for k in range(begin, until):
         d[0, inputs - 1] = noise[k]
         bounded = _loop_sample(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, 0, limit, offset, k, z, x,
                                x_next, v, past, history)  # fmt: skip
-        chunk_end = (k + 1 - start) % chunk == 0 or k + 1 == stop
+        chunk_end = k + 1 == next_end  # (k + 1 - start) % chunk == 0 or k + 1 == stop, without a division
+        if chunk_end:
+            next_end = min(next_end + chunk, stop)
         if outcome == NO_EVENT:
             y, u = z[k, 0], z[k, 1]
             measured[k] = y + noise[k]
