@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from envs.controllers import PID, Controller
@@ -67,11 +68,38 @@ def commissioning_pi(plant: Plant, max_sensitivity_target: float = COMMISSIONING
     omega = _sensitivity_grid(plant)
     detuning = _DETUNING
     kp, reset_rate = (_integrating_rule if plant.integrating else _lambda_rule)(plant, detuning)
-    loop = np.sign(kp[-1]) * plant.frequency_response(omega) * (1.0 + reset_rate / (1j * omega))
+    loop = _pi_loop_on_grid(plant, omega, np.sign(kp[-1]), reset_rate)
     best = _first_violation(loop, np.abs(kp), target) - 1
     if best < 0:  # pragma: no cover - a loop detuned 1000 times is far inside the target
         raise ValueError("no PI with the required maximum sensitivity found")
     return PID(kp=float(kp[best]), ti=1.0 / reset_rate if reset_rate > 0 else None)
+
+
+def _pi_loop_on_grid(plant: Plant, omega: np.ndarray, sign: float, reset_rate: float) -> np.ndarray:
+    """``sign * plant.frequency_response(omega) * (1 + reset_rate/(i omega))``, bit for bit, on a grid
+    of positive frequencies.
+
+    ``1j * omega`` is built once (it is ``0 + i omega`` exactly for ``omega > 0``) and the dead-time
+    factor ``e^{-i omega L}`` is computed by :func:`_delay_factor` as numpy's complex ``exp`` gives it
+    (``cos`` and ``sin`` of ``-omega L``: the real part of the exponent is exactly zero); the rest are
+    the same numpy operations as :meth:`~envs.plants.Plant.frequency_response`.
+    """
+    s = np.zeros(omega.size, dtype=complex)
+    s.imag = omega
+    response = np.polyval(plant.num, s) / np.polyval(plant.den, s) * _delay_factor(omega, plant.delay)
+    return sign * response * (1.0 + reset_rate / s)
+
+
+@numba.njit(cache=True)
+def _delay_factor(omega, delay):  # pragma: no cover - compiled
+    """``numpy.exp(-(1j * omega) * delay)`` for ``omega > 0`` and ``delay >= 0``: the exponent is
+    ``0 - i omega delay``, and ``exp(0 + i y) = cos y + i sin y`` (the C library's ``cexp`` with
+    ``e^0 = 1``; the unit tests compare the two)."""
+    out = np.empty(omega.size, dtype=np.complex128)
+    for k in range(omega.size):
+        y = -(omega[k] * delay)
+        out[k] = complex(math.cos(y), math.sin(y))
+    return out
 
 
 def _first_violation(loop: np.ndarray, gains: np.ndarray, target: float) -> int:
