@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Sequence
 
+import numba
 import numpy as np
 import scipy.linalg
 import scipy.signal
@@ -147,6 +148,33 @@ def shape_residence_time(num: Any, den: Any) -> float:
     if den[-1] == 0.0:
         den = den[:-1]
     return -_taylor_coefficients(num, den, 0.0)[0]
+
+
+@numba.njit(cache=True)
+def _scaled_controllable_form(num, den, scale):  # pragma: no cover - compiled
+    """``A, B, C, D = _controllable_form(num, den)`` followed by ``A / scale``, ``B / scale``: the same
+    elementwise operations, for a numerator whose normalized leading coefficient is not trimmed."""
+    n = den.size - 1
+    lead = den[0]
+    padded = np.zeros(den.size)  # num / den[0], padded to the size of den
+    for i in range(num.size):
+        padded[den.size - num.size + i] = num[i] / lead
+    monic = np.empty(den.size)
+    for i in range(den.size):
+        monic[i] = den[i] / lead
+    A = np.zeros((n, n))  # its zeros stay +0.0 = 0.0 / scale (scale > 0)
+    for j in range(n):
+        A[0, j] = -monic[j + 1] / scale
+    for i in range(1, n):
+        A[i, i - 1] = 1.0 / scale
+    B = np.zeros((n, 1))
+    B[0, 0] = 1.0 / scale
+    C = np.empty((1, n))
+    for j in range(n):
+        C[0, j] = padded[j + 1] - padded[0] * monic[j + 1]
+    D = np.empty((1, 1))
+    D[0, 0] = padded[0]
+    return A, B, C, D
 
 
 @dataclass(frozen=True)
@@ -360,8 +388,11 @@ class Plant:
         powers = np.arange(self.order, -1, -1)  # descending powers of s, as in den
         num = np.asarray(self.num) * scale ** -powers[len(powers) - len(self.num) :]
         den = np.asarray(self.den) * scale**-powers
-        A, B, C, D = _controllable_form(num, den)
-        A, B = A / scale, B / scale
+        if abs(num[0] / den[0]) > 1e-14:  # _controllable_form and the division by scale, in one compiled call
+            A, B, C, D = _scaled_controllable_form(num, den, scale)
+        else:
+            A, B, C, D = _controllable_form(num, den)
+            A, B = A / scale, B / scale
         A, factors = _balanced(A)
         return _read_only(StateSpace(A=A, B=B / factors[:, None], C=C * factors[None, :], D=np.atleast_2d(D)))
 

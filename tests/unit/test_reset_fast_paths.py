@@ -3,8 +3,9 @@
 * :func:`envs.identification._trapezoid`, ``_trapezoid_of_distance`` and ``_moments`` (numpy's
   pairwise summation, compiled) against ``numpy.trapezoid``;
 * :func:`envs.identification._signals` (compiled checks) against its numpy checks and errors;
-* :func:`envs.commissioning._pi_loop_on_grid` and ``_delay_factor`` against
-  :meth:`envs.plants.Plant.frequency_response` and ``numpy.exp``;
+* :func:`envs.commissioning._pi_loop_on_grid` (numpy's complex arithmetic, compiled) against
+  :meth:`envs.plants.Plant.frequency_response`, and ``_first_violation_fast`` against
+  ``_first_violation``;
 * :func:`envs.plants._balanced` against ``scipy.linalg.matrix_balance``, :func:`envs.plants._roots`
   against ``numpy.roots``, and :func:`envs.plants.shape_residence_time` against a built plant.
 """
@@ -75,12 +76,48 @@ def test_commissioning_loop_on_the_grid_equals_the_frequency_response(family):
             assert _bits(commissioning._pi_loop_on_grid(plant, omega, sign, reset_rate)) == _bits(expected)
 
 
-def test_delay_factor_equals_numpy_complex_exp():
+def test_compiled_complex_arithmetic_equals_numpy():
     rng = np.random.default_rng(3)
-    omega = np.logspace(-6, 6, 20001)
-    for delay in [0.0, *np.exp(rng.uniform(-10, 10, 20))]:
-        expected = np.exp(-(1j * omega) * delay)
-        assert _bits(commissioning._delay_factor(omega, float(delay))) == _bits(expected)
+    size = 20000
+
+    def draw():
+        return rng.normal(size=size) * np.exp(rng.uniform(-20, 20, size)) + 1j * rng.normal(size=size) * np.exp(
+            rng.uniform(-20, 20, size)
+        )
+
+    a, b = draw(), draw()
+    product = np.array([complex(*commissioning._multiply(x.real, x.imag, y.real, y.imag)) for x, y in zip(a, b)])
+    quotient = np.array([complex(*commissioning._divide(x.real, x.imag, y.real, y.imag)) for x, y in zip(a, b)])
+    assert _bits(product) == _bits(a * b) and _bits(quotient) == _bits(a / b)
+    omega = np.logspace(-6, 6, 2001)
+    coefficients = rng.uniform(0.1, 10.0, 7)
+    horner = np.array([complex(*commissioning._polyval(coefficients, w)) for w in omega])
+    assert _bits(horner) == _bits(np.polyval(coefficients, 1j * omega))
+
+
+def test_pi_loop_with_a_long_delay_equals_numpy():
+    plant = Plant((2.0,), (1.0, 3.0, 1.0), 1e4)  # cos and sin of large arguments
+    omega = commissioning._sensitivity_grid(plant)
+    expected = np.float64(-1.0) * plant.frequency_response(omega) * (1.0 + 0.5 / (1j * omega))
+    assert _bits(commissioning._pi_loop_on_grid(plant, omega, np.float64(-1.0), 0.5)) == _bits(expected)
+
+
+@pytest.mark.parametrize("family", ["stable", "integrating", "benchmark", "lag-chain"])
+def test_fast_first_violation_equals_the_reference(family):
+    for plant in sample_plants(family, 40, 13):
+        omega = commissioning._sensitivity_grid(plant)
+        rule = commissioning._integrating_rule if plant.integrating else commissioning._lambda_rule
+        kp, reset_rate = rule(plant, commissioning._DETUNING)
+        loop = commissioning._pi_loop_on_grid(plant, omega, np.sign(kp[-1]), reset_rate)
+        for target in (1.05, 1.2, 1.4, 2.0):
+            for scale in (0.1, 1.0, 30.0):
+                gains = np.abs(kp) * scale
+                assert commissioning._first_violation_fast(loop, gains, target) == commissioning._first_violation(
+                    loop, gains, target
+                )
+    loop[5] = complex(-np.inf, 1.0)  # non-finite: left to the reference
+    with np.errstate(invalid="ignore"):
+        assert commissioning._first_violation_fast(loop, gains, 1.4) == commissioning._first_violation(loop, gains, 1.4)
 
 
 @pytest.mark.parametrize("family", ["stable", "integrating", "benchmark"])
@@ -112,3 +149,18 @@ def test_shape_residence_time_equals_the_plants(family):
         num, den = plant.rational_part
         scaled = tuple(3.0 * v for v in num), tuple(3.0 * v for v in den)  # not monic, as a shape may be
         assert _bits(shape_residence_time(*scaled)) == _bits(Plant(*scaled, 0.0).residence_time)
+
+
+@pytest.mark.parametrize("family", ["stable", "lag-chain", "integrating", "benchmark"])
+def test_compiled_controllable_form_equals_the_numpy_one(family):
+    from envs.plants import _controllable_form, _scaled_controllable_form
+
+    for plant in sample_plants(family, 60, 8):
+        scale = plant.step_time_scale()
+        powers = np.arange(plant.order, -1, -1)
+        num = np.asarray(plant.num) * scale ** -powers[len(powers) - len(plant.num) :]
+        den = np.asarray(plant.den) * scale**-powers
+        A, B, C, D = _controllable_form(num, den)
+        expected = (A / scale, B / scale, C, D)
+        got = _scaled_controllable_form(num, den, scale)
+        assert [(x.shape, _bits(x)) for x in got] == [(x.shape, _bits(x)) for x in expected]
