@@ -749,8 +749,27 @@ def pulse_mismatch_area(
     """
     t, y = _signals(timepts, output=output)
     height, duration = require_number(height, "height", nonzero=True), require_number(duration, "duration", positive=True)
+    if not model.time_constant:  # K_v max(t - L, 0): the response and the integral in one compiled pass
+        return _pulse_distance(t, y, model.gain, model.dead_time, height, duration) / abs(height * duration)
     model_output = height * (model.step_response(t) - model.step_response(t - duration))
     return _trapezoid_of_distance(y, model_output, t) / abs(height * duration)
+
+
+@numba.njit(cache=True)
+def _pulse_distance(t, y, gain, dead_time, height, duration):  # pragma: no cover - compiled
+    """``numpy.trapezoid(abs(y - y_n), t)`` for the pulse response ``y_n = h (s(t) - s(t - tau_p))`` of
+    ``K_v e^{-L s}/s``, ``s(t) = K_v max(t - L, 0)``: the same operations as
+    :meth:`IntegratingModel.step_response` (the sign of a zero ``max``, which numpy's SIMD and scalar
+    loops may choose differently, is lost in ``abs``)."""
+    distance = np.empty(t.size)
+    for i in range(t.size):
+        now = max(t[i] - dead_time, 0.0)
+        before = max((t[i] - duration) - dead_time, 0.0)
+        distance[i] = abs(y[i] - height * (gain * now - gain * before))
+    terms = np.empty(max(t.size - 1, 0))
+    for i in range(terms.size):
+        terms[i] = (t[i + 1] - t[i]) * (distance[i + 1] + distance[i]) / 2.0
+    return _sum(terms)
 
 
 # --------------------------------------------------------------------------- reaction curve

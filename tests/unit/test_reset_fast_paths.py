@@ -164,3 +164,17 @@ def test_compiled_controllable_form_equals_the_numpy_one(family):
         expected = (A / scale, B / scale, C, D)
         got = _scaled_controllable_form(num, den, scale)
         assert [(x.shape, _bits(x)) for x in got] == [(x.shape, _bits(x)) for x in expected]
+
+
+def test_pulse_distance_equals_the_numpy_expression():
+    from envs.identification import IntegratingModel, _pulse_distance
+
+    rng = np.random.default_rng(6)
+    for size in (2, 3, 50, 129, 1000, 5003):
+        t = np.arange(size) * 0.37
+        for gain, dead_time, height, duration in ((1.5, 3.0, 0.7, 1.1), (-0.2, 0.0, -2.0, 0.37), (3.0, 0.37 * 7, 1.0, 0.37 * 2)):
+            model = IntegratingModel(gain=gain, dead_time=dead_time)
+            clean = height * (model.step_response(t) - model.step_response(t - duration))
+            for y in (clean, clean + rng.normal(size=size) * 0.01):
+                expected = float(np.trapezoid(np.abs(y - clean), t))
+                assert _bits(_pulse_distance(t, y, gain, dead_time, height, duration)) == _bits(expected)
