@@ -178,3 +178,22 @@ def test_pulse_distance_equals_the_numpy_expression():
             for y in (clean, clean + rng.normal(size=size) * 0.01):
                 expected = float(np.trapezoid(np.abs(y - clean), t))
                 assert _bits(_pulse_distance(t, y, gain, dead_time, height, duration)) == _bits(expected)
+
+
+@pytest.mark.parametrize("family", ["stable", "integrating", "lag-chain"])
+def test_relay_with_compiled_plain_samples_equals_the_sample_by_sample_run(family, monkeypatch):
+    from envs import relay
+
+    def run_all():
+        results = []
+        for i, plant in enumerate(sample_plants(family, 12, 17)):
+            for noise, hysteresis, limit in ((0.0, 0.0, None), (0.01, 0.03, 5.0), (0.05, 0.0, 0.5)):
+                rng = np.random.default_rng(i)
+                r = relay.relay_feedback(plant, rng, 1.0 / abs(plant.gain), hysteresis=hysteresis, noise_std=noise, excursion_limit=limit)
+                results.append([_bits(getattr(r, f)) for f in ("timepts", "control", "output", "true_output", "switching_times")]
+                               + [r.converged, r.aborted, _bits(r.ultimate_period), _bits(r.harmonic_amplitude), _bits(r.duration)])
+        return results
+
+    fast = run_all()
+    monkeypatch.setattr(relay._RelaySimulation, "plain_steps", lambda self, noise, first, stop, limit: (first, False))
+    assert run_all() == fast  # every sample by _RelaySimulation.step, as before the compiled path
