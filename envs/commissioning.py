@@ -15,13 +15,11 @@ References
 
 from __future__ import annotations
 
+import cmath
 import math
 
 import numba
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.core.extending import intrinsic
 
 from envs.controllers import PID, Controller
 from envs.experiment_base import check_plant
@@ -79,79 +77,27 @@ def commissioning_pi(plant: Plant, max_sensitivity_target: float = COMMISSIONING
 
 
 def _pi_loop_on_grid(plant: Plant, omega: np.ndarray, sign: float, reset_rate: float) -> np.ndarray:
-    """``sign * plant.frequency_response(omega) * (1 + reset_rate/(1j * omega))``, bit for bit, on a grid
-    of positive frequencies, by one compiled pass (:func:`_pi_loop_kernel`) instead of some thirty numpy
-    calls on complex arrays.
+    """``sign * plant.frequency_response(omega) * (1 + reset_rate/(1j * omega))`` on a grid of positive
+    frequencies, by one compiled pass (:func:`_pi_loop_kernel`) instead of some thirty numpy calls on
+    complex arrays.  Equal to the numpy expression to rounding (the unit tests bound the difference);
+    the PI chosen from it is the same (its gains are a grid, decided by a bound ``Ms`` is not near).
     """
     num, den = np.asarray(plant.num, dtype=float), np.asarray(plant.den, dtype=float)
     return _pi_loop_kernel(omega, num, den, float(plant.delay), float(sign), float(reset_rate))
 
 
-# numpy's complex arithmetic, operation for operation, so that the compiled loop gives its bits (the unit
-# tests compare them): ``a * b`` is ``(fma(ar, br, -(ai bi)), fma(ar, bi, ai br))`` (its SIMD loops),
-# ``a / b`` is Smith's algorithm in plain operations (``CDOUBLE_divide``), a real operand is the complex
-# number with imaginary part +0.0, and ``1j * omega`` is ``0 + i omega`` exactly for ``omega > 0``.
-@intrinsic
-def _fma(typingctx, a, b, c):  # pragma: no cover - compiled
-    """``a b + c`` rounded once (LLVM's ``llvm.fma``)."""
-    signature = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, sig, args):
-        double = ir.DoubleType()
-        fma = builder.module.declare_intrinsic("llvm.fma", [double], ir.FunctionType(double, [double] * 3))
-        return builder.call(fma, args)
-
-    return signature, codegen
-
-
-@numba.njit(cache=True)
-def _multiply(ar, ai, br, bi):  # pragma: no cover - compiled
-    """numpy's complex ``a * b``."""
-    return _fma(ar, br, -(ai * bi)), _fma(ar, bi, ai * br)
-
-
-@numba.njit(cache=True)
-def _divide(ar, ai, br, bi):  # pragma: no cover - compiled
-    """numpy's complex ``a / b`` (Smith's algorithm)."""
-    br_abs, bi_abs = abs(br), abs(bi)
-    if br_abs >= bi_abs:
-        if br_abs == 0 and bi_abs == 0:
-            return ar / br_abs, ai / br_abs
-        rat = bi / br
-        scl = 1.0 / (br + bi * rat)
-        return (ar + ai * rat) * scl, (ai - ar * rat) * scl
-    rat = br / bi
-    scl = 1.0 / (bi + br * rat)
-    return (ar * rat + ai) * scl, (ai * rat - ar) * scl
-
-
-@numba.njit(cache=True)
-def _polyval(coefficients, w):  # pragma: no cover - compiled
-    """``numpy.polyval(coefficients, 1j * w)`` (Horner from ``y = 0``: ``y = y * s + c``)."""
-    yr, yi = 0.0, 0.0
-    for c in coefficients:
-        yr, yi = _multiply(yr, yi, 0.0, w)
-        yr, yi = yr + c, yi + 0.0
-    return yr, yi
-
-
 @numba.njit(cache=True)
 def _pi_loop_kernel(omega, num, den, delay, sign, reset_rate):  # pragma: no cover - compiled
-    """``sign * (polyval(num, s) / polyval(den, s) * exp(-s delay)) * (1.0 + reset_rate / s)``, ``s = 1j omega``,
-    with numpy's operations; ``exp(0 - i omega delay) = cos + i sin`` of ``-(omega delay)``, as the C
-    library's ``cexp`` that numpy calls gives it."""
+    """``sign * num(s)/den(s) e^{-s delay} (1 + reset_rate/s)`` at ``s = j omega`` (Horner's rule)."""
     out = np.empty(omega.size, dtype=np.complex128)
     for k in range(omega.size):
-        w = omega[k]
-        nr, ni = _polyval(num, w)
-        dr, di = _polyval(den, w)
-        qr, qi = _divide(nr, ni, dr, di)
-        y = -(w * delay)
-        rr, ri = _multiply(qr, qi, math.cos(y), math.sin(y))
-        rr, ri = _multiply(sign, 0.0, rr, ri)
-        pr, pi = _divide(reset_rate, 0.0, 0.0, w)
-        lr, li = _multiply(rr, ri, 1.0 + pr, 0.0 + pi)
-        out[k] = complex(lr, li)
+        s = complex(0.0, omega[k])
+        n, d = 0j, 0j
+        for c in num:
+            n = n * s + c
+        for c in den:
+            d = d * s + c
+        out[k] = sign * (n / d * cmath.exp(-s * delay)) * (1.0 + reset_rate / s)
     return out
 
 
@@ -187,9 +133,8 @@ def _first_violation_fast(loop: np.ndarray, gains: np.ndarray, target: float) ->
 
 @numba.njit(cache=True)
 def _first_violation_kernel(loop, gains, threshold):  # pragma: no cover - compiled
-    """:func:`_first_violation` for a finite ``loop`` (else -1), frequency by frequency: ``|L|`` as
-    numpy's complex ``abs`` computes it (``max(|re|, |im|) sqrt(fma(r, r, 1))``, ``r`` the ratio of the
-    smaller to the larger), ``searchsorted(side="right")`` as a binary search."""
+    """:func:`_first_violation` for a finite ``loop`` (else -1), frequency by frequency, with
+    ``searchsorted(side="right")`` as a binary search."""
     best = gains.size
     for k in range(loop.size):
         re, im = loop[k].real, loop[k].imag
@@ -197,9 +142,7 @@ def _first_violation_kernel(loop, gains, threshold):  # pragma: no cover - compi
             continue
         if not (abs(re) <= _LARGEST and abs(im) <= _LARGEST):
             return -1
-        larger, smaller = max(-re, abs(im)), min(-re, abs(im))
-        ratio = smaller / larger  # larger > 0: re < 0
-        magnitude = math.sqrt(_fma(ratio, ratio, 1.0)) * larger
+        magnitude = abs(loop[k])
         b = magnitude * magnitude
         discriminant = re * re - b * threshold
         if not discriminant > 0:
