@@ -6,6 +6,13 @@
 ``T_ar`` (Ingimundarson eq. 10), ``T_a`` (Gorez-Klan appendix B), ``tau``, ``theta`` and the SOPDT
 model (eq. 2-7 .. 2-10).
 
+The run is causal and stops at its first event: sample ``k`` aborts if its true output leaves
+``[-excursion_limit, excursion_limit]`` or if the loop diverges there (a component of the next
+state reaches ``DIVERGENCE_LIMIT`` times the largest input so far, ``max(1, |r|, |n_0|, .., |n_k|)``
+with ``n`` the measurement noise; sample ``k`` is then the last with finite outputs), and it
+settles if both steady-state tests pass.  The first such sample ends the run (else the cap) and
+nothing after it is simulated (the noise is drawn in blocks, see :func:`_run_closed_loop`).
+
 References
 ----------
 .. [GK] R. Gorez, P. Klan, "Simple models for process control", section 2 and appendix B.
@@ -15,7 +22,6 @@ References
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -183,29 +189,37 @@ def _run_closed_loop(
     excursion_limit: float | None,
     block=None,
 ) -> _ClosedLoopRun:
-    """Simulate over growing horizons (doubling) until steady state, the cap, or an excursion.
+    """Simulate the loop sample by sample until steady state, the cap, an excursion or a divergence.
 
-    ``block`` is ``controller.block()`` if the caller has it; ``noise`` is drawn as the horizons grow
+    ``block`` is ``controller.block()`` if the caller has it; ``noise`` is drawn as the run goes
     (or given, one sample per sample of the longest run allowed).
 
-    The run is that of :func:`~envs.experiment_base.run_until_settled` with chunks of
-    ``CHUNK_WINDOWS`` windows, each continuing the loop's recursion and testing only its new samples;
-    the divergence limit is that of the whole horizon.  It stops at the first chunk that settles or
-    aborts, with the same last sample and the same samples up to it as simulating and testing every
-    horizon from the start.  Each horizon is one compiled call
-    (:func:`envs.run_kernels._closed_loop_run`), which simulates and tests sample by sample and gives
-    the outcome of those chunks; the signals returned end at the last sample used.
+    Sample ``k`` (inputs ``[amplitude, 0, noise[k]]``) settles if the windows ending at it pass both
+    steady-state tests (:func:`~envs.steady_state.steady_state_mask`: the measurement at
+    ``amplitude``, the drive steady); it aborts if its true output leaves
+    ``[-excursion_limit, excursion_limit]`` or if a component of the next state reaches
+    ``DIVERGENCE_LIMIT * max(1, |amplitude|, max_{j <= k} |noise[j]|)`` (the largest input so far:
+    sample ``k`` is the last with finite outputs).  The run ends at the first sample that settles or
+    aborts, else at the cap; every test is causal, so that sample and the signals up to it are
+    those of simulating and testing any longer run from the start.  The run is compiled
+    (:func:`envs.run_kernels._closed_loop_run`), one call per block of noise drawn
+    (``NOISE_BLOCK_WINDOWS`` windows, doubling), or one call if the noise is given or zero.
     """
-    first_steps = max(16 * window, 64)
     noise = as_noise(noise)
     system = closed_loop_of_block(plant, controller.block() if block is None else block)
     run = _CompiledRun(plant.integrating, discretize(system, dt), amplitude, noise, window, excursion_limit)
-    start, horizon = 0, min(first_steps, noise.size)
+    begin, size = 0, (max(NOISE_BLOCK_WINDOWS * window, 64) if noise.drawn_as_needed else noise.size)
     while True:
-        outcome, end = run.horizon(start, horizon)
-        if outcome != NO_EVENT or horizon == noise.size:
+        until = min(begin + size, noise.size)
+        outcome, end = run.advance(begin, until)
+        if outcome != NO_EVENT or until == noise.size:
             return run.result(outcome, end)
-        start, horizon = horizon, min(2 * horizon, noise.size)
+        begin, size = until, 2 * size
+
+
+NOISE_BLOCK_WINDOWS = 8
+"""Windows of noise drawn for the first call of the run (then twice as many each call): a run that
+settles early draws few normals more than it uses, and a long one needs few calls."""
 
 
 @dataclass(frozen=True)
@@ -216,48 +230,26 @@ class _ClosedLoopRun(ExperimentRun):
 
 
 class _CompiledRun:
-    """The run of :func:`_run_closed_loop`, horizon by horizon in compiled calls
-    (:func:`envs.run_kernels._closed_loop_run`), continued in :class:`_RunBuffers`."""
+    """The run of :func:`_run_closed_loop` in compiled calls (:func:`envs.run_kernels._closed_loop_run`),
+    each continuing the run in :class:`_RunBuffers`."""
 
     def __init__(self, integrating, discrete, amplitude, noise, window, excursion_limit) -> None:
         self.arrays = _without_load(loop_arrays(discrete))
         whole = self.arrays[-2]
         self.offset = max([1] + [int(w) + 1 for w in whole])
         self.noise, self.reference, self.dt = noise, float(amplitude), float(discrete.dt)
-        self.chunk = CHUNK_WINDOWS * window
         limit = 0.0 if excursion_limit is None else float(excursion_limit)
         self.settings = (int(window), bool(integrating), self.dt, limit, excursion_limit is not None)
-        self.peak = _InputPeak(self.reference)
         self.buffers = _RunBuffers(discrete.Phi.shape[0], whole.size, self.offset, discrete.system.n_outputs, noise.size)
+        self.buffers.peak[0] = max(1.0, abs(self.reference))  # the largest input before any noise
 
-    def horizon(self, start: int, stop: int) -> tuple[int, int]:
-        """The horizon of samples ``start .. stop - 1`` (after those before it): ``(outcome, end)``.
-
-        Noise drawn as needed is drawn in blocks of 2, 4, ... chunks, each run under the divergence
-        limit of the samples drawn so far; a divergence under it is checked against the limit of the
-        whole horizon, and if that is higher (a larger sample later) the horizon runs again under it.
-        """
-        saved = self.buffers.x.copy()  # the state at the start of the horizon
-        begin, block = start, (2 * self.chunk if self.noise.drawn_as_needed else stop - start)
-        while True:
-            until = min(begin + block, stop)
-            values = self.noise.first(until)
-            limit = DIVERGENCE_LIMIT * max(1.0, self.peak.over(values))  # that of the horizon if until == stop
-            outcome, end, diverged = self._call(values, limit, start, stop, begin, until)
-            if diverged and until < stop:
-                whole_limit = DIVERGENCE_LIMIT * max(1.0, self.peak.over(self.noise.first(stop)))
-                if whole_limit != limit:
-                    self.buffers.x[:] = saved
-                    return self._call(self.noise.first(stop), whole_limit, start, stop, start, stop)[:2]
-            if outcome != NO_EVENT or until == stop:
-                return outcome, end
-            begin, block = until, 2 * block
-
-    def _call(self, values, limit, start, stop, begin, until) -> tuple[int, int, bool]:
+    def advance(self, begin: int, until: int) -> tuple[int, int]:
+        """The samples ``begin .. until - 1`` (after those before them), drawing their noise:
+        ``(outcome, end)``, ``end`` the sample that settled or aborted, else ``until - 1``."""
         b = self.buffers
         return _closed_loop_run(
-            *self.arrays, self.offset, self.reference, values, limit, b.x, b.history, b.z, b.measured, b.drive, b.sums,
-            *self.settings, start, stop, self.chunk, begin, until,
+            *self.arrays, self.offset, self.reference, self.noise.first(until), DIVERGENCE_LIMIT, b.peak,
+            b.x, b.history, b.z, b.measured, b.drive, b.sums, *self.settings, begin, until,
         )  # fmt: skip
 
     def result(self, outcome: int, end: int) -> _ClosedLoopRun:
@@ -265,21 +257,6 @@ class _CompiledRun:
         b, k = self.buffers, end + 1
         signals = np.arange(k) * self.dt, b.z[:k, 1].copy(), b.measured[:k].copy(), b.z[:k, 0].copy()
         return _ClosedLoopRun(*signals, end, outcome == SETTLED, outcome == ABORTED, b.drive[:k].copy())
-
-
-class _InputPeak:
-    """``max |d|`` over the inputs ``[reference, 0, noise[:count]]``, continued as ``count`` grows;
-    NaN if one is (as ``np.max``)."""
-
-    def __init__(self, reference: float) -> None:
-        self._peak, self._count = abs(reference), 0
-
-    def over(self, noise: np.ndarray) -> float:
-        if noise.size > self._count:
-            fresh = float(np.max(np.abs(noise[self._count :])))
-            self._peak = fresh if math.isnan(fresh) or math.isnan(self._peak) else max(self._peak, fresh)
-            self._count = noise.size
-        return self._peak
 
 
 def _without_load(arrays: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
@@ -299,7 +276,8 @@ def _without_load(arrays: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
 
 class _RunBuffers:
     """The arrays :func:`envs.run_kernels._closed_loop_run` continues from one horizon to the next
-    (state, delayed signals, outputs, measurement, drive, running sums), for the longest run allowed.
+    (state, delayed signals, outputs, measurement, drive, running sums, largest input so far), for the
+    longest run allowed.
 
     Uninitialized but for the rows before sample 0 (a run fills each row before it reads it): only
     the pages a run reaches are touched, and a horizon needs no copy of the earlier ones.
@@ -313,10 +291,7 @@ class _RunBuffers:
         self.measured, self.drive = np.empty(size), np.empty(size)
         self.sums = np.empty((2, 3, size + 1))
         self.sums[:, :, 0] = 0.0  # the running sums before sample 0
-
-
-CHUNK_WINDOWS = 4
-"""Windows simulated and tested at a time within a horizon (a run stops within a chunk of settling)."""
+        self.peak = np.ones(1)
 
 
 def _identify_closed_loop(

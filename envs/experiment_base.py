@@ -14,16 +14,23 @@ Conventions (see :mod:`envs.experiments` for the full list)
   the noise level, duration or outcome of the experiment), and the child's standard normals are
   drawn only for the samples actually simulated, as the run grows.  So a seed gives the same noise
   whatever the noise level; the noise of an experiment does not depend on how long the earlier
-  ones ran; and an experiment that settles after ``n`` samples draws ``n`` normals, not the
-  ``n_max`` of the longest run allowed (drawing those up front was the largest single cost of an
-  environment's reset).  Drawn in parts or at once, a stream gives the same normals, so the
-  noise of a sample does not depend on how the run was split into horizons and chunks either.
+  ones ran; and an experiment that settles after ``n`` samples draws about ``n`` normals (to the
+  end of the block it drew them in), not the ``n_max`` of the longest run allowed (drawing those
+  up front was the largest single cost of an environment's reset).  Drawn in parts or at once, a
+  stream gives the same normals, so the noise of a sample does not depend on how the run was split
+  into horizons, chunks or blocks either.
   The child is seeded from the parent's stream rather than by ``Generator.spawn``: spawned
   children depend on the ``SeedSequence``'s count of children, which is not part of the
   generator's state (a copied, pickled or restored generator would give other noise), while a
   drawn seed makes the noise a function of the generator's state alone.
-* A run is simulated over growing horizons (doubling) until it settles, reaches the cap, or the
-  true output leaves ``[-excursion_limit, excursion_limit]``.
+* A run to steady state ends at its first event, judged causally (each sample on the samples up
+  to it only): the first sample that settles, or whose true output leaves
+  ``[-excursion_limit, excursion_limit]``, or, in closed loop, at which the loop diverges (a
+  component of the next state reaches ``DIVERGENCE_LIMIT`` times the largest input so far; the
+  outputs up to that sample are finite); else the cap.  The open-loop runs reach it over growing
+  horizons (doubling) in chunks (:func:`run_until_settled`), the closed-loop step sample by sample
+  in compiled calls (:func:`envs.closed_loop_experiment._run_closed_loop`); either way the sample
+  and the signals up to it are those of simulating and testing the whole run.
 """
 
 from __future__ import annotations

@@ -7,9 +7,10 @@ closed-loop step run that fuses them.
 * :func:`_add_sample` and :func:`_window_steady` are one sample of the running sums and one window
   of the tests of :func:`envs.steady_state.steady_state_mask` (:func:`_extend_sums` and
   :func:`_tests` run them over new samples for :class:`envs.steady_state.SteadyStateTest`);
-* :func:`_closed_loop_run` runs the closed-loop step of :mod:`envs.closed_loop_experiment` over one
-  horizon sample by sample (the loop, the measurement, the drive, both steady-state tests and the
-  excursion) and stops at the first sample that settles or aborts.
+* :func:`_closed_loop_run` runs the closed-loop step of :mod:`envs.closed_loop_experiment` sample
+  by sample (the loop, the measurement, the drive, both steady-state tests, the excursion
+  and the divergence under the largest input so far) and stops at the first sample that settles or
+  aborts.
 
 They share one file because a compiled function may only call compiled functions of its own file:
 numba's on-disk cache is per file and does not notice an edit to a function inlined from another
@@ -194,28 +195,28 @@ def _tests(c, n, first, size, target, has_target, out):  # pragma: no cover - co
 # --------------------------------------------------------------------------- the closed-loop step run
 @numba.njit(cache=True)
 def _closed_loop_run(
-    Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, offset, reference, noise, limit,
-    x, history, z, measured, drive, sums, window, integrating, dt, excursion, has_excursion, start, stop, chunk, begin, until,
+    Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, offset, reference, noise, divergence_limit, peak,
+    x, history, z, measured, drive, sums, window, integrating, dt, excursion, has_excursion, begin, until,
 ):  # pragma: no cover - compiled  # fmt: skip
-    """The closed-loop step of :func:`envs.closed_loop_experiment._run_closed_loop` over the samples
-    ``begin .. until - 1`` of the horizon ``start .. stop - 1`` (``begin`` and ``until`` are ends of
-    its chunks); returns ``(outcome, index, diverged)``: ``(SETTLED, k, ...)``, ``(ABORTED, k, ...)``
-    or ``(NO_EVENT, until - 1, False)``, ``diverged`` if a state step reached ``limit``.
+    """The closed-loop step of :func:`envs.closed_loop_experiment._run_closed_loop` from sample
+    ``begin`` (after the samples before it) until the first sample that settles or aborts, or to
+    ``until - 1``; returns ``(SETTLED, k)``, ``(ABORTED, k)`` or ``(NO_EVENT, until - 1)``.
 
     Sample ``k`` of the loop (:func:`_loop_sample`, inputs ``[reference, 0, noise[k]]``, or
-    ``[reference, noise[k]]`` if the caller dropped the columns of the zero input, outputs ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` and the drive
-    (``u``, or its trapezoidal integral ``drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1])``
-    with ``t[k] = k dt`` if ``integrating``, the numbers of
-    :func:`envs.closed_loop_experiment._cumulative_integral`), whose running sums ``sums[0]`` and ``sums[1]`` give the
-    steady-state tests of the windows ending at ``k`` (the measurement against ``reference``).  ``x``,
-    ``history``, ``z``, ``measured``, ``drive`` and ``sums`` carry the run from one call to the next.
+    ``[reference, noise[k]]`` if the caller dropped the columns of the zero input, outputs
+    ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` and the drive (``u``, or
+    its trapezoidal integral ``drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1])`` with
+    ``t[k] = k dt`` if ``integrating``, the numbers of
+    :func:`envs.closed_loop_experiment._cumulative_integral`), whose running sums ``sums[0]`` and
+    ``sums[1]`` give the steady-state tests of the windows ending at ``k`` (the measurement against
+    ``reference``).
 
-    The outcome is that of the chunks of ``chunk`` samples of the horizon that the run simulated and
-    tested one at a time before (:func:`envs.experiment_base.run_until_settled`): the first sample
-    ``k`` whose true output leaves ``[-excursion, excursion]`` or whose state step reached ``limit``
-    aborts at ``k``; otherwise the first steady sample settles.  As there, the chunk of the outcome is
-    simulated to its end, and a divergence at the last sample of a chunk aborts at sample 0 (the
-    old run found no finite sample after it and reported the first).
+    Sample ``k`` aborts if its true output leaves ``[-excursion, excursion]`` (``has_excursion``) or
+    if a component of the next state reaches ``divergence_limit * peak[0]``, ``peak[0]`` being the
+    largest input so far, ``max(1, |reference|, |noise[0]|, .., |noise[k]|)`` (causal: the outcome
+    of sample ``k`` depends on no later sample); otherwise it settles if both tests pass.  ``x``,
+    ``history``, ``z``, ``measured``, ``drive``, ``sums`` and ``peak`` carry the run from one call to
+    the next.
     """
     n, nv = Phi.shape[0], a.size
     x_next = np.zeros(n)
@@ -224,36 +225,33 @@ def _closed_loop_run(
     inputs = Gamma.shape[1]
     d = np.zeros((1, inputs))  # the input [reference, 0, noise[k]] of sample k, or [reference, noise[k]]
     d[0, 0] = reference
-    outcome, index = NO_EVENT, until - 1
-    next_end = min(start + ((begin - start) // chunk + 1) * chunk, stop)  # the end of the chunk of sample begin
+    largest = peak[0]
+    limit = divergence_limit * largest
     for k in range(begin, until):
         d[0, inputs - 1] = noise[k]
+        size = abs(noise[k])
+        if size > largest:  # the limit grows with the largest input so far
+            largest = size
+            limit = divergence_limit * largest
+            peak[0] = largest
         bounded = _loop_sample(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, 0, limit, offset, k, z, x,
                                x_next, v, past, history)  # fmt: skip
-        chunk_end = k + 1 == next_end  # (k + 1 - start) % chunk == 0 or k + 1 == stop, without a division
-        if chunk_end:
-            next_end = min(next_end + chunk, stop)
-        if outcome == NO_EVENT:
-            y, u = z[k, 0], z[k, 1]
-            measured[k] = y + noise[k]
-            if not integrating:
-                drive[k] = u
-            elif k == 0:
-                drive[k] = 0.0
-            elif k == 1:  # not 0.0 + the area: the sum of numpy.cumsum, -0.0 if the area is (the tests are the same)
-                drive[k] = 0.5 * (u + z[k - 1, 1]) * (float(k) * dt - float(k - 1) * dt)
-            else:
-                drive[k] = drive[k - 1] + 0.5 * (u + z[k - 1, 1]) * (float(k) * dt - float(k - 1) * dt)
-            _add_sample(sums[0], measured, k)
-            _add_sample(sums[1], drive, k)
-            if not bounded or (has_excursion and not abs(y) <= excursion):
-                outcome, index = ABORTED, k
-            elif k >= window - 1 and _window_steady(sums[0], window, k, reference, True) and _window_steady(
-                sums[1], window, k, 0.0, False
-            ):
-                outcome, index = SETTLED, k
-        if not bounded:
-            return (ABORTED, 0, True) if chunk_end else (outcome, index, True)
-        if outcome != NO_EVENT and chunk_end:
-            return outcome, index, False
-    return outcome, index, False
+        y, u = z[k, 0], z[k, 1]
+        measured[k] = y + noise[k]
+        if not integrating:
+            drive[k] = u
+        elif k == 0:
+            drive[k] = 0.0
+        elif k == 1:  # not 0.0 + the area: the sum of numpy.cumsum, -0.0 if the area is (the tests are the same)
+            drive[k] = 0.5 * (u + z[k - 1, 1]) * (float(k) * dt - float(k - 1) * dt)
+        else:
+            drive[k] = drive[k - 1] + 0.5 * (u + z[k - 1, 1]) * (float(k) * dt - float(k - 1) * dt)
+        _add_sample(sums[0], measured, k)
+        _add_sample(sums[1], drive, k)
+        if not bounded or (has_excursion and not abs(y) <= excursion):
+            return ABORTED, k
+        if k >= window - 1 and _window_steady(sums[0], window, k, reference, True) and _window_steady(
+            sums[1], window, k, 0.0, False
+        ):
+            return SETTLED, k
+    return NO_EVENT, until - 1

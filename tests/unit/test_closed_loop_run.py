@@ -1,12 +1,16 @@
 """The compiled closed-loop step run and recursion against the paths they replaced, bit for bit.
 
-* :func:`envs.closed_loop_experiment._run_closed_loop` (one compiled call per horizon,
+* :func:`envs.closed_loop_experiment._run_closed_loop` (compiled calls of
   :func:`envs.run_kernels._closed_loop_run`) against the chunked run it replaced, written out here
   (:class:`_ChunkedTrial`: :class:`~envs.simulation.LoopRun` continued chunk by chunk, the new
   samples tested by :class:`~envs.steady_state.SteadyStateTest`, through
   :func:`~envs.experiment_base.run_until_settled`): the same last sample, outcome and signals up to
-  it, on random plants of every family with and without noise, with excursions, divergences and
-  small caps, including a divergence at the last sample of a chunk;
+  it, on random plants of every family with and without noise, with excursions and small caps,
+  for every run that does not diverge;
+* a diverging run against :func:`_causal_divergence` (:class:`~envs.simulation.LoopRun` advanced one
+  sample at a time under the limit of :func:`~envs.simulation.simulate` for the inputs so far): it
+  aborts at the first sample whose state step reaches ``DIVERGENCE_LIMIT`` times the largest input
+  so far, whatever the chunks of the old run, the blocks of noise drawn or the noise after it;
 * the recursion of :func:`envs.simulation.simulate` (:func:`envs.run_kernels._run_one`) against the
   same recursion written as a Python loop.
 """
@@ -16,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envs.closed_loop_experiment import CHUNK_WINDOWS, _cumulative_integral, _loop_sample_time, _run_closed_loop
+from envs.closed_loop_experiment import _cumulative_integral, _loop_sample_time, _run_closed_loop
 from envs.commissioning import commissioning_pi
 from envs.controllers import FPPI, MSP, PID
 from envs.experiment_base import MeasurementNoise, excursion_index, run_until_settled
@@ -27,8 +31,13 @@ from envs.simulation import DIVERGENCE_LIMIT, LoopRun, discretize, simulate
 from envs.steady_state import SteadyStateTest, window_samples
 
 
+CHUNK_WINDOWS = 4
+"""Windows per chunk of the chunked run (that of the closed-loop step before the compiled run)."""
+
+
 class _ChunkedTrial:
-    """``trial(steps, horizon)`` of the closed-loop step as it was before the compiled run."""
+    """``trial(steps, horizon)`` of the closed-loop step as it was before the compiled run (its
+    divergence limit is that of the whole horizon: it is the reference of runs that do not diverge)."""
 
     def __init__(self, plant, system, amplitude, noise, dt, window, excursion_limit, capacity) -> None:
         self.run = LoopRun(discretize(system, dt), capacity)
@@ -88,14 +97,30 @@ def _assert_same_run(new, old) -> None:
         assert a.shape == b.shape and a.tobytes() == b.tobytes(), field
 
 
+class _DrawnNoise(MeasurementNoise):
+    """Given samples, handed out as if drawn as needed (so the run draws them block by block, one
+    compiled call per block)."""
+
+    def __init__(self, values: np.ndarray) -> None:
+        super().__init__(1.0, values.size, None)
+        self._given = values
+
+    @property
+    def drawn_as_needed(self) -> bool:
+        return True
+
+    def first(self, count: int) -> np.ndarray:
+        return self._given[: min(count, self.size)]
+
+
 def _cases():
-    """Random plants of every family under their commissioning PI (or a too aggressive one), with
-    noise, excursion limits and caps."""
+    """Random plants of every family under their commissioning PI (or a too aggressive one: 5 of the
+    72 runs diverge), with noise, excursion limits and caps."""
     cases = []
     for f, family in enumerate(FAMILIES):
         for i, plant in enumerate(sample_plants(family, 12, 40 + f)):
             pi = commissioning_pi(plant)
-            hot = PID(pi.kp * (2.0 + 2.0 * (i % 3)), pi.ti)
+            hot = PID(pi.kp * (2.0 + 6.0 * (i % 3)), None if pi.ti is None else pi.ti * (1.0 - 0.3 * (i % 3)))
             controller = hot if i % 4 == 3 else pi
             noise_std = (0.0, 0.01, 0.1)[i % 3]
             limit = (None, 1.05, 1.5, None)[i % 4]
@@ -106,16 +131,55 @@ def _cases():
 
 @pytest.mark.parametrize("name, plant, controller, noise_std, limit, cap", _cases(), ids=lambda v: v if isinstance(v, str) else "")
 def test_closed_loop_run_equals_the_chunked_run(name, plant, controller, noise_std, limit, cap):
+    """Bit for bit the chunked run unless the loop diverges; a diverging run aborts at the first
+    sample of :func:`_causal_divergence` (or at an excursion before it).  The same run in one
+    compiled call (noise given) and in blocks (noise drawn as needed)."""
     scale = plant.step_time_scale()
     dt = _loop_sample_time(plant, controller.block(), None)
     window = window_samples(scale, dt)
     steps = int(np.ceil(cap * scale / dt)) + 1
     noise = noise_std * np.random.default_rng(len(name)).standard_normal(steps)
     new = _run_closed_loop(plant, controller, 1.0, noise, dt, window, limit)
-    _assert_same_run(new, _chunked_run(plant, controller, 1.0, noise, dt, window, limit))
+    _assert_same_run(_run_closed_loop(plant, controller, 1.0, _DrawnNoise(noise), dt, window, limit), new)
+    old = _chunked_run(plant, controller, 1.0, noise, dt, window, limit)
+    if _diverged(new, limit) or _diverged(old, limit):
+        _assert_causal_abort(new, plant, controller, 1.0, noise, dt, limit)
+    else:
+        _assert_same_run(new, old)
     # the drive the identification uses: the kernel's sums are those of _cumulative_integral
     drive = _cumulative_integral(new.timepts, new.control) if plant.integrating else new.control
     assert new.drive.tobytes() == drive.tobytes()
+
+
+def _diverged(run, limit) -> bool:
+    """Whether ``run`` aborted by a divergence (not by an excursion)."""
+    return run.aborted and (limit is None or abs(run.true_output[run.end]) <= limit)
+
+
+def _causal_divergence(plant, controller, amplitude, noise, dt):
+    """``(j, z)``: the first sample ``j`` whose state step diverges (None if none) under the limit of
+    :func:`~envs.simulation.simulate` for the inputs up to it (``DIVERGENCE_LIMIT`` times the largest
+    so far), by :class:`~envs.simulation.LoopRun` advanced one sample at a time; ``z`` the outputs."""
+    system = closed_loop_of_block(plant, controller.block())
+    inputs = np.column_stack([np.full(noise.size, amplitude), np.zeros(noise.size), noise])
+    run = LoopRun(discretize(system, dt), noise.size)
+    for j in range(noise.size):
+        sim = run.advance(inputs[: j + 1])
+        if sim.diverged:
+            return j, sim.outputs
+    return None, sim.outputs
+
+
+def _assert_causal_abort(new, plant, controller, amplitude, noise, dt, limit) -> None:
+    """``new`` aborted at the first divergence of :func:`_causal_divergence` or at the first
+    excursion before it, with the outputs of the reference up to there."""
+    j, z = _causal_divergence(plant, controller, amplitude, noise[: new.end + 2], dt)
+    excursion = excursion_index(z[: new.end + 1, 0], limit)
+    assert new.aborted and not new.settled
+    assert new.end == (j if excursion is None else excursion)
+    k = new.end + 1
+    assert new.true_output.tobytes() == z[:k, 0].tobytes() and new.control.tobytes() == z[:k, 1].tobytes()
+    assert new.output.tobytes() == (z[:k, 0] + noise[:k]).tobytes()
 
 
 LOOPS = {
@@ -126,7 +190,9 @@ LOOPS = {
 
 
 def _divergence(plant, controller, dt, noise):
-    """The sample whose state step diverges in the run over ``noise``."""
+    """The sample whose state step diverges in the run over ``noise`` (its largest input is the
+    set point: the limit is the same for every prefix)."""
+    assert np.max(np.abs(noise)) <= 1.0
     system = closed_loop_of_block(plant, controller.block())
     inputs = np.column_stack([np.ones(noise.size), np.zeros(noise.size), noise])
     y = simulate(discretize(system, dt), inputs).outputs[:, 0]
@@ -135,24 +201,52 @@ def _divergence(plant, controller, dt, noise):
 
 
 @pytest.mark.parametrize("name", LOOPS)
-def test_divergence_at_the_last_sample_of_a_chunk(name):
-    """The chunked run found no non-finite sample after a divergence at the last sample of a chunk
-    and aborted at sample 0; the compiled run keeps that, with an excursion before it in the chunk
-    or not, and aborts at the divergence (or the excursion) elsewhere."""
+def test_divergence_aborts_at_the_divergence_whatever_the_chunks(name):
+    """The run aborts at the sample whose state step diverges (the last with finite outputs), or at
+    an excursion before it: also where the divergence was at the last sample of one of the old
+    run's chunks (which aborted at sample 0 then), and wherever the cap ends."""
     plant, controller = LOOPS[name]
     dt = simulation_step(plant, controller, 40)
     noise = 0.01 * np.random.default_rng(2).standard_normal(20000)
     j = _divergence(plant, controller, dt, noise)
-    window = j // 3 + 1  # one chunk of 4 windows covers the run up to j
-    for steps, limit, expected in ((j + 1, None, 0), (j + 2, None, j), (j + 1, 1.5, 0), (j + 2, 1.5, None)):
-        args = (plant, controller, 1.0, noise[:steps], dt, window, limit)
-        new, old = _run_closed_loop(*args), _chunked_run(*args)
-        _assert_same_run(new, old)
-        assert new.aborted and not new.settled
-        if expected is not None:
-            assert new.end == expected
-        else:
-            assert 0 < new.end < j and abs(new.true_output[new.end]) > limit
+    quirk = j // 3 + 1  # the old run's first chunk of 4 windows ended at j with the cap at j + 1
+    for window in (quirk, j // 7 + 1, j + 5):
+        for steps, limit in ((j + 1, None), (j + 2, None), (j + 1, 1.5), (j + 2, 1.5), (20000, None)):
+            args = (plant, controller, 1.0, noise[:steps], dt, window, limit)
+            new = _run_closed_loop(*args)
+            _assert_causal_abort(new, plant, controller, 1.0, noise[:steps], dt, limit)
+            assert new.end == (j if limit is None else min(j, excursion_index(new.true_output, limit)))
+            assert np.isfinite(new.true_output).all()
+    old = _chunked_run(plant, controller, 1.0, noise[: j + 1], dt, quirk, None)
+    assert old.aborted and old.end == 0  # the quirk the compiled run no longer has
+
+
+@pytest.mark.parametrize("name", LOOPS)
+@pytest.mark.parametrize("spike", [0.5, 3.0, 50.0, 1e6])
+def test_divergence_limit_is_that_of_the_inputs_so_far(name, spike):
+    """A large noise sample raises the limit from its sample on: after the divergence it changes
+    nothing (the limit is causal, whatever the blocks of noise drawn); before it, the run aborts at
+    the first sample that reaches the limit of the inputs so far (:func:`_causal_divergence`)."""
+    plant, controller = LOOPS[name]
+    dt = simulation_step(plant, controller, 40)
+    noise = 0.01 * np.random.default_rng(3).standard_normal(20000)
+    j = _divergence(plant, controller, dt, noise)
+    for window in (j // 6 + 1, j // 20 + 1):  # j in the first block of noise drawn or a later one
+        for at in (j + 1, j + 5 * window, j - window, j // 2, 0):
+            spiky = noise.copy()
+            spiky[at] = spike
+            args, rest = (plant, controller, 1.0), (dt, window, None)
+            new = _run_closed_loop(*args, _DrawnNoise(spiky), *rest)
+            given = _run_closed_loop(*args, spiky, *rest)  # one call: the same run
+            _assert_same_run(new, given)
+            if new.aborted:
+                _assert_causal_abort(new, plant, controller, 1.0, spiky, dt, None)
+            else:  # a large spike before the divergence raised the limit: no divergence up to the end
+                assert spike == 1e6 and at < j
+                k, z = _causal_divergence(plant, controller, 1.0, spiky[: new.end + 1], dt)
+                assert k is None and new.true_output.tobytes() == z[:, 0].tobytes()
+            if at > j:  # the noise after the divergence changes neither the run nor its limit
+                assert new.end == j
 
 
 def _recursion_reference(discrete, inputs):
@@ -210,41 +304,3 @@ def test_compiled_recursion_matches_the_python_loop(name):
     z = simulate(discrete, inputs).outputs
     reference = _recursion_reference(discrete, inputs)
     assert z.tobytes() == reference.tobytes()
-
-
-class _SpikyNoise(MeasurementNoise):
-    """Given samples, handed out as if drawn as needed (so the run works under provisional limits)."""
-
-    def __init__(self, values: np.ndarray) -> None:
-        super().__init__(1.0, values.size, None)
-        self._given = values
-
-    @property
-    def drawn_as_needed(self) -> bool:
-        return True
-
-    def first(self, count: int) -> np.ndarray:
-        return self._given[: min(count, self.size)]
-
-
-@pytest.mark.parametrize("name", LOOPS)
-@pytest.mark.parametrize("spike", [0.5, 3.0, 50.0, 1e6])
-def test_divergence_under_the_limit_of_noise_not_drawn_yet(name, spike):
-    """Noise is drawn block by block within a horizon (blocks of 2, 4, ... chunks), under the
-    divergence limit of the samples drawn so far; a divergence under it is checked against the limit
-    of the whole horizon (a larger sample later in the horizon raises it) and the horizon is run
-    again under that: the same run as the chunked one."""
-    plant, controller = LOOPS[name]
-    dt = simulation_step(plant, controller, 40)
-    noise = 0.01 * np.random.default_rng(3).standard_normal(20000)
-    j = _divergence(plant, controller, dt, noise)
-    for window in (j // 6 + 1, j // 20 + 1):  # j in the first block of the first or of the second horizon
-        block_end, horizon_end = (8 * window, 16 * window) if j < 8 * window else (24 * window, 32 * window)
-        assert block_end - 8 * window <= j < block_end
-        for at, later in ((block_end + 1, True), (horizon_end - 1, True), (horizon_end + 5, False)):
-            spiky = noise.copy()
-            spiky[at] = spike
-            args, rest = (plant, controller, 1.0), (dt, window, None)
-            new = _run_closed_loop(*args, _SpikyNoise(spiky), *rest)
-            _assert_same_run(new, _chunked_run(*args, spiky, *rest))
-            assert new.aborted and (new.end > j if later and spike > 1.0 else new.end in (j, 0))

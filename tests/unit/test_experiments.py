@@ -249,6 +249,23 @@ def test_closed_loop_step_excursion_aborts():
     assert result.duration < 5.0
 
 
+@pytest.mark.parametrize("noise_std", [0.0, 0.3])
+def test_closed_loop_step_divergence_aborts_at_its_last_finite_sample(noise_std):
+    """A too aggressive PI diverges: the run aborts at the sample whose next state reaches the limit
+    of the inputs so far (its outputs are the last finite ones), whatever the cap beyond it."""
+    plant = lags(2.0, [1.0], 1.0)
+    runs = [
+        closed_loop_step(plant, rng(4), noise_std=noise_std, controller=PID(kp=5.0, ti=0.5), max_duration=cap)
+        for cap in (60.0, 150.0)
+    ]
+    for result in runs:
+        assert result.aborted and not result.settled and result.duration > 0.0
+        assert np.isfinite(result.true_output).all() and np.isfinite(result.control).all()
+        assert np.max(np.abs(result.true_output)) > 1e3 and math.isnan(result.gain)
+    assert runs[0].true_output.tobytes() == runs[1].true_output.tobytes()
+    assert runs[0].output.tobytes() == runs[1].output.tobytes()
+
+
 def test_closed_loop_step_with_a_given_controller():
     plant = lags(1.0, [1.0], 1.0)
     result = closed_loop_step(plant, rng(), controller=PID(kp=0.5, ti=1.5))
