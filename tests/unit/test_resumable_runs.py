@@ -2,8 +2,8 @@
 
 The experiments and the IAE extend a simulation by doubling its horizon until it settles.  They
 continue it from the saved state and delay buffer (:class:`envs.simulation.LoopRun`,
-:class:`envs.simulation.OpenLoopRun`), the experiments reach each horizon in chunks and stop at the
-first chunk that settles, and only the new samples are tested for steady state
+:class:`envs.simulation.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.run_kernels`, which
+stops at its first steady or aborting sample), and only the new samples are tested for steady state
 (:func:`envs.steady_state.steady_state_tail`, :class:`envs.steady_state.SteadyStateTest`).  The recursions and the running sums are causal, so
 the results must be those of restarting every horizon from rest, bit for bit: every comparison here
 is exact.  The references are the methods the fast paths replaced, written out.
