@@ -51,7 +51,7 @@ import numpy as np
 from envs.controllers import FPPI, MSP, PID, Controller, SeriesPID
 from envs.plants import Plant
 
-__all__ = ["QuasiRational", "feedback_transfer", "loop_transfer"]
+__all__ = ["QuasiRational", "feedback_transfer", "loop_packed", "loop_transfer", "packed"]
 
 Polynomial = tuple[float, ...]  # coefficients in descending powers of s
 Terms = tuple[tuple[Polynomial, float], ...]  # (a_i, alpha_i): sum_i a_i(s) e^{-alpha_i s}
@@ -86,6 +86,23 @@ def _rows(terms: Terms) -> tuple[np.ndarray, np.ndarray]:
     return np.array(rows, dtype=float), np.array([delay for _, delay in terms], dtype=float)
 
 
+def packed(numerator: Terms, denominator: Terms) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """Both sides in one flat array, as :func:`envs.compiled_robustness.packed_margins` takes them:
+    the rows of :func:`_rows` of the numerator, its dead times, then those of the denominator; and
+    the shapes ``(numerator rows, width, denominator rows, width)``.  One array of Python floats
+    built at once: each ``numpy.array`` call costs about a microsecond."""
+    flat: list[float] = []
+    shape: list[int] = []
+    for terms in (numerator, denominator):
+        width = max(len(coefficients) for coefficients, _ in terms)
+        for coefficients, _ in terms:
+            flat.extend((0.0,) * (width - len(coefficients)))
+            flat.extend(coefficients)
+        flat.extend(delay for _, delay in terms)
+        shape += (len(terms), width)
+    return np.array(flat, dtype=float), (shape[0], shape[1], shape[2], shape[3])
+
+
 @dataclass(frozen=True)
 class QuasiRational:
     """``sum_i a_i(s) e^{-alpha_i s} / sum_j b_j(s) e^{-beta_j s}``.
@@ -114,6 +131,10 @@ class QuasiRational:
         """``(rows, dead times)`` of the numerator, then of the denominator, as
         :func:`envs.compiled_robustness.transfer_at` takes them."""
         return _rows(self.numerator) + _rows(self.denominator)
+
+    def packed(self) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+        """:func:`packed` of the two sides."""
+        return packed(self.numerator, self.denominator)
 
 
 def _pid(controller: PID | SeriesPID) -> QuasiRational:
@@ -162,8 +183,18 @@ def feedback_transfer(controller: Controller) -> QuasiRational:
 
 def loop_transfer(plant: Plant, controller: Controller) -> QuasiRational:
     """``L(s) = P(s) C_fb(s)``, equal to :func:`envs.loops.loop_response` to rounding."""
+    return QuasiRational(*_loop_terms(plant, controller))
+
+
+def loop_packed(plant: Plant, controller: Controller) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """``loop_transfer(plant, controller).packed()``, without the intermediate object."""
+    return packed(*_loop_terms(plant, controller))
+
+
+def _loop_terms(plant: Plant, controller: Controller) -> tuple[Terms, Terms]:
+    """The numerator and denominator terms of ``P C_fb``."""
     c = feedback_transfer(controller)
-    return QuasiRational(
+    return (
         tuple((_multiply(plant.num, a), plant.delay + alpha) for a, alpha in c.numerator),
         tuple((_multiply(plant.den, b), beta) for b, beta in c.denominator),
     )
