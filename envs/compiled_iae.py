@@ -303,8 +303,11 @@ def expm(A):  # pragma: no cover - compiled
     """``e^A`` by scaling and squaring (Higham 2005, Algorithm 2.3)."""
     n = A.shape[0]
     norm = 0.0
-    for c in range(n):
-        norm = max(norm, np.sum(np.abs(A[:, c])))
+    for c in range(n):  # the 1-norm; each column summed in order from 0.0, as numba's np.sum does
+        column = 0.0
+        for r in range(n):
+            column += abs(A[r, c])
+        norm = max(norm, column)
     identity = np.eye(n)
     squarings = 0
     if norm <= _THETA[3]:
@@ -350,11 +353,24 @@ def expm(A):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _product(A, B):  # pragma: no cover - compiled
-    """``A @ B`` for the small matrices here (no BLAS call)."""
+    """``A @ B`` for the small matrices here (no BLAS call), each entry summed over ``k`` in order.
+
+    The terms of a zero ``A[i, k]`` are skipped where the row ``B[k]`` is finite (the matrices of
+    the discretization are mostly zero blocks): they are zeros, and a zero added to a sum that
+    starts at ``+0.0`` leaves it unchanged (such a sum is never ``-0.0``), so the result is that
+    of every term, bit for bit.  Where ``B[k]`` holds an ``inf`` or ``nan`` they are added (``nan``).
+    """
     out = np.zeros((A.shape[0], B.shape[1]))
+    finite = np.ones(B.shape[0], dtype=np.bool_)
+    for k in range(B.shape[0]):
+        for j in range(B.shape[1]):
+            if not math.isfinite(B[k, j]):
+                finite[k] = False
     for i in range(A.shape[0]):
         for k in range(A.shape[1]):
             a = A[i, k]
+            if a == 0.0 and finite[k]:
+                continue
             for j in range(B.shape[1]):
                 out[i, j] += a * B[k, j]
     return out
