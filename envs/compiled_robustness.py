@@ -128,8 +128,11 @@ def _analysis(transfer, integrators, time_scale, high_points, low_decades, setti
     omega = _logspace(math.log10(low), math.log10(high), count)
     omega, values = _refine(transfer, omega, _values(transfer, omega), max_arg_step, max_points)
     unstable = _winding(values, integrators)
+    magnitudes, closed = np.empty(omega.size), np.empty(omega.size)  # |L| and |1 + L| on the grid, once
+    for i in range(omega.size):
+        magnitudes[i], closed[i] = _magnitude(values[i]), _magnitude(1 + values[i])
 
-    gains, phase = _crossovers(transfer, omega, values, root_xtol, max_root_iterations)
+    gains, phase = _crossovers(transfer, omega, values, magnitudes, root_xtol, max_root_iterations)
     at_gains, at_phase = _values(transfer, gains), _values(transfer, phase)
     negative = 0  # the phase crossovers with Re L < 0, in place
     for i in range(phase.size):
@@ -137,7 +140,7 @@ def _analysis(transfer, integrators, time_scale, high_points, low_decades, setti
             phase[negative], at_phase[negative] = phase[i], at_phase[i]
             negative += 1
     phase, at_phase = phase[:negative], at_phase[:negative]
-    peaks = _peaks(transfer, omega, values, peak_points, peak_spacing)
+    peaks = _peaks(transfer, omega, magnitudes, closed, peak_points, peak_spacing)
     return unstable, tame, peaks, _gain_margin(phase, at_phase), _phase_and_delay_margins(gains, at_gains), gains, phase
 
 
@@ -387,23 +390,36 @@ def _winding(values, integrators):  # pragma: no cover - compiled
 
 
 @jit
-def _crossovers(transfer, omega, values, xtol, max_iterations):  # pragma: no cover - compiled
+def _crossovers(transfer, omega, values, magnitudes, xtol, max_iterations):  # pragma: no cover - compiled
     """:func:`envs.robustness._crossovers`: the gain crossovers (``log |L| = 0``) and the phase
     crossovers (``Im L = 0``), each the grid points where the function is zero and the root of every
-    bracket, in increasing order."""
+    bracket, in increasing order (``magnitudes = |L|`` on the grid).
+
+    ``log |L|`` is taken only at the ends of a bracket: elsewhere only its sign enters, which is
+    that of ``|L| - 1`` (``log`` is exact at 1 and, away from 1, at least about ``1e-16`` in size,
+    far above its rounding), so the tests on ``|L|`` below are those on ``log |L|`` (a product of
+    two logarithms cannot underflow to zero)."""
     n = omega.size
-    samples = np.empty((2, n))
-    for i in range(n):
-        samples[0, i], samples[1, i] = math.log(_magnitude(values[i])), values[i].imag
     roots, found = np.empty((2, n)), np.zeros(2, dtype=np.int64)
     for kind in range(2):
-        f = samples[kind]
         for i in range(n):
-            if f[i] == 0:
+            if kind == 0:
+                zero = magnitudes[i] == 1.0
+                change = i < n - 1 and (
+                    (magnitudes[i] < 1.0 and magnitudes[i + 1] > 1.0) or (magnitudes[i] > 1.0 and magnitudes[i + 1] < 1.0)
+                )
+            else:
+                zero = values[i].imag == 0
+                change = i < n - 1 and values[i].imag * values[i + 1].imag < 0
+            if zero:
                 roots[kind, found[kind]] = omega[i]
                 found[kind] += 1
-            elif i < n - 1 and f[i] * f[i + 1] < 0:
-                x = _chandrupatla(transfer, kind, math.log(omega[i]), math.log(omega[i + 1]), f[i], f[i + 1], xtol, max_iterations)
+            elif change:
+                if kind == 0:
+                    fa, fb = math.log(magnitudes[i]), math.log(magnitudes[i + 1])
+                else:
+                    fa, fb = values[i].imag, values[i + 1].imag
+                x = _chandrupatla(transfer, kind, math.log(omega[i]), math.log(omega[i + 1]), fa, fb, xtol, max_iterations)
                 roots[kind, found[kind]] = math.exp(x)
                 found[kind] += 1
     return roots[0, : found[0]].copy(), roots[1, : found[1]].copy()
@@ -462,14 +478,15 @@ def _argmax(samples):  # pragma: no cover - compiled
 
 
 @jit
-def _peaks(transfer, omega, values, points, spacing):  # pragma: no cover - compiled
+def _peaks(transfer, omega, magnitudes, closed, points, spacing):  # pragma: no cover - compiled
     """:func:`envs.robustness._peaks`: ``(Ms, frequency, Mt, frequency)``, each grid maximum refined
-    by zoomed sampling and a parabola."""
+    by zoomed sampling and a parabola (``magnitudes = |L|``, ``closed = |1 + L|`` on the grid: the
+    terms of :func:`_measure`)."""
     best, at_best = np.empty(2), np.empty(2)
     for k in range(2):
-        samples = np.empty(values.size)
-        for i in range(values.size):
-            samples[i] = _measure(values[i], k)
+        samples = np.empty(omega.size)
+        for i in range(omega.size):
+            samples[i] = 1 / closed[i] if k == 0 else magnitudes[i] / closed[i]
         i = _argmax(samples)
         best[k], at_best[k] = samples[i], omega[i]
         low, high = math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])
