@@ -119,6 +119,18 @@ class Score:
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
 
 
+_SCORE_FIELDS = tuple(f.name for f in fields(Score))
+
+
+def _new_score(*values: Any) -> Score:
+    """``Score(*values)`` (every field given) for the hot path: a frozen dataclass's ``__init__``
+    sets each of the 16 fields through ``object.__setattr__``, about 2 us of a scoring; this fills
+    the same instance dictionary at once (``Score`` has no ``__post_init__``)."""
+    made = object.__new__(Score)
+    made.__dict__.update(zip(_SCORE_FIELDS, values))
+    return made
+
+
 def _violations(margins: Margins, relative_delay_margin: float, constraints: Constraints) -> dict[str, float]:
     """Relative violation of each active constraint (only those that are violated)."""
     if not margins.stable:
@@ -157,10 +169,10 @@ def score(
     experiment_cost = weights.experiment * experiment_time / scale
     if violations:
         undefined = math.inf if not margins.stable else math.nan
-        return Score(
+        return _new_score(
             FEASIBLE_CAP + 1 + sum(violations.values()), False, violations, margins.stable, margins.ms,
             margins.gain_margin, margins.phase_margin_deg, margins.delay_margin, relative_dm,
-            undefined, undefined, undefined, undefined, experiment_cost, margins,
+            undefined, undefined, undefined, undefined, experiment_cost, margins, False,
         )  # fmt: skip
     load_scale = abs(plant.gain) * scale * (scale if plant.integrating else 1.0)
     bound = IAEBound(weights.load / load_scale, weights.setpoint / scale, FEASIBLE_CAP - experiment_cost)
@@ -168,7 +180,7 @@ def score(
     load_cost = weights.load * performance.load / load_scale
     setpoint_cost = weights.setpoint * performance.setpoint / scale
     cost = min(load_cost + setpoint_cost + experiment_cost, FEASIBLE_CAP)
-    return Score(
+    return _new_score(
         cost, True, {}, True, margins.ms, margins.gain_margin, margins.phase_margin_deg, margins.delay_margin,
         relative_dm, performance.load, performance.setpoint, load_cost, setpoint_cost, experiment_cost, margins,
         performance.lower_bound,

@@ -307,3 +307,35 @@ def test_msp_uncertainty_bound_is_eq_40_from_the_characteristic_equation():
     c_fb = MSP(gain, ln, tr).feedback_response(omega)
     p_n = gain * np.exp(-1j * omega * ln) / (1j * omega)
     np.testing.assert_allclose(msp_uncertainty_bound(omega, gain, ln, tr), np.abs(1 + c_fb * p_n) / np.abs(c_fb), rtol=1e-12)
+
+
+def test_assembled_margins_are_the_dataclass_built_by_its_constructor():
+    """``assemble_margins`` fills the fields at once: the same object as ``Margins(...)``."""
+    from dataclasses import fields
+
+    from envs.robustness import Margins
+
+    plant = Plant.from_time_constants(1.0, [1.0, 0.5], 0.4)
+    for controller in (PID(kp=0.8, ti=1.2, td=0.2), PID(kp=9.0, ti=0.3)):
+        made = plant_margins(plant, controller)
+        built = Margins(**{f.name: getattr(made, f.name) for f in fields(Margins)})
+        assert made == built and made.__dict__ == built.__dict__
+        assert list(made.__dict__) == [f.name for f in fields(Margins)]
+        with pytest.raises(AttributeError):
+            made.ms = 0.0  # still frozen
+
+
+def test_packed_path_gives_the_margins_of_the_quasi_rational_path():
+    """``plant_margins`` hands the loop over packed (``loop_packed``): the figures of
+    ``quasi_rational_margins(loop_transfer(...))`` bit for bit."""
+    from envs.compiled_robustness import quasi_rational_margins
+    from envs.loop_transfer import loop_packed, loop_transfer
+
+    stable, integrating = Plant.from_time_constants(2.0, [1.0, 0.3], 0.5), Plant.from_time_constants(1.0, [0.5], 0.5, integrating=True)
+    loops = ((stable, PID(kp=0.8, ti=1.2, td=0.2)), (stable, FPPI(2.0, 1.0, 0.5, 1.0, 0.1)), (integrating, MSP(1.0, 0.8, 2.0)))
+    for plant, controller in loops:
+        transfer = loop_transfer(plant, controller)
+        packed, shape = loop_packed(plant, controller)
+        assert packed.tobytes() == transfer.packed()[0].tobytes() and shape == transfer.packed()[1]
+        integrators = int(plant.integrating) + controller.integrators
+        assert plant_margins(plant, controller) == quasi_rational_margins(transfer, integrators, plant.step_time_scale())
