@@ -18,6 +18,14 @@ Design:
   the winding number counts the crossings of the negative real axis by the polyline of ``1 + L``
   (the sum of its angle steps, with two arctangents instead of one per interval); an interval
   left unrefined by one pass is not tested again; ``10^y`` is ``e^{y ln 10}``.
+* Work skipped where its result is provably not used, and nothing else (the figures are those of
+  the full computation bit for bit, ``tests/unit/test_robustness.py``): the low-frequency decades
+  are evaluated as needed; a high-frequency decade's sweep stops once the decade certainly fails;
+  ``log |L|`` is taken only at the ends of gain brackets (elsewhere only its sign, that of
+  ``|L| - 1``, enters); ``|L|`` and ``|1 + L|`` on the grid are computed once; each side's summed
+  coefficients are formed once per loop (:func:`_prepare`), and a side of one term reuses their
+  polynomial's value for its term.  The loop arrives as one packed array
+  (:func:`packed_margins`), which numba unboxes quicker than a tuple of arrays.
 * Everything compiled is in this file: numba invalidates its cache of a function only when the
   function's own file changes, so a compiled callee or a constant imported from another module
   would be kept stale.  The constants are passed in (:data:`SETTINGS`, built from
