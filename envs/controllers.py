@@ -21,7 +21,7 @@ Each class gives ``feedback_response``/``reference_response`` (exact, dead times
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
 
@@ -136,7 +136,11 @@ class PID:
         return _rational_block(*self._coefficients)  # the cached transfer_function()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"type": "pid", **asdict(self)}
+        return {"type": "pid", **self._fields()}
+
+    def _fields(self) -> dict[str, Any]:
+        """``dataclasses.asdict(self)`` of the four number fields (without its deep copies)."""
+        return {"kp": self.kp, "ti": self.ti, "td": self.td, "n": self.n}
 
 
 @dataclass(frozen=True)
@@ -154,6 +158,7 @@ class SeriesPID:
 
     __post_init__ = PID.__post_init__
     integrators = PID.integrators
+    _fields = PID._fields
 
     @classmethod
     def gorez_klan(cls, gain: float, time_constants: tuple[float, float], dead_time: float, mu: float, n: float) -> "SeriesPID":
@@ -189,7 +194,7 @@ class SeriesPID:
     block = PID.block
 
     def to_dict(self) -> dict[str, Any]:
-        return {"type": "pid-series", **asdict(self)}
+        return {"type": "pid-series", **self._fields()}
 
 
 @dataclass(frozen=True)

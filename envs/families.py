@@ -52,7 +52,7 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
-from envs.plants import Plant
+from envs.plants import Plant, shape_residence_time
 
 __all__ = [
     "FAMILIES",
@@ -447,7 +447,7 @@ def _sample_random(rng: np.random.Generator, config: RandomFamilyConfig) -> Plan
     residence_time = _log_uniform(rng, config.residence_time)
     sign = -1.0 if rng.random() < config.negative_gain_probability else 1.0
     gain = sign * _log_uniform(rng, config.gain)
-    scale = (1.0 - fraction) * residence_time / Plant(tuple(num), tuple(den), 0.0).residence_time
+    scale = (1.0 - fraction) * residence_time / shape_residence_time(tuple(num), tuple(den))  # the plant below is validated
     num, den = gain * _time_scaled(num, scale), _time_scaled(den, scale)
     if config.integrating:
         den = np.convolve(den, [1.0, 0.0])

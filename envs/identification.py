@@ -39,6 +39,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numba
 import numpy as np
 
 from envs.plants import Plant
@@ -82,6 +83,12 @@ _THETA_STEP = 2.0 * float(np.finfo(float).eps)  # convergence of theta_from_tau:
 # --------------------------------------------------------------------------- validation
 def _signals(timepts: Any, **signals: Any) -> tuple[np.ndarray, ...]:
     """Validate a time grid and signals sampled on it."""
+    if _plain(timepts) and timepts.size >= 2 and all(_plain(v) and v.size == timepts.size for v in signals.values()):
+        # The experiments' own signals: the same arrays (contiguous, as ravel() makes them), each checked by
+        # one compiled pass.
+        arrays = (np.ascontiguousarray(timepts), *(np.ascontiguousarray(v) for v in signals.values()))
+        if _increasing_and_finite(arrays[0]) and all(_all_finite(v) for v in arrays[1:]):
+            return arrays
     t = np.asarray(timepts, dtype=float).ravel()
     if t.size < 2:
         raise ValueError(f"timepts must hold at least 2 samples, got {t.size}")
@@ -96,6 +103,142 @@ def _signals(timepts: Any, **signals: Any) -> tuple[np.ndarray, ...]:
             raise ValueError(f"{name} must be finite")
         out.append(v)
     return tuple(out)
+
+
+def _plain(values: Any) -> bool:
+    """A 1-D float64 array (which :func:`_signals` only makes contiguous)."""
+    return type(values) is np.ndarray and values.ndim == 1 and values.dtype == np.float64
+
+
+@numba.njit(cache=True)
+def _increasing_and_finite(t):  # pragma: no cover - compiled
+    """``np.isfinite(t).all() and not (t[1:] <= t[:-1]).any()`` (without early exits, which vectorize)."""
+    ok = True
+    for i in range(t.size):
+        ok &= abs(t[i]) <= _LARGEST
+    for i in range(1, t.size):
+        ok &= t[i] > t[i - 1]
+    return ok
+
+
+@numba.njit(cache=True)
+def _all_finite(v):  # pragma: no cover - compiled
+    """``np.isfinite(v).all()``."""
+    ok = True
+    for i in range(v.size):
+        ok &= abs(v[i]) <= _LARGEST
+    return ok
+
+
+_LARGEST = float(np.finfo(float).max)  # |x| <= _LARGEST: x is finite (NaN compares False)
+
+
+# --------------------------------------------------------------------------- trapezoidal rule
+# numpy.trapezoid(y, t) is ``(diff(t) * (y[1:] + y[:-1]) / 2.0).sum()``, and numpy sums a contiguous
+# float64 array from the identity 0.0 by pairwise summation (blocks of at most 128 terms, each summed
+# in eight interleaved partial sums).  The compiled functions below form the same terms and add them
+# in the same order, so they return the same bits without the temporary arrays and numpy calls; the
+# unit tests compare them with numpy.trapezoid.
+@numba.njit(cache=True)
+def _block_sum(a, lo, n):  # pragma: no cover - compiled
+    """numpy's pairwise sum of ``a[lo:lo + n]`` for ``n <= 128`` (no further splitting)."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = lo + 8
+    stop = lo + n - n % 8
+    while i < stop:
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < lo + n:
+        res += a[i]
+        i += 1
+    return res
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(a, lo, n):  # pragma: no cover - compiled
+    """numpy's pairwise sum of ``a[lo:lo + n]`` (``DOUBLE_pairwise_sum``): above 128 terms, the sum of
+    the first ``n2 = n/2 - (n/2) % 8`` terms plus the sum of the rest, each summed the same way.
+
+    The recursion is unrolled into an explicit stack (numba's cache does not handle recursive
+    functions); the additions are the same, in the same order.
+    """
+    starts, sizes = np.empty(64, np.int64), np.empty(64, np.int64)
+    stages, lefts = np.zeros(64, np.int64), np.empty(64)
+    top, starts[0], sizes[0], stages[0] = 0, lo, n, 0
+    result = 0.0
+    while top >= 0:
+        start, size = starts[top], sizes[top]
+        half = size // 2
+        half -= half % 8
+        if size <= 128:  # a leaf: its sum goes to the frame below
+            result = _block_sum(a, start, size)
+            top -= 1
+        elif stages[top] == 0:  # sum the first part
+            stages[top] = 1
+            top += 1
+            starts[top], sizes[top], stages[top] = start, half, 0
+        elif stages[top] == 1:  # first part done: sum the rest
+            lefts[top], stages[top] = result, 2
+            top += 1
+            starts[top], sizes[top], stages[top] = start + half, size - half, 0
+        else:  # both parts done
+            result = lefts[top] + result
+            top -= 1
+    return result
+
+
+@numba.njit(cache=True)
+def _sum(terms):  # pragma: no cover - compiled
+    """``float(terms.sum())`` of a contiguous float64 array."""
+    return 0.0 + _pairwise_sum(terms, 0, terms.size)
+
+
+@numba.njit(cache=True)
+def _trapezoid(y, t):  # pragma: no cover - compiled
+    """``float(numpy.trapezoid(y, t))`` of 1-D float64 arrays of the same size."""
+    terms = np.empty(max(t.size - 1, 0))
+    for i in range(terms.size):
+        terms[i] = (t[i + 1] - t[i]) * (y[i + 1] + y[i]) / 2.0
+    return _sum(terms)
+
+
+@numba.njit(cache=True)
+def _trapezoid_of_distance(y, z, t):  # pragma: no cover - compiled
+    """``float(numpy.trapezoid(numpy.abs(y - z), t))``."""
+    terms = np.empty(max(t.size - 1, 0))
+    for i in range(terms.size):
+        terms[i] = (t[i + 1] - t[i]) * (abs(y[i + 1] - z[i + 1]) + abs(y[i] - z[i])) / 2.0
+    return _sum(terms)
+
+
+@numba.njit(cache=True)
+def _moments(t, s, initial, final):  # pragma: no cover - compiled
+    """``(M_0, M_1)`` of :func:`_normalized_moments`: the trapezoids of ``c = 1 - (s - initial)/(final -
+    initial)`` and of ``(t - t[0]) c``, with numpy's operations and sums."""
+    n = t.size
+    c = np.empty(n)
+    for i in range(n):
+        c[i] = 1.0 - (s[i] - initial) / (final - initial)
+    first, second = np.empty(max(n - 1, 0)), np.empty(max(n - 1, 0))
+    for i in range(n - 1):
+        step = t[i + 1] - t[i]
+        first[i] = step * (c[i + 1] + c[i]) / 2.0
+        second[i] = step * ((t[i + 1] - t[0]) * c[i + 1] + (t[i] - t[0]) * c[i]) / 2.0
+    return _sum(first), _sum(second)
 
 
 # --------------------------------------------------------------------------- models
@@ -408,12 +551,12 @@ def integrate(timepts: np.ndarray, values: np.ndarray, end: float | None = None)
     """
     t, v = _signals(timepts, values=values)
     if end is None or end >= t[-1]:
-        return float(np.trapezoid(v, t))
+        return _trapezoid(v, t)
     if end <= t[0]:
         return 0.0
     k = int(np.searchsorted(t, end, side="right"))  # t[k-1] <= end < t[k]
     v_end = np.interp(end, t, v)
-    return float(np.trapezoid(v[:k], t[:k]) + 0.5 * (v[k - 1] + v_end) * (end - t[k - 1]))
+    return float(_trapezoid(v[:k], t[:k]) + 0.5 * (v[k - 1] + v_end) * (end - t[k - 1]))
 
 
 def normalized_moments(timepts: np.ndarray, signal: np.ndarray, initial: float, final: float) -> tuple[float, float]:
@@ -437,9 +580,7 @@ def _normalized_moments(t: np.ndarray, s: np.ndarray, initial: float, final: flo
     """:func:`normalized_moments` of signals already validated by :func:`_signals`."""
     if final == initial:
         raise ValueError(f"final must differ from initial, both are {final!r}")
-    complement = 1.0 - (s - initial) / (final - initial)
-    elapsed = t - t[0]
-    return float(np.trapezoid(complement, t)), float(np.trapezoid(elapsed * complement, t))
+    return _moments(t, s, float(initial), float(final))  # the trapezoids of 1 - z and (t - t_0)(1 - z)
 
 
 def residence_time_from_area(
@@ -478,7 +619,7 @@ def residence_time_from_area(
 def _normalized_area(t: np.ndarray, s: np.ndarray, initial: float, final: float, name: str) -> float:
     if final == initial:
         raise ValueError(f"{name} must change between the initial and the final level, both are {final!r}")
-    return float(np.trapezoid((s - initial) / (final - initial), t))
+    return _trapezoid((s - initial) / (final - initial), t)
 
 
 @dataclass(frozen=True)
@@ -594,7 +735,7 @@ def mismatch_time(timepts: np.ndarray, response: np.ndarray, model: FOPDTModel) 
     and a gain mismatch makes it grow linearly: both are real effects of the experiment.
     """
     t, y = _signals(timepts, response=response)
-    return float(np.trapezoid(np.abs(y - model.step_response(t)), t)) / abs(model.gain)
+    return _trapezoid_of_distance(y, model.step_response(t), t) / abs(model.gain)
 
 
 def pulse_mismatch_area(
@@ -608,8 +749,27 @@ def pulse_mismatch_area(
     """
     t, y = _signals(timepts, output=output)
     height, duration = require_number(height, "height", nonzero=True), require_number(duration, "duration", positive=True)
+    if not model.time_constant:  # K_v max(t - L, 0): the response and the integral in one compiled pass
+        return _pulse_distance(t, y, model.gain, model.dead_time, height, duration) / abs(height * duration)
     model_output = height * (model.step_response(t) - model.step_response(t - duration))
-    return float(np.trapezoid(np.abs(y - model_output), t)) / abs(height * duration)
+    return _trapezoid_of_distance(y, model_output, t) / abs(height * duration)
+
+
+@numba.njit(cache=True)
+def _pulse_distance(t, y, gain, dead_time, height, duration):  # pragma: no cover - compiled
+    """``numpy.trapezoid(abs(y - y_n), t)`` for the pulse response ``y_n = h (s(t) - s(t - tau_p))`` of
+    ``K_v e^{-L s}/s``, ``s(t) = K_v max(t - L, 0)``: the same operations as
+    :meth:`IntegratingModel.step_response` (the sign of a zero ``max``, which numpy's SIMD and scalar
+    loops may choose differently, is lost in ``abs``)."""
+    distance = np.empty(t.size)
+    for i in range(t.size):
+        now = max(t[i] - dead_time, 0.0)
+        before = max((t[i] - duration) - dead_time, 0.0)
+        distance[i] = abs(y[i] - height * (gain * now - gain * before))
+    terms = np.empty(max(t.size - 1, 0))
+    for i in range(terms.size):
+        terms[i] = (t[i + 1] - t[i]) * (distance[i + 1] + distance[i]) / 2.0
+    return _sum(terms)
 
 
 # --------------------------------------------------------------------------- reaction curve

@@ -50,10 +50,10 @@ def closed_loop(plant: Plant, controller: Controller) -> DelaySystem:
 def closed_loop_of_block(plant: Plant, cb) -> DelaySystem:
     """:func:`closed_loop` from the controller's ``block()``, for a caller that already has it."""
     derivatives, outputs, delayed, delays = _rows(plant, cb)
-    split = (derivatives.shape[0], derivatives.shape[0] + 3)  # the columns of x, d = [r, l, n] and v
+    n, m = derivatives.shape[0], derivatives.shape[0] + 3  # the columns of x, d = [r, l, n] and v
 
-    def matrices(rows: np.ndarray) -> list[np.ndarray]:
-        return np.hsplit(rows, split)
+    def matrices(rows: np.ndarray) -> tuple[np.ndarray, ...]:
+        return rows[:, :n], rows[:, n:m], rows[:, m:]  # the views of np.hsplit(rows, (n, m))
 
     return DelaySystem(*matrices(derivatives), *matrices(outputs), *matrices(delayed), delays)
 

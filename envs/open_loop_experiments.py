@@ -444,7 +444,8 @@ def open_loop_pulse(
     dt = duration / pulse_samples
     steps = cap_steps(scale, dt, max_duration, minimum=3.0 * (duration + model.dead_time))
     noise = measurement_noise(rng, noise_std, steps)
-    inputs = np.where(np.arange(steps) < pulse_samples, height, 0.0)
+    inputs = np.zeros(steps)  # np.where(np.arange(steps) < pulse_samples, height, 0.0), without the index array
+    inputs[:pulse_samples] = height
     window = window_samples(max(model.dead_time, duration), dt)
     start = pulse_samples + window
     run = _run_to_steady_state(plant, inputs, noise, dt, window, start, excursion_limit)

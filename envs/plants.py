@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Sequence
 
+import numba
 import numpy as np
 import scipy.linalg
 import scipy.signal
@@ -68,9 +69,30 @@ def _roots(coefficients: np.ndarray) -> np.ndarray:
         return np.zeros(0)
     if p.size == 2:
         return np.array([-p[1] / p[0]])
-    companion = np.diag(np.ones(p.size - 2), -1)
+    m = p.size - 1
+    companion = np.zeros((m, m))  # numpy.roots's np.diag(np.ones(m - 1), -1), without its calls
+    companion.ravel()[m :: m + 1] = 1.0
     companion[0, :] = -p[1:] / p[0]
     return np.linalg.eigvals(companion)
+
+
+def _balanced(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``scipy.linalg.matrix_balance(A, permute=False, separate=True)`` as ``(B, scaling)``: the same
+    LAPACK ``dgebal`` call, without its generic validation and permutation bookkeeping (most of its cost).
+
+    A matrix that is not finite, or a LAPACK error, is left to ``matrix_balance`` (its error).
+    """
+    if A.dtype == np.float64 and A.ndim == 2 and A.shape[0] == A.shape[1] > 0 and np.isfinite(A).all():
+        B, lo, hi, ps, info = _DGEBAL(A, scale=1, permute=0)
+        if info >= 0:
+            scaling = np.ones_like(ps, dtype=float)
+            scaling[lo : hi + 1] = ps[lo : hi + 1]
+            return B, scaling
+    B, (scaling, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    return B, scaling
+
+
+_DGEBAL = scipy.linalg.get_lapack_funcs("gebal", (np.zeros((1, 1)),))  # the dgebal matrix_balance uses
 
 
 def _controllable_form(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -92,6 +114,67 @@ def _controllable_form(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np
     B[0, 0] = 1.0
     C = num[None, 1:] - num[0] * den[None, 1:]
     return A, B, C, np.array([[num[0]]])
+
+
+def _taylor_coefficients(num: tuple[float, ...], den: tuple[float, ...], delay: float) -> tuple[float, float]:
+    """``(p1, p2)`` of :meth:`Plant.taylor_coefficients` for the rational part ``num/den`` (without the
+    integrator) and the dead time ``delay``.
+
+    Only the three lowest coefficients enter, so they are read as Python floats (the same divisions
+    as on arrays, without building them).
+    """
+    n1 = num[-2] / num[-1] if len(num) > 1 else 0.0  # ascending, normalized: 1 + n1 s + n2 s^2
+    n2 = num[-3] / num[-1] if len(num) > 2 else 0.0
+    d1 = den[-2] / den[-1] if len(den) > 1 else 0.0
+    d2 = den[-3] / den[-1] if len(den) > 2 else 0.0
+    g1 = n1 - d1  # appendix A: n1 = g1 + d1
+    g2 = n2 - d1 * g1 - d2  # n2 = g2 + d1 g1 + d2
+    L = delay
+    p1 = g1 - L  # times e^{-Ls} = 1 - L s + L^2 s^2 / 2
+    p2 = g2 - L * g1 + L * L / 2
+    return float(p1), float(p2)
+
+
+def shape_residence_time(num: Any, den: Any) -> float:
+    """``T_ar`` of ``Plant(num, den, 0.0)`` (stable ``num/den``), without building and validating the plant.
+
+    For samplers that only need the residence time of a shape they then scale into a plant, which is
+    validated; the coefficients are normalized exactly as :class:`Plant` does.
+    """
+    num, den = _as_coefficients(num, "num"), _as_coefficients(den, "den")
+    scale = den[0]
+    num = tuple(v / scale for v in num)
+    den = tuple(v / scale for v in den)
+    if den[-1] == 0.0:
+        den = den[:-1]
+    return -_taylor_coefficients(num, den, 0.0)[0]
+
+
+@numba.njit(cache=True)
+def _scaled_controllable_form(num, den, scale):  # pragma: no cover - compiled
+    """``A, B, C, D = _controllable_form(num, den)`` followed by ``A / scale``, ``B / scale``: the same
+    elementwise operations, for a numerator whose normalized leading coefficient is not trimmed."""
+    n = den.size - 1
+    lead = den[0]
+    padded = np.zeros(den.size)  # num / den[0], padded to the size of den
+    for i in range(num.size):
+        padded[den.size - num.size + i] = num[i] / lead
+    monic = np.empty(den.size)
+    for i in range(den.size):
+        monic[i] = den[i] / lead
+    A = np.zeros((n, n))  # its zeros stay +0.0 = 0.0 / scale (scale > 0)
+    for j in range(n):
+        A[0, j] = -monic[j + 1] / scale
+    for i in range(1, n):
+        A[i, i - 1] = 1.0 / scale
+    B = np.zeros((n, 1))
+    B[0, 0] = 1.0 / scale
+    C = np.empty((1, n))
+    for j in range(n):
+        C[0, j] = padded[j + 1] - padded[0] * monic[j + 1]
+    D = np.empty((1, 1))
+    D[0, 0] = padded[0]
+    return A, B, C, D
 
 
 @dataclass(frozen=True)
@@ -146,14 +229,15 @@ class Plant:
         self._validate_poles()
 
     def _validate_poles(self) -> None:
-        den = np.asarray(self.den)
-        origin_poles = len(den) - 1 - int(np.flatnonzero(den)[-1])
+        den = self.den  # leading coefficient 1: not all zero
+        origin_poles = 0
+        while den[len(den) - 1 - origin_poles] == 0.0:
+            origin_poles += 1
         if origin_poles > 1:
             raise ValueError(f"den has {origin_poles} poles at s=0: at most one integrator is allowed")
         if self.num[-1] == 0.0:
             raise ValueError("num has a zero at s=0: the plant has zero gain")
-        rest = den[: len(den) - origin_poles]
-        poles = _roots(rest)
+        poles = _roots(den[: len(den) - origin_poles])
         if poles.size and np.max(poles.real) >= 0.0:
             worst = poles[np.argmax(poles.real)]
             raise ValueError(f"den has an unstable pole at s={worst:.6g}: the plant must be stable or integrating")
@@ -268,17 +352,7 @@ class Plant:
 
     @cached_property
     def _taylor_coefficients(self) -> tuple[float, float]:
-        num, den = self.rational_part
-        n = np.asarray(num[::-1]) / num[-1]  # ascending, normalized: 1 + n1 s + n2 s^2
-        d = np.asarray(den[::-1]) / den[-1]
-        n1, n2 = (n[1] if n.size > 1 else 0.0), (n[2] if n.size > 2 else 0.0)
-        d1, d2 = (d[1] if d.size > 1 else 0.0), (d[2] if d.size > 2 else 0.0)
-        g1 = n1 - d1  # appendix A: n1 = g1 + d1
-        g2 = n2 - d1 * g1 - d2  # n2 = g2 + d1 g1 + d2
-        L = self.delay
-        p1 = g1 - L  # times e^{-Ls} = 1 - L s + L^2 s^2 / 2
-        p2 = g2 - L * g1 + L * L / 2
-        return float(p1), float(p2)
+        return _taylor_coefficients(*self.rational_part, self.delay)
 
     @property
     def residence_time(self) -> float:
@@ -314,9 +388,12 @@ class Plant:
         powers = np.arange(self.order, -1, -1)  # descending powers of s, as in den
         num = np.asarray(self.num) * scale ** -powers[len(powers) - len(self.num) :]
         den = np.asarray(self.den) * scale**-powers
-        A, B, C, D = _controllable_form(num, den)
-        A, B = A / scale, B / scale
-        A, (factors, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+        if abs(num[0] / den[0]) > 1e-14:  # _controllable_form and the division by scale, in one compiled call
+            A, B, C, D = _scaled_controllable_form(num, den, scale)
+        else:
+            A, B, C, D = _controllable_form(num, den)
+            A, B = A / scale, B / scale
+        A, factors = _balanced(A)
         return _read_only(StateSpace(A=A, B=B / factors[:, None], C=C * factors[None, :], D=np.atleast_2d(D)))
 
     def step_time_scale(self) -> float:

@@ -18,6 +18,7 @@ import bisect
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.linalg
 
@@ -140,14 +141,26 @@ def relay_feedback(
     sign = 1.0 if plant.gain > 0 else -1.0
     relay = _RelaySimulation(plant, dt, amplitude * sign, hysteresis, values[0])
     aborted = converged = False
-    for j in range(1, steps):
+    drawn = noise.first(NOISE_BLOCK)
+    j = 1
+    while j < steps:
         if j == len(values):
-            values = noise.first(j + NOISE_BLOCK).tolist()
+            drawn = noise.first(j + NOISE_BLOCK)
+            values = drawn.tolist()
+        # The samples without a switch or a plant-input event run compiled (relay.plain_steps); the
+        # sample that has one, by relay.step, as every sample did before (the same numbers).
+        stop = min(steps, len(values))
+        j, aborted = relay.plain_steps(drawn, j, stop, excursion_limit)
+        if aborted:
+            break
+        if j == stop:
+            continue
         switched = relay.step(values[j])
         aborted = relay.aborted(excursion_limit)
         converged = not aborted and switched and relay.periodic(period_tolerance)
         if aborted or converged or (switched and relay.unresolved()):
             break
+        j += 1
     return _relay_result(relay, scale, amplitude, hysteresis, aborted, converged)
 
 
@@ -177,6 +190,7 @@ class _RelaySimulation:
         self.C, self.D = ss.C[0], float(ss.D[0, 0])
         self.delay, self.dt, self.level, self.hysteresis = plant.delay, dt, level, hysteresis
         self.full_step = self._propagator(dt)
+        self._full_step_matrix = np.ascontiguousarray(self.full_step[0])  # for _plain_steps (the same products)
         self.event_tolerance = 1e-12 * dt  # an event this close to the end of a step belongs to the next
         self._forced = (None, None)  # (plant input u, gamma u) of the full step, for the last u
         self.x = np.zeros(self.A.shape[0])
@@ -211,6 +225,33 @@ class _RelaySimulation:
         else:
             phi, gamma = self._propagator(end - now)
         return phi.dot(x) + gamma * plant_input, plant_input, next_event
+
+    def plain_steps(self, noise: np.ndarray, first: int, stop: int, limit: float | None) -> tuple[int, bool]:
+        """Samples ``first .. stop - 1`` (noise ``noise[j]``) as :meth:`step` runs them, up to the first
+        that switches the relay or has a plant-input event inside it (not run; :meth:`step` runs it).
+
+        Returns the next sample to run and whether the last one run left ``[-limit, limit]`` (it
+        stops there).  A plant without states is left to :meth:`step`.
+        """
+        if self.A.shape[0] == 0 or first >= stop:
+            return first, False
+        if self._forced[0] != self.plant_input:
+            self._forced = (self.plant_input, self.full_step[1] * self.plant_input)
+        pending = self.events[self.next_event][0] if self.next_event < len(self.events) else math.inf
+        count = stop - first
+        times, true, measured = np.empty(count), np.empty(count), np.empty(count)
+        done, aborted, x = _plain_steps(
+            self._full_step_matrix, self.x, self._forced[1], self.C, self.D, self.plant_input, self.times[-1], self.dt,
+            self.state, self.hysteresis, pending, self.event_tolerance, noise, first, stop, limit is not None,
+            0.0 if limit is None else float(limit), times, true, measured,
+        )  # fmt: skip
+        if done:
+            self.x = x
+            self.times.extend(times[:done].tolist())
+            self.true.extend(true[:done].tolist())
+            self.measured.extend(measured[:done].tolist())
+            self.relay_output.extend([self.state * self.level] * done)
+        return first + done, aborted
 
     def step(self, noise: float) -> bool:
         """Advance one sample; True if the relay switched."""
@@ -279,6 +320,36 @@ class _RelaySimulation:
         if spread <= 10.0 * noise:  # chattering on noise (too little hysteresis): not a limit cycle
             return 0.0
         return tolerance + 3.0 * math.sqrt(2.0) * noise / (2.0 * math.pi * spread)
+
+
+@numba.njit(cache=True)
+def _plain_steps(phi, x, forced, C, D, plant_input, time, dt, state, hysteresis, pending, tolerance, noise, first, stop,
+                 limited, limit, times, true, measured):  # pragma: no cover - compiled
+    """The samples of :meth:`_RelaySimulation.plain_steps`: ``x <- phi x + gamma u`` and ``y = C x + D u``
+    with the BLAS products of ``ndarray.dot`` (numba's ``np.dot`` calls the same kernels: the unit tests
+    compare the results), stopping before a sample whose measured output crosses the relay's threshold
+    or that contains the pending event, and after one whose true output leaves ``[-limit, limit]``.
+
+    Returns ``(samples run, aborted, x)``; the samples' times and outputs are written to ``times``,
+    ``true``, ``measured``."""
+    threshold = -hysteresis if state > 0 else hysteresis
+    done = 0
+    for j in range(first, stop):
+        end = time + dt
+        if pending < end - tolerance:
+            return done, False, x
+        following = np.dot(phi, x) + forced
+        output = np.dot(C, following) + D * plant_input
+        now = output + noise[j]
+        error = -now
+        if (error < threshold) if state > 0 else (error > threshold):
+            return done, False, x
+        x, time = following, end
+        times[done], true[done], measured[done] = end, output, now
+        done += 1
+        if limited and not abs(output) <= limit:
+            return done, True, x
+    return done, False, x
 
 
 def _relay_result(

@@ -120,7 +120,10 @@ class DeadTimeTuningEnv(gym.Env):
     def parameter_from_action(self, action: float) -> float:
         """The relative parameter (``mu``, ``T_r/T_n`` or ``T_r/L_n``) of an action in [-1, 1], log scale."""
         low, high = (math.log(v) for v in self.parameter_range)
-        a = float(np.clip(action, -1.0, 1.0))
+        if isinstance(action, float):  # a number (as step() passes it): numpy.clip's value without its call
+            a = min(max(float(action), -1.0), 1.0)
+        else:
+            a = float(np.clip(action, -1.0, 1.0))
         return math.exp(low + 0.5 * (a + 1.0) * (high - low))
 
     def action_from_parameter(self, parameter: float) -> float:
