@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from envs.controllers import FPPI, MSP, PID, SeriesPID
-from envs.loops import closed_loop, closed_loop_of_block
+from envs.controllers import FPPI, MSP, PID, SeriesPID, packed_block
+from envs.loops import _rows, closed_loop, closed_loop_of_block, loop_rows
 from envs.plants import Plant
 from envs.simulation import DelaySystem, SystemBuilder
 
@@ -156,3 +156,18 @@ def test_closed_loop_equals_row_algebra(plant_name, controller_name):
     block = controller.block()
     _same(closed_loop_of_block(plant, block), _reference_closed_loop(plant, block))
     _same(closed_loop(plant, controller), _reference_closed_loop(plant, block))
+
+
+@pytest.mark.parametrize("controller_name", CONTROLLERS)
+@pytest.mark.parametrize("plant_name", PLANTS)
+def test_loop_rows_from_packed_block_equal_those_of_the_block(plant_name, controller_name):
+    """loop_rows (the controller's block packed into one array) against the rows of its block()."""
+    plant, controller = PLANTS[plant_name], CONTROLLERS[controller_name]
+    flat, n_states, n_delays = packed_block(controller)
+    block = controller.block()
+    matrices = (block.A, block.B1, block.B2, block.C1, block.D11, block.D12, block.C2, block.D21, block.D22, block.delays)
+    assert (n_states, n_delays) == (block.n_states, block.delays.size)
+    assert flat.tobytes() == np.concatenate([np.ravel(m) for m in matrices]).tobytes()
+    for actual, expected in zip(loop_rows(plant, controller), _rows(plant, block)):
+        assert actual.shape == expected.shape and actual.flags.c_contiguous
+        assert actual.tobytes() == expected.tobytes()
