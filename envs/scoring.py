@@ -36,7 +36,7 @@ from typing import Any
 
 from envs.analysis import plant_margins
 from envs.controllers import Controller
-from envs.performance import IAEBound, iae
+from envs.performance import BOUND_MARGIN, weighted_iae
 from envs.plants import Plant
 from envs.robustness import Margins
 from envs.validation import require_number
@@ -175,8 +175,8 @@ def score(
             undefined, undefined, undefined, undefined, experiment_cost, margins, False,
         )  # fmt: skip
     load_scale = abs(plant.gain) * scale * (scale if plant.integrating else 1.0)
-    bound = IAEBound(weights.load / load_scale, weights.setpoint / scale, FEASIBLE_CAP - experiment_cost)
-    performance = iae(plant, controller, bound=bound)
+    budget = FEASIBLE_CAP - experiment_cost  # the IAEBound(weights.load / load_scale, weights.setpoint / scale, budget)
+    performance = weighted_iae(plant, controller, weights.load / load_scale, weights.setpoint / scale, budget + BOUND_MARGIN * abs(budget))
     load_cost = weights.load * performance.load / load_scale
     setpoint_cost = weights.setpoint * performance.setpoint / scale
     cost = min(load_cost + setpoint_cost + experiment_cost, FEASIBLE_CAP)

@@ -14,7 +14,7 @@ import pytest
 import scipy.signal
 
 from envs.controllers import FPPI, MSP, PID, SeriesPID, packed_block
-from envs.loops import _rows, closed_loop, closed_loop_of_block, loop_rows
+from envs.loops import _rows, closed_loop, closed_loop_of_block, loop_rows, sample_time
 from envs.plants import Plant
 from envs.simulation import DelaySystem, SystemBuilder
 
@@ -171,3 +171,13 @@ def test_loop_rows_from_packed_block_equal_those_of_the_block(plant_name, contro
     for actual, expected in zip(loop_rows(plant, controller), _rows(plant, block)):
         assert actual.shape == expected.shape and actual.flags.c_contiguous
         assert actual.tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("delays", [[], [0.7], [0.02, 3.0], [1e-300, 2.0], [np.nan, 0.5], [0.5, np.nan], [0.0, 1.0], [-0.0, 0.3], [np.inf]])
+def test_sample_time_equals_the_numpy_minimum(delays):
+    """sample_time's Python minimum against float(min(dt, delays.min())) (nan and signed zeros too)."""
+    plant = PLANTS["fopdt"]
+    delays = np.array(delays, dtype=float)
+    dt = plant.step_time_scale() / 50
+    expected = float(min(dt, delays.min())) if delays.size else dt
+    assert repr(sample_time(plant, delays)) == repr(expected)
