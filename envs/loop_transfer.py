@@ -201,21 +201,21 @@ def loop_packed(plant: Plant, controller: Controller) -> tuple[np.ndarray, tuple
     :func:`_multiply`, no fused multiply-adds), so the array is the same bit for bit
     (``tests/unit/test_loop_transfer.py``); they cost about a fifth of the Python version's ~25 us.
     """
-    plant_coefficients = np.array(plant.num + plant.den, dtype=float)
-    size, delay = len(plant.num), float(plant.delay)
     if isinstance(controller, PID | SeriesPID):
         has_ti, ti = controller.ti is not None, 0.0 if controller.ti is None else float(controller.ti)
-        args = (float(controller.kp), has_ti, ti, float(controller.td), float(controller.n), isinstance(controller, SeriesPID))
-        flat, rows, width, denominator_rows, denominator_width = _pid_loop(plant_coefficients, size, delay, *args)
+        kind, args = _PID, (float(controller.kp), ti, float(controller.td), float(controller.n), 0.0, has_ti, isinstance(controller, SeriesPID))
     elif isinstance(controller, FPPI):
-        k = controller.proportional_gain
-        args = (k, float(controller.gain), float(controller.time_constant), float(controller.tf), float(controller.dead_time))
-        flat, rows, width, denominator_rows, denominator_width = _fppi_loop(plant_coefficients, size, delay, *args)
+        fppi = (controller.proportional_gain, float(controller.gain), float(controller.time_constant), float(controller.tf))
+        kind, args = _FPPI, (*fppi, float(controller.dead_time), False, False)
     elif isinstance(controller, MSP):
-        args = (controller.k0, float(controller.gain), float(controller.tr), controller.derivative_time, float(controller.dead_time), bool(controller.extension))
-        flat, rows, width, denominator_rows, denominator_width = _msp_loop(plant_coefficients, size, delay, *args)
+        msp = (controller.k0, float(controller.gain), float(controller.tr), controller.derivative_time)
+        kind, args = _MSP, (*msp, float(controller.dead_time), bool(controller.extension), False)
     else:
         return packed(*_loop_terms(plant, controller))  # raises the TypeError of feedback_transfer
+    plant_coefficients = np.array(plant.num + plant.den, dtype=float)
+    flat, rows, width, denominator_rows, denominator_width = _packed_loop(
+        plant_coefficients, len(plant.num), float(plant.delay), kind, *args
+    )
     return flat, (rows, width, denominator_rows, denominator_width)
 
 
@@ -248,7 +248,7 @@ def _add_c(a, b):  # pragma: no cover - compiled
     """:func:`_add`: the shorter added to the trailing coefficients of the longer."""
     if a.size < b.size:
         a, b = b, a
-    total, pad = a.copy(), a.size - b.size
+    total, pad = _part(a, 0, a.size), a.size - b.size
     for k in range(b.size):
         total[pad + k] = a[pad + k] + b[k]
     return total
@@ -276,19 +276,19 @@ def _packed_c(plant, size, delay, numerator, denominator, denominator_2, beta_2,
     """:func:`packed` of :func:`_loop_terms` for a controller with one numerator term (dead time 0)
     and one or two denominator terms (dead times 0 and ``beta_2``); ``plant`` is the plant's
     numerator (``size`` coefficients) then denominator, ``delay`` its dead time."""
-    plant_numerator, plant_denominator = plant[:size].copy(), plant[size:].copy()
+    plant_numerator, plant_denominator = _part(plant, 0, size), _part(plant, size, plant.size)
     top = _multiply_c(plant_numerator, numerator)
     first = _multiply_c(plant_denominator, denominator)
     second = _multiply_c(plant_denominator, denominator_2) if two_terms else first
     rows = 2 if two_terms else 1
     width = max(first.size, second.size)
-    flat = np.zeros(top.size + 1 + rows * width + rows)
-    flat[: top.size] = top
+    flat = np.zeros(top.size + 1 + rows * width + rows)  # rows padded with leading zeros
+    _put(flat, 0, top)
     flat[top.size] = delay + 0.0  # plant.delay + alpha, alpha = 0.0
     start = top.size + 1
-    flat[start + width - first.size : start + width] = first
+    _put(flat, start + width - first.size, first)
     if two_terms:
-        flat[start + 2 * width - second.size : start + 2 * width] = second
+        _put(flat, start + 2 * width - second.size, second)
         flat[start + 2 * width], flat[start + 2 * width + 1] = 0.0, beta_2
     else:
         flat[start + width] = 0.0
@@ -296,8 +296,42 @@ def _packed_c(plant, size, delay, numerator, denominator, denominator_2, beta_2,
 
 
 @numba.njit(cache=True)
-def _pid_loop(plant, size, delay, kp, has_ti, ti, td, n, series):  # pragma: no cover - compiled
-    """:func:`_pid` and the loop, packed (see :func:`_packed_c`)."""
+def _part(values, start, stop):  # pragma: no cover - compiled
+    """``values[start:stop].copy()`` (explicit loops compile several times faster than slicing)."""
+    part = np.empty(stop - start)
+    for k in range(stop - start):
+        part[k] = values[start + k]
+    return part
+
+
+@numba.njit(cache=True)
+def _put(target, start, values):  # pragma: no cover - compiled
+    """``target[start : start + values.size] = values``."""
+    for k in range(values.size):
+        target[start + k] = values[k]
+
+
+_PID, _FPPI, _MSP = 0, 1, 2  # the controller kinds of _packed_loop
+
+
+@numba.njit(cache=True)
+def _packed_loop(plant, size, delay, kind, a, b, c, d, e, flag, other_flag):  # pragma: no cover - compiled
+    """:func:`loop_packed`: the controller's terms (:func:`_pid_terms`, :func:`_fppi_terms` or
+    :func:`_msp_terms` by ``kind``, parameters ``a .. other_flag`` in their order), then the loop
+    packed by :func:`_packed_c`.  One entry point for the three kinds: each compiled entry costs
+    seconds of cold compilation."""
+    if kind == _PID:
+        numerator, denominator, denominator_2, beta_2, two_terms = _pid_terms(a, b, c, d, flag, other_flag)
+    elif kind == _FPPI:
+        numerator, denominator, denominator_2, beta_2, two_terms = _fppi_terms(a, b, c, d, e)
+    else:
+        numerator, denominator, denominator_2, beta_2, two_terms = _msp_terms(a, b, c, d, e, flag)
+    return _packed_c(plant, size, delay, numerator, denominator, denominator_2, beta_2, two_terms)
+
+
+@numba.njit(cache=True)
+def _pid_terms(kp, ti, td, n, has_ti, series):  # pragma: no cover - compiled
+    """:func:`_pid`: ``(numerator, denominator, denominator, 0.0, False)`` (one term each side)."""
     num, den = np.ones(1), np.ones(1)
     if has_ti:
         num, den = _pair(ti, 1.0), _pair(ti, 0.0)
@@ -306,24 +340,24 @@ def _pid_loop(plant, size, delay, kp, has_ti, ti, td, n, series):  # pragma: no 
         num, den = _add_c(_multiply_c(num, filter_), _multiply_c(den, _pair(td, 0.0))), _multiply_c(den, filter_)
     elif td > 0:
         num, den = _multiply_c(num, _pair(td, 1.0)), _multiply_c(den, _pair(td / n, 1.0))
-    return _packed_c(plant, size, delay, _scale_c(kp, num), den, den, 0.0, False)
+    return _scale_c(kp, num), den, den, 0.0, False
 
 
 @numba.njit(cache=True)
-def _fppi_loop(plant, size, delay, k, gain, tn, tf, dead_time):  # pragma: no cover - compiled
-    """:func:`_fppi` and the loop, packed (see :func:`_packed_c`)."""
+def _fppi_terms(k, gain, tn, tf, dead_time):  # pragma: no cover - compiled
+    """:func:`_fppi`: ``(numerator, rational, (-K K_n,), L_n, True)``."""
     k_kn = k * gain
     rational = np.empty(3)
     rational[0], rational[1], rational[2] = tn * tf, tn + k_kn * tf, k_kn
-    return _packed_c(plant, size, delay, _pair(k * tn, k), rational, np.full(1, -k_kn), dead_time, True)
+    return _pair(k * tn, k), rational, np.full(1, -k_kn), dead_time, True
 
 
 @numba.njit(cache=True)
-def _msp_loop(plant, size, delay, k0, kn, tr, td, dead_time, extension):  # pragma: no cover - compiled
-    """:func:`_msp` and the loop, packed (see :func:`_packed_c`)."""
+def _msp_terms(k0, kn, tr, td, dead_time, extension):  # pragma: no cover - compiled
+    """:func:`_msp`: ``(numerator, K_n predictor lead, -K_n lead, L_n, True)``."""
     f, lead = (_pair(td, 1.0), _pair(td / 10, 1.0)) if extension else (np.ones(1), np.ones(1))
     predictor = _pair(tr, 1.0)
     lead_s = np.zeros(lead.size + 1)  # lead + (0.0,)
-    lead_s[: lead.size] = lead
+    _put(lead_s, 0, lead)
     numerator = _add_c(_scale_c(k0 * kn, _multiply_c(f, predictor)), lead_s)
-    return _packed_c(plant, size, delay, numerator, _scale_c(kn, _multiply_c(predictor, lead)), _scale_c(-kn, lead), dead_time, True)
+    return numerator, _scale_c(kn, _multiply_c(predictor, lead)), _scale_c(-kn, lead), dead_time, True
