@@ -18,6 +18,14 @@ Design:
   the winding number counts the crossings of the negative real axis by the polyline of ``1 + L``
   (the sum of its angle steps, with two arctangents instead of one per interval); an interval
   left unrefined by one pass is not tested again; ``10^y`` is ``e^{y ln 10}``.
+* Work skipped where its result is provably not used, and nothing else (the figures are those of
+  the full computation bit for bit, ``tests/unit/test_robustness.py``): the low-frequency decades
+  are evaluated as needed; a high-frequency decade's sweep stops once the decade certainly fails;
+  ``log |L|`` is taken only at the ends of gain brackets (elsewhere only its sign, that of
+  ``|L| - 1``, enters); ``|L|`` and ``|1 + L|`` on the grid are computed once; each side's summed
+  coefficients are formed once per loop (:func:`_prepare`), and a side of one term reuses their
+  polynomial's value for its term.  The loop arrives as one packed array
+  (:func:`packed_margins`), which numba unboxes quicker than a tuple of arrays.
 * Everything compiled is in this file: numba invalidates its cache of a function only when the
   function's own file changes, so a compiled callee or a constant imported from another module
   would be kept stale.  The constants are passed in (:data:`SETTINGS`, built from
@@ -53,11 +61,14 @@ from envs.robustness import (
     assemble_margins,
 )
 
-__all__ = ["SETTINGS", "quasi_rational_margins", "transfer_at"]
+__all__ = ["SETTINGS", "packed_margins", "quasi_rational_margins", "transfer_at"]
 
 SETTINGS = (float(POINTS_PER_DECADE), MAX_ARG_STEP, MAX_POINTS, ROOT_XTOL, MAX_ROOT_ITERATIONS, PEAK_POINTS, PEAK_SPACING)
 """The constants of :mod:`envs.robustness`, in the order :func:`_analysis` unpacks them (a plain
 tuple: numba's cache index would pickle a named tuple's class by its module's name)."""
+SETTINGS_ARRAY = np.array(SETTINGS, dtype=float)
+""":data:`SETTINGS` as :func:`_analysis` takes them (an array unboxes quicker than a tuple; the
+integers are exact as floats)."""
 EPS = float(np.finfo(float).eps)
 LN10 = math.log(10.0)
 HIGH_FREQUENCY_POINTS = 64  # per decade, as in envs.robustness._high_frequency
@@ -89,30 +100,55 @@ def quasi_rational_margins(transfer: QuasiRational, integrators: int, time_scale
     >>> round(m.gain_margin, 6), round(m.phase_margin_deg, 4), round(m.delay_margin, 6)
     (3.141593, 61.3521, 2.141593)
     """
-    figures = _analysis(transfer.arrays, int(integrators), float(time_scale), HIGH_FREQUENCY_POINTS, LOW_FREQUENCY_DECADES, SETTINGS)
+    return packed_margins(*transfer.packed(), integrators, time_scale)
+
+
+def packed_margins(packed: np.ndarray, shape: tuple[int, int, int, int], integrators: int, time_scale: float = 1.0) -> Margins:
+    """:func:`quasi_rational_margins` of the loop ``packed, shape = QuasiRational.packed()`` (one
+    array and four sizes: arguments that a compiled function unboxes quicker than a tuple of arrays)."""
+    figures = _packed_analysis(
+        packed, *shape, int(integrators), float(time_scale), HIGH_FREQUENCY_POINTS, LOW_FREQUENCY_DECADES, SETTINGS_ARRAY
+    )
     return assemble_margins(*figures)
 
 
 @jit
+def _packed_analysis(packed, numerator_rows, numerator_width, denominator_rows, denominator_width, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover
+    """:func:`_analysis` of a loop given as :meth:`~envs.loop_transfer.QuasiRational.packed` gives it."""
+    size = numerator_rows * numerator_width
+    numerator, numerator_delays = packed[:size].copy().reshape((numerator_rows, numerator_width)), packed[size : size + numerator_rows].copy()
+    start = size + numerator_rows
+    size = denominator_rows * denominator_width
+    denominator = packed[start : start + size].copy().reshape((denominator_rows, denominator_width))
+    denominator_delays = packed[start + size : start + size + denominator_rows].copy()
+    return _analysis(_prepare(numerator, numerator_delays, denominator, denominator_delays), integrators, time_scale, high_points, low_decades, settings)
+
+
+@jit
 def _analysis(transfer, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover - compiled
-    """The body of :func:`envs.robustness.loop_margins`: the arguments of ``assemble_margins``."""
-    points_per_decade, max_arg_step, max_points, root_xtol, max_root_iterations, peak_points, peak_spacing = settings
+    """The body of :func:`envs.robustness.loop_margins`: the arguments of ``assemble_margins``
+    (``transfer`` as :func:`_prepare` gives it, ``settings`` as :data:`SETTINGS_ARRAY`)."""
+    points_per_decade, max_arg_step, root_xtol, peak_spacing = settings[0], settings[1], settings[3], settings[6]
+    max_points, max_root_iterations, peak_points = int(settings[2]), int(settings[4]), int(settings[5])
     low = _low_frequency(transfer, integrators, 1e-3 / time_scale, low_decades)
     high, tame = _high_frequency(transfer, 10.0 / time_scale, high_points)
     count = int(math.ceil(math.log10(high / low) * points_per_decade)) + 1
     omega = _logspace(math.log10(low), math.log10(high), count)
-    omega, values = _refine(transfer, omega, _evaluate(transfer, omega), max_arg_step, max_points)
+    omega, values = _refine(transfer, omega, _values(transfer, omega), max_arg_step, max_points)
     unstable = _winding(values, integrators)
+    magnitudes, closed = np.empty(omega.size), np.empty(omega.size)  # |L| and |1 + L| on the grid, once
+    for i in range(omega.size):
+        magnitudes[i], closed[i] = _magnitude(values[i]), _magnitude(1 + values[i])
 
-    gains, phase = _crossovers(transfer, omega, values, root_xtol, max_root_iterations)
-    at_gains, at_phase = _evaluate(transfer, gains), _evaluate(transfer, phase)
+    gains, phase = _crossovers(transfer, omega, values, magnitudes, root_xtol, max_root_iterations)
+    at_gains, at_phase = _values(transfer, gains), _values(transfer, phase)
     negative = 0  # the phase crossovers with Re L < 0, in place
     for i in range(phase.size):
         if at_phase[i].real < 0:
             phase[negative], at_phase[negative] = phase[i], at_phase[i]
             negative += 1
     phase, at_phase = phase[:negative], at_phase[:negative]
-    peaks = _peaks(transfer, omega, values, peak_points, peak_spacing)
+    peaks = _peaks(transfer, omega, magnitudes, closed, peak_points, peak_spacing)
     return unstable, tame, peaks, _gain_margin(phase, at_phase), _phase_and_delay_margins(gains, at_gains), gains, phase
 
 
@@ -125,21 +161,54 @@ def _polynomial_at(rows, i, w):  # pragma: no cover - compiled
     return re, im
 
 
+@jit
+def _prepare(numerator, numerator_delays, denominator, denominator_delays):  # pragma: no cover - compiled
+    """The loop as :func:`transfer_at` takes it: each side's rows, dead times, summed coefficients
+    (:func:`_summed`) and whether its one row equals them (:func:`_quasi_polynomial_at`)."""
+    numerator_sums, denominator_sums = _summed(numerator), _summed(denominator)
+    return (
+        numerator, numerator_delays, numerator_sums, _same_row(numerator, numerator_sums),
+        denominator, denominator_delays, denominator_sums, _same_row(denominator, denominator_sums),
+    )  # fmt: skip
+
+
 @inline
-def _quasi_polynomial_at(rows, delays, w):  # pragma: no cover - compiled
-    """``sum_i a_i(i w) e^{-i w alpha_i}`` as ``(sum_i a_i)(i w) + sum_i a_i(i w) (e^{-i w alpha_i} - 1)``,
-    ``a_i = rows[i]``, ``alpha_i = delays[i]``: the polynomial ``sum_i a_i`` from the summed
-    coefficients, so that its root at the origin is exact."""
-    re, im = 0.0, 0.0
+def _summed(rows):  # pragma: no cover - compiled
+    """The coefficients of ``sum_i a_i``, ``a_i = rows[i]``, each summed from ``0.0`` in row order."""
+    sums = np.empty(rows.shape[1])
     for k in range(rows.shape[1]):
         c = 0.0
         for i in range(rows.shape[0]):
             c += rows[i, k]
-        re, im = c - im * w, re * w
+        sums[k] = c
+    return sums
+
+
+@inline
+def _same_row(rows, sums):  # pragma: no cover - compiled
+    """Whether ``rows`` is one row equal to ``sums`` bit for bit (sign of zero included)."""
+    if rows.shape[0] != 1:
+        return False
+    for k in range(sums.size):
+        if not (rows[0, k] == sums[k] and math.copysign(1.0, rows[0, k]) == math.copysign(1.0, sums[k])):
+            return False
+    return True
+
+
+@inline
+def _quasi_polynomial_at(rows, delays, sums, same, w):  # pragma: no cover - compiled
+    """``sum_i a_i(i w) e^{-i w alpha_i}`` as ``(sum_i a_i)(i w) + sum_i a_i(i w) (e^{-i w alpha_i} - 1)``,
+    ``a_i = rows[i]``, ``alpha_i = delays[i]``: the polynomial ``sum_i a_i`` from the summed
+    coefficients ``sums``, so that its root at the origin is exact.  If ``same`` (one row, equal
+    to ``sums``), ``a_0(i w)`` is that polynomial's value (the same operations on the same numbers)."""
+    re, im = 0.0, 0.0
+    for k in range(sums.size):
+        re, im = sums[k] - im * w, re * w
+    sum_re, sum_im = re, im
     for i in range(rows.shape[0]):
         if delays[i] == 0.0:
             continue
-        a_re, a_im = _polynomial_at(rows, i, w)
+        a_re, a_im = (sum_re, sum_im) if same else _polynomial_at(rows, i, w)
         half = 0.5 * w * delays[i]
         sin, cos = math.sin(half), math.cos(half)
         e_re, e_im = -2.0 * sin * sin, -2.0 * sin * cos  # e^{-i w alpha} - 1
@@ -150,18 +219,27 @@ def _quasi_polynomial_at(rows, delays, w):  # pragma: no cover - compiled
 
 @inline
 def transfer_at(transfer, w):  # pragma: no cover - compiled
-    """``L(i w)`` of ``transfer = QuasiRational.arrays`` at one frequency.
+    """``L(i w)`` of ``transfer = _prepare(*QuasiRational.arrays)`` at one frequency.
 
-    Inlined where it is called (:func:`_evaluate`, :func:`_crossing_function`): a call of a compiled
+    Inlined where it is called (:func:`_values`, :func:`_crossing_function`): a call of a compiled
     function with array arguments costs more than the evaluation itself (reference counting).
     """
-    numerator, numerator_delays, denominator, denominator_delays = transfer
-    return _quasi_polynomial_at(numerator, numerator_delays, w) / _quasi_polynomial_at(denominator, denominator_delays, w)
+    numerator, numerator_delays, numerator_sums, numerator_same = transfer[0], transfer[1], transfer[2], transfer[3]
+    denominator, denominator_delays, denominator_sums, denominator_same = transfer[4], transfer[5], transfer[6], transfer[7]
+    return _quasi_polynomial_at(numerator, numerator_delays, numerator_sums, numerator_same, w) / _quasi_polynomial_at(
+        denominator, denominator_delays, denominator_sums, denominator_same, w
+    )
 
 
 @jit
-def _evaluate(transfer, omega):  # pragma: no cover - compiled
-    """``L(i omega)`` on an array."""
+def _evaluate(arrays, omega):  # pragma: no cover - compiled
+    """``L(i omega)`` on an array, of the loop ``arrays = QuasiRational.arrays``."""
+    return _values(_prepare(arrays[0], arrays[1], arrays[2], arrays[3]), omega)
+
+
+@jit
+def _values(transfer, omega):  # pragma: no cover - compiled
+    """``L(i omega)`` on an array (``transfer`` as :func:`_prepare` gives it)."""
     values = np.empty(omega.size, dtype=np.complex128)
     for i in range(omega.size):
         values[i] = transfer_at(transfer, omega[i])
@@ -177,32 +255,47 @@ def _magnitude(z):  # pragma: no cover - compiled
 @jit
 def _low_frequency(transfer, integrators, start, decades):  # pragma: no cover - compiled
     """:func:`envs.robustness._low_frequency`: the first decade below ``start`` where ``L s^k`` has
-    converged.  All decades are evaluated at once (cheaper here than as needed)."""
-    omega = np.empty(decades + 1)
-    omega[0] = start
-    for k in range(decades):
-        omega[k + 1] = omega[k] / 10
-    values = _evaluate(transfer, omega)
-    for k in range(integrators):  # times (i omega)^k
-        for j in range(omega.size):
-            values[j] = complex(-values[j].imag * omega[j], values[j].real * omega[j])
-    for k in range(decades):
-        if abs(values[k] - values[k + 1]) <= 1e-3 * max(abs(values[k + 1]), 1e-300):
-            return omega[k + 1]
-    return omega[decades]
+    converged.  Each decade is evaluated when it is needed."""
+    omega, value = start, _scaled(transfer, integrators, start)
+    for _ in range(decades):
+        lower = omega / 10
+        at_lower = _scaled(transfer, integrators, lower)
+        if abs(value - at_lower) <= 1e-3 * max(abs(at_lower), 1e-300):
+            return lower
+        omega, value = lower, at_lower
+    return omega
+
+
+@inline
+def _scaled(transfer, integrators, w):  # pragma: no cover - compiled
+    """``L(i w) (i w)^k``, ``k = integrators``, one factor ``i w`` after the other."""
+    value = transfer_at(transfer, w)
+    for _ in range(integrators):
+        value = complex(-value.imag * w, value.real * w)
+    return value
 
 
 @jit
 def _high_frequency(transfer, start, points):  # pragma: no cover - compiled
-    """:func:`envs.robustness._high_frequency`: where ``|L|`` has its limit, and whether it is ``< 1``."""
+    """:func:`envs.robustness._high_frequency`: where ``|L|`` has its limit, and whether it is ``< 1``.
+
+    A decade passes if ``max |L| < 0.02`` or ``max |L| - min |L| < 0.01 max |L|`` over its points.
+    Its sweep stops as soon as it certainly fails (a ``nan``, or a point of ``|L| >= 0.02`` and one
+    below ``0.98`` times the largest so far: a maximum can only grow and a minimum only fall, and
+    the margin ``0.98`` against ``0.99`` is far above rounding), except in the last decade, whose
+    maximum is returned: only a failure is decided early, so the result is that of every sweep.
+    """
     w, top = start, math.nan
-    for _ in range(14):
-        at = _evaluate(transfer, _logspace(math.log10(w), math.log10(w) + 1, points))
+    for decade in range(14):
+        first = math.log10(w)
+        omega = _logspace(first, first + 1, points)
         top, bottom = -math.inf, math.inf  # numpy's max and min: nan if any is nan
-        for z in at:
-            m = _magnitude(z)
+        for i in range(points):
+            m = _magnitude(transfer_at(transfer, omega[i]))
             top = m if m > top or math.isnan(m) else top
             bottom = m if m < bottom or math.isnan(m) else bottom
+            if decade < 13 and (math.isnan(top) or (top >= 0.02 and bottom <= 0.98 * top)):
+                break  # fails whatever follows
         if top < 0.02 or top - bottom < 0.01 * top:
             return w, top < 1.0
         w *= 10
@@ -268,7 +361,7 @@ def _refine(transfer, omega, values, max_arg_step, max_points):  # pragma: no co
         for i in range(n - 1):
             if bad[i]:
                 mids[m], m = math.sqrt(omega[i] * omega[i + 1]), m + 1
-        at_mids = _evaluate(transfer, mids)
+        at_mids = _values(transfer, mids)
         new_omega, new_values = np.empty(n + added), np.empty(n + added, dtype=np.complex128)
         new_bad = np.zeros(n + added - 1, dtype=np.bool_)
         j, m = 0, 0
@@ -305,23 +398,36 @@ def _winding(values, integrators):  # pragma: no cover - compiled
 
 
 @jit
-def _crossovers(transfer, omega, values, xtol, max_iterations):  # pragma: no cover - compiled
+def _crossovers(transfer, omega, values, magnitudes, xtol, max_iterations):  # pragma: no cover - compiled
     """:func:`envs.robustness._crossovers`: the gain crossovers (``log |L| = 0``) and the phase
     crossovers (``Im L = 0``), each the grid points where the function is zero and the root of every
-    bracket, in increasing order."""
+    bracket, in increasing order (``magnitudes = |L|`` on the grid).
+
+    ``log |L|`` is taken only at the ends of a bracket: elsewhere only its sign enters, which is
+    that of ``|L| - 1`` (``log`` is exact at 1 and, away from 1, at least about ``1e-16`` in size,
+    far above its rounding), so the tests on ``|L|`` below are those on ``log |L|`` (a product of
+    two logarithms cannot underflow to zero)."""
     n = omega.size
-    samples = np.empty((2, n))
-    for i in range(n):
-        samples[0, i], samples[1, i] = math.log(_magnitude(values[i])), values[i].imag
     roots, found = np.empty((2, n)), np.zeros(2, dtype=np.int64)
     for kind in range(2):
-        f = samples[kind]
         for i in range(n):
-            if f[i] == 0:
+            if kind == 0:
+                zero = magnitudes[i] == 1.0
+                change = i < n - 1 and (
+                    (magnitudes[i] < 1.0 and magnitudes[i + 1] > 1.0) or (magnitudes[i] > 1.0 and magnitudes[i + 1] < 1.0)
+                )
+            else:
+                zero = values[i].imag == 0
+                change = i < n - 1 and values[i].imag * values[i + 1].imag < 0
+            if zero:
                 roots[kind, found[kind]] = omega[i]
                 found[kind] += 1
-            elif i < n - 1 and f[i] * f[i + 1] < 0:
-                x = _chandrupatla(transfer, kind, math.log(omega[i]), math.log(omega[i + 1]), f[i], f[i + 1], xtol, max_iterations)
+            elif change:
+                if kind == 0:
+                    fa, fb = math.log(magnitudes[i]), math.log(magnitudes[i + 1])
+                else:
+                    fa, fb = values[i].imag, values[i + 1].imag
+                x = _chandrupatla(transfer, kind, math.log(omega[i]), math.log(omega[i + 1]), fa, fb, xtol, max_iterations)
                 roots[kind, found[kind]] = math.exp(x)
                 found[kind] += 1
     return roots[0, : found[0]].copy(), roots[1, : found[1]].copy()
@@ -380,14 +486,15 @@ def _argmax(samples):  # pragma: no cover - compiled
 
 
 @jit
-def _peaks(transfer, omega, values, points, spacing):  # pragma: no cover - compiled
+def _peaks(transfer, omega, magnitudes, closed, points, spacing):  # pragma: no cover - compiled
     """:func:`envs.robustness._peaks`: ``(Ms, frequency, Mt, frequency)``, each grid maximum refined
-    by zoomed sampling and a parabola."""
+    by zoomed sampling and a parabola (``magnitudes = |L|``, ``closed = |1 + L|`` on the grid: the
+    terms of :func:`_measure`)."""
     best, at_best = np.empty(2), np.empty(2)
     for k in range(2):
-        samples = np.empty(values.size)
-        for i in range(values.size):
-            samples[i] = _measure(values[i], k)
+        samples = np.empty(omega.size)
+        for i in range(omega.size):
+            samples[i] = 1 / closed[i] if k == 0 else magnitudes[i] / closed[i]
         i = _argmax(samples)
         best[k], at_best[k] = samples[i], omega[i]
         low, high = math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])
@@ -397,7 +504,7 @@ def _peaks(transfer, omega, values, points, spacing):  # pragma: no cover - comp
             frequencies = np.empty(points)
             for i in range(points):
                 frequencies[i] = math.exp(x[i])
-            at = _evaluate(transfer, frequencies)
+            at = _values(transfer, frequencies)
             samples = np.empty(points)
             for i in range(points):
                 samples[i] = _measure(at[i], k)
@@ -409,7 +516,7 @@ def _peaks(transfer, omega, values, points, spacing):  # pragma: no cover - comp
                 vertex = _vertex(x, samples, j)
                 break
         if not math.isnan(vertex):
-            value = _measure(_evaluate(transfer, np.array([math.exp(vertex)]))[0], k)
+            value = _measure(_values(transfer, np.array([math.exp(vertex)]))[0], k)
             if value > best[k]:
                 best[k], at_best[k] = value, math.exp(vertex)
     return best[0], at_best[0], best[1], at_best[1]

@@ -9,12 +9,13 @@ of a strictly proper block and the first-order-hold reconstruction of
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
-from envs.controllers import Controller
+from envs.controllers import Controller, packed_block
 from envs.plants import Plant
 from envs.simulation import DelaySystem, discretize, simulate
 
@@ -62,7 +63,15 @@ def loop_rows(plant: Plant, controller: Controller) -> tuple[np.ndarray, np.ndar
     """The matrices of :func:`closed_loop` as rows over ``[x, d, v]``, unsplit (for compiled code).
 
     Returns ``([A, B1, B2], [C1, D11, D12], [C2, D21, D22], delays)``, C-contiguous float arrays.
+    With a plant dead time, the controller's block comes as one array
+    (:func:`~envs.controllers.packed_block`) and the rows of :func:`_delayed_plant_rows` are filled
+    in by the same kernel: the same numbers, in about a third of the time (the ten matrices of
+    ``block()``, their conversions and the fifteen arguments each cost about a microsecond).
     """
+    if plant.delay > 0:
+        ps, f = plant.state_space(), _contiguous
+        flat, n_c, n_vc = packed_block(controller)
+        return _fill_from_packed_block(f(ps.A), f(ps.B), f(ps.C), float(ps.D[0, 0]), float(plant.delay), flat, n_c, n_vc)
     return _rows(plant, controller.block())
 
 
@@ -164,6 +173,21 @@ def _fill_delayed_plant_rows(A_p, B_p, C_p, d_p, delay, A_c, B1_c, B2_c, C1_c, D
 
 
 @numba.njit(cache=True)
+def _fill_from_packed_block(A_p, B_p, C_p, d_p, delay, flat, n_c, n_vc):  # pragma: no cover - compiled
+    """:func:`_fill_delayed_plant_rows` with the controller block as
+    :func:`~envs.controllers.packed_block` gives it (its matrices copied out, C-contiguous, so
+    that the kernel is the one of :func:`_delayed_plant_rows`, with the same signature)."""
+    shapes = ((n_c, n_c), (n_c, 2), (n_c, n_vc), (1, n_c), (1, 2), (1, n_vc), (n_vc, n_c), (n_vc, 2), (n_vc, n_vc))
+    matrices, start = [], 0
+    for rows, columns in shapes:
+        matrices.append(flat[start : start + rows * columns].copy().reshape((rows, columns)))
+        start += rows * columns
+    A_c, B1_c, B2_c, C1_c, D11_c, D12_c, C2_c, D21_c, D22_c = matrices
+    delays_c = flat[start : start + n_vc].copy()
+    return _fill_delayed_plant_rows(A_p, B_p, C_p, d_p, delay, A_c, B1_c, B2_c, C1_c, D11_c, D12_c, C2_c, D21_c, D22_c, delays_c)
+
+
+@numba.njit(cache=True)
 def _controller_rows(rows, M, N, P, n_p):  # pragma: no cover - compiled
     """Fill ``rows`` (zero) with the coefficients of ``M x_c + N [r, v_p + n] + P v_c`` (explicit
     loops: they compile several times faster than numba's slice assignments)."""
@@ -192,6 +216,9 @@ def simulation_step(
 def sample_time(plant: Plant, delays: np.ndarray, samples_per_residence_time: int = 50) -> float:
     """:func:`simulation_step` of a loop of ``plant`` whose delays are ``delays``."""
     dt = plant.step_time_scale() / samples_per_residence_time
+    values = delays.tolist()  # a loop's few delays: Python's min is ~2.5 us quicker than ndarray.min
+    if values and all(0.0 < value < math.inf for value in values):  # where both give the same float (no nan, no signed zeros)
+        return float(min(dt, *values))
     return float(min(dt, delays.min())) if delays.size else dt
 
 

@@ -161,3 +161,29 @@ def test_steady_offsets_of_a_loop_with_a_pole_at_the_origin_are_left_to_the_simu
     with pytest.raises(np.linalg.LinAlgError):
         system.dc_gain()
     assert _steady_offsets(derivatives, outputs, delayed, 1e-9) == (False, False)
+
+
+def test_products_skipping_zero_entries_are_every_term_summed():
+    """``_product`` skips the terms of a zero ``A[i, k]`` where ``B[k]`` is finite: the sums of every
+    term in order, bit for bit (signs of zero included), and ``nan`` where ``B[k]`` is not finite."""
+    from envs.compiled_iae import _product
+
+    def every_term(A, B):
+        out = [[0.0] * B.shape[1] for _ in range(A.shape[0])]
+        for i in range(A.shape[0]):
+            for k in range(A.shape[1]):
+                for j in range(B.shape[1]):
+                    out[i][j] += float(A[i, k]) * float(B[k, j])
+        return np.array(out)
+
+    rng = np.random.default_rng(5)
+    for trial in range(40):
+        n, m, p = rng.integers(1, 9, size=3)
+        A, B = rng.normal(size=(n, m)), rng.normal(size=(m, p))
+        A[rng.random((n, m)) < 0.5] = 0.0
+        A[rng.random((n, m)) < 0.1] = -0.0
+        B[rng.random((m, p)) < 0.3] = rng.choice([0.0, -0.0])
+        if trial % 4 == 0:
+            B[rng.integers(m), rng.integers(p)] = rng.choice([np.inf, -np.inf, np.nan])
+        got, expected = _product(A, B), every_term(A, B)
+        assert got.tobytes() == expected.tobytes() or np.array_equal(got, expected, equal_nan=True) and np.array_equal(np.signbit(got), np.signbit(expected))

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from envs.controllers import FPPI, MSP, PID, SeriesPID
-from envs.loops import closed_loop, closed_loop_of_block
+from envs.controllers import FPPI, MSP, PID, SeriesPID, packed_block
+from envs.loops import _rows, closed_loop, closed_loop_of_block, loop_rows, sample_time
 from envs.plants import Plant
 from envs.simulation import DelaySystem, SystemBuilder
 
@@ -156,3 +156,28 @@ def test_closed_loop_equals_row_algebra(plant_name, controller_name):
     block = controller.block()
     _same(closed_loop_of_block(plant, block), _reference_closed_loop(plant, block))
     _same(closed_loop(plant, controller), _reference_closed_loop(plant, block))
+
+
+@pytest.mark.parametrize("controller_name", CONTROLLERS)
+@pytest.mark.parametrize("plant_name", PLANTS)
+def test_loop_rows_from_packed_block_equal_those_of_the_block(plant_name, controller_name):
+    """loop_rows (the controller's block packed into one array) against the rows of its block()."""
+    plant, controller = PLANTS[plant_name], CONTROLLERS[controller_name]
+    flat, n_states, n_delays = packed_block(controller)
+    block = controller.block()
+    matrices = (block.A, block.B1, block.B2, block.C1, block.D11, block.D12, block.C2, block.D21, block.D22, block.delays)
+    assert (n_states, n_delays) == (block.n_states, block.delays.size)
+    assert flat.tobytes() == np.concatenate([np.ravel(m) for m in matrices]).tobytes()
+    for actual, expected in zip(loop_rows(plant, controller), _rows(plant, block)):
+        assert actual.shape == expected.shape and actual.flags.c_contiguous
+        assert actual.tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("delays", [[], [0.7], [0.02, 3.0], [1e-300, 2.0], [np.nan, 0.5], [0.5, np.nan], [0.0, 1.0], [-0.0, 0.3], [np.inf]])
+def test_sample_time_equals_the_numpy_minimum(delays):
+    """sample_time's Python minimum against float(min(dt, delays.min())) (nan and signed zeros too)."""
+    plant = PLANTS["fopdt"]
+    delays = np.array(delays, dtype=float)
+    dt = plant.step_time_scale() / 50
+    expected = float(min(dt, delays.min())) if delays.size else dt
+    assert repr(sample_time(plant, delays)) == repr(expected)

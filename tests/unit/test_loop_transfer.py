@@ -26,7 +26,7 @@ import pytest
 
 from envs.compiled_robustness import _evaluate as _compiled  # transfer_at on an array
 from envs.controllers import FPPI, MSP, PID, SeriesPID
-from envs.loop_transfer import QuasiRational, _pid, feedback_transfer, loop_transfer
+from envs.loop_transfer import QuasiRational, _loop_terms, _pid, feedback_transfer, loop_packed, loop_transfer, packed
 from envs.loops import loop_response
 from envs.plants import Plant
 
@@ -136,3 +136,42 @@ def test_gorez_klan_model_loop_by_hand():
     expected = np.exp(-1j * omega) / (2j * omega)
     np.testing.assert_allclose(transfer.response(omega), expected, rtol=1e-15)
     np.testing.assert_allclose(_compiled(transfer.arrays, omega), expected, rtol=1e-15)
+
+
+def _random_controllers(rng: np.random.Generator, count: int) -> list:
+    """Controllers of every kind and option (signs, missing integral or derivative, filters)."""
+    made = []
+    for i in range(count):
+        u = rng.uniform
+        kind = i % 6
+        if kind == 0:
+            made.append(PID(u(-3, 3), u(0.1, 5), u(0, 2) * (rng.random() < 0.7), u(2, 20)))
+        elif kind == 1:
+            made.append(SeriesPID(u(0.1, 3), u(0.1, 5), u(0, 2) * (rng.random() < 0.7), u(2, 20)))
+        elif kind == 2:
+            made.append(PID(u(0.1, 3), None, u(0, 2) * (rng.random() < 0.5), u(2, 20)))
+        elif kind == 3:
+            made.append(FPPI(u(-3, 3), u(0.1, 5), u(0, 3), u(0.1, 5), u(0, 2) * (rng.random() < 0.7)))
+        elif kind == 4:
+            made.append(MSP(u(-3, 3), u(0.1, 3), u(0.1, 5), bool(rng.random() < 0.5)))
+        else:
+            made.append(SeriesPID(u(0.1, 3), None, u(0, 2), u(2, 20)))
+    return made
+
+
+def test_compiled_loop_packed_equals_python_packing_bit_for_bit():
+    """loop_packed (compiled) against packed(*_loop_terms(...)) (the Python arithmetic it replaces)."""
+    pairs = [(p, c) for p in PLANTS.values() for c in CONTROLLERS.values()]
+    rng = np.random.default_rng(3)
+    plants = list(PLANTS.values())
+    pairs += [(plants[rng.integers(len(plants))], c) for c in _random_controllers(rng, 600)]
+    for plant, controller in pairs:
+        flat, shape = loop_packed(plant, controller)
+        expected, expected_shape = packed(*_loop_terms(plant, controller))
+        assert shape == expected_shape
+        assert flat.dtype == expected.dtype and flat.tobytes() == expected.tobytes(), (plant, controller)
+
+
+def test_loop_packed_refuses_unknown_controller():
+    with pytest.raises(TypeError, match="PID, SeriesPID, FPPI or MSP"):
+        loop_packed(PLANTS["fopdt"], object())

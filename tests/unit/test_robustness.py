@@ -307,3 +307,173 @@ def test_msp_uncertainty_bound_is_eq_40_from_the_characteristic_equation():
     c_fb = MSP(gain, ln, tr).feedback_response(omega)
     p_n = gain * np.exp(-1j * omega * ln) / (1j * omega)
     np.testing.assert_allclose(msp_uncertainty_bound(omega, gain, ln, tr), np.abs(1 + c_fb * p_n) / np.abs(c_fb), rtol=1e-12)
+
+
+def test_assembled_margins_are_the_dataclass_built_by_its_constructor():
+    """``assemble_margins`` fills the fields at once: the same object as ``Margins(...)``."""
+    from dataclasses import fields
+
+    from envs.robustness import Margins
+
+    plant = Plant.from_time_constants(1.0, [1.0, 0.5], 0.4)
+    for controller in (PID(kp=0.8, ti=1.2, td=0.2), PID(kp=9.0, ti=0.3)):
+        made = plant_margins(plant, controller)
+        built = Margins(**{f.name: getattr(made, f.name) for f in fields(Margins)})
+        assert made == built and made.__dict__ == built.__dict__
+        assert list(made.__dict__) == [f.name for f in fields(Margins)]
+        with pytest.raises(AttributeError):
+            made.ms = 0.0  # still frozen
+
+
+def test_packed_path_gives_the_margins_of_the_quasi_rational_path():
+    """``plant_margins`` hands the loop over packed (``loop_packed``): the figures of
+    ``quasi_rational_margins(loop_transfer(...))`` bit for bit."""
+    from envs.compiled_robustness import quasi_rational_margins
+    from envs.loop_transfer import loop_packed, loop_transfer
+
+    stable, integrating = Plant.from_time_constants(2.0, [1.0, 0.3], 0.5), Plant.from_time_constants(1.0, [0.5], 0.5, integrating=True)
+    loops = ((stable, PID(kp=0.8, ti=1.2, td=0.2)), (stable, FPPI(2.0, 1.0, 0.5, 1.0, 0.1)), (integrating, MSP(1.0, 0.8, 2.0)))
+    for plant, controller in loops:
+        transfer = loop_transfer(plant, controller)
+        packed, shape = loop_packed(plant, controller)
+        assert packed.tobytes() == transfer.packed()[0].tobytes() and shape == transfer.packed()[1]
+        integrators = int(plant.integrating) + controller.integrators
+        assert plant_margins(plant, controller) == quasi_rational_margins(transfer, integrators, plant.step_time_scale())
+
+
+# ------------------------------------------------------------ compiled searches: exact shortcuts
+def _search_loops():
+    """Loops of every structure, stable and not, whose high-frequency search takes one or more decades."""
+    stable, integrating = Plant.from_time_constants(1.0, [1.0, 0.5], 0.4), Plant.from_time_constants(1.0, [0.5], 1.0, integrating=True)
+    loops = list(PC_LOOPS.values())
+    loops += [(stable, PID(kp, 1.0, 0.2, 10.0)) for kp in (0.3, 3.0, 30.0)]
+    loops += [(stable, FPPI(1.0, 1.2, 0.7, tr, tf)) for tr in (0.2, 1.0) for tf in (0.0, 0.3)]
+    loops += [(integrating, MSP(1.0, 1.5, tr)) for tr in (0.5, 3.0)]
+    return loops
+
+
+def _prepared(plant, controller):
+    from envs.compiled_robustness import _prepare
+    from envs.loop_transfer import loop_transfer
+
+    return _prepare(*loop_transfer(plant, controller).arrays), int(plant.integrating) + controller.integrators
+
+
+def test_high_frequency_search_stopping_a_failed_decade_early_is_the_full_sweep():
+    """A decade's sweep stops once it certainly fails: the result of sweeping every point."""
+    import envs.compiled_robustness as cr
+
+    def full_sweeps(transfer, start, points):  # the search as before the early stop
+        w, top = start, math.nan
+        for _ in range(14):
+            first = math.log10(w)
+            magnitudes = [cr._magnitude(z) for z in cr._values(transfer, cr._logspace(first, first + 1, points))]
+            top, bottom = -math.inf, math.inf
+            for m in magnitudes:
+                top = m if m > top or math.isnan(m) else top
+                bottom = m if m < bottom or math.isnan(m) else bottom
+            if top < 0.02 or top - bottom < 0.01 * top:
+                return w, top < 1.0
+            w *= 10
+        return w, top < 1.0
+
+    for plant, controller in _search_loops():
+        transfer, _ = _prepared(plant, controller)
+        for start in (10.0 / plant.step_time_scale(), 1e-2 / plant.step_time_scale()):
+            assert cr._high_frequency(transfer, start, cr.HIGH_FREQUENCY_POINTS) == full_sweeps(transfer, start, cr.HIGH_FREQUENCY_POINTS)
+
+
+def test_low_frequency_search_as_needed_is_the_search_on_every_decade():
+    """The decades evaluated one by one: the frequency found by evaluating all of them first."""
+    import envs.compiled_robustness as cr
+
+    def all_decades(transfer, integrators, start, decades):  # the search as before
+        omega = [start]
+        for _ in range(decades):
+            omega.append(omega[-1] / 10)
+        values = list(cr._values(transfer, np.array(omega)))
+        for _ in range(integrators):
+            values = [complex(-v.imag * w, v.real * w) for v, w in zip(values, omega)]
+        for k in range(decades):
+            if abs(values[k] - values[k + 1]) <= 1e-3 * max(abs(values[k + 1]), 1e-300):
+                return omega[k + 1]
+        return omega[decades]
+
+    for plant, controller in _search_loops():
+        transfer, integrators = _prepared(plant, controller)
+        for start in (1e-3 / plant.step_time_scale(), 1e3 / plant.step_time_scale()):
+            for decades in (1, 3, cr.LOW_FREQUENCY_DECADES):
+                expected = all_decades(transfer, integrators, start, decades)
+                assert cr._low_frequency(transfer, integrators, start, decades) == expected
+
+
+def test_summed_coefficients_and_the_reused_row_give_the_evaluation_as_written():
+    """``transfer_at`` with the summed coefficients prepared once (and a one-row side's polynomial
+    reused) equals, bit for bit, the sums formed at every evaluation."""
+    import numba
+
+    import envs.compiled_robustness as cr
+
+    sin_cos = numba.njit(lambda x: (math.sin(x), math.cos(x)))  # compiled as there (one sincos call)
+
+    def side(rows, delays, w):  # _quasi_polynomial_at as written before
+        re, im = 0.0, 0.0
+        for k in range(rows.shape[1]):
+            c = 0.0
+            for i in range(rows.shape[0]):
+                c += rows[i, k]
+            re, im = c - im * w, re * w
+        for i in range(rows.shape[0]):
+            if delays[i] == 0.0:
+                continue
+            a_re, a_im = 0.0, 0.0
+            for k in range(rows.shape[1]):
+                a_re, a_im = rows[i, k] - a_im * w, a_re * w
+            s, c = sin_cos(0.5 * w * delays[i])
+            e_re, e_im = -2.0 * s * s, -2.0 * s * c
+            re += a_re * e_re - a_im * e_im
+            im += a_re * e_im + a_im * e_re
+        return complex(re, im)
+
+    omega = np.logspace(-4, 3, 57)
+    for plant, controller in _search_loops():
+        from envs.loop_transfer import loop_transfer
+
+        arrays = loop_transfer(plant, controller).arrays
+        expected = [side(arrays[0], arrays[1], w) / side(arrays[2], arrays[3], w) for w in omega]
+        got = cr._evaluate(arrays, omega)
+        assert [z.real.hex() for z in got] == [z.real.hex() for z in expected]
+        assert [z.imag.hex() for z in got] == [z.imag.hex() for z in expected]
+
+
+def test_crossovers_taking_log_only_at_bracket_ends_find_the_same_roots():
+    """The gain brackets found from ``|L|`` against 1, with ``log |L|`` only at their ends: the
+    crossovers of the tests on ``log |L|`` at every grid point, bit for bit."""
+    import envs.compiled_robustness as cr
+
+    def crossovers(transfer, omega, values):  # as before: log |L| at every point
+        roots = ([], [])
+        for kind in range(2):
+            f = [math.log(cr._magnitude(v)) if kind == 0 else v.imag for v in values]
+            for i in range(omega.size):
+                if f[i] == 0:
+                    roots[kind].append(omega[i])
+                elif i < omega.size - 1 and f[i] * f[i + 1] < 0:
+                    x = cr._chandrupatla(transfer, kind, math.log(omega[i]), math.log(omega[i + 1]), f[i], f[i + 1], cr.ROOT_XTOL, cr.MAX_ROOT_ITERATIONS)
+                    roots[kind].append(math.exp(x))
+        return roots
+
+    for plant, controller in _search_loops():
+        transfer, _ = _prepared(plant, controller)
+        omega = np.logspace(-3, 2, 400) / plant.step_time_scale()
+        values = cr._values(transfer, omega)
+        magnitudes = np.array([cr._magnitude(v) for v in values])
+        gains, phase = cr._crossovers(transfer, omega, values, magnitudes, cr.ROOT_XTOL, cr.MAX_ROOT_ITERATIONS)
+        expected = crossovers(transfer, omega, values)
+        assert gains.tolist() == expected[0] and phase.tolist() == expected[1]
+    transfer, _ = _prepared(*PC_LOOPS["pid-fopdt"])  # |L| exactly 1 at a grid point, then two brackets
+    omega = np.array([0.1, 0.2, 0.3, 0.4])
+    values = np.array([complex(0.0, 1.0), complex(0.6, 0.0), complex(2.0, 0.0), complex(0.5, 0.0)])
+    magnitudes = np.array([cr._magnitude(v) for v in values])
+    gains, _ = cr._crossovers(transfer, omega, values, magnitudes, cr.ROOT_XTOL, cr.MAX_ROOT_ITERATIONS)
+    assert len(gains) == 3 and gains[0] == 0.1 and gains.tolist() == crossovers(transfer, omega, values)[0]
