@@ -134,101 +134,47 @@ _LARGEST = float(np.finfo(float).max)  # |x| <= _LARGEST: x is finite (NaN compa
 
 
 # --------------------------------------------------------------------------- trapezoidal rule
-# numpy.trapezoid(y, t) is ``(diff(t) * (y[1:] + y[:-1]) / 2.0).sum()``, and numpy sums a contiguous
-# float64 array from the identity 0.0 by pairwise summation (blocks of at most 128 terms, each summed
-# in eight interleaved partial sums).  The compiled functions below form the same terms and add them
-# in the same order, so they return the same bits without the temporary arrays and numpy calls; the
-# unit tests compare them with numpy.trapezoid.
-@numba.njit(cache=True)
-def _block_sum(a, lo, n):  # pragma: no cover - compiled
-    """numpy's pairwise sum of ``a[lo:lo + n]`` for ``n <= 128`` (no further splitting)."""
-    if n < 8:
-        res = 0.0
-        for i in range(lo, lo + n):
-            res += a[i]
-        return res
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    i = lo + 8
-    stop = lo + n - n % 8
-    while i < stop:
-        r0 += a[i]
-        r1 += a[i + 1]
-        r2 += a[i + 2]
-        r3 += a[i + 3]
-        r4 += a[i + 4]
-        r5 += a[i + 5]
-        r6 += a[i + 6]
-        r7 += a[i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < lo + n:
-        res += a[i]
-        i += 1
-    return res
-
-
-@numba.njit(cache=True)
-def _pairwise_sum(a, lo, n):  # pragma: no cover - compiled
-    """numpy's pairwise sum of ``a[lo:lo + n]`` (``DOUBLE_pairwise_sum``): above 128 terms, the sum of
-    the first ``n2 = n/2 - (n/2) % 8`` terms plus the sum of the rest, each summed the same way.
-
-    The recursion is unrolled into an explicit stack (numba's cache does not handle recursive
-    functions); the additions are the same, in the same order.
-    """
-    starts, sizes = np.empty(64, np.int64), np.empty(64, np.int64)
-    stages, lefts = np.zeros(64, np.int64), np.empty(64)
-    top, starts[0], sizes[0], stages[0] = 0, lo, n, 0
-    result = 0.0
-    while top >= 0:
-        start, size = starts[top], sizes[top]
-        half = size // 2
-        half -= half % 8
-        if size <= 128:  # a leaf: its sum goes to the frame below
-            result = _block_sum(a, start, size)
-            top -= 1
-        elif stages[top] == 0:  # sum the first part
-            stages[top] = 1
-            top += 1
-            starts[top], sizes[top], stages[top] = start, half, 0
-        elif stages[top] == 1:  # first part done: sum the rest
-            lefts[top], stages[top] = result, 2
-            top += 1
-            starts[top], sizes[top], stages[top] = start + half, size - half, 0
-        else:  # both parts done
-            result = lefts[top] + result
-            top -= 1
-    return result
-
-
-@numba.njit(cache=True)
-def _sum(terms):  # pragma: no cover - compiled
-    """``float(terms.sum())`` of a contiguous float64 array."""
-    return 0.0 + _pairwise_sum(terms, 0, terms.size)
-
-
-@numba.njit(cache=True)
-def _trapezoid(y, t):  # pragma: no cover - compiled
+# numpy.trapezoid(y, t) is ``(diff(t) * (y[1:] + y[:-1]) / 2.0).sum()``.  The compiled functions below
+# form the same terms without numpy's temporaries, and numpy's own ``sum`` adds them (its pairwise
+# summation), so the results are numpy.trapezoid's bits; the unit tests compare them.
+def _trapezoid(y: np.ndarray, t: np.ndarray) -> float:
     """``float(numpy.trapezoid(y, t))`` of 1-D float64 arrays of the same size."""
+    return float(_trapezoid_terms(y, t).sum())
+
+
+def _trapezoid_of_distance(y: np.ndarray, z: np.ndarray, t: np.ndarray) -> float:
+    """``float(numpy.trapezoid(numpy.abs(y - z), t))``."""
+    return float(_distance_terms(y, z, t).sum())
+
+
+def _moments(t: np.ndarray, s: np.ndarray, initial: float, final: float) -> tuple[float, float]:
+    """``(M_0, M_1)`` of :func:`_normalized_moments`: the trapezoids of ``c = 1 - (s - initial)/(final -
+    initial)`` and of ``(t - t[0]) c``, with numpy's operations and sums."""
+    first, second = _moment_terms(t, s, initial, final)
+    return float(first.sum()), float(second.sum())
+
+
+@numba.njit(cache=True)
+def _trapezoid_terms(y, t):  # pragma: no cover - compiled
+    """The terms ``(t[i+1] - t[i]) (y[i+1] + y[i]) / 2`` of numpy.trapezoid."""
     terms = np.empty(max(t.size - 1, 0))
     for i in range(terms.size):
         terms[i] = (t[i + 1] - t[i]) * (y[i + 1] + y[i]) / 2.0
-    return _sum(terms)
+    return terms
 
 
 @numba.njit(cache=True)
-def _trapezoid_of_distance(y, z, t):  # pragma: no cover - compiled
-    """``float(numpy.trapezoid(numpy.abs(y - z), t))``."""
+def _distance_terms(y, z, t):  # pragma: no cover - compiled
+    """The trapezoid terms of ``|y - z|``."""
     terms = np.empty(max(t.size - 1, 0))
     for i in range(terms.size):
         terms[i] = (t[i + 1] - t[i]) * (abs(y[i + 1] - z[i + 1]) + abs(y[i] - z[i])) / 2.0
-    return _sum(terms)
+    return terms
 
 
 @numba.njit(cache=True)
-def _moments(t, s, initial, final):  # pragma: no cover - compiled
-    """``(M_0, M_1)`` of :func:`_normalized_moments`: the trapezoids of ``c = 1 - (s - initial)/(final -
-    initial)`` and of ``(t - t[0]) c``, with numpy's operations and sums."""
+def _moment_terms(t, s, initial, final):  # pragma: no cover - compiled
+    """The trapezoid terms of ``c`` and of ``(t - t[0]) c`` (see :func:`_moments`)."""
     n = t.size
     c = np.empty(n)
     for i in range(n):
@@ -238,7 +184,7 @@ def _moments(t, s, initial, final):  # pragma: no cover - compiled
         step = t[i + 1] - t[i]
         first[i] = step * (c[i + 1] + c[i]) / 2.0
         second[i] = step * ((t[i + 1] - t[0]) * c[i + 1] + (t[i] - t[0]) * c[i]) / 2.0
-    return _sum(first), _sum(second)
+    return first, second
 
 
 # --------------------------------------------------------------------------- models
@@ -755,12 +701,17 @@ def pulse_mismatch_area(
     return _trapezoid_of_distance(y, model_output, t) / abs(height * duration)
 
 
-@numba.njit(cache=True)
-def _pulse_distance(t, y, gain, dead_time, height, duration):  # pragma: no cover - compiled
+def _pulse_distance(t, y, gain, dead_time, height, duration) -> float:
     """``numpy.trapezoid(abs(y - y_n), t)`` for the pulse response ``y_n = h (s(t) - s(t - tau_p))`` of
     ``K_v e^{-L s}/s``, ``s(t) = K_v max(t - L, 0)``: the same operations as
     :meth:`IntegratingModel.step_response` (the sign of a zero ``max``, which numpy's SIMD and scalar
     loops may choose differently, is lost in ``abs``)."""
+    return float(_pulse_distance_terms(t, y, gain, dead_time, height, duration).sum())
+
+
+@numba.njit(cache=True)
+def _pulse_distance_terms(t, y, gain, dead_time, height, duration):  # pragma: no cover - compiled
+    """The trapezoid terms of :func:`_pulse_distance`."""
     distance = np.empty(t.size)
     for i in range(t.size):
         now = max(t[i] - dead_time, 0.0)
@@ -769,7 +720,7 @@ def _pulse_distance(t, y, gain, dead_time, height, duration):  # pragma: no cove
     terms = np.empty(max(t.size - 1, 0))
     for i in range(terms.size):
         terms[i] = (t[i + 1] - t[i]) * (distance[i + 1] + distance[i]) / 2.0
-    return _sum(terms)
+    return terms
 
 
 # --------------------------------------------------------------------------- reaction curve

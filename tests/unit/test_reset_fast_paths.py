@@ -1,11 +1,11 @@
 """Fast paths of an environment's reset against the numpy/scipy code they replace, bit for bit.
 
-* :func:`envs.identification._trapezoid`, ``_trapezoid_of_distance`` and ``_moments`` (numpy's
-  pairwise summation, compiled) against ``numpy.trapezoid``;
+* :func:`envs.identification._trapezoid`, ``_trapezoid_of_distance`` and ``_moments`` (compiled
+  terms, numpy's sum) against ``numpy.trapezoid``;
 * :func:`envs.identification._signals` (compiled checks) against its numpy checks and errors;
-* :func:`envs.commissioning._pi_loop_on_grid` (numpy's complex arithmetic, compiled) against
-  :meth:`envs.plants.Plant.frequency_response`, and ``_first_violation_fast`` against
-  ``_first_violation``;
+* :func:`envs.commissioning._pi_loop_on_grid` (compiled) against
+  :meth:`envs.plants.Plant.frequency_response` (to rounding), the PI it chooses against the numpy
+  path's, and ``_first_violation_fast`` against ``_first_violation``;
 * :func:`envs.plants._balanced` against ``scipy.linalg.matrix_balance``, :func:`envs.plants._roots`
   against ``numpy.roots``, and :func:`envs.plants.shape_residence_time` against a built plant.
 """
