@@ -38,7 +38,7 @@ and :func:`integrated_absolute_error` on the same map bit for bit
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -49,7 +49,7 @@ from envs.loops import loop_rows, sample_time
 from envs.plants import Plant
 from envs.simulation import DIVERGENCE_LIMIT
 
-__all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch", "weighted_iae"]
+__all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 
 HORIZON = 10.0
 MAX_HORIZON = 1280.0
@@ -133,30 +133,14 @@ def iae_batch(
 
 
 def _loop_iae(plant: Plant, controller: Controller, samples_per_residence_time: int, bound: IAEBound | None) -> IAEResult:
-    """:func:`iae` of one loop."""
-    if bound is None:
-        return weighted_iae(plant, controller, 0.0, 0.0, math.inf, samples_per_residence_time)
-    return weighted_iae(plant, controller, bound.load_weight, bound.setpoint_weight, bound.threshold, samples_per_residence_time)
-
-
-def weighted_iae(
-    plant: Plant, controller: Controller, load_weight: float, setpoint_weight: float, threshold: float,
-    samples_per_residence_time: int = 50,
-) -> IAEResult:  # fmt: skip
-    """:func:`iae` with the bound given by its figures (``IAEBound(load_weight, setpoint_weight,
-    budget)`` has ``threshold``; ``0, 0, inf`` is no bound), for the scoring's hot path: the loop's
-    rows, its sample time, then one compiled call."""
+    """:func:`iae` of one loop: its rows, its sample time, then one compiled call."""
     derivatives, outputs, delayed, delays = loop_rows(plant, controller)
     dt = sample_time(plant, delays, samples_per_residence_time)
     if not dt > 0 or not math.isfinite(dt):
         raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    weights = (0.0, 0.0, math.inf) if bound is None else (bound.load_weight, bound.setpoint_weight, bound.threshold)
     load, setpoint, settled, horizon, lower_bound = step_iae(
         derivatives, outputs, delayed, delays, dt, plant.step_time_scale(), HORIZON, MAX_HORIZON, SETTLED_SHARE,
-        OFFSET_TOLERANCE, DIVERGENCE_LIMIT, load_weight, setpoint_weight, threshold,
+        OFFSET_TOLERANCE, DIVERGENCE_LIMIT, *weights,
     )  # fmt: skip
-    result = object.__new__(IAEResult)  # IAEResult(...) without the frozen __init__'s six object.__setattr__ (~1.5 us)
-    result.__dict__.update(zip(_IAE_RESULT_FIELDS, (load, setpoint, settled, horizon, dt, lower_bound)))
-    return result
-
-
-_IAE_RESULT_FIELDS = tuple(f.name for f in fields(IAEResult))
+    return IAEResult(load, setpoint, settled, horizon, dt, lower_bound)

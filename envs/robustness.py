@@ -28,7 +28,7 @@ compiled (:mod:`envs.compiled_robustness`), and the tests hold the two to roundi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -72,9 +72,6 @@ class Margins:
     delay_margin_frequency: float
     gain_crossovers: tuple[float, ...]
     phase_crossovers: tuple[float, ...]
-
-
-_MARGINS_FIELDS = tuple(f.name for f in fields(Margins))
 
 
 def _low_frequency(loop: LoopFunction, integrators: int, start: float) -> float:
@@ -342,26 +339,22 @@ def assemble_margins(
     ms, ms_w, mt, mt_w = peaks
     gm, pc_w = gain_margin
     phase_margin, gc_w, delay_margin, dm_w = phase_and_delay_margins
-    # Margins(...) with every field in order, its instance dictionary filled at once: a frozen
-    # dataclass's __init__ sets each of the 14 fields through object.__setattr__ (about 2 us)
-    margins = object.__new__(Margins)
-    margins.__dict__.update(zip(_MARGINS_FIELDS, (
-        bool(stable),
-        max(int(unstable), 0) if tame else -1,
-        float(ms),
-        float(ms_w),
-        float(mt),
-        float(mt_w),
-        float(gm),
-        float(pc_w),
-        math.degrees(phase_margin) if math.isfinite(phase_margin) else math.inf,
-        float(gc_w),
-        float(delay_margin) if stable else 0.0,
-        float(dm_w),
-        tuple(gains.tolist()),
-        tuple(phase.tolist()),
-    )))  # fmt: skip
-    return margins
+    return Margins(
+        stable=bool(stable),
+        unstable_poles=max(int(unstable), 0) if tame else -1,
+        ms=float(ms),
+        ms_frequency=float(ms_w),
+        mt=float(mt),
+        mt_frequency=float(mt_w),
+        gain_margin=float(gm),
+        phase_crossover_frequency=float(pc_w),
+        phase_margin_deg=math.degrees(phase_margin) if math.isfinite(phase_margin) else math.inf,
+        gain_crossover_frequency=float(gc_w),
+        delay_margin=float(delay_margin) if stable else 0.0,
+        delay_margin_frequency=float(dm_w),
+        gain_crossovers=tuple(gains.tolist()),
+        phase_crossovers=tuple(phase.tolist()),
+    )
 
 
 def fppi_uncertainty_bound(omega: np.ndarray, gain: float, time_constant: float, tr: float, tf: float) -> np.ndarray:

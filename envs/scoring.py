@@ -36,7 +36,7 @@ from typing import Any
 
 from envs.analysis import plant_margins
 from envs.controllers import Controller
-from envs.performance import BOUND_MARGIN, weighted_iae
+from envs.performance import IAEBound, iae
 from envs.plants import Plant
 from envs.robustness import Margins
 from envs.validation import require_number
@@ -119,18 +119,6 @@ class Score:
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
 
 
-_SCORE_FIELDS = tuple(f.name for f in fields(Score))
-
-
-def _new_score(*values: Any) -> Score:
-    """``Score(*values)`` (every field given) for the hot path: a frozen dataclass's ``__init__``
-    sets each of the 16 fields through ``object.__setattr__``, about 2 us of a scoring; this fills
-    the same instance dictionary at once (``Score`` has no ``__post_init__``)."""
-    made = object.__new__(Score)
-    made.__dict__.update(zip(_SCORE_FIELDS, values))
-    return made
-
-
 def _violations(margins: Margins, relative_delay_margin: float, constraints: Constraints) -> dict[str, float]:
     """Relative violation of each active constraint (only those that are violated)."""
     if not margins.stable:
@@ -169,18 +157,18 @@ def score(
     experiment_cost = weights.experiment * experiment_time / scale
     if violations:
         undefined = math.inf if not margins.stable else math.nan
-        return _new_score(
+        return Score(
             FEASIBLE_CAP + 1 + sum(violations.values()), False, violations, margins.stable, margins.ms,
             margins.gain_margin, margins.phase_margin_deg, margins.delay_margin, relative_dm,
-            undefined, undefined, undefined, undefined, experiment_cost, margins, False,
+            undefined, undefined, undefined, undefined, experiment_cost, margins,
         )  # fmt: skip
     load_scale = abs(plant.gain) * scale * (scale if plant.integrating else 1.0)
-    budget = FEASIBLE_CAP - experiment_cost  # the IAEBound(weights.load / load_scale, weights.setpoint / scale, budget)
-    performance = weighted_iae(plant, controller, weights.load / load_scale, weights.setpoint / scale, budget + BOUND_MARGIN * abs(budget))
+    bound = IAEBound(weights.load / load_scale, weights.setpoint / scale, FEASIBLE_CAP - experiment_cost)
+    performance = iae(plant, controller, bound=bound)
     load_cost = weights.load * performance.load / load_scale
     setpoint_cost = weights.setpoint * performance.setpoint / scale
     cost = min(load_cost + setpoint_cost + experiment_cost, FEASIBLE_CAP)
-    return _new_score(
+    return Score(
         cost, True, {}, True, margins.ms, margins.gain_margin, margins.phase_margin_deg, margins.delay_margin,
         relative_dm, performance.load, performance.setpoint, load_cost, setpoint_cost, experiment_cost, margins,
         performance.lower_bound,

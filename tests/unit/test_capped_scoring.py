@@ -18,7 +18,7 @@ import math
 import pytest
 
 from envs.controllers import FPPI, MSP, PID, SeriesPID
-from envs.performance import IAEBound, IAEResult, iae, weighted_iae
+from envs.performance import IAEBound, iae
 from envs.plants import Plant
 from envs.scoring import FEASIBLE_CAP, CostWeights, score
 
@@ -115,16 +115,3 @@ def test_to_dict_is_asdict_without_margins():
     expected = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in expected.items()}
     assert result.to_dict() == expected and list(result.to_dict()) == list(expected)
     assert result.to_dict()["violations"] is not result.violations
-
-
-@pytest.mark.parametrize("name", PLANTS)
-def test_weighted_iae_is_iae_with_its_bound(name):
-    """The scoring's hot path (the bound by its figures, IAEResult filled at once) against iae()."""
-    plant = PLANTS[name]
-    for controller in _designs(name):
-        for bound in (None, IAEBound(1.0, 1.0, 5.0), IAEBound(0.3, 2.0, 1e-3), IAEBound(1.0, 0.0, math.inf)):
-            expected = iae(plant, controller, bound=bound)
-            figures = (0.0, 0.0, math.inf) if bound is None else (bound.load_weight, bound.setpoint_weight, bound.threshold)
-            actual = weighted_iae(plant, controller, *figures)
-            assert type(actual) is IAEResult and repr(actual) == repr(expected) and actual == expected
-            assert vars(actual) == vars(expected) and list(vars(actual)) == list(vars(expected))

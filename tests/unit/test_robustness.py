@@ -309,22 +309,6 @@ def test_msp_uncertainty_bound_is_eq_40_from_the_characteristic_equation():
     np.testing.assert_allclose(msp_uncertainty_bound(omega, gain, ln, tr), np.abs(1 + c_fb * p_n) / np.abs(c_fb), rtol=1e-12)
 
 
-def test_assembled_margins_are_the_dataclass_built_by_its_constructor():
-    """``assemble_margins`` fills the fields at once: the same object as ``Margins(...)``."""
-    from dataclasses import fields
-
-    from envs.robustness import Margins
-
-    plant = Plant.from_time_constants(1.0, [1.0, 0.5], 0.4)
-    for controller in (PID(kp=0.8, ti=1.2, td=0.2), PID(kp=9.0, ti=0.3)):
-        made = plant_margins(plant, controller)
-        built = Margins(**{f.name: getattr(made, f.name) for f in fields(Margins)})
-        assert made == built and made.__dict__ == built.__dict__
-        assert list(made.__dict__) == [f.name for f in fields(Margins)]
-        with pytest.raises(AttributeError):
-            made.ms = 0.0  # still frozen
-
-
 def test_packed_path_gives_the_margins_of_the_quasi_rational_path():
     """``plant_margins`` hands the loop over packed (``loop_packed``): the figures of
     ``quasi_rational_margins(loop_transfer(...))`` bit for bit."""

@@ -116,21 +116,3 @@ def test_disabled_constraints_admit_a_design_that_the_defaults_refuse():
 def test_bad_constraints_and_weights_are_refused_naming_the_field(make, field):
     with pytest.raises(ValueError, match=field):
         make()
-
-
-def test_the_hot_path_score_is_the_dataclass_built_by_its_constructor():
-    """``score`` fills a Score's fields at once (``_new_score``): the same object as ``Score(...)``."""
-    from dataclasses import astuple, fields
-
-    from envs.scoring import Score, _new_score
-
-    plant, model = _stable_plant(), FOPDTModel(1.0, 4.5, 1.5)
-    for controller in (fppi_design(model, 1.0), fppi_design(model, 3.0)):
-        made = score(plant, controller)
-        values = tuple(getattr(made, f.name) for f in fields(Score))
-        built = Score(*values)
-        assert made == built and made.__dict__ == built.__dict__ and astuple(made) == astuple(built)
-        assert list(made.__dict__) == [f.name for f in fields(Score)]
-        assert _new_score(*values) == built
-        with pytest.raises(AttributeError):
-            made.cost = 0.0  # still frozen
