@@ -175,7 +175,7 @@ def test_loop_rows_from_packed_block_equal_those_of_the_block(plant_name, contro
 
 @pytest.mark.parametrize("delays", [[], [0.7], [0.02, 3.0], [1e-300, 2.0], [np.nan, 0.5], [0.5, np.nan], [0.0, 1.0], [-0.0, 0.3], [np.inf]])
 def test_sample_time_equals_the_numpy_minimum(delays):
-    """sample_time's Python minimum against float(min(dt, delays.min())) (nan and signed zeros too)."""
+    """sample_time against float(min(dt, delays.min())) (nan and signed zeros too)."""
     plant = PLANTS["fopdt"]
     delays = np.array(delays, dtype=float)
     dt = plant.step_time_scale() / 50
