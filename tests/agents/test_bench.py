@@ -5,10 +5,14 @@
   agree within the reference's accuracy.  Margins and ``Ms`` are frequency-domain figures; the Padé
   approximant of order 8 is accurate to better than ``1e-9`` in phase up to ``omega L ~ 2`` (beyond the
   crossovers of these loops), so they agree to ``1e-3`` (the Ms grid and root finding set the rest).
-  The IAE depends on the whole time response, where a Padé dead time rings: the tolerance ``1e-2``
-  is above the errors measured on these loops against the fine-step reference (``5e-3`` at most,
-  the FPPI whose model dead time is 40% of ``T_ar``) and below the ``2e-2`` of the worst bench
-  loop (dead-time dominant, ``L/T_ar = 0.8``).
+  The IAE depends on the whole time response, where a Padé loop is an ill-conditioned realization
+  whose rounding depends on the CPU's BLAS kernel: on the FPPI loop (two nearly equal Padé dead
+  times) the order-8 IAE was 0.5% from the fine-step value on one machine and 1.3% (set point 2.8%)
+  on another, and ``OPENBLAS_CORETYPE`` moves it too.  So the tolerance is not a constant: it is the
+  reference's own error, measured in the test on the machine that runs it, as the spread of four
+  realizations of the same reference (``forced_response`` and ``scipy.signal.dlsim``, Padé orders 6
+  and 8), plus ``1e-3`` for ours (below).  A wrong IAE of ours would show as a disagreement with
+  well-conditioned realizations whose spread is small.
 * The fine-step reference (:mod:`agents.bench_fine`, RK4 at ``T/2000``) agrees with our IAE within
   ``1e-3``: the bench measured our largest error at ``6e-4`` (``2e-4`` on these loops) and the
   reference's own (halving its step) at ``2e-7``.
@@ -45,6 +49,19 @@ def _relative(a: float, b: float) -> float:
     return abs(a / b - 1)
 
 
+def _reference_spread(plant: Plant, controller, figure: int) -> float:
+    """Relative spread (max/min - 1) of the reference's IAE over its four realizations."""
+    values = [
+        reference_iae(plant, controller, method=method, pade_order=order)[figure]
+        for method in ("python_control", "scipy_dlsim")
+        for order in (6, 8)
+    ]
+    return max(values) / min(values) - 1
+
+
+OUR_IAE_ACCURACY = 1e-3  # ours against the fine-step reference (test below)
+
+
 @pytest.mark.parametrize("name", sorted(LOOPS))
 def test_python_control_reference_agrees_with_our_score(name: str) -> None:
     plant, controller = LOOPS[name]
@@ -53,8 +70,9 @@ def test_python_control_reference_agrees_with_our_score(name: str) -> None:
     assert ours.feasible and ours.stable and reference.stable
     for figure in ("ms", "phase_margin_deg", "delay_margin", "gain_margin"):
         assert _relative(getattr(reference, figure), getattr(ours, figure)) < 1e-3, figure
-    assert _relative(reference.iae_load, ours.iae_load) < 1e-2
-    assert _relative(reference.iae_setpoint, ours.iae_setpoint) < 1e-2
+    for index, field in enumerate(("iae_load", "iae_setpoint")):
+        tolerance = _reference_spread(plant, controller, index) + OUR_IAE_ACCURACY
+        assert _relative(getattr(reference, field), getattr(ours, field)) <= tolerance, field
 
 
 @pytest.mark.parametrize("name", sorted(LOOPS))
