@@ -84,6 +84,7 @@ from envs.identification import (
 from envs.plants import Plant
 from envs.procedure import Identification
 from envs.scoring import Constraints, CostWeights, Score, score
+from envs.threads import single_threaded
 from envs.validation import require_number
 
 __all__ = [
@@ -259,6 +260,7 @@ def _oracle(
     )
 
 
+@single_threaded
 def oracle(
     plant: Plant,
     identification: Identification,
@@ -302,6 +304,7 @@ def oracle(
     return _oracle(plant, structure, model, identification.experiment_time, constraints, weights, grid, parameter_range)
 
 
+@single_threaded
 def full_information_oracle(
     plant: Plant,
     structure: str,

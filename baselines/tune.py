@@ -20,6 +20,7 @@ from envs.controllers import Controller
 from envs.identification import Model
 from envs.plants import Plant
 from envs.procedure import identify
+from envs.threads import single_threaded
 
 __all__ = ["Tuning", "rule_inputs", "rule_list", "tune"]
 
@@ -67,6 +68,7 @@ def rule_inputs(plant: Plant, model: Model | None = None) -> RuleInputs:
     return RuleInputs.from_identification(identify(plant, np.random.default_rng(0)))
 
 
+@single_threaded
 def tune(rule: str, plant: Plant, model: Model | None = None) -> Tuning:
     """The controller of ``rule`` for ``plant`` (see the module docstring).
 

@@ -19,6 +19,7 @@ from envs.loop_transfer import loop_packed
 from envs.performance import IAEResult, iae
 from envs.plants import Plant
 from envs.robustness import Margins
+from envs.threads import single_threaded
 
 __all__ = ["LoopAnalysis", "analyze", "plant_margins"]
 
@@ -75,6 +76,7 @@ def plant_margins(plant: Plant, controller: Controller) -> Margins:
     return packed_margins(*loop_packed(plant, controller), integrators, plant.step_time_scale())
 
 
+@single_threaded
 def analyze(plant: Plant, controller: Controller) -> LoopAnalysis:
     """Robustness and IAE of the loop; the IAE of an unstable loop is infinite without simulating."""
     margins = plant_margins(plant, controller)

@@ -39,6 +39,7 @@ from envs.controllers import Controller
 from envs.performance import IAEBound, iae
 from envs.plants import Plant
 from envs.robustness import Margins
+from envs.threads import single_threaded
 from envs.validation import require_number
 
 __all__ = ["Constraints", "CostWeights", "Score", "score", "FEASIBLE_CAP", "UNSTABLE_GRADE"]
@@ -135,6 +136,7 @@ def _violations(margins: Margins, relative_delay_margin: float, constraints: Con
     return {k: float(v) for k, v in found.items() if v > 0}
 
 
+@single_threaded
 def score(
     plant: Plant,
     controller: Controller,

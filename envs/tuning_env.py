@@ -28,6 +28,7 @@ from envs.episode import (
 from envs.families import FAMILIES, sample_plant
 from envs.plants import Plant
 from envs.procedure import Identification, identify
+from envs.threads import single_threaded
 from envs.scoring import Constraints, CostWeights, Score, score
 from envs.validation import require_number
 
@@ -133,6 +134,7 @@ class DeadTimeTuningEnv(gym.Env):
         return float(np.clip(2.0 * (math.log(parameter) - low) / (high - low) - 1.0, -1.0, 1.0))
 
     # ------------------------------------------------------------------ episode
+    @single_threaded
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
         """Start an episode: draw a plant (or take ``options["plant"]``) and, in the fixed mode, identify it.
 
@@ -181,6 +183,7 @@ class DeadTimeTuningEnv(gym.Env):
             self.identification = None
             self.evidence = Evidence.empty(self.integrating)
 
+    @single_threaded
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
         """Run an experiment (agent mode) or commit the design; see the class docstring."""
         if self._done:
