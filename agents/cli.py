@@ -101,6 +101,7 @@ _MODULE_COMMANDS: dict[str, tuple[str, str]] = {
     "train": ("agents.train", "train an agent from a YAML config"),
     "evaluate": ("agents.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
     "bench": ("agents.bench", "measure the speed and accuracy of the scoring and the environments"),
+    "sweep": ("agents.sweep", "train many seeds and configs on Ray Tune, evaluate them, and summarize"),
 }
 
 
