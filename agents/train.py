@@ -150,11 +150,20 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 
 def _monitored_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
-    """``Monitor``-wrapped, inside the :class:`agents.checkpoints.SnapshotWrapper` that checkpoints it whole."""
+    """``Monitor``-wrapped, inside the :class:`agents.checkpoints.SnapshotWrapper` that checkpoints it whole.
+
+    In a ``subproc`` worker, SIGINT is ignored: Ctrl-C reaches the whole process group, and the
+    training process, not its workers, decides when to stop (:mod:`agents.interrupts`).
+    """
+    import multiprocessing
+    import signal as signals
+
     from stable_baselines3.common.monitor import Monitor
 
     from agents.checkpoints import SnapshotWrapper
 
+    if multiprocessing.parent_process() is not None:
+        signals.signal(signals.SIGINT, signals.SIG_IGN)
     return SnapshotWrapper(Monitor(make_env(env_id, env_kwargs)))
 
 
