@@ -206,6 +206,11 @@ def _hyperparameters(config: TrainConfig, action_space: Any) -> dict[str, Any]:
             raise ValueError(f"hyperparameters.action_noise must be {{type: normal|ornstein-uhlenbeck, sigma: s}}, got {noise!r}")
         size = int(np.prod(action_space.shape))
         kwargs["action_noise"] = kinds[noise["type"]](mean=np.zeros(size), sigma=float(noise["sigma"]) * np.ones(size))
+    from agents.hyperparameters import schedule
+
+    for key in ("learning_rate", "clip_range"):
+        if key in kwargs:
+            kwargs[key] = schedule(kwargs[key])
     if isinstance(kwargs.get("train_freq"), list):
         kwargs["train_freq"] = tuple(kwargs["train_freq"])
     return kwargs
@@ -326,7 +331,7 @@ def train(
         venv = model.get_env()
         resumed = None if checkpoint is None else {"periodic_checkpoint": checkpoint.periodic_checkpoint, "state": state}
         history = checkpoint.evaluations if checkpoint is not None else ()
-        run_callbacks, validator, checkpointer = _refused_as(config, "eval_family", lambda: make_callbacks(
+        run_callbacks, validator, checkpointer = _refused_as("eval_family", "the validation plant set", lambda: make_callbacks(
             run_dir, config.total_timesteps, eval_env, config.n_eval_episodes, config.eval_freq,
             config.eval_family, config.checkpoint_freq, config.progress_bar, vecnormalize, history, stop, resumed))
         _start_writing(run_dir, text, checkpoint)  # the config was accepted: now the run directory
@@ -400,19 +405,19 @@ def _start_writing(run_dir: Path, config_text: str, checkpoint: Checkpoint | Non
         write_json(run_dir / "evaluations.json", list(checkpoint.evaluations))
 
 
-def _refused_as(config: TrainConfig, key: str, build: Callable[[], Any]) -> Any:
-    """``build()``, with an error it raises reported as a refusal of ``key`` (one line)."""
+def _refused_as(key: str, refuser: str, build: Callable[[], Any]) -> Any:
+    """``build()``, with an error it raises reported in one line as ``refuser`` refusing ``key``."""
     try:
         return build()
     except (ValueError, TypeError, KeyError, AssertionError, OverflowError) as error:
-        raise ValueError(f"{key}: {config.algorithm} on {config.env_id} refused it: {error or error.__class__.__name__}") from None
+        raise ValueError(f"{key}: refused by {refuser}: {error or error.__class__.__name__}") from None
 
 
 def _environments(config: TrainConfig) -> tuple[Any, Any]:
     """The training environments and the validation environment; ``env_kwargs`` errors name the key."""
-    venv = _refused_as(config, "env_kwargs", lambda: make_vec_env(config))
+    venv = _refused_as("env_kwargs", config.env_id, lambda: make_vec_env(config))
     try:
-        eval_env = _refused_as(config, "env_kwargs", lambda: make_env(config.env_id, config.env_kwargs))
+        eval_env = _refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
     except ValueError:
         _close(venv)
         raise
@@ -437,7 +442,7 @@ def _model(config: TrainConfig, checkpoint: Checkpoint | None, venv: Any, tensor
         return _restored_model(config, checkpoint, venv, tensorboard)
     if config.normalize:
         venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
-    model = _refused_as(config, "hyperparameters or policy_kwargs", lambda: new_model(config, venv, tensorboard))
+    model = _refused_as("hyperparameters or policy_kwargs", config.algorithm, lambda: new_model(config, venv, tensorboard))
     model.deadtime_vecnormalize = config.normalize  # saved with the model: load_policy requires the statistics
     return model, venv if config.normalize else None, None
 
