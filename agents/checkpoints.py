@@ -234,7 +234,7 @@ def read_manifest(path: Path) -> Checkpoint:
 
 
 def _manifests(directory: Path) -> list[Path]:
-    """``latest.json``, then the ``checkpoint_N.json`` newest first."""
+    """``latest.json``, then the ``checkpoint_N.json`` newest first (a kill can fall between the two writes)."""
     numbered = sorted((int(m.group(1)), p) for p in directory.glob("checkpoint_*.json") if (m := _MANIFEST.fullmatch(p.name)))
     index = directory / CHECKPOINT_INDEX
     return ([index] if index.exists() else []) + [p for _, p in reversed(numbered)]
@@ -259,13 +259,14 @@ def find_checkpoint(run_dir: str | Path) -> tuple[Checkpoint | None, str | None]
     if not directory.is_dir():
         return None, None
     problems: list[str] = []
-    failed: set[int] = set()
+    readable = []
     for manifest in _manifests(directory):
         try:
-            checkpoint = read_manifest(manifest)
+            readable.append(read_manifest(manifest))
         except DamagedFileError as error:
             problems.append(str(error))
-            continue
+    failed: set[int] = set()
+    for checkpoint in sorted(readable, key=lambda c: -c.num_timesteps):  # newest first, whichever manifest names it
         if checkpoint.num_timesteps in failed:
             continue
         try:
@@ -276,7 +277,8 @@ def find_checkpoint(run_dir: str | Path) -> tuple[Checkpoint | None, str | None]
             continue
         if not problems:
             return checkpoint, None
-        return checkpoint, f"{problems[0]}; resuming from {manifest.name} ({checkpoint.num_timesteps} steps) instead"
+        return checkpoint, (f"{problems[0]}; resuming from {checkpoint.manifest.name} "
+                            f"({checkpoint.num_timesteps} steps) instead")
     if problems:
         raise DamagedFileError(f"{problems[0]}; no intact checkpoint to resume from (start a new run in another --out)")
     return None, None
