@@ -10,33 +10,27 @@ environments use the seeds ``seed + i`` of a config's small integer seed, so the
 Environments without plant sets (any non-``DeadTime`` id) are validated on ``n`` episodes reset with
 those seeds alone.
 
-Checkpoints live in ``<run>/checkpoints``: ``model_<steps>.zip``, ``replay_buffer_<steps>.pkl``
-(off-policy algorithms), ``vecnormalize_<steps>.pkl`` (if used) and ``latest.json`` naming them.  Every
-file is written to a temporary file in the same directory and moved into place with
-``os.replace``; ``latest.json`` is replaced last, so it always names a complete checkpoint.  A
-checkpoint is taken at the start of a rollout, after the previous rollout was trained on, so the
-saved state has seen every step it counts and a resumed run collects exactly the rollouts that
-an uninterrupted one would (same final ``num_timesteps``).
+Checkpoints (:mod:`agents.checkpoints`) are written at the start of a rollout, after the previous
+rollout was trained on, every ``checkpoint_freq`` steps, and at the next rollout start after a
+SIGINT/SIGTERM (:class:`agents.interrupts.StopRequest`), after which training stops.
 """
 
 from __future__ import annotations
 
-import json
-import os
 import pickle
-import secrets
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
+
+from agents.files import atomic_write, write_json, write_text
 
 __all__ = [
     "VALIDATION_SEED",
     "ValidationResult",
     "atomic_write",
-    "latest_checkpoint",
     "make_callbacks",
     "save_model",
     "validate_policy",
@@ -48,59 +42,19 @@ __all__ = [
 # Reset seed of validation plant k is VALIDATION_SEED + k: disjoint from the training environments
 # (seed + i) and from deadtime evaluate's (seed + i, seed + 1_000_000 + j).
 VALIDATION_SEED = 3_000_000
-CHECKPOINT_INDEX = "latest.json"
-
-
-# ----------------------------------------------------------------------------------- atomic files
-def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
-    """Write ``path`` through ``write(file)`` on a temporary file in the same directory, then ``os.replace``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
-    try:
-        with open(temporary, "xb") as handle:  # honours the umask, unlike mkstemp's 0600
-            write(handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
-    return path
-
-
-def write_text(path: str | Path, text: str) -> Path:
-    """Write a UTF-8 text file atomically."""
-    return atomic_write(path, lambda handle: handle.write(text.encode()))
-
-
-def write_json(path: str | Path, data: Any) -> Path:
-    """``json.dump`` atomically (indented, trailing newline)."""
-    return write_text(path, json.dumps(data, indent=2) + "\n")
 
 
 def save_model(model: Any, path: str | Path, vecnormalize: Any = None) -> Path:
     """Save ``model`` to ``path`` (a ``.zip``) atomically, and the ``VecNormalize`` statistics beside it.
 
-    The statistics go to ``<stem>.vecnormalize.pkl`` (see :func:`agents.policies.load_policy`).
+    The statistics go to ``<stem>.vecnormalize.pkl`` (see :func:`agents.policies.load_policy`), written
+    before the model, whose ``deadtime_vecnormalize`` attribute says that they are needed.
     """
     path = Path(path)
-    atomic_write(path, model.save)
     if vecnormalize is not None:
         atomic_write(path.with_suffix(".vecnormalize.pkl"), lambda handle: pickle.dump(vecnormalize, handle))
+    atomic_write(path, model.save)
     return path
-
-
-def latest_checkpoint(run_dir: str | Path) -> dict[str, Any] | None:
-    """The index of the run's latest complete checkpoint (paths made absolute), or None."""
-    index = Path(run_dir) / "checkpoints" / CHECKPOINT_INDEX
-    if not index.is_file():
-        return None
-    data = json.loads(index.read_text())
-    for key in ("model", "replay_buffer", "vecnormalize"):
-        if data.get(key):
-            data[key] = str(index.parent / data[key])
-    return data
 
 
 # ----------------------------------------------------------------------------------- validation
@@ -184,19 +138,29 @@ def make_callbacks(
     progress_bar: bool,
     vecnormalize: Any = None,
     history: Sequence[dict[str, Any]] = (),
+    stop: Any = None,
+    resumed: Mapping[str, Any] | None = None,
 ) -> tuple[list[Any], Any, Any]:
     """The callbacks of a run: ``(callbacks, validator, checkpointer)``.
 
     ``validator.validate(model)`` runs one validation; ``checkpointer.save()`` writes a checkpoint.
+    ``stop`` is an :class:`agents.interrupts.StopRequest` (a checkpoint at the next rollout start, then
+    a stop); ``resumed`` the checkpoint's ``periodic_checkpoint`` step and training ``state``
+    (:func:`agents.checkpoints.capture_state`), whose action noise is put back when training starts.
+    The validation plants are drawn when this is called, so a bad ``eval_family`` fails here.
     """
     from stable_baselines3.common.callbacks import BaseCallback
+
+    from agents.checkpoints import restore_action_noise, save_checkpoint
+
+    plants = validation_plants(eval_env, n_eval_episodes, eval_family)
 
     class Validator(BaseCallback):
         """Validation every ``eval_freq`` steps; keeps ``best_model.zip`` and ``evaluations.json``."""
 
         def __init__(self) -> None:
             super().__init__()
-            self.plants = validation_plants(eval_env, n_eval_episodes, eval_family)
+            self.plants = plants
             self.history = list(history)
             self.best = min((entry["mean_cost"] for entry in self.history), default=np.inf)
             self.last = self.history[-1]["num_timesteps"] if self.history else 0
@@ -236,39 +200,33 @@ def make_callbacks(
             return result
 
     class Checkpointer(BaseCallback):
-        """Atomic checkpoints at rollout starts, every ``checkpoint_freq`` steps; keeps the last two."""
+        """Checkpoints at rollout starts every ``checkpoint_freq`` steps, and one after a stop request."""
 
         def _init_callback(self) -> None:
-            self.last = self.model.num_timesteps
+            self.periodic = self.model.num_timesteps if resumed is None else int(resumed["periodic_checkpoint"])
             self.directory = run_dir / "checkpoints"
+            self.stopping = False
+            self.stopped_at: int | None = None
+
+        def _on_training_start(self) -> None:
+            if resumed is not None and resumed.get("state") is not None:
+                restore_action_noise(resumed["state"], self.model)
 
         def _on_step(self) -> bool:
-            return True
+            return not self.stopping  # False ends learn() one step after the stop checkpoint
 
         def _on_rollout_start(self) -> None:
-            if checkpoint_freq > 0 and self.model.num_timesteps - self.last >= checkpoint_freq:
-                self.save()
+            due = checkpoint_freq > 0 and self.model.num_timesteps - self.periodic >= checkpoint_freq
+            requested = stop is not None and stop.requested and not self.stopping
+            if due or requested:
+                self.save(periodic=due)
+            if requested:
+                self.stopping, self.stopped_at = True, self.model.num_timesteps
 
-        def save(self) -> None:
-            steps = self.last = self.model.num_timesteps
-            index: dict[str, Any] = {"num_timesteps": steps, "model": f"model_{steps}.zip",
-                                     "replay_buffer": None, "vecnormalize": None,
-                                     "evaluations": list(validator.history)}
-            atomic_write(self.directory / index["model"], self.model.save)
-            if hasattr(self.model, "replay_buffer") and self.model.replay_buffer is not None:
-                index["replay_buffer"] = f"replay_buffer_{steps}.pkl"
-                atomic_write(self.directory / index["replay_buffer"], self.model.save_replay_buffer)
-            if vecnormalize is not None:
-                index["vecnormalize"] = f"vecnormalize_{steps}.pkl"
-                atomic_write(self.directory / index["vecnormalize"], lambda handle: pickle.dump(vecnormalize, handle))
-            write_json(self.directory / CHECKPOINT_INDEX, index)
-            self._prune(keep={index[key] for key in ("model", "replay_buffer", "vecnormalize") if index[key]})
-
-        def _prune(self, keep: set[str]) -> None:
-            for stem in ("model_", "replay_buffer_", "vecnormalize_"):
-                files = sorted(self.directory.glob(f"{stem}*"), key=lambda p: int(p.stem.rsplit("_", 1)[-1]))
-                for old in [f for f in files if f.name not in keep][:-1]:  # the current one and one before
-                    old.unlink(missing_ok=True)
+        def save(self, periodic: bool = True) -> Path:
+            if periodic:
+                self.periodic = self.model.num_timesteps
+            return save_checkpoint(self.directory, self.model, vecnormalize, validator.history, self.periodic)
 
     class Progress(BaseCallback):
         """A tqdm bar over the run's total timesteps (stable-baselines3's own needs ``rich``)."""

@@ -339,14 +339,17 @@ def _parameters(function: Any) -> tuple[set[str], bool]:
 
 
 def validate(config: TrainConfig) -> None:
-    """Check ``hyperparameters``, ``policy``, ``policy_kwargs`` and ``env_kwargs`` against the constructors.
+    """Check ``hyperparameters``, ``policy``, ``policy_kwargs`` and ``env_kwargs`` against the constructors:
+    the keys, then the values (:mod:`agents.hyperparameters`).
 
-    Imports stable-baselines3 (hence torch) and the environment's module.
+    Imports stable-baselines3 (hence torch) and the environment's module.  The values of
+    ``env_kwargs`` are checked by the environment itself when ``deadtime train`` builds it, before
+    anything is written.
 
     Raises
     ------
     ValueError
-        Naming the first unknown key.
+        Naming the first unknown key or invalid value.
     """
     import stable_baselines3
 
@@ -367,6 +370,10 @@ def validate(config: TrainConfig) -> None:
         if key not in accepted and not open_ended:
             raise ValueError(f"unknown policy_kwargs key {key!r} for {config.algorithm} {config.policy} "
                              f"(known: {', '.join(sorted(accepted))})")
+    from agents.hyperparameters import check_hyperparameters, check_policy_kwargs
+
+    check_hyperparameters(config.algorithm, config.hyperparameters, config.n_envs)
+    check_policy_kwargs(config.policy_kwargs)
     _validate_env_kwargs(config)
 
 

@@ -7,6 +7,12 @@ stable-baselines3 algorithm is tried in turn.  ``VecNormalize`` statistics saved
 (``<stem>.vecnormalize.pkl``) are applied to the observations.  A checkpoint
 (``<run>/checkpoints/model_<N>.zip``) takes its statistics from ``vecnormalize_<N>.pkl`` beside it
 and its config from the run directory.
+
+An agent trained with normalized observations is never played without its statistics: a model
+saved by ``deadtime train`` records ``deadtime_vecnormalize`` in its ``data``, and a run's
+``config.yaml`` says ``normalize``; either makes a missing statistics file an error that names it.
+(A model saved elsewhere, without either, is loaded as it is.)  A damaged statistics file is an error
+naming it too.
 """
 
 from __future__ import annotations
@@ -112,20 +118,59 @@ def _statistics_path(model_path: Path) -> Path | None:
     return next((c for c in candidates if c.is_file()), None)
 
 
-def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
-    """Load a saved agent from a run directory or a model ``.zip``.
+def _saved_with_statistics(model_path: Path) -> bool:
+    """Whether ``deadtime train`` saved the model with ``VecNormalize`` statistics (its ``data`` says so)."""
+    try:
+        with zipfile.ZipFile(model_path) as archive:
+            data = json.loads(archive.read("data"))
+    except (KeyError, ValueError, OSError, zipfile.BadZipFile):
+        return False
+    return data.get("deadtime_vecnormalize") is True
+
+
+def _load_statistics(model_path: Path, required: bool) -> Any:
+    """The model's ``VecNormalize`` statistics (not updated while playing), or None if it has none.
 
     Raises
     ------
     ValueError
-        If there is no model at ``path`` or no stable-baselines3 algorithm can load it.
+        If they are required but missing, or cannot be read (naming the file).
+    """
+    statistics = _statistics_path(model_path)
+    if statistics is None:
+        if required:
+            raise ValueError(f"{model_path.with_suffix('.vecnormalize.pkl')} is missing: {model_path.name} was trained on "
+                             "normalized observations and cannot be played without its statistics "
+                             "(copy them beside the model as <stem>.vecnormalize.pkl)")
+        return None
+    try:
+        with statistics.open("rb") as handle:
+            normalization = pickle.load(handle)  # noqa: S301  (the run's own file)
+        normalization.training = False
+        normalization.normalize_obs  # noqa: B018  (a VecNormalize, not some other pickle)
+    except (pickle.UnpicklingError, EOFError, AttributeError, ValueError, TypeError, ImportError, IndexError, OSError) as error:
+        raise ValueError(f"{statistics} is damaged: it is not readable VecNormalize statistics "
+                         f"({error.__class__.__name__}: {error})") from None
+    return normalization
+
+
+def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
+    """Load a saved agent from a run directory or a model ``.zip``, with its normalization statistics.
+
+    Raises
+    ------
+    ValueError
+        If there is no model at ``path``, no stable-baselines3 algorithm can load it, or its
+        statistics are required (the model or the run's config says so) but missing or damaged.
     """
     model_path = resolve_model_path(path)  # a missing or unreadable file is named before torch is imported
-    import stable_baselines3
-
     run_dir = model_path.parent.parent if model_path.parent.name == "checkpoints" else model_path.parent
     config_path = run_dir / "config.yaml"
     config = load_config(config_path) if config_path.is_file() else None
+    required = _saved_with_statistics(model_path) or (config is not None and config.normalize)
+    normalization = _load_statistics(model_path, required)
+    import stable_baselines3
+
     candidates = [config.algorithm] if config is not None else _likely_algorithms(model_path)
     errors = []
     for algorithm in candidates:
@@ -137,12 +182,6 @@ def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
         break
     else:
         raise ValueError(f"{model_path} could not be loaded by {', '.join(candidates)} ({'; '.join(errors)})")
-    normalization = None
-    statistics = _statistics_path(model_path)
-    if statistics is not None:
-        with statistics.open("rb") as handle:
-            normalization = pickle.load(handle)
-        normalization.training = False
     name = run_dir.name if config is not None else model_path.stem
     return LoadedPolicy(name=name, path=model_path, algorithm=algorithm, model=model, config=config,
                         normalization=normalization)

@@ -11,17 +11,21 @@ them again with the timings.  The run directory then holds ``tensorboard/`` (Ten
 validation cost), and at the end ``model.zip`` (the final agent); ``VecNormalize`` statistics, if
 used, sit beside each model as ``<stem>.vecnormalize.pkl``.
 
-``--resume`` continues an interrupted run from its latest checkpoint (model, replay buffer,
-normalization statistics, validation history) and stops at the same ``num_timesteps`` as an
-uninterrupted run.  With ``--resume`` the config may come from the run itself (``--out DIR`` without
-``--config``); a config that differs from the saved one is refused, except for ``total_timesteps``
-(which may be raised to extend a run), ``output_dir`` and ``progress_bar``.
+``--resume`` continues an interrupted run from its newest intact checkpoint
+(:mod:`agents.checkpoints`: model, replay buffer, normalization statistics, the environments, every
+random state, the validation history and schedule) exactly as the uninterrupted run: same
+parameters, same validation numbers.  A damaged newest checkpoint is skipped with one line naming
+the file.  SIGINT or SIGTERM writes a checkpoint at the next rollout boundary and stops
+(:mod:`agents.interrupts`).  With ``--resume`` the config may come from the run itself (``--out DIR``
+without ``--config``); a config that differs from the saved one is refused, except for
+``total_timesteps`` (which may be raised to extend a run), ``output_dir`` and ``progress_bar``.
 
 Reproducibility: one seed drives ``set_random_seed``, the algorithm and the environments
 (environment ``i`` gets ``seed + i``); torch runs single-threaded with deterministic algorithms.  The
-same config and seed give the same agent.  A resumed run reseeds with ``seed + num_timesteps`` at the
-checkpoint: it is deterministic too, though not bit-identical to an uninterrupted run (the
-environments' random streams restart).
+same config and seed give the same agent, interrupted and resumed or not.
+
+The config is checked (:func:`agents.config.validate`) and the environments and the model are built
+before anything is written, so a refused config leaves no run directory behind.
 
 torch and stable-baselines3 are imported inside the functions.
 """
@@ -34,19 +38,23 @@ import functools
 import json
 import platform
 import shlex
+import signal
 import subprocess
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
 from agents.config import TrainConfig, load_config, validate
+
+if TYPE_CHECKING:
+    from agents.checkpoints import Checkpoint
 
 __all__ = ["TrainResult", "add_arguments", "make_env", "run", "train"]
 
@@ -88,10 +96,15 @@ def run(args: argparse.Namespace) -> int:
         result = train(config, resume=args.resume, command=command)
     except KeyboardInterrupt:
         run_dir = run_directory(config)
-        checkpoint = _checkpoint_steps(run_dir)
-        print(f"\ninterrupted; latest checkpoint at {checkpoint} steps; continue with: "
+        print(f"\ninterrupted; latest checkpoint at {_checkpoint_steps(run_dir)} steps; continue with: "
               f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
         return 130
+    if result.status == "interrupted":
+        name = signal.Signals(result.stopped_by).name if result.stopped_by else "a stop request"
+        print(f"deadtime train: stopped by {name}; checkpoint of {result.num_timesteps} steps in "
+              f"{result.run_dir / 'checkpoints'}; continue exactly with: "
+              f"deadtime train --out {shlex.quote(str(result.run_dir))} --resume", file=sys.stderr)
+        return 128 + (result.stopped_by or 2)
     print(f"{result.num_timesteps} steps; this session trained {result.session_steps} in {result.train_seconds:.1f} s "
           f"({result.steps_per_second:.1f} steps/s); best validation cost {result.best_cost:.6g}")
     print(f"agent: {result.run_dir / 'model.zip'} (best: {result.run_dir / 'best_model.zip'})")
@@ -117,6 +130,8 @@ class TrainResult:
     steps_per_second: float
     best_cost: float
     final_cost: float
+    status: str = "finished"
+    stopped_by: int | None = None
 
 
 def run_directory(config: TrainConfig) -> Path:
@@ -135,9 +150,21 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 
 def _monitored_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
+    """``Monitor``-wrapped, inside the :class:`agents.checkpoints.SnapshotWrapper` that checkpoints it whole.
+
+    In a ``subproc`` worker, SIGINT is ignored: Ctrl-C reaches the whole process group, and the
+    training process, not its workers, decides when to stop (:mod:`agents.interrupts`).
+    """
+    import multiprocessing
+    import signal as signals
+
     from stable_baselines3.common.monitor import Monitor
 
-    return Monitor(make_env(env_id, env_kwargs))
+    from agents.checkpoints import SnapshotWrapper
+
+    if multiprocessing.parent_process() is not None:
+        signals.signal(signals.SIGINT, signals.SIG_IGN)
+    return SnapshotWrapper(Monitor(make_env(env_id, env_kwargs)))
 
 
 def make_vec_env(config: TrainConfig) -> Any:
@@ -179,6 +206,11 @@ def _hyperparameters(config: TrainConfig, action_space: Any) -> dict[str, Any]:
             raise ValueError(f"hyperparameters.action_noise must be {{type: normal|ornstein-uhlenbeck, sigma: s}}, got {noise!r}")
         size = int(np.prod(action_space.shape))
         kwargs["action_noise"] = kinds[noise["type"]](mean=np.zeros(size), sigma=float(noise["sigma"]) * np.ones(size))
+    from agents.hyperparameters import schedule
+
+    for key in ("learning_rate", "clip_range"):
+        if key in kwargs:
+            kwargs[key] = schedule(kwargs[key])
     if isinstance(kwargs.get("train_freq"), list):
         kwargs["train_freq"] = tuple(kwargs["train_freq"])
     return kwargs
@@ -231,10 +263,13 @@ def _check_resumable(saved: TrainConfig, config: TrainConfig, run_dir: Path) -> 
 
 
 def _checkpoint_steps(run_dir: Path) -> int:
-    from agents.callbacks import latest_checkpoint
+    from agents.checkpoints import DamagedFileError, find_checkpoint
 
-    checkpoint = latest_checkpoint(run_dir)
-    return 0 if checkpoint is None else int(checkpoint["num_timesteps"])
+    try:
+        checkpoint, _ = find_checkpoint(run_dir)
+    except DamagedFileError:
+        return 0
+    return 0 if checkpoint is None else checkpoint.num_timesteps
 
 
 # ----------------------------------------------------------------------------------- training
@@ -247,12 +282,16 @@ def train(
 ) -> TrainResult:
     """Train an agent as the config says, in :func:`run_directory` ``(config)``.
 
+    Everything that can refuse the config (its values, the environments, the model) is built before
+    anything is written; a first SIGINT or SIGTERM ends the run at the next rollout boundary with a
+    checkpoint (``status == "interrupted"``, ``stopped_by`` the signal).
+
     Parameters
     ----------
     config : TrainConfig
         The resolved config.
     resume : bool
-        Continue from the run's latest checkpoint (a fresh start if it has none yet).
+        Continue exactly from the run's newest intact checkpoint (a fresh start if it has none yet).
     command : str, optional
         The command line, for the provenance records.
     callbacks : sequence of BaseCallback
@@ -262,79 +301,127 @@ def train(
     ------
     ValueError
         If the config is invalid, the run directory already holds a run and ``resume`` is False,
-        or ``resume`` is True with a config that differs from the run's.
+        ``resume`` is True with a config that differs from the run's, or a file of the run is damaged
+        (:class:`agents.checkpoints.DamagedFileError`, naming it).
     """
-    from agents.callbacks import make_callbacks, save_model, write_text
+    from agents.callbacks import make_callbacks, save_model
+    from agents.checkpoints import restore_state
+    from agents.interrupts import StopRequest
 
     validate(config)
     run_dir = run_directory(config)
-    checkpoint = _prepare_run_directory(config, run_dir, resume)
+    checkpoint = _existing_run(config, run_dir, resume)
     finished = _finished(run_dir, config) if resume else None
     if finished is not None:
         print(f"{run_dir} already finished {finished.num_timesteps} steps (raise total_timesteps to extend it)")
         return finished
-    saved_config = run_dir / "config.yaml"
 
     provenance = {"command": command or "(python API)", "commit": _git_commit(), "versions": _versions(),
                   "started": datetime.now(UTC).isoformat(timespec="seconds")}
     text = _config_yaml(config, provenance)
     print(text, end="")
-    write_text(saved_config, text)  # on --resume: the same config, but total_timesteps may have grown
-
     _setup_torch(config)
     from stable_baselines3.common.utils import set_random_seed
 
     set_random_seed(config.seed)
-    venv = make_vec_env(config)
-    eval_env = make_env(config.env_id, config.env_kwargs)
+    venv, eval_env = _environments(config)
+    stop = StopRequest(_boundary(config))
     try:
-        model, vecnormalize = _model(config, checkpoint, venv, str(run_dir / "tensorboard"))
+        model, vecnormalize, state = _model(config, checkpoint, venv, str(run_dir / "tensorboard"))
         venv = model.get_env()
-        history = checkpoint["evaluations"] if checkpoint is not None else ()
-        run_callbacks, validator, checkpointer = make_callbacks(
+        resumed = None if checkpoint is None else {"periodic_checkpoint": checkpoint.periodic_checkpoint, "state": state}
+        history = checkpoint.evaluations if checkpoint is not None else ()
+        run_callbacks, validator, checkpointer = _refused_as("eval_family", "the validation plant set", lambda: make_callbacks(
             run_dir, config.total_timesteps, eval_env, config.n_eval_episodes, config.eval_freq,
-            config.eval_family, config.checkpoint_freq, config.progress_bar, vecnormalize, history)
+            config.eval_family, config.checkpoint_freq, config.progress_bar, vecnormalize, history, stop, resumed))
+        _start_writing(run_dir, text, checkpoint)  # the config was accepted: now the run directory
+        if state is not None:
+            restore_state(state, model, vecnormalize)
 
         start_steps = model.num_timesteps
         started, cpu_started = time.perf_counter(), time.process_time()
         status = "interrupted"
         try:
-            model.learn(total_timesteps=config.total_timesteps - start_steps, callback=[*run_callbacks, *callbacks],
-                        reset_num_timesteps=checkpoint is None, tb_log_name="run", progress_bar=False)
-            status = "finished"
+            with stop:
+                model.learn(total_timesteps=config.total_timesteps - start_steps, callback=[*run_callbacks, *callbacks],
+                            reset_num_timesteps=checkpoint is None, tb_log_name="run", progress_bar=False)
+            status = "interrupted" if checkpointer.stopped_at is not None else "finished"
         finally:
             train_seconds = time.perf_counter() - started
             _write_run_json(run_dir, config, provenance, status, model.num_timesteps, start_steps, train_seconds,
                             time.process_time() - cpu_started, checkpoint is not None)
-        save_model(model, run_dir / "model.zip", vecnormalize)
-        final = validator.validate(model)
-        if config.checkpoint_freq > 0:  # the final state, so that a larger total_timesteps can extend the run
-            checkpointer.save()
+        if status == "finished":
+            save_model(model, run_dir / "model.zip", vecnormalize)
+            final = validator.validate(model).mean_cost
+            if config.checkpoint_freq > 0:  # the final state, so that a larger total_timesteps can extend the run
+                checkpointer.save()
     finally:
         _close(venv)
         eval_env.close()
     steps = model.num_timesteps - start_steps
+    if status != "finished":
+        return TrainResult(run_dir=run_dir, num_timesteps=checkpointer.stopped_at, session_steps=steps,
+                           train_seconds=train_seconds, steps_per_second=steps / train_seconds if train_seconds > 0 else float("nan"),
+                           best_cost=validator.best, final_cost=float("nan"), status=status, stopped_by=stop.signum)
     return TrainResult(run_dir=run_dir, num_timesteps=model.num_timesteps, session_steps=steps, train_seconds=train_seconds,
                        steps_per_second=steps / train_seconds if train_seconds > 0 else float("nan"),
-                       best_cost=validator.best, final_cost=final.mean_cost)
+                       best_cost=validator.best, final_cost=final)
 
 
-def _prepare_run_directory(config: TrainConfig, run_dir: Path, resume: bool) -> dict[str, Any] | None:
-    """Check that the run directory fits the request; return the checkpoint to resume from, if any."""
-    from agents.callbacks import latest_checkpoint
+def _boundary(config: TrainConfig) -> str:
+    """When a stop request is served, for the line printed when the signal arrives."""
+    if config.off_policy:
+        return "after the current rollout and its gradient steps"
+    n_steps = config.hyperparameters.get("n_steps", 2048 if config.algorithm == "PPO" else 5)
+    return f"at the end of the current rollout (at most {n_steps * config.n_envs} steps and its update)"
+
+
+def _existing_run(config: TrainConfig, run_dir: Path, resume: bool) -> Checkpoint | None:
+    """Check (reading only) that the run directory fits the request; the checkpoint to resume from, if any."""
+    from agents.checkpoints import find_checkpoint
 
     saved_config = run_dir / "config.yaml"
     checkpoint = None
     if resume and saved_config.is_file():
         _check_resumable(load_config(saved_config), config, run_dir)
-        checkpoint = latest_checkpoint(run_dir)
+        checkpoint, note = find_checkpoint(run_dir)
+        if note:
+            print(f"deadtime train: {note}", file=sys.stderr)
     elif not resume and (saved_config.exists() or (run_dir / "checkpoints").exists()):
         raise ValueError(f"{run_dir} already holds a run; pass --resume to continue it, or choose another --out")
-    if checkpoint is not None and int(checkpoint["num_timesteps"]) >= config.total_timesteps and not _finished(run_dir, config):
-        raise ValueError(f"{run_dir}: the latest checkpoint has {checkpoint['num_timesteps']} steps, "
+    if checkpoint is not None and checkpoint.num_timesteps >= config.total_timesteps and not _finished(run_dir, config):
+        raise ValueError(f"{run_dir}: the latest checkpoint has {checkpoint.num_timesteps} steps, "
                          f"total_timesteps is {config.total_timesteps}; nothing to resume")
-    run_dir.mkdir(parents=True, exist_ok=True)
     return checkpoint
+
+
+def _start_writing(run_dir: Path, config_text: str, checkpoint: Checkpoint | None) -> None:
+    """Create the run directory with its config; on resume, the validation history as of the checkpoint."""
+    from agents.callbacks import write_json, write_text
+
+    run_dir.mkdir(parents=True, exist_ok=True)
+    write_text(run_dir / "config.yaml", config_text)  # on --resume: the same config, but total_timesteps may have grown
+    if checkpoint is not None:
+        write_json(run_dir / "evaluations.json", list(checkpoint.evaluations))
+
+
+def _refused_as(key: str, refuser: str, build: Callable[[], Any]) -> Any:
+    """``build()``, with an error it raises reported in one line as ``refuser`` refusing ``key``."""
+    try:
+        return build()
+    except (ValueError, TypeError, KeyError, AssertionError, OverflowError) as error:
+        raise ValueError(f"{key}: refused by {refuser}: {error or error.__class__.__name__}") from None
+
+
+def _environments(config: TrainConfig) -> tuple[Any, Any]:
+    """The training environments and the validation environment; ``env_kwargs`` errors name the key."""
+    venv = _refused_as("env_kwargs", config.env_id, lambda: make_vec_env(config))
+    try:
+        eval_env = _refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
+    except ValueError:
+        _close(venv)
+        raise
+    return venv, eval_env
 
 
 def new_model(config: TrainConfig, venv: Any, tensorboard: str | None = None) -> Any:
@@ -346,27 +433,47 @@ def new_model(config: TrainConfig, venv: Any, tensorboard: str | None = None) ->
                      policy_kwargs=_policy_kwargs(config), **_hyperparameters(config, venv.action_space))
 
 
-def _model(config: TrainConfig, checkpoint: Mapping[str, Any] | None, venv: Any, tensorboard: str) -> tuple[Any, Any]:
-    """``(model, vecnormalize)``: a new model on ``venv``, or the checkpoint's with its replay buffer and statistics."""
-    import stable_baselines3
+def _model(config: TrainConfig, checkpoint: Checkpoint | None, venv: Any, tensorboard: str) -> tuple[Any, Any, Any]:
+    """``(model, vecnormalize, state)``: a new model on ``venv`` (state None), or the checkpoint's, with its
+    replay buffer, statistics and training state (:func:`agents.checkpoints.capture_state`) to restore."""
     from stable_baselines3.common.vec_env import VecNormalize
 
-    algorithm = getattr(stable_baselines3, config.algorithm)
+    if checkpoint is not None:
+        return _restored_model(config, checkpoint, venv, tensorboard)
     if config.normalize:
-        if checkpoint is not None and checkpoint.get("vecnormalize"):
-            venv = VecNormalize.load(checkpoint["vecnormalize"], venv)
-            venv.training = True
-        else:
-            venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
-    vecnormalize = venv if config.normalize else None
-    if checkpoint is None:
-        model = new_model(config, venv, tensorboard)
-    else:
-        model = algorithm.load(checkpoint["model"], env=venv, device=config.device, tensorboard_log=tensorboard)
-        if checkpoint.get("replay_buffer"):
-            model.load_replay_buffer(checkpoint["replay_buffer"])
+        venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
+    model = _refused_as("hyperparameters or policy_kwargs", config.algorithm, lambda: new_model(config, venv, tensorboard))
+    model.deadtime_vecnormalize = config.normalize  # saved with the model: load_policy requires the statistics
+    return model, venv if config.normalize else None, None
+
+
+def _restored_model(config: TrainConfig, checkpoint: Checkpoint, venv: Any, tensorboard: str) -> tuple[Any, Any, Any]:
+    import stable_baselines3
+
+    from agents.checkpoints import DamagedFileError, load_file, read_pickle
+
+    algorithm = getattr(stable_baselines3, config.algorithm)
+    vecnormalize = None
+    if config.normalize:
+        if checkpoint.path("vecnormalize") is None:
+            raise DamagedFileError(f"{checkpoint.manifest} names no vecnormalize file, but the run normalizes observations")
+        vecnormalize = load_file(checkpoint.path("vecnormalize"), read_pickle)
+        vecnormalize.set_venv(venv)
+        vecnormalize.training = True
+        venv = vecnormalize
+    model = load_file(checkpoint.path("model"), lambda path: algorithm.load(
+        path, env=venv, device=config.device, tensorboard_log=tensorboard, force_reset=False))
+    if checkpoint.path("replay_buffer") is not None:
+        load_file(checkpoint.path("replay_buffer"), model.load_replay_buffer)
+    state = None
+    if checkpoint.path("state") is not None:
+        state = load_file(checkpoint.path("state"), read_pickle)
+    else:  # a checkpoint of the first format: no random states to restore
+        print(f"deadtime train: {checkpoint.manifest} holds no training state (an older format); "
+              "resuming reseeded with seed + num_timesteps, not as the uninterrupted run", file=sys.stderr)
         model.set_random_seed(config.seed + model.num_timesteps)
-    return model, vecnormalize
+        model._last_obs = None  # noqa: SLF001  (the environments restart)
+    return model, vecnormalize, state
 
 
 def _close(venv: Any) -> None:

@@ -180,3 +180,53 @@ def test_exponent_numbers_that_yaml_reads_as_strings(zoo: Path) -> None:
                                          "hyperparameters.ent_coef=auto"])
     assert config.total_timesteps == 10_000
     assert config.hyperparameters["learning_rate"] == 3e-4 and config.hyperparameters["ent_coef"] == "auto"
+
+
+# ----------------------------------------------------------------------------------- values refused before any write
+BAD_VALUES = [
+    ("PPO", "env_kwargs.experiments=bogus", "env_kwargs: refused by DeadTime/PID-v0: experiments must be one of"),
+    ("PPO", "hyperparameters.learning_rate=fast", "hyperparameters.learning_rate must be a positive number"),
+    ("PPO", "hyperparameters.learning_rate=-1", "hyperparameters.learning_rate must be a positive number"),
+    ("PPO", "hyperparameters.batch_size=0", "hyperparameters.batch_size must be an integer >= 1, got 0"),
+    ("PPO", "hyperparameters.batch_size=1", "hyperparameters.batch_size must be > 1 for PPO with normalize_advantage"),
+    ("PPO", "hyperparameters.n_steps=1", "hyperparameters.n_steps * n_envs must be > 1 for PPO"),
+    ("PPO", "hyperparameters.gamma=1.5", "hyperparameters.gamma must be a number in [0, 1], got 1.5"),
+    ("PPO", "hyperparameters.clip_range=0", "hyperparameters.clip_range must be a positive number"),
+    ("PPO", "hyperparameters.n_epochs=2.5", "hyperparameters.n_epochs must be an integer >= 1"),
+    ("SAC", "hyperparameters.buffer_size=0", "hyperparameters.buffer_size must be an integer >= 1"),
+    ("SAC", "hyperparameters.train_freq=[1, hour]", "hyperparameters.train_freq must be an integer >= 1 or [n >= 1, step | episode]"),
+    ("SAC", "hyperparameters.ent_coef=auto_0", "hyperparameters.ent_coef must be a positive number, auto or auto_<x > 0>"),
+    ("SAC", "hyperparameters.tau=0", "hyperparameters.tau must be a number in (0, 1]"),
+    ("SAC", "hyperparameters.gradient_steps=0", "hyperparameters.gradient_steps must be an integer >= 1, or -1"),
+    ("SAC", "hyperparameters.replay_buffer_class=x", "hyperparameters.replay_buffer_class is not allowed here"),
+    ("SAC", "policy_kwargs.net_arch=[64, -1]", "policy_kwargs.net_arch must be a list of layer sizes >= 1"),
+    ("SAC", "eval_family=nonsense", "eval_family: refused by the validation plant set: unknown plant family 'nonsense'"),
+]
+
+
+@pytest.mark.parametrize(("algorithm", "override", "message"), BAD_VALUES, ids=[o for _, o, _ in BAD_VALUES])
+def test_bad_values_are_named_and_leave_no_run_directory(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                         algorithm: str, override: str, message: str) -> None:
+    """One line naming the key, exit 2, no run directory: the corrected command then runs as a new run."""
+    from agents.cli import main
+
+    run_dir = tmp_path / "run"
+    config = ROOT / "configs" / f"{algorithm.lower()}.yaml"
+    assert main(["train", "--config", str(config), "--out", str(run_dir), override]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"deadtime train: error: {message}"), lines
+    assert not run_dir.exists()
+
+
+def test_a_linear_learning_rate_schedule_is_taken() -> None:
+    from stable_baselines3.common.utils import LinearSchedule
+
+    from agents.hyperparameters import check_hyperparameters, schedule
+
+    check_hyperparameters("SAC", {"learning_rate": {"linear": [1e-3, 0.0]}}, 1)
+    rate = schedule({"linear": [1e-3, 0.0]})
+    assert isinstance(rate, LinearSchedule) and rate(1.0) == 1e-3 and rate(0.0) == 0.0
+    with pytest.raises(ValueError, match="learning_rate"):
+        check_hyperparameters("SAC", {"learning_rate": {"linear": [0.0, 1.0]}}, 1)
+    with pytest.raises(ValueError, match="train_freq in episodes needs n_envs = 1"):
+        check_hyperparameters("TD3", {"train_freq": [1, "episode"]}, 2)
