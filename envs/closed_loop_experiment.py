@@ -172,9 +172,10 @@ def _check_controller(plant: Plant, controller: Controller) -> Controller:
 
 
 def _loop_sample_time(plant: Plant, block, dt: float | None) -> float:
-    """The sample time, at most every positive delay of the plant and the controller's ``block()``."""
+    """The sample time, at most every positive delay of the plant and the controller's ``block()``
+    (a negligible plant dead time is simulated as none: :data:`envs.plants.NEGLIGIBLE_DELAY`)."""
     dt = sample_time(plant, dt)
-    delays = [plant.delay] + [float(d) for d in block.delays]
+    delays = [plant.simulation_delay] + [float(d) for d in block.delays]
     positive = [d for d in delays if d > 0]
     return min([dt] + positive)
 

@@ -49,6 +49,16 @@ __all__ = [
     "delayed_zoh",
 ]
 
+MAX_RUN_SAMPLES = 2**17
+"""The most samples of one simulated run (an experiment, or one IAE run of a loop): with the
+default sample times an experiment's cap is 30,001 samples and an IAE run's longest horizon 64,001,
+so only runs sampled far finer than their plant's time scale reach it (a relay experiment sampled
+at ``L/20`` for ``L < 0.023 T_ar``, an experiment whose loop has a delay below ``1.2e-3 T_ar`` or an IAE
+run of a loop with a delay below ``0.01 T_ar``, e.g. a predictor's model dead time).  Each such run stops at the bound and reports
+what it has (an unconverged experiment, its time charged; an unsettled IAE), or, if even the
+first horizon cannot be sampled within it, is not run (an IAE of ``inf``); a run's memory is a
+few arrays of this length (about 1 MB each)."""
+
 # States beyond this multiple of the largest input mean divergence.  Plant.state_space realizes G in
 # normalized time, so states have the magnitude of the signals whatever the plant's time scale.
 DIVERGENCE_LIMIT = 1e8
