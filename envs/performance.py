@@ -47,7 +47,7 @@ from envs.compiled_iae import step_iae
 from envs.controllers import Controller
 from envs.loops import loop_rows, sample_time
 from envs.plants import Plant
-from envs.simulation import DIVERGENCE_LIMIT, MAX_RUN_SAMPLES
+from envs.simulation import MAX_RUN_SAMPLES, divergence_limit
 
 __all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 
@@ -145,7 +145,7 @@ def _loop_iae(plant: Plant, controller: Controller, samples_per_residence_time: 
     weights = (0.0, 0.0, math.inf) if bound is None else (bound.load_weight, bound.setpoint_weight, bound.threshold)
     load, setpoint, settled, horizon, lower_bound = step_iae(
         derivatives, outputs, delayed, delays, dt, scale, first, longest, SETTLED_SHARE,
-        OFFSET_TOLERANCE, _divergence_limit(plant), *weights,
+        OFFSET_TOLERANCE, divergence_limit(plant.gain), *weights,
     )  # fmt: skip
     return IAEResult(load, setpoint, settled, horizon, dt, lower_bound)
 
@@ -167,12 +167,3 @@ def _bounded_horizons(scale: float, dt: float, delays: np.ndarray) -> tuple[floa
         longest *= 2.0
     return HORIZON, longest
 
-
-def _divergence_limit(plant: Plant) -> float:
-    """``DIVERGENCE_LIMIT`` times ``max(1, |K|, 1/|K|)``: the states of a loop are of the size of its signals,
-    and a unit load at the input of a plant of gain ``K`` moves its output by ``K`` (issue 12.4: a stable
-    loop with ``K = 1e8`` counted as diverging), and its control moves by ``1/K`` for a unit set-point step.
-    The same limit for ``|K| = 1``; only runs that exceed the old limit, which a stable loop does only
-    through its gain, see the difference."""
-    gain = abs(plant.gain)
-    return DIVERGENCE_LIMIT * max(1.0, gain, 1.0 / gain)

@@ -22,7 +22,15 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-__all__ = ["Plant", "StateSpace", "NEGLIGIBLE_DELAY"]
+__all__ = ["Plant", "StateSpace", "NEGLIGIBLE_DELAY", "GAIN_RANGE", "TIME_SCALE_RANGE"]
+
+GAIN_RANGE = (1e-12, 1e12)
+"""The documented range of ``|K|`` (static or velocity gain): everything downstream is gain
+invariant within it (to rounding; tests/property/test_core_invariants.py); outside it a plant is
+refused (``num``), e.g. coefficients of 1e300 whose products overflow (issue 12.4)."""
+TIME_SCALE_RANGE = (1e-12, 1e12)
+"""The documented range of the time scale :meth:`Plant.step_time_scale` (``T_ar``), in the plant's
+own time unit; outside it a plant is refused (``den``)."""
 
 NEGLIGIBLE_DELAY = 1e-4
 """Closed-loop simulations (experiments and IAE) take a dead time below this fraction of
@@ -200,8 +208,9 @@ class Plant:
     ------
     ValueError
         If a coefficient is not finite, ``G`` is improper, has a pole in the closed right half
-        plane other than a single pole at the origin, has zero (static or velocity) gain, or the
-        delay is negative or not finite.
+        plane other than a single pole at the origin, has zero (static or velocity) gain, the
+        delay is negative or not finite, or the gain or the time scale is outside
+        :data:`GAIN_RANGE` or :data:`TIME_SCALE_RANGE`.
 
     Examples
     --------
@@ -234,6 +243,7 @@ class Plant:
         object.__setattr__(self, "den", den)
         object.__setattr__(self, "delay", delay)
         self._validate_poles()
+        self._validate_range()
 
     def _validate_poles(self) -> None:
         den = self.den  # leading coefficient 1: not all zero
@@ -248,6 +258,15 @@ class Plant:
         if poles.size and np.max(poles.real) >= 0.0:
             worst = poles[np.argmax(poles.real)]
             raise ValueError(f"den has an unstable pole at s={worst:.6g}: the plant must be stable or integrating")
+
+    def _validate_range(self) -> None:
+        gain, (low, high) = abs(self.gain), GAIN_RANGE
+        if not low <= gain <= high:
+            raise ValueError(f"num: the plant's gain {self.gain:.6g} is outside the documented range +-[{low:g}, {high:g}]")
+        scale, (low, high) = self.step_time_scale(), TIME_SCALE_RANGE
+        if not low <= scale <= high:
+            field = "delay" if self.delay > high else "den"
+            raise ValueError(f"{field}: the plant's time scale T_ar = {scale:.6g} is outside the documented range [{low:g}, {high:g}]")
 
     # ----------------------------------------------------------------- constructors
     @classmethod

@@ -64,6 +64,19 @@ few arrays of this length (about 1 MB each)."""
 DIVERGENCE_LIMIT = 1e8
 
 
+def divergence_limit(gain: float) -> float:
+    """``DIVERGENCE_LIMIT`` times ``max(1, |K|, 1/|K|)`` for a loop around a plant of gain ``K``.
+
+    The states of a loop are of the size of its signals, and those scale with the gain: a unit load
+    at the input of a plant of gain ``K`` moves its output by ``K``, a unit set-point step moves the
+    control by ``1/K`` (issue 12.4: stable loops with ``K = 1e8`` or ``1e-12`` counted as diverging).
+    The same limit as before for ``|K| = 1``; for other gains only a run that passes the old limit
+    sees the difference, and a stable loop does that only through its gain.
+    """
+    gain = abs(gain)
+    return DIVERGENCE_LIMIT * max(1.0, gain, 1.0 / gain)
+
+
 @dataclass(frozen=True)
 class DelaySystem:
     """A continuous LTI system with internal delays (see the module docstring)."""
