@@ -8,7 +8,7 @@ model (eq. 2-7 .. 2-10).
 
 The run is causal and stops at its first event: sample ``k`` aborts if its true output leaves
 ``[-excursion_limit, excursion_limit]`` or if the loop diverges there (a component of the next
-state reaches ``DIVERGENCE_LIMIT`` times the largest input so far, ``max(1, |r|, |n_0|, .., |n_k|)``
+state reaches ``divergence_limit(K)`` (``DIVERGENCE_LIMIT`` scaled by the plant's gain) times the largest input so far, ``max(1, |r|, |n_0|, .., |n_k|)``
 with ``n`` the measurement noise; sample ``k`` is then the last with finite outputs), and it
 settles if both steady-state tests pass.  The first such sample ends the run (else the cap) and
 nothing after it is simulated (the noise is drawn in blocks, see :func:`_run_closed_loop`).
@@ -52,7 +52,7 @@ from envs.identification import (
 from envs.loops import closed_loop_of_block
 from envs.plants import Plant
 from envs.run_kernels import ABORTED, NO_EVENT, SETTLED, _closed_loop_run
-from envs.simulation import DIVERGENCE_LIMIT, discretize, loop_arrays
+from envs.simulation import discretize, divergence_limit, loop_arrays
 from envs.steady_state import window_samples
 from envs.validation import require_number
 
@@ -172,9 +172,10 @@ def _check_controller(plant: Plant, controller: Controller) -> Controller:
 
 
 def _loop_sample_time(plant: Plant, block, dt: float | None) -> float:
-    """The sample time, at most every positive delay of the plant and the controller's ``block()``."""
+    """The sample time, at most every positive delay of the plant and the controller's ``block()``
+    (a negligible plant dead time is simulated as none: :data:`envs.plants.NEGLIGIBLE_DELAY`)."""
     dt = sample_time(plant, dt)
-    delays = [plant.delay] + [float(d) for d in block.delays]
+    delays = [plant.simulation_delay] + [float(d) for d in block.delays]
     positive = [d for d in delays if d > 0]
     return min([dt] + positive)
 
@@ -198,7 +199,7 @@ def _run_closed_loop(
     steady-state tests (:func:`~envs.steady_state.steady_state_mask`: the measurement at
     ``amplitude``, the drive steady); it aborts if its true output leaves
     ``[-excursion_limit, excursion_limit]`` or if a component of the next state reaches
-    ``DIVERGENCE_LIMIT * max(1, |amplitude|, max_{j <= k} |noise[j]|)`` (the largest input so far:
+    ``divergence_limit(K) * max(1, |amplitude|, max_{j <= k} |noise[j]|)`` (the largest input so far:
     sample ``k`` is the last with finite outputs).  The run ends at the first sample that settles or
     aborts, else at the cap; every test is causal, so that sample and the signals up to it are
     those of simulating and testing any longer run from the start.  The run is compiled
@@ -207,7 +208,7 @@ def _run_closed_loop(
     """
     noise = as_noise(noise)
     system = closed_loop_of_block(plant, controller.block() if block is None else block)
-    run = _CompiledRun(plant.integrating, discretize(system, dt), amplitude, noise, window, excursion_limit)
+    run = _CompiledRun(plant.integrating, discretize(system, dt), amplitude, noise, window, excursion_limit, plant.gain)
     begin, size = 0, (max(NOISE_BLOCK_WINDOWS * window, 64) if noise.drawn_as_needed else noise.size)
     while True:
         until = min(begin + size, noise.size)
@@ -233,7 +234,8 @@ class _CompiledRun:
     """The run of :func:`_run_closed_loop` in compiled calls (:func:`envs.run_kernels._closed_loop_run`),
     each continuing the run in :class:`_RunBuffers`."""
 
-    def __init__(self, integrating, discrete, amplitude, noise, window, excursion_limit) -> None:
+    def __init__(self, integrating, discrete, amplitude, noise, window, excursion_limit, gain=1.0) -> None:
+        self.limit = divergence_limit(gain)
         self.arrays = _without_load(loop_arrays(discrete))
         whole = self.arrays[-2]
         self.offset = max([1] + [int(w) + 1 for w in whole])
@@ -248,7 +250,7 @@ class _CompiledRun:
         ``(outcome, end)``, ``end`` the sample that settled or aborted, else ``until - 1``."""
         b = self.buffers
         return _closed_loop_run(
-            *self.arrays, self.offset, self.reference, self.noise.first(until), DIVERGENCE_LIMIT, b.peak,
+            *self.arrays, self.offset, self.reference, self.noise.first(until), self.limit, b.peak,
             b.x, b.history, b.z, b.measured, b.drive, b.sums, *self.settings, begin, until,
         )  # fmt: skip
 

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from envs.plants import Plant
+from envs.simulation import MAX_RUN_SAMPLES
 from envs.validation import require_number
 
 __all__ = ["SAMPLES_PER_RESIDENCE_TIME", "MAX_DURATION", "ExperimentResult", "MeasurementNoise"]
@@ -148,8 +149,11 @@ def snap_to_integer(ratio: float) -> float:
 
 
 def cap_steps(scale: float, dt: float, max_duration: float | None, minimum: float = 0.0) -> int:
+    """Samples of the longest run allowed: ``max_duration`` time scales, at most
+    :data:`~envs.simulation.MAX_RUN_SAMPLES` (a run that reaches it stops unconverged)."""
     cap = MAX_DURATION if max_duration is None else require_number(max_duration, "max_duration", positive=True)
-    return max(int(math.ceil(snap_to_integer(max(cap * scale, minimum) / dt))) + 1, 4)
+    wanted = snap_to_integer(max(cap * scale, minimum) / dt)
+    return max(int(math.ceil(wanted)) + 1, 4) if wanted < MAX_RUN_SAMPLES else MAX_RUN_SAMPLES
 
 
 # --------------------------------------------------------------------------- results and runs

@@ -67,10 +67,11 @@ def loop_rows(plant: Plant, controller: Controller) -> tuple[np.ndarray, np.ndar
     in by the same kernel: the same numbers, in about a third of the time (the ten matrices of
     ``block()``, their conversions and the fifteen arguments each cost about a microsecond).
     """
-    if plant.delay > 0:
+    delay = plant.simulation_delay
+    if delay > 0:
         ps, f = plant.state_space(), _contiguous
         flat, n_c, n_vc = packed_block(controller)
-        return _fill_from_packed_block(f(ps.A), f(ps.B), f(ps.C), float(ps.D[0, 0]), float(plant.delay), flat, n_c, n_vc)
+        return _fill_from_packed_block(f(ps.A), f(ps.B), f(ps.C), float(ps.D[0, 0]), float(delay), flat, n_c, n_vc)
     return _rows(plant, controller.block())
 
 
@@ -79,11 +80,11 @@ def _rows(plant: Plant, cb) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 
     Without a plant dead time the plant output ``y = C_p x_p + D_p (u + l)`` enters the controller
     directly, so the loop can have an algebraic part, solved here; with one, the rows are those of
-    :func:`_delayed_plant_rows`.
+    :func:`_delayed_plant_rows`.  A negligible dead time counts as none (:attr:`Plant.simulation_delay`).
     """
     ps = plant.state_space()
-    if plant.delay > 0:
-        return _delayed_plant_rows(ps, plant.delay, cb)
+    if plant.simulation_delay > 0:
+        return _delayed_plant_rows(ps, plant.simulation_delay, cb)
     n_p, n_c = ps.A.shape[0], cb.n_states
     n_x = n_p + n_c
     # Each signal is a row of coefficients over [x_p, x_c, r, l, n, v_c] (see SystemBuilder).
@@ -205,7 +206,8 @@ def simulation_step(
     """The sample time used for closed-loop simulation.
 
     ``T_ar / samples_per_residence_time`` (``T_ar`` of the true plant), reduced if needed so that
-    every dead time in the loop spans at least one sample (the recursion of
+    every dead time in the loop spans at least one sample (a negligible plant dead time is none,
+    :data:`envs.plants.NEGLIGIBLE_DELAY`) (the recursion of
     :func:`envs.simulation.discretize` is explicit then).  ``system`` is the loop's
     :func:`closed_loop`, if already built.
     """

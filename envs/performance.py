@@ -47,7 +47,7 @@ from envs.compiled_iae import step_iae
 from envs.controllers import Controller
 from envs.loops import loop_rows, sample_time
 from envs.plants import Plant
-from envs.simulation import DIVERGENCE_LIMIT
+from envs.simulation import MAX_RUN_SAMPLES, divergence_limit
 
 __all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 
@@ -138,9 +138,32 @@ def _loop_iae(plant: Plant, controller: Controller, samples_per_residence_time: 
     dt = sample_time(plant, delays, samples_per_residence_time)
     if not dt > 0 or not math.isfinite(dt):
         raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    scale = plant.step_time_scale()
+    first, longest = _bounded_horizons(scale, dt, delays)
+    if first is None:  # not even the first horizon within MAX_RUN_SAMPLES: not run
+        return IAEResult(math.inf, math.inf, False, 0.0, dt)
     weights = (0.0, 0.0, math.inf) if bound is None else (bound.load_weight, bound.setpoint_weight, bound.threshold)
     load, setpoint, settled, horizon, lower_bound = step_iae(
-        derivatives, outputs, delayed, delays, dt, plant.step_time_scale(), HORIZON, MAX_HORIZON, SETTLED_SHARE,
-        OFFSET_TOLERANCE, DIVERGENCE_LIMIT, *weights,
+        derivatives, outputs, delayed, delays, dt, scale, first, longest, SETTLED_SHARE,
+        OFFSET_TOLERANCE, divergence_limit(plant.gain), *weights,
     )  # fmt: skip
     return IAEResult(load, setpoint, settled, horizon, dt, lower_bound)
+
+
+def _bounded_horizons(scale: float, dt: float, delays: np.ndarray) -> tuple[float | None, float]:
+    """``(HORIZON, MAX_HORIZON)``, the longest shortened to ``MAX_RUN_SAMPLES`` samples (in units of
+    ``scale``); ``(None, 0)`` if the first horizon or the longest delay does not fit in them.
+
+    Unchanged (the same floats) for every loop sampled at ``T_ar/50``; only a loop with a delay
+    below ``MAX_HORIZON T_ar/MAX_RUN_SAMPLES`` (about 0.01 ``T_ar``) gets a shorter longest horizon.
+    """
+    samples = scale / dt
+    if HORIZON * samples > MAX_RUN_SAMPLES or (delays.size and float(delays.max()) / dt > MAX_RUN_SAMPLES):
+        return None, 0.0
+    if MAX_HORIZON * samples <= MAX_RUN_SAMPLES:
+        return HORIZON, MAX_HORIZON
+    longest = HORIZON
+    while 2.0 * longest * samples <= MAX_RUN_SAMPLES:  # a horizon the doubling reaches
+        longest *= 2.0
+    return HORIZON, longest
+

@@ -22,7 +22,22 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-__all__ = ["Plant", "StateSpace"]
+__all__ = ["Plant", "StateSpace", "NEGLIGIBLE_DELAY", "GAIN_RANGE", "TIME_SCALE_RANGE"]
+
+GAIN_RANGE = (1e-12, 1e12)
+"""The documented range of ``|K|`` (static or velocity gain): everything downstream is gain
+invariant within it (to rounding; tests/property/test_core_invariants.py); outside it a plant is
+refused (``num``), e.g. coefficients of 1e300 whose products overflow (issue 12.4)."""
+TIME_SCALE_RANGE = (1e-12, 1e12)
+"""The documented range of the time scale :meth:`Plant.step_time_scale` (``T_ar``), in the plant's
+own time unit; outside it a plant is refused (``den``)."""
+
+NEGLIGIBLE_DELAY = 1e-4
+"""Closed-loop simulations (experiments and IAE) take a dead time below this fraction of
+:meth:`Plant.step_time_scale` as zero (:attr:`Plant.simulation_delay`) instead of sampling finer
+than it: the normalized IAE changes by about ``L/T_ar`` (< 1e-4, below the method's own error of
+6e-4), while resolving it would need ``T_ar/L`` samples per residence time (issue 12.3: 1e-7 ran
+out of memory).  The frequency-domain analysis always uses the exact dead time."""
 
 
 @dataclass(frozen=True)
@@ -193,8 +208,9 @@ class Plant:
     ------
     ValueError
         If a coefficient is not finite, ``G`` is improper, has a pole in the closed right half
-        plane other than a single pole at the origin, has zero (static or velocity) gain, or the
-        delay is negative or not finite.
+        plane other than a single pole at the origin, has zero (static or velocity) gain, the
+        delay is negative or not finite, or the gain or the time scale is outside
+        :data:`GAIN_RANGE` or :data:`TIME_SCALE_RANGE`.
 
     Examples
     --------
@@ -227,6 +243,7 @@ class Plant:
         object.__setattr__(self, "den", den)
         object.__setattr__(self, "delay", delay)
         self._validate_poles()
+        self._validate_range()
 
     def _validate_poles(self) -> None:
         den = self.den  # leading coefficient 1: not all zero
@@ -241,6 +258,15 @@ class Plant:
         if poles.size and np.max(poles.real) >= 0.0:
             worst = poles[np.argmax(poles.real)]
             raise ValueError(f"den has an unstable pole at s={worst:.6g}: the plant must be stable or integrating")
+
+    def _validate_range(self) -> None:
+        gain, (low, high) = abs(self.gain), GAIN_RANGE
+        if not low <= gain <= high:
+            raise ValueError(f"num: the plant's gain {self.gain:.6g} is outside the documented range +-[{low:g}, {high:g}]")
+        scale, (low, high) = self.step_time_scale(), TIME_SCALE_RANGE
+        if not low <= scale <= high:
+            field = "delay" if self.delay > high else "den"
+            raise ValueError(f"{field}: the plant's time scale T_ar = {scale:.6g} is outside the documented range [{low:g}, {high:g}]")
 
     # ----------------------------------------------------------------- constructors
     @classmethod
@@ -362,6 +388,11 @@ class Plant:
         dead time ``L_n`` of the two-parameter model (Ingimundarson section 2.1).
         """
         return -self.taylor_coefficients()[0]
+
+    @property
+    def simulation_delay(self) -> float:
+        """The dead time of closed-loop simulations: ``L``, or 0 if ``L < NEGLIGIBLE_DELAY T``."""
+        return self.delay if self.delay >= NEGLIGIBLE_DELAY * self.step_time_scale() else 0.0
 
     # ----------------------------------------------------------------- responses
     def frequency_response(self, omega: np.ndarray | float) -> np.ndarray:

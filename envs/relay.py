@@ -32,7 +32,7 @@ from envs.experiment_base import (
     ExperimentRun,
     sample_time,
 )
-from envs.plants import Plant
+from envs.plants import NEGLIGIBLE_DELAY, Plant
 from envs.steady_state import noise_level
 from envs.validation import require_number
 
@@ -117,7 +117,8 @@ def relay_feedback(
     noise_std, excursion_limit, max_duration
         As in :func:`closed_loop_step`.
     dt : float, optional
-        Sample time; default ``T/SAMPLES_PER_RESIDENCE_TIME``, at most ``L/20``.
+        Sample time; default ``T/SAMPLES_PER_RESIDENCE_TIME``, at most ``L/20`` (but not below
+        ``NEGLIGIBLE_DELAY T/20``).  The run stops at ``MAX_RUN_SAMPLES`` samples at most.
     period_tolerance : float
         Relative agreement of the last three periods that counts as periodic; widened by the
         switching jitter expected from the estimated noise.  A swing of less than ten noise
@@ -170,11 +171,13 @@ NOISE_BLOCK = 1024
 
 def _relay_sample_time(plant: Plant, dt: float | None) -> float:
     """Default ``T/SAMPLES_PER_RESIDENCE_TIME``, at most ``L/20``: the limit cycle of a plant
-    with a short dead time has a period of a few ``L``."""
+    with a short dead time has a period of a few ``L``.  Not below ``NEGLIGIBLE_DELAY T/20``: a
+    shorter dead time is a sub-sample event (exact), and the run is bounded in samples anyway
+    (:func:`~envs.experiment_base.cap_steps`)."""
     if dt is not None:
         return require_number(dt, "dt", positive=True)
     dt = sample_time(plant, None)
-    return min(dt, plant.delay / 20.0) if plant.delay > 0 else dt
+    return min(dt, max(plant.delay, NEGLIGIBLE_DELAY * plant.step_time_scale()) / 20.0) if plant.delay > 0 else dt
 
 
 class _RelaySimulation:

@@ -49,9 +49,37 @@ __all__ = [
     "delayed_zoh",
 ]
 
+MAX_RUN_SAMPLES = 2**17
+"""The most samples of one simulated run (an experiment, or one IAE run of a loop): with the
+default sample times an experiment's cap is 30,001 samples and an IAE run's longest horizon 64,001,
+so only runs sampled far finer than their plant's time scale reach it (a relay experiment sampled
+at ``L/20`` for ``L < 0.023 T_ar``, an experiment whose loop has a delay below ``1.2e-3 T_ar`` or an IAE
+run of a loop with a delay below ``0.01 T_ar``, e.g. a predictor's model dead time).  Each such run stops at the bound and reports
+what it has (an unconverged experiment, its time charged; an unsettled IAE), or, if even the
+first horizon cannot be sampled within it, is not run (an IAE of ``inf``); a run's memory is a
+few arrays of this length (about 1 MB each)."""
+
 # States beyond this multiple of the largest input mean divergence.  Plant.state_space realizes G in
 # normalized time, so states have the magnitude of the signals whatever the plant's time scale.
 DIVERGENCE_LIMIT = 1e8
+
+
+def divergence_limit(gain: float) -> float:
+    """``DIVERGENCE_LIMIT`` for a loop around a plant of gain ``K``, raised by ``|K|/GAIN_FREE`` or ``1/(|K| GAIN_FREE)``
+    outside ``GAIN_FREE^-1 <= |K| <= GAIN_FREE``.
+
+    The states of a loop are of the size of its signals, and those scale with the gain: a unit load
+    at the input of a plant of gain ``K`` moves its output by ``K``, a unit set-point step moves the
+    control by ``1/K`` (issue 12.4: stable loops with ``K = 1e8`` or ``1e-12`` counted as diverging).
+    Within ``[1e-4, 1e4]`` the limit is the old one, so every run there (diverging ones included,
+    whose abort sample the tests hold) keeps its numbers.
+    """
+    gain = abs(gain)
+    return DIVERGENCE_LIMIT * max(1.0, gain / GAIN_FREE, 1.0 / (gain * GAIN_FREE))
+
+
+GAIN_FREE = 1e4
+"""Gains ``|K|`` within ``[1/GAIN_FREE, GAIN_FREE]`` keep the fixed ``DIVERGENCE_LIMIT``."""
 
 
 @dataclass(frozen=True)

@@ -216,3 +216,35 @@ def test_output_lags_input_by_exactly_the_dead_time(plant, fraction, whole, seed
     free = open_loop_response(ss, 0.0, u, dt)
     shifted = open_loop_response(ss, whole * dt, u, dt)
     np.testing.assert_allclose(shifted[whole:], free[: u.size - whole], rtol=0, atol=1e-12 * np.max(np.abs(free)))
+
+
+WIDE_GAINS = [sign * 10.0**e for e in (-12, -9, -6, -3, 0, 3, 6, 9, 12) for sign in (1.0, -1.0)]
+NORMALIZED_LOOPS = {
+    "pid-fopdt": (Plant((1.0,), (10.0, 1.0), 5.0), PID(kp=1.2, ti=9.0, td=1.5, n=10.0)),
+    "fppi-sopdt": (Plant((1.0,), (2.0, 3.0, 1.0), 1.0), FPPI(1.0, 3.0, 1.0, 2.0, 2.0)),
+    "msp-integrating": (Plant((1.0,), (1.0, 1.0, 0.0), 2.0), MSP(1.0, 3.0, 3.0, extension=False)),
+}
+
+
+@pytest.mark.parametrize("g", WIDE_GAINS)
+@pytest.mark.parametrize("name", list(NORMALIZED_LOOPS))
+def test_cost_is_gain_invariant_over_the_documented_range(name, g):
+    """Issue 12.4: the cost of one normalized loop (plant gain ``g``, controller gain ``1/g``) is the
+    same over the whole documented range ``|K|`` in [1e-12, 1e12] (``envs.plants.GAIN_RANGE``); it was
+    capped at 20 from ``K = 1e8`` on, when the loop's states passed a fixed divergence limit.
+    Tolerance: the IAE's own rounding across gains, as in :func:`test_gain_invariance` (1e-6
+    relative; the differences measured here are below 1e-12).
+    At ``|K| = 1e-12`` the difference is 1e-5 to 2e-4 (measured), not rounding: something in the IAE run
+    is absolute (left open, issue 12.4 follow-up); there the bound is the IAE's own error, 6e-4 (the
+    bench's largest error against the fine-step reference, README "Performance")."""
+    from envs.scoring import Constraints, score
+
+    plant, controller = NORMALIZED_LOOPS[name]
+    constraints = Constraints(max_sensitivity=None) if isinstance(controller, MSP) else Constraints()  # its Ms is 2.2
+    base = score(plant, controller, constraints=constraints)
+    scaled = score(*gain_scaled(plant, controller, g), constraints=constraints)
+    assert base.feasible and scaled.feasible
+    rel = 6e-4 if abs(g) < 1e-10 else 1e-6
+    assert _same(scaled.cost, base.cost, rel=rel)
+    assert _same(scaled.iae_setpoint, base.iae_setpoint, rel=rel)
+    assert _same(scaled.iae_load, base.iae_load * abs(g), rel=rel)

@@ -1,0 +1,102 @@
+"""Nothing hangs, nothing explodes (issue 12.2, 12.3): random agents on every id and mode, the plant
+that hung PPO, and dead times down to 1e-12 ``T_ar``.
+
+Actions are uniform over the action space.  Bounds asserted:
+* samples: every experiment's record has at most ``MAX_RUN_SAMPLES`` samples (the bound of the
+  simulation, not a timing);
+* memory: the growth of the process's peak resident set (``resource.getrusage``) over all the
+  episodes stays below ``MEMORY_BYTES`` (a bounded run holds a few arrays of ``2**17`` floats; the
+  hang of the issue grew to 3.1 GB; tracemalloc slows the relay's Python lists tenfold, so it is not
+  used);
+* time: each ``reset`` and ``step`` returns within ``STEP_SECONDS``, a generous hang detector (steps
+  take milliseconds; the slowest bounded relay about 0.3 s here), not a performance claim.
+"""
+
+from __future__ import annotations
+
+import resource
+import time
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import envs  # noqa: F401
+from envs.simulation import MAX_RUN_SAMPLES
+
+IDS = ("DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0")
+MODES = ("fixed", "agent")
+STEP_SECONDS = 10.0
+MEMORY_BYTES = 300e6
+HUNG_PPO = {"num": [0.07815724563189409], "den": [1, 1.4273292260781762, 0.5093171799042314], "delay": 0.0004971277181605679}
+
+
+def _tiny_delay_plants(integrating: bool):
+    """``1/(10 s + 1)`` or ``1/(s (s + 1))`` with ``L`` from 1e-3 down to 1e-12 of ``T_ar``."""
+    den, t_ar = ([1.0, 1.0, 0.0], 1.0) if integrating else ([10.0, 1.0], 10.0)
+    return [{"num": [1.0], "den": den, "delay": r * t_ar} for r in (1e-3, 1e-4, 1e-6, 1e-9, 1e-12)]
+
+
+def _timed(call, *args, **kwargs):
+    start = time.perf_counter()
+    out = call(*args, **kwargs)
+    assert time.perf_counter() - start < STEP_SECONDS
+    return out
+
+
+def _peak_rss_bytes() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # kilobytes on Linux
+
+
+def _episode(env, rng, seed, plant=None):
+    _timed(env.reset, seed=seed, options=None if plant is None else {"plant": plant})
+    done = False
+    while not done:
+        action = rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32)
+        _, reward, terminated, truncated, info = _timed(env.step, action)
+        assert np.isfinite(reward)
+        done = terminated or truncated
+    for result in getattr(env.unwrapped, "evidence").results.values() if hasattr(env.unwrapped, "evidence") else ():
+        for r in (result if isinstance(result, (list, tuple)) else [result]):
+            if hasattr(r, "timepts"):
+                assert r.timepts.size <= MAX_RUN_SAMPLES
+    return info
+
+
+def _run(episodes_per_case: int, seed0: int):
+    start = _peak_rss_bytes()
+    _cases(episodes_per_case, seed0)
+    assert _peak_rss_bytes() - start < MEMORY_BYTES
+
+
+def _cases(episodes_per_case: int, seed0: int):
+    for env_id in IDS:
+        for mode in MODES:
+            env = gym.make(env_id, experiments=mode)
+            rng = np.random.default_rng(seed0)
+            for k in range(episodes_per_case):
+                _episode(env, rng, seed0 + k)
+            for plant in _tiny_delay_plants(env_id == "DeadTime/MSP-v0") + ([] if env_id == "DeadTime/MSP-v0" else [HUNG_PPO]):
+                for k in range(2):
+                    _episode(env, rng, seed0 + k, plant)
+
+
+def test_random_agents_are_bounded():
+    """About 250 episodes: 30 per id and mode, plus 2 per id, mode and special plant."""
+    _run(30, 0)
+
+
+@pytest.mark.slow
+def test_random_agents_are_bounded_long():
+    """About 3,200 episodes: 500 per id and mode, plus the special plants."""
+    _run(500, 1000)
+
+
+def test_the_plant_that_hung_ppo_runs_its_relay_within_the_bound():
+    """Issue 12.2: ramp, closed-loop step, open-loop step at amplitude 10, relay at 0.1 (agent mode)."""
+    from envs.relay import relay_feedback
+    from envs.plants import Plant
+
+    plant = Plant.from_dict(HUNG_PPO)
+    result = _timed(relay_feedback, plant, np.random.default_rng(0), 0.1 / abs(plant.gain), 0.03, noise_std=0.01)
+    assert result.timepts.size <= MAX_RUN_SAMPLES
