@@ -58,6 +58,7 @@ class LoopAnalysis:
             "delay_margin_frequency": finite(m.delay_margin_frequency),
             "ms_frequency": finite(m.ms_frequency) if m.stable else None,
             "gain_crossovers": [float(w) for w in m.gain_crossovers],
+            "phase_margins_deg": [float(p) for p in m.phase_margins_deg],
             "unstable_closed_loop_poles": m.unstable_poles,
             "iae_settled": p.settled,
         }
