@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-__all__ = ["Plant", "StateSpace"]
+__all__ = ["Plant", "StateSpace", "as_plant"]
 
 
 @dataclass(frozen=True)
@@ -409,3 +409,40 @@ class Plant:
         poles = np.roots(den)
         slowest = 1.0 / np.min(np.abs(poles)) if poles.size else 1.0
         return float(max(slowest, self.delay, 1e-12))
+
+
+def as_plant(value: Any, what: str = "plant") -> Plant:
+    """A :class:`Plant` from any of the forms a plant is given in.
+
+    Parameters
+    ----------
+    value : Plant, dict, control.TransferFunction or (TransferFunction, delay)
+        A plant; its JSON form ``{"num": [...], "den": [...], "delay": L}``
+        (:meth:`Plant.from_dict`); a SISO continuous-time python-control ``TransferFunction``
+        (no dead time); or a pair of one and its dead time (:meth:`Plant.from_transfer_function`).
+    what : str
+        The name of the argument in the error message.
+
+    Raises
+    ------
+    ValueError
+        Naming ``what`` and the forms accepted, or the invalid field.
+
+    Examples
+    --------
+    >>> import control
+    >>> as_plant((control.tf([2.0], [3.0, 1.0]), 1.5)).to_dict()
+    {'num': [2.0], 'den': [3.0, 1.0], 'delay': 1.5}
+    """
+    if isinstance(value, Plant):
+        return value
+    if isinstance(value, dict):
+        return Plant.from_dict(value)
+    if isinstance(value, tuple) and len(value) == 2 and hasattr(value[0], "den"):
+        return Plant.from_transfer_function(value[0], value[1])
+    if hasattr(value, "num") and hasattr(value, "den"):
+        return Plant.from_transfer_function(value)
+    raise ValueError(
+        f"{what} must be a Plant, a JSON object with num, den, delay, a control.TransferFunction or a "
+        f"(TransferFunction, delay) pair; got {type(value).__name__}"
+    )
