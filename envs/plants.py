@@ -431,8 +431,8 @@ def as_plant(value: Any, what: str = "plant") -> Plant:
     Examples
     --------
     >>> import control
-    >>> as_plant((control.tf([2.0], [3.0, 1.0]), 1.5)).to_dict()
-    {'num': [2.0], 'den': [3.0, 1.0], 'delay': 1.5}
+    >>> as_plant((control.tf([2.0], [4.0, 1.0]), 1.5)).to_dict()  # stored with a monic denominator
+    {'num': [0.5], 'den': [1.0, 0.25], 'delay': 1.5}
     """
     if isinstance(value, Plant):
         return value
