@@ -35,6 +35,8 @@ def load_json_argument(text: str, name: str) -> Any:
     try:
         return json.loads(source)
     except json.JSONDecodeError as error:
+        if source is text and not text.lstrip().startswith(("{", "[")):
+            raise CommandError(f"{name}: no such file {text!r} (nor is it JSON)") from None
         raise CommandError(f"{name} is not valid JSON ({error.msg} at position {error.pos})") from None
 
 
@@ -121,8 +123,19 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
+def _version() -> str:
+    """The installed version of the ``deadtime-gym`` distribution (``pyproject.toml``)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("deadtime-gym")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Namespace], int]]]:
     parser = _Parser(prog="deadtime", description="Tune controllers for dead-time processes.")
+    parser.add_argument("--version", action="version", version=f"deadtime {_version()}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     handlers: dict[str, Callable[[argparse.Namespace], int]] = {}
 

@@ -263,3 +263,19 @@ def test_tune_takes_a_transfer_function_and_delay_or_a_dict():
     by_dict = tune("simc-pi", {"num": [2.5], "den": [12.0, 1.0], "delay": 4.0}, USER_FOPDT)
     assert by_tf.controller == by_dict.controller
     assert by_tf.analysis.margins.ms == by_dict.analysis.margins.ms
+
+
+# ------------------------------------------------------------------ issue 13.5: messages made exact
+@pytest.mark.parametrize(
+    "args, line",
+    [
+        (("--rule", "simc-pi", "--plant", "plant.json"), "deadtime tune: error: --plant: no such file 'plant.json' (nor is it JSON)"),
+        (("--rule", "simc-pi", "--model", json.dumps({**USER_FOPDT, "dead_time": 0})),
+         "deadtime tune: error: simc_pi needs dead_time > 0 (its default tau_c is the dead time), got 0.0"),
+        (("--rule", "imc-pi", "--model", json.dumps({**USER_FOPDT, "dead_time": 0})),
+         "deadtime tune: error: imc_pi needs dead_time > 0 (its default lambda is 1.7 times the dead time), got 0.0"),
+    ],
+    ids=["missing-plant-file", "simc-zero-dead-time", "imc-zero-dead-time"],
+)
+def test_messages_are_exact(args, line):
+    assert run("tune", *args) == (2, "", line + "\n")
