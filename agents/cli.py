@@ -178,9 +178,33 @@ def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Nam
 SINGLE_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 
+def shadowed_package() -> str | None:
+    """One line if ``envs`` or ``baselines`` would be imported from elsewhere than beside ``agents``.
+
+    The top-level names are fixed by the project's layout; a user's own ``envs/`` folder in the
+    working directory or earlier on ``sys.path`` shadows ours (and ``gymnasium.make`` then fails
+    with ``NamespaceNotFound: DeadTime``).
+    """
+    from importlib.util import find_spec
+
+    root = Path(__file__).resolve().parents[1]
+    for name in ("envs", "baselines"):
+        spec = find_spec(name)
+        locations = [] if spec is None else list(spec.submodule_search_locations or [])
+        if not any(Path(location).resolve() == root / name for location in locations):
+            found = ", ".join(locations) or "nowhere"
+            return (f"the package {name!r} is imported from {found}, not from deadtime-gym's {root / name}: a folder "
+                    f"named {name} in the working directory or on sys.path shadows ours; rename it or run elsewhere")
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     for name in SINGLE_THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
+    shadowed = shadowed_package()
+    if shadowed is not None:
+        print(f"deadtime: error: {shadowed}", file=sys.stderr)
+        return 2
     parser, handlers = _parser()
     args = parser.parse_args(argv)
     try:

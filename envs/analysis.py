@@ -34,6 +34,16 @@ class LoopAnalysis:
     def stable(self) -> bool:
         return self.margins.stable
 
+    # The flat names of the JSON (``deadtime analyze --json``), as raw figures (``inf``/``nan``
+    # where the JSON has ``null``): ``t.analysis.ms`` is ``t.analysis.margins.ms``.
+    ms = property(lambda self: self.margins.ms, doc="``Ms``, :attr:`Margins.ms`.")
+    mt = property(lambda self: self.margins.mt, doc="``Mt``, :attr:`Margins.mt`.")
+    gain_margin = property(lambda self: self.margins.gain_margin, doc=":attr:`Margins.gain_margin`.")
+    phase_margin_deg = property(lambda self: self.margins.phase_margin_deg, doc=":attr:`Margins.phase_margin_deg`.")
+    delay_margin = property(lambda self: self.margins.delay_margin, doc=":attr:`Margins.delay_margin`.")
+    iae_load = property(lambda self: self.performance.load, doc="IAE of the unit load step, :attr:`IAEResult.load`.")
+    iae_setpoint = property(lambda self: self.performance.setpoint, doc="IAE of the unit set-point step.")
+
     def to_dict(self) -> dict[str, Any]:
         """The JSON object of ``deadtime analyze --json``; ``None`` where infinite or undefined.
 

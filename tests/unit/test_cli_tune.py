@@ -279,3 +279,26 @@ def test_tune_takes_a_transfer_function_and_delay_or_a_dict():
 )
 def test_messages_are_exact(args, line):
     assert run("tune", *args) == (2, "", line + "\n")
+
+
+def test_analysis_offers_the_flat_names_of_the_json():
+    """Issue 13.3: ``t.analysis.ms`` as the JSON's ``ms`` (was only ``t.analysis.margins.ms``)."""
+    from baselines.tune import tune
+
+    analysis = tune("simc-pi", model=USER_FOPDT).analysis
+    flat = analysis.to_dict()
+    for name in ("ms", "mt", "gain_margin", "phase_margin_deg", "delay_margin", "iae_load", "iae_setpoint"):
+        assert getattr(analysis, name) == flat[name]
+
+
+def test_a_users_envs_folder_shadowing_ours_is_one_line(tmp_path):
+    """Issue 13.8: an ``envs/`` folder earlier on ``sys.path`` (here by PYTHONPATH) is named."""
+    (tmp_path / "envs").mkdir()
+    (tmp_path / "envs" / "__init__.py").write_text("")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(REPO)])}
+    done = subprocess.run([sys.executable, "-m", "agents.cli", "--version"], check=False, capture_output=True,
+                          text=True, env=env, cwd=tmp_path, timeout=120)
+    assert done.returncode == 2
+    assert done.stderr == (f"deadtime: error: the package 'envs' is imported from {tmp_path / 'envs'}, not from "
+                           f"deadtime-gym's {REPO / 'envs'}: a folder named envs in the working directory or on "
+                           "sys.path shadows ours; rename it or run elsewhere\n")
