@@ -392,6 +392,12 @@ def _failure_notes(results: list, plants: list) -> list[str]:
     ]
 
 
+def _curve_label(name: str, result: Any) -> str:
+    """``name: cost C, parameter P`` for a responses legend."""
+    parameter = "" if result.parameter is None else f", parameter {result.parameter:.3g}"
+    return f"{name}: cost {result.cost:.3g}{parameter}"
+
+
 def _plots(out: Path, env_id: str, plants: list, results: list, shown: list[str], roles: dict[str, str],
            best_rule: str, agents: list[str], constraints: Any) -> None:  # fmt: skip
     import numpy as np
@@ -421,5 +427,6 @@ def _plots(out: Path, env_id: str, plants: list, results: list, shown: list[str]
         }
         title = f"{env_id}, plant {label}"
         slug = "".join(c if c.isalnum() or c in "-_" else "_" for c in label)
-        responses_plot(plant, controllers, out / f"responses_{slug}.png", title)
+        labels = {name: _curve_label(name, results[i][name]) for name in controllers}
+        responses_plot(plant, controllers, out / f"responses_{slug}.png", title, labels)
         nyquist_plot(plant, controllers, constraints.max_sensitivity, out / f"nyquist_{slug}.png", title)
