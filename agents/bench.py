@@ -60,7 +60,7 @@ N_ENVS = 2
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime bench``."""
     parser.add_argument("--json", action="store_true", help="print one JSON object with every figure")
-    parser.add_argument("--quick", action="store_true", help="a small version (4 loops, short timings, well under a minute)")
+    parser.add_argument("--quick", action="store_true", help="a smoke run (4 loops, one episode per setting: its rates are not measurements)")
     parser.add_argument("--skip-envs", action="store_true", help="skip the environment episodes")
     parser.add_argument("--skip-ppo", action="store_true", help="skip the training shares (PPO and SAC)")
     parser.add_argument("--pade-order", type=int, default=None, help="Padé order of the python-control reference")
@@ -301,4 +301,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         figures = _in_child(args)
     print(json.dumps(figures) if args.json else format_table(figures))
+    if args.quick:
+        print("bench --quick is a smoke run: it times one episode per setting (the first reset outside the timer), so its "
+              "rates are not measurements; run deadtime bench without --quick for those", file=sys.stderr)
     return 0

@@ -180,7 +180,7 @@ def _margins(loop, scale: float) -> tuple[float, float, float, float]:
     gm, pm, wgc = np.atleast_1d(gm), np.atleast_1d(pm), np.atleast_1d(wgc)
     above = gm[np.isfinite(gm) & (gm > 1)]
     gain_margin = float(np.min(above)) if above.size else math.inf
-    phase_margin = float(np.min(pm)) if pm.size else math.inf
+    phase_margin = float(pm[np.argmin(np.abs(pm))]) if pm.size else math.inf  # python-control's choice
     # phase margins wrapped to [0, 360) for the delay margin
     dm = [np.deg2rad(p % 360.0) / w for p, w in zip(pm, wgc) if w > 0]
     delay_margin = float(min(dm)) if dm else math.inf

@@ -2,7 +2,9 @@
 
 Each subcommand lives in the package that owns its concept and is imported only when it runs,
 so that ``deadtime analyze`` never loads torch.  Bad input anywhere prints one line naming what is
-wrong and exits with status 2; no traceback.
+wrong and exits with status 2; no traceback.  ``deadtime tune`` exits with status 3
+(:data:`LOOP_PROBLEM`) when the rule's loop is unstable or outside the constraints on the plant,
+or the rule's ``T_r`` is degenerate (:mod:`baselines.tune`), after one line on stderr saying so.
 """
 
 from __future__ import annotations
@@ -15,7 +17,10 @@ from pathlib import Path
 from importlib import import_module
 from typing import Any, Callable, Sequence
 
-__all__ = ["main", "CommandError", "load_json_argument"]
+__all__ = ["main", "CommandError", "LOOP_PROBLEM", "load_json_argument"]
+
+LOOP_PROBLEM = 3
+"""Exit status of ``deadtime tune`` for an unstable, unconstrained or degenerate tuning."""
 
 
 class CommandError(ValueError):
@@ -30,6 +35,8 @@ def load_json_argument(text: str, name: str) -> Any:
     try:
         return json.loads(source)
     except json.JSONDecodeError as error:
+        if source is text and not text.lstrip().startswith(("{", "[")):
+            raise CommandError(f"{name}: no such file {text!r} (nor is it JSON)") from None
         raise CommandError(f"{name} is not valid JSON ({error.msg} at position {error.pos})") from None
 
 
@@ -72,20 +79,24 @@ def _tune(args: argparse.Namespace) -> int:
             for rule in rules:
                 print(f"{rule['name']:20s} {rule['controller']:10s} {rule['plants']:11s} {rule['citation']}")
         return 0
-    if args.rule is None or args.plant is None:
-        raise CommandError("--rule and --plant are required (or --list)")
-    plant = Plant.from_dict(load_json_argument(args.plant, "--plant"))
+    if args.rule is None or (args.plant is None and args.model is None):
+        raise CommandError("--rule and --plant or --model are required (or --list)")
+    plant = None if args.plant is None else Plant.from_dict(load_json_argument(args.plant, "--plant"))
     model = None if args.model is None else model_from_dict(load_json_argument(args.model, "--model"))
-    result = tune(args.rule, plant, model).to_dict()
+    tuning = tune(args.rule, plant, model)
+    result = tuning.to_dict()
     if args.json:
         print(json.dumps(result))
-        return 0
-    print(f"{'rule':28s} {result['rule']}")
-    print(f"{'citation':28s} {result['citation']}")
-    print(f"{'parameter':28s} {_format(result['parameter'])}")
-    print(f"{'controller':28s} {json.dumps(result['controller'])}")
-    for key, value in result["analysis"].items():
-        print(f"{key:28s} {_format(value)}")
+    else:
+        print(f"{'rule':28s} {result['rule']}")
+        print(f"{'citation':28s} {result['citation']}")
+        print(f"{'parameter':28s} {_format(result['parameter'])}")
+        print(f"{'controller':28s} {json.dumps(result['controller'])}")
+        for key, value in result["analysis"].items():
+            print(f"{key:28s} {_format(value)}")
+    if result["problem"] is not None:
+        print(f"deadtime tune: {result['problem']}", file=sys.stderr)
+        return LOOP_PROBLEM
     return 0
 
 
@@ -113,8 +124,19 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
+def _version() -> str:
+    """The installed version of the ``deadtime-gym`` distribution (``pyproject.toml``)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("deadtime-gym")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Namespace], int]]]:
     parser = _Parser(prog="deadtime", description="Tune controllers for dead-time processes.")
+    parser.add_argument("--version", action="version", version=f"deadtime {_version()}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     handlers: dict[str, Callable[[argparse.Namespace], int]] = {}
 
@@ -124,9 +146,13 @@ def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Nam
     analyze.add_argument("--json", action="store_true", help="print one JSON object")
     handlers["analyze"] = _analyze
 
-    tune = commands.add_parser("tune", help="the controller an analytic rule gives for a plant, and its analysis")
+    tune = commands.add_parser(
+        "tune", help="the controller an analytic rule gives for a plant, and its analysis",
+        description="The controller an analytic rule gives for a plant or a model, and its analysis. Exit status 3 "
+        "(after one line on stderr) when the loop is unstable or outside the constraints (Ms <= 2 except for the MSP, "
+        "delay margin >= 0.2 L) on the plant, or the rule's T_r is degenerate (below its floor times L_n).")
     tune.add_argument("--rule", help="a rule name (see --list)")
-    tune.add_argument("--plant", help="plant JSON as for analyze, or a file")
+    tune.add_argument("--plant", help="plant JSON as for analyze, or a file; default: the model is the plant")
     tune.add_argument("--model", help='identified model JSON {"type": "fopdt"|"sopdt"|"integrating", ...} or a file; '
                       "default: run the rule's experiments on the plant, noise free")
     tune.add_argument("--list", action="store_true", help="name every rule with its citation")
@@ -153,16 +179,41 @@ def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Nam
 SINGLE_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 
+def shadowed_package() -> str | None:
+    """One line if ``envs`` or ``baselines`` would be imported from elsewhere than beside ``agents``.
+
+    The top-level names are fixed by the project's layout; a user's own ``envs/`` folder in the
+    working directory or earlier on ``sys.path`` shadows ours (and ``gymnasium.make`` then fails
+    with ``NamespaceNotFound: DeadTime``).
+    """
+    from importlib.util import find_spec
+
+    root = Path(__file__).resolve().parents[1]
+    for name in ("envs", "baselines"):
+        spec = find_spec(name)
+        locations = [] if spec is None else list(spec.submodule_search_locations or [])
+        if not any(Path(location).resolve() == root / name for location in locations):
+            found = ", ".join(locations) or "nowhere"
+            return (f"the package {name!r} is imported from {found}, not from deadtime-gym's {root / name}: a folder "
+                    f"named {name} in the working directory or on sys.path shadows ours; rename it or run elsewhere")
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     for name in SINGLE_THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
+    shadowed = shadowed_package()
+    if shadowed is not None:
+        print(f"deadtime: error: {shadowed}", file=sys.stderr)
+        return 2
     parser, handlers = _parser()
     args = parser.parse_args(argv)
     try:
         return handlers[args.command](args)
     except (ValueError, OverflowError, OSError) as error:  # CommandError is a ValueError
-        print(f"deadtime {args.command}: error: {error}", file=sys.stderr)
-        return 2
+        status = getattr(error, "exit_status", 2)
+        print(f"deadtime {args.command}: {'error: ' if status == 2 else ''}{error}", file=sys.stderr)
+        return status
 
 
 if __name__ == "__main__":

@@ -5,7 +5,8 @@
     deadtime evaluate --env DeadTime/PID-v0 --policies all-rules,oracle,agent=runs/x/model.zip \\
         --n 50 --seed 0 --out results/pid
 
-Plants: the fixed held-out test set ``envs.plant_sets.plant_set(family, "test", n)`` and, unless
+Plants: the fixed held-out test set ``envs.plant_sets.plant_set(family, "test", n)`` (or the user's
+own, ``--plants FILE``: a JSON list of plants, labelled ``user-0``, ``user-1``, ...) and, unless
 ``--no-benchmark``, the seeds' benchmark batch of the environment's structure
 (``envs.plant_sets.benchmark_set``).  Each plant is played in one episode, reset with seed
 ``--seed + i`` for test plant ``i`` and ``--seed + 1000000 + j`` for benchmark plant ``j`` (so that
@@ -50,6 +51,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH",
     )  # fmt: skip
     parser.add_argument("--n", type=int, default=50, help="number of random held-out test plants (default 50)")
+    parser.add_argument("--plants", help="a JSON list of plants (each {\"num\": [...], \"den\": [...], \"delay\": L}) or a "
+                        "file of one: the user's own test set, instead of --n random plants")
     parser.add_argument("--seed", type=int, default=0, help="episode seeds are seed + plant index; also seeds the bootstrap")
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument("--json", action="store_true", help="print results.json to stdout")
@@ -62,9 +65,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime evaluate``; bad input is a ValueError (one line, exit status 2)."""
+    from agents.cli import load_json_argument
+
+    plants = None if args.plants is None else load_json_argument(args.plants, "--plants")
     result = evaluate(
         env_id=args.env, policies=args.policies, n=args.n, seed=args.seed, out=Path(args.out), family=args.family,
         benchmark=not args.no_benchmark, resamples=args.resamples, plots=not args.no_plots, workers=args.workers,
+        plants=plants,
     )  # fmt: skip
     if args.json:
         print(json.dumps(result, indent=2))
@@ -72,7 +79,8 @@ def run(args: argparse.Namespace) -> int:
     from agents.evaluation_report import summary_table
 
     print(summary_table(result))
-    print(f"wrote {Path(args.out) / 'results.md'} (and .csv, .json, per_plant.csv, plots)", file=sys.stderr)
+    plots = "" if args.no_plots else ", plots"
+    print(f"wrote {Path(args.out) / 'results.md'} (and .csv, .json, per_plant.csv{plots})", file=sys.stderr)
     return 0
 
 
@@ -95,13 +103,31 @@ def _as_list(plants: Any, prefix: str) -> list[tuple[str, Any]]:
     return [(f"{prefix}-{i}", plant) for i, plant in enumerate(plants)]
 
 
-def _plants(family: str, structure: str, n: int, benchmark: bool) -> list[tuple[str, str, Any]]:
-    """``(subset, label, plant)`` of the test set, then the benchmark batch."""
+def _plants(family: str, structure: str, n: int, benchmark: bool, given: list | None = None) -> list[tuple[str, str, Any]]:
+    """``(subset, label, plant)`` of the test set (the plants ``given``, labelled ``user-<i>``, else
+    ``n`` of the family's), then the benchmark batch."""
     from envs.plant_sets import benchmark_set, plant_set
 
-    plants = [("test", label, plant) for label, plant in _as_list(plant_set(family, "test", n), f"test-{family}")]
+    if given is None:
+        plants = [("test", label, plant) for label, plant in _as_list(plant_set(family, "test", n), f"test-{family}")]
+    else:
+        plants = [("test", f"user-{i}", plant) for i, plant in enumerate(given)]
     if benchmark:
         plants += [("benchmark", label, plant) for label, plant in _as_list(benchmark_set(structure), "benchmark")]
+    return plants
+
+
+def _given_plants(given: Any, structure: str) -> list[Any]:
+    """The user's plants (:func:`envs.plants.as_plant` of each), all of the environment's kind."""
+    from envs.plants import as_plant
+
+    if not isinstance(given, list) or not given:
+        raise ValueError(f"--plants must be a non-empty JSON list of plants, got {type(given).__name__}")
+    plants = [as_plant(value, f"--plants[{i}]") for i, value in enumerate(given)]
+    for i, plant in enumerate(plants):
+        if plant.integrating != (structure == "msp"):
+            kind = "integrating" if structure == "msp" else "self-regulating"
+            raise ValueError(f"--plants[{i}] must be a {kind} plant for this environment")
     return plants
 
 
@@ -165,10 +191,12 @@ def evaluate(
     resamples: int = 2000,
     plots: bool = True,
     workers: int = 1,
+    plants: list | None = None,
 ) -> dict[str, Any]:
     """Evaluate ``policies`` on ``env_id``'s held-out plants and write the outputs into ``out``.
 
-    Returns the ``results.json`` object.  See the module docstring.
+    Returns the ``results.json`` object.  See the module docstring.  ``plants``, a list of plants
+    in any form :func:`envs.plants.as_plant` takes, replaces the ``n`` random test plants.
 
     Raises
     ------
@@ -200,7 +228,10 @@ def evaluate(
     if hasattr(unwrapped, "noise_std"):
         scoring["noise_std"] = unwrapped.noise_std
     agents = _agents([s for s in specs if s.kind == "agent"], env_id, scoring, {*rules, "oracle", "oracle-full"})
-    plants = _plants(family, structure, n, benchmark)
+    given = None if plants is None else _given_plants(plants, structure)
+    count = f"{n} test plants" if given is None else f"{len(given)} given plants"
+    print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
+    plants = _plants(family, structure, n, benchmark, given)
 
     out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)
@@ -361,6 +392,12 @@ def _failure_notes(results: list, plants: list) -> list[str]:
     ]
 
 
+def _curve_label(name: str, result: Any) -> str:
+    """``name: cost C, parameter P`` for a responses legend."""
+    parameter = "" if result.parameter is None else f", parameter {result.parameter:.3g}"
+    return f"{name}: cost {result.cost:.3g}{parameter}"
+
+
 def _plots(out: Path, env_id: str, plants: list, results: list, shown: list[str], roles: dict[str, str],
            best_rule: str, agents: list[str], constraints: Any) -> None:  # fmt: skip
     import numpy as np
@@ -390,5 +427,6 @@ def _plots(out: Path, env_id: str, plants: list, results: list, shown: list[str]
         }
         title = f"{env_id}, plant {label}"
         slug = "".join(c if c.isalnum() or c in "-_" else "_" for c in label)
-        responses_plot(plant, controllers, out / f"responses_{slug}.png", title)
+        labels = {name: _curve_label(name, results[i][name]) for name in controllers}
+        responses_plot(plant, controllers, out / f"responses_{slug}.png", title, labels)
         nyquist_plot(plant, controllers, constraints.max_sensitivity, out / f"nyquist_{slug}.png", title)

@@ -1,10 +1,13 @@
 """The figures of ``deadtime evaluate`` (matplotlib, Agg backend: no display needed).
 
-* :func:`cost_distribution_plot`: one box per policy (log cost axis), with the cap of feasible
-  costs (:data:`envs.scoring.FEASIBLE_CAP`) drawn: every point above it violates a constraint.
+* :func:`cost_distribution_plot`: one box per policy (log cost axis, plain tick labels), with the
+  cap of feasible costs (:data:`envs.scoring.FEASIBLE_CAP`) drawn: every point above it violates a
+  constraint; a legend for every colour (role) and marker (mean, one plant).
 * :func:`responses_plot`: unit load (at the plant input) and unit set-point responses of one plant
-  with several controllers, time in units of the true ``T_ar``, the load response divided by
-  ``|K|`` (``|K_v| T_ar`` for integrating plants) as in the score.
+  with several controllers, output above and control signal ``u`` below, time in units of the true
+  ``T_ar`` (and in the plant's own unit on the top axis), the load response divided by ``|K|``
+  (``|K_v| T_ar`` for integrating plants) as in the score; curves labelled with cost and
+  parameter, diverged or off-scale curves clipped and marked (:func:`response_range`).
 * :func:`nyquist_plot`: the loop ``L(i omega)`` of each controller near ``-1``, with the circle
   ``|1 + L| = 1/Ms_max`` that a loop meeting ``Ms <= Ms_max`` does not enter (``Ms = 2`` for
   reference where the environment has no ``Ms`` constraint, as ``MSP-v0``).
@@ -36,7 +39,7 @@ def cost_distribution_plot(costs: dict[str, np.ndarray], roles: dict[str, str], 
     """Box plot of the per-plant costs of each policy, sorted by mean cost (log scale)."""
     plt = _pyplot()
     names = sorted(costs, key=lambda name: float(np.mean(costs[name])))
-    fig, ax = plt.subplots(figsize=(max(6.0, 0.45 * len(names) + 2), 4.8))
+    fig, ax = plt.subplots(figsize=(max(6.0, 0.45 * len(names) + 2) + 2.5, 4.8))
     data = [np.asarray(costs[name], dtype=float) for name in names]
     box = ax.boxplot(
         data, showmeans=True, patch_artist=True, showfliers=False,
@@ -51,10 +54,22 @@ def cost_distribution_plot(costs: dict[str, np.ndarray], roles: dict[str, str], 
         patch.set_facecolor(colors.get(role, "tab:orange" if role.startswith("best rule") else "0.85"))
     ax.axhline(cap, color="tab:red", lw=0.8, ls="--", label=f"feasible cap {cap:g} (above: violation)")
     ax.set_yscale("log")
+    from matplotlib.patches import Patch
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+    shown_roles = {roles.get(name, "rule") for name in names}
+    keys = [Patch(facecolor=color, label=role) for role, color in colors.items() if role in shown_roles]
+    if any(role.startswith("best rule") for role in shown_roles):
+        keys.append(Patch(facecolor="tab:orange", label="best rule"))
+    keys.append(Patch(facecolor="0.85", label="rule"))
+    keys.append(plt.Line2D([], [], ls="", marker="D", color="black", markersize=4, label="mean (box: quartiles; whiskers 1.5 IQR)"))
+    keys.append(plt.Line2D([], [], ls="", marker="o", color="0.3", markersize=3, alpha=0.6, label="one plant"))
     ax.set_xticks(range(1, len(names) + 1), names, rotation=60, ha="right", fontsize=8)
     ax.set_ylabel("episode cost")
     ax.set_title(title)
-    ax.legend(loc="upper left", fontsize=8)
+    ax.legend(handles=[*ax.get_legend_handles_labels()[0], *keys], loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -69,26 +84,88 @@ def _response(plant: Any, controller: Any, setpoint: float, load: float):
     return closed_loop_response(plant, controller, steps, dt, setpoint=setpoint, load=load)
 
 
-def responses_plot(plant: Any, controllers: dict[str, Any], path: Path, title: str) -> Path:
-    """Load and set-point responses of ``plant`` under each controller (by name)."""
+_MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*")
+_OFF_SCALE = 10.0  # a curve whose peak exceeds this many times the on-scale curves' range is clipped
+
+
+def response_range(curves: dict[str, np.ndarray], diverged: dict[str, bool]) -> tuple[tuple[float, float], set[str]]:
+    """The axis range of the on-scale curves, and the names of the curves that are not.
+
+    A curve is off scale if its simulation diverged, it is not finite, or its peak ``|y|`` exceeds
+    ``_OFF_SCALE`` times that of the largest other curve that is on scale (so that one loop near
+    instability, e.g. at 1e7, does not flatten every other curve to a line at 0).  The range is
+    that of the on-scale curves with a 10% margin.
+    """
+    peaks = {name: float(np.max(np.abs(y))) if y.size and np.all(np.isfinite(y)) else np.inf for name, y in curves.items()}
+    off = {name for name in curves if diverged.get(name, False) or not np.isfinite(peaks[name])}
+    for name in sorted(curves, key=lambda n: peaks[n], reverse=True):
+        others = [peaks[n] for n in curves if n != name and n not in off]
+        if name not in off and others and peaks[name] > _OFF_SCALE * max(max(others), 1e-12):
+            off.add(name)
+    kept = [curves[n] for n in curves if n not in off] or [np.zeros(1)]
+    low, high = min(float(np.min(y)) for y in kept), max(float(np.max(y)) for y in kept)
+    pad = 0.1 * max(high - low, 1e-9)
+    return (low - pad, high + pad), off
+
+
+def responses_plot(plant: Any, controllers: dict[str, Any], path: Path, title: str, labels: dict[str, str] | None = None) -> Path:
+    """Load and set-point responses of ``plant`` under each controller (by name): the output in the
+    top panels, the control signal ``u`` below, time in ``T_ar`` (bottom axis) and in the plant's
+    own time unit (top axis).
+
+    Each curve has its own colour and marker and its legend entry ``labels[name]`` (e.g. cost and
+    parameter).  Diverged and off-scale curves (:func:`response_range`) are drawn dashed until they
+    leave the range of the others, marked there with an ``x`` and labelled so; the axes follow the
+    on-scale curves.
+    """
     plt = _pyplot()
     scale = plant.step_time_scale()
     load_scale = abs(plant.gain) * (scale if plant.integrating else 1.0)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for name, controller in controllers.items():
-        for ax, (setpoint, load, normalizer) in zip(axes, ((0.0, 1.0, load_scale), (1.0, 0.0, 1.0))):
-            response = _response(plant, controller, setpoint, load)
-            ax.plot(response.timepts / scale, response.output / normalizer, label=name + (" (diverged)" if response.diverged else ""))
-    axes[0].set_title("unit load step at the plant input")
-    axes[0].set_ylabel("y / |K|" + (" T_ar" if plant.integrating else ""))
-    axes[1].set_title("unit set-point step")
-    axes[1].set_ylabel("y")
-    for ax in axes:
+    fig, axes = plt.subplots(2, 2, figsize=(11, 6.5), sharex="col")
+    cases = ((0.0, 1.0, load_scale), (1.0, 0.0, 1.0))
+    names = list(controllers)
+    responses = {(name, k): _response(plant, controllers[name], *case[:2]) for name in names for k, case in enumerate(cases)}
+    clipped: set[str] = set()
+    for k, (_, _, normalizer) in enumerate(cases):
+        for row, signal in enumerate(("output", "control")):
+            ax = axes[row, k]
+            curves = {name: getattr(responses[name, k], signal) / (normalizer if signal == "output" else 1.0) for name in names}
+            (low, high), off = response_range(curves, {name: responses[name, k].diverged for name in names})
+            clipped |= off
+            for j, name in enumerate(names):
+                t, y = responses[name, k].timepts / scale, curves[name]
+                style = {"color": f"C{j % 10}", "marker": _MARKERS[j % len(_MARKERS)], "markevery": max(len(t) // 12, 1),
+                         "markersize": 4, "lw": 1.2}
+                if name in off:  # drawn until it leaves the range, clipped there and marked
+                    y = np.clip(np.nan_to_num(y, nan=high, posinf=high, neginf=low), low, high)
+                    leaves = np.flatnonzero((y >= high) | (y <= low))
+                    end = int(leaves[0]) + 1 if leaves.size else y.size
+                    ax.plot(t[:end], y[:end], ls="--", alpha=0.8, **style)
+                    ax.plot(t[end - 1], y[end - 1], "x", color=style["color"], markersize=10, mew=2.5)
+                else:
+                    ax.plot(t, y, **style)
+            ax.set_ylim(low, high)
+            ax.grid(alpha=0.3)
+            ax.ticklabel_format(axis="y", style="plain", useOffset=False)
+    axes[0, 0].set_title("unit load step at the plant input")
+    axes[0, 1].set_title("unit set-point step")
+    axes[0, 0].set_ylabel("y / |K|" + (" T_ar" if plant.integrating else ""))
+    axes[0, 1].set_ylabel("y")
+    axes[1, 0].set_ylabel("u")
+    axes[1, 1].set_ylabel("u")
+    for ax in axes[1]:
         ax.set_xlabel("t / T_ar")
-        ax.grid(alpha=0.3)
-    axes[1].legend(fontsize=8)
+    for ax in axes[0]:
+        top = ax.secondary_xaxis("top", functions=(lambda x: x * scale, lambda x: x / scale))
+        top.set_xlabel(f"t (plant time units; T_ar = {scale:.3g})", fontsize=8)
+    handles = [
+        plt.Line2D([], [], color=f"C{j % 10}", marker=_MARKERS[j % len(_MARKERS)], ls="--" if name in clipped else "-",
+                   label=(labels or {}).get(name, name) + (" (diverged or off scale: drawn until it leaves the axes, x)" if name in clipped else ""))
+        for j, name in enumerate(names)
+    ]
+    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 2), fontsize=8, frameon=False)
     fig.suptitle(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.04 + 0.035 * ((len(handles) + 1) // 2), 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

@@ -100,27 +100,84 @@ def plant_key(env_id: str, family: str, seed: int, position: int | str, plant_di
 
 
 class Cache:
-    """Per-plant, per-policy results appended to a JSON-lines file, read back on a rerun."""
+    """Per-plant, per-policy results appended to a JSON-lines file, read back on a rerun.
+
+    Several evaluations may share one file (two runs on one ``--out``): each append holds an
+    exclusive ``fcntl.flock`` on the file, reads first what the others appended since this cache
+    last read it, and skips a result that is already there, so every ``(key, policy)`` is written
+    once; a lookup that misses reads the others' new lines too, so a result computed by one run is
+    not recomputed by the other once it is on file.  A line cut short by an interruption is
+    skipped (and closed by the next append's newline).
+    """
 
     def __init__(self, path: Path | None) -> None:
         self.path = path
         self.entries: dict[tuple[str, str], PolicyResult] = {}
-        if path is not None and path.is_file():
-            for line in path.read_text().splitlines():
-                try:
-                    entry = json.loads(line)
-                    self.entries[(entry["key"], entry["policy"])] = PolicyResult.from_dict(entry["result"])
-                except (json.JSONDecodeError, KeyError, TypeError):
-                    continue  # a line cut short by an interruption
+        self._on_file: set[tuple[str, str]] = set()
+        self._offset = 0  # bytes of the file read so far (whole lines only)
+        self._refresh()
+
+    def _refresh(self, file: Any = None) -> None:
+        """Read the whole lines appended to the file since the last read."""
+        if self.path is None:
+            return
+        if file is None:
+            if not self.path.is_file():
+                return
+            with self.path.open("rb") as handle:
+                handle.seek(self._offset)
+                data = handle.read()
+        else:
+            file.seek(self._offset)
+            data = file.read()
+        complete = data[: data.rfind(b"\n") + 1]
+        self._offset += len(complete)
+        for line in complete.decode("utf-8", errors="replace").splitlines():
+            try:
+                entry = json.loads(line)
+                found = (entry["key"], entry["policy"])
+                self.entries[found] = PolicyResult.from_dict(entry["result"])
+                self._on_file.add(found)
+            except (json.JSONDecodeError, KeyError, TypeError):
+                continue  # a line cut short by an interruption
 
     def get(self, key: str, policy: str) -> PolicyResult | None:
-        return self.entries.get((key, policy))
+        found = self.entries.get((key, policy))
+        if found is None and self.path is not None:
+            self._refresh()
+            found = self.entries.get((key, policy))
+        return found
 
     def put(self, key: str, policy: str, result: PolicyResult) -> None:
         self.entries[(key, policy)] = result
-        if self.path is not None:
-            with self.path.open("a") as file:
-                file.write(json.dumps({"key": key, "policy": policy, "result": result.to_dict()}) + "\n")
+        if self.path is None:
+            return
+        line = json.dumps({"key": key, "policy": policy, "result": result.to_dict()}) + "\n"
+        with self.path.open("a+b") as file:
+            _lock(file)
+            self._refresh(file)
+            if (key, policy) in self._on_file:
+                return  # another run wrote it first
+            file.seek(0, 2)
+            end = file.tell()
+            if end > 0:
+                file.seek(end - 1)
+                if file.read(1) != b"\n":
+                    file.write(b"\n")  # close a line cut short by an interruption
+            file.write(line.encode())
+            file.flush()
+            self._offset = file.tell()
+            self._on_file.add((key, policy))
+            self.entries[(key, policy)] = result
+
+
+def _lock(file: Any) -> None:
+    """An exclusive lock on ``file`` until it is closed (``fcntl.flock``; none where there is no fcntl)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        return
+    fcntl.flock(file.fileno(), fcntl.LOCK_EX)
 
 
 def _finite(x: Any) -> float | None:

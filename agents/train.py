@@ -105,8 +105,8 @@ def run(args: argparse.Namespace) -> int:
               f"{result.run_dir / 'checkpoints'}; continue exactly with: "
               f"deadtime train --out {shlex.quote(str(result.run_dir))} --resume", file=sys.stderr)
         return 128 + (result.stopped_by or 2)
-    print(f"{result.num_timesteps} steps; this session trained {result.session_steps} in {result.train_seconds:.1f} s "
-          f"({result.steps_per_second:.1f} steps/s); best validation cost {result.best_cost:.6g}")
+    print(f"{result.num_timesteps} steps; this session trained {result.session_steps} in {result.train_seconds:.1f} s"
+          f"{f' ({result.steps_per_second:.1f} steps/s)' if result.session_steps > 0 else ''}; best validation cost {result.best_cost:.6g}")
     print(f"agent: {result.run_dir / 'model.zip'} (best: {result.run_dir / 'best_model.zip'})")
     return 0
 

@@ -428,6 +428,8 @@ def amigo_pid(model: FOPDTModel | IntegratingModel, n: float = DERIVATIVE_FILTER
 
 # --------------------------------------------------------------------------- SIMC
 def _tau_c(tau_c: float | None, dead_time: float, rule: str) -> float:
+    if tau_c is None and not dead_time > 0:
+        raise ValueError(f"{rule} needs dead_time > 0 (its default tau_c is the dead time), got {dead_time!r}")
     value = dead_time if tau_c is None else float(tau_c)
     if not (math.isfinite(value) and value >= 0) or value + dead_time <= 0:
         raise ValueError(
@@ -549,6 +551,8 @@ IMC_PID_LAMBDA = 0.8
 
 
 def _lambda(lam: float | None, default: float, dead_time: float, rule: str) -> float:
+    if lam is None and not dead_time > 0:
+        raise ValueError(f"{rule} needs dead_time > 0 (its default lambda is {default} times the dead time), got {dead_time!r}")
     value = default * dead_time if lam is None else float(lam)
     if not (math.isfinite(value) and value > 0):
         raise ValueError(

@@ -16,7 +16,7 @@ controller is exactly what the environments and the oracle produce for the same 
 
 Which model each rule reads from :class:`RuleInputs`: FOPDT rules the ``fopdt`` model (eq. 11 of
 Ingimundarson, or the given model), SOPDT rules and the ``mu`` rules the Gorez-Klan ``sopdt``
-model (eq. 2-8), the ultimate-gain rules the exact ultimate point of ``model`` (the given model,
+model (eq. 2-8; a given FOPDT model as the SOPDT model with ``T_2 = 0``), the ultimate-gain rules the exact ultimate point of ``model`` (the given model,
 or the SOPDT model from identification), the MSP rules the two-parameter ``integrating_model``
 (Ingimundarson eq. 2), and the PID rules that accept integrating plants ``model``.
 """
@@ -42,7 +42,6 @@ from envs.identification import (
     SOPDTModel,
     fopdt_from_moments,
     mismatch_time,
-    sopdt_from_moments,
 )
 from envs.open_loop_experiments import open_loop_pulse, open_loop_step
 from envs.plants import Plant
@@ -126,8 +125,12 @@ class RuleInputs:
     def from_model(cls, model: Model, plant: Plant | None = None) -> RuleInputs:
         """The quantities of a given model, with ``T_f_bar``/``A`` measured on the true ``plant``.
 
-        From a FOPDT model the SOPDT model follows by ``tau -> theta`` (Gorez-Klan eq. 2-8 .. 2-10);
-        from an SOPDT model the FOPDT model by its moments (``T_ar = T_1 + T_2 + D_2``,
+        A rule reads the given model in the form it was written for: a FOPDT model is the SOPDT
+        model with ``T_2 = 0`` (Gorez-Klan eq. 2-2; Skogestad 2003 and Haalman 1965 give the PI as
+        that case of their PID), so the SOPDT rules and the ``mu`` rules use its own ``T_1`` and
+        dead time, not the moment-fitted SOPDT of eq. 2-8 (which moves the dead time of
+        ``2.5 e^{-4s}/(12s + 1)`` to 1.23 and closes unstable loops on the model itself).  From an
+        SOPDT model the FOPDT model follows by its moments (``T_ar = T_1 + T_2 + D_2``,
         ``T_a = sqrt(T_1^2 + T_2^2)``, eq. 2-5, 2-6).  With ``plant``, the mismatch time of eq. 22
         (open-loop step to steady state) or the pulse area of eq. 46 (pulse of ``L_n/3``, as
         :func:`envs.procedure.identify`) is computed against the model on the noise-free plant.
@@ -151,7 +154,8 @@ class RuleInputs:
             )
         if isinstance(model, FOPDTModel):
             fopdt = model
-            sopdt = sopdt_from_moments(model.gain, model.residence_time, model.normalized_dead_time)
+            # the FOPDT model in the SOPDT form (Gorez-Klan eq. 2-2 with T_2 = 0), not re-fitted by moments
+            sopdt = SOPDTModel(model.gain, (model.time_constant, 0.0), model.dead_time)
         elif isinstance(model, SOPDTModel):
             t1, t2 = model.time_constants
             sopdt = model

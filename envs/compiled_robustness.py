@@ -547,14 +547,16 @@ def _gain_margin(phase_crossovers, values):  # pragma: no cover - compiled
 
 @jit
 def _phase_and_delay_margins(gain_crossovers, values):  # pragma: no cover - compiled
-    """:func:`envs.robustness._phase_and_delay_margins`."""
+    """:func:`envs.robustness._phase_and_delay_margins` (the phase margin smallest in magnitude)."""
     phase_margin, at_phase, delay_margin, at_delay = math.inf, math.nan, math.inf, math.nan
+    margins = np.empty(values.size)
     for i in range(values.size):
         angle = math.atan2(values[i].imag, values[i].real)
         margin = (angle + 2 * math.pi) % (2 * math.pi) - math.pi
         delay = ((angle + math.pi) % (2 * math.pi)) / gain_crossovers[i]
-        if math.isnan(at_phase) or margin < phase_margin:
+        margins[i] = margin
+        if math.isnan(at_phase) or abs(margin) < abs(phase_margin):
             phase_margin, at_phase = margin, gain_crossovers[i]
         if math.isnan(at_delay) or delay < delay_margin:
             delay_margin, at_delay = delay, gain_crossovers[i]
-    return phase_margin, at_phase, delay_margin, at_delay
+    return phase_margin, at_phase, delay_margin, at_delay, margins

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-__all__ = ["Plant", "StateSpace", "NEGLIGIBLE_DELAY", "GAIN_RANGE", "TIME_SCALE_RANGE"]
+__all__ = ["Plant", "StateSpace", "as_plant", "NEGLIGIBLE_DELAY", "GAIN_RANGE", "TIME_SCALE_RANGE"]
 
 GAIN_RANGE = (1e-12, 1e12)
 """The documented range of ``|K|`` (static or velocity gain): everything downstream is gain
@@ -440,3 +440,40 @@ class Plant:
         poles = np.roots(den)
         slowest = 1.0 / np.min(np.abs(poles)) if poles.size else 1.0
         return float(max(slowest, self.delay, 1e-12))
+
+
+def as_plant(value: Any, what: str = "plant") -> Plant:
+    """A :class:`Plant` from any of the forms a plant is given in.
+
+    Parameters
+    ----------
+    value : Plant, dict, control.TransferFunction or (TransferFunction, delay)
+        A plant; its JSON form ``{"num": [...], "den": [...], "delay": L}``
+        (:meth:`Plant.from_dict`); a SISO continuous-time python-control ``TransferFunction``
+        (no dead time); or a pair of one and its dead time (:meth:`Plant.from_transfer_function`).
+    what : str
+        The name of the argument in the error message.
+
+    Raises
+    ------
+    ValueError
+        Naming ``what`` and the forms accepted, or the invalid field.
+
+    Examples
+    --------
+    >>> import control
+    >>> as_plant((control.tf([2.0], [4.0, 1.0]), 1.5)).to_dict()  # stored with a monic denominator
+    {'num': [0.5], 'den': [1.0, 0.25], 'delay': 1.5}
+    """
+    if isinstance(value, Plant):
+        return value
+    if isinstance(value, dict):
+        return Plant.from_dict(value)
+    if isinstance(value, tuple) and len(value) == 2 and hasattr(value[0], "den"):
+        return Plant.from_transfer_function(value[0], value[1])
+    if hasattr(value, "num") and hasattr(value, "den"):
+        return Plant.from_transfer_function(value)
+    raise ValueError(
+        f"{what} must be a Plant, a JSON object with num, den, delay, a control.TransferFunction or a "
+        f"(TransferFunction, delay) pair; got {type(value).__name__}"
+    )

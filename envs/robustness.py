@@ -54,8 +54,12 @@ class Margins:
 
     Frequencies are in rad per time unit of the plant.  ``gain_margin`` is the smallest factor
     ``> 1`` by which the loop gain can grow before a phase crossover reaches ``-1`` (``inf`` if
-    none); ``phase_margin_deg`` is the smallest phase margin over the gain crossovers (``inf``
-    without crossover); ``delay_margin`` is ``0`` for an unstable loop.
+    none); ``phase_margin_deg`` is the phase margin smallest in magnitude over the gain crossovers
+    (python-control's ``stability_margins``; ``inf`` without crossover) and ``phase_margins_deg``
+    that of every gain crossover, in the order of ``gain_crossovers`` (each in ``[-180, 180)``);
+    ``delay_margin`` is ``0`` for an unstable loop.  ``unstable_poles`` is the number of
+    closed-loop poles in the right half plane, or ``-1`` when it is infinite: ``|L(i w)|`` stays
+    ``>= 1`` as ``w -> inf`` around a dead time (a neutral loop; :func:`_high_frequency`).
     """
 
     stable: bool
@@ -72,6 +76,7 @@ class Margins:
     delay_margin_frequency: float
     gain_crossovers: tuple[float, ...]
     phase_crossovers: tuple[float, ...]
+    phase_margins_deg: tuple[float, ...] = ()
 
 
 def _low_frequency(loop: LoopFunction, integrators: int, start: float) -> float:
@@ -273,16 +278,27 @@ def _gain_margin(phase_crossovers: np.ndarray, values: np.ndarray) -> tuple[floa
     return float(factors[j]), float(phase_crossovers[j])
 
 
-def _phase_and_delay_margins(gain_crossovers: np.ndarray, values: np.ndarray) -> tuple[float, float, float, float]:
-    """Smallest phase margin (rad, in ``[-pi, pi)``) and delay margin over the gain crossovers,
-    each with its frequency (``inf``, ``nan`` without crossover)."""
+def _phase_and_delay_margins(
+    gain_crossovers: np.ndarray, values: np.ndarray
+) -> tuple[float, float, float, float, np.ndarray]:
+    """Phase margin and delay margin over the gain crossovers, each with its frequency, and the
+    phase margin of every crossover (rad).
+
+    The phase margin of crossover ``i`` is ``phi_i = (arg L(i w_i) mod 2 pi) - pi``, in
+    ``[-pi, pi)``, and the one reported is the smallest in magnitude (the first of ties): the
+    definition of python-control's ``stability_margins`` (``control/margins.py``: ``PM =
+    remainder(angle(L), 360) - 180``, then the index of ``min |PM|``; ``returnall=True`` lists every
+    ``PM``) and of MATLAB's ``margin``.  The delay margin is ``min_i ((arg L(i w_i) + pi) mod 2 pi)
+    / w_i``, the phase taken in ``[0, 2 pi)`` (Ingimundarson section 3).  ``inf``, ``nan`` and no
+    margins without crossover.
+    """
     if gain_crossovers.size == 0:
-        return math.inf, math.nan, math.inf, math.nan
+        return math.inf, math.nan, math.inf, math.nan, np.empty(0)
     angle = np.angle(values)
     phase_margins = (angle + 2 * math.pi) % (2 * math.pi) - math.pi
     delays = ((angle + math.pi) % (2 * math.pi)) / gain_crossovers
-    i, j = int(np.argmin(phase_margins)), int(np.argmin(delays))
-    return float(phase_margins[i]), float(gain_crossovers[i]), float(delays[j]), float(gain_crossovers[j])
+    i, j = int(np.argmin(np.abs(phase_margins))), int(np.argmin(delays))
+    return float(phase_margins[i]), float(gain_crossovers[i]), float(delays[j]), float(gain_crossovers[j]), phase_margins
 
 
 def loop_margins(loop: LoopFunction, integrators: int, time_scale: float = 1.0) -> Margins:
@@ -338,7 +354,7 @@ def assemble_margins(
     stable = unstable == 0 and tame
     ms, ms_w, mt, mt_w = peaks
     gm, pc_w = gain_margin
-    phase_margin, gc_w, delay_margin, dm_w = phase_and_delay_margins
+    phase_margin, gc_w, delay_margin, dm_w, phase_margins = phase_and_delay_margins
     return Margins(
         stable=bool(stable),
         unstable_poles=max(int(unstable), 0) if tame else -1,
@@ -354,6 +370,7 @@ def assemble_margins(
         delay_margin_frequency=float(dm_w),
         gain_crossovers=tuple(gains.tolist()),
         phase_crossovers=tuple(phase.tolist()),
+        phase_margins_deg=tuple(np.degrees(phase_margins).tolist()),
     )
 
 

@@ -26,11 +26,16 @@ from envs.episode import (
     run_experiment,
 )
 from envs.families import FAMILIES, sample_plant
-from envs.plants import Plant
+from envs.plants import Plant, as_plant
 from envs.procedure import Identification, identify
 from envs.threads import single_threaded
 from envs.scoring import Constraints, CostWeights, Score, score
 from envs.validation import require_number
+
+# The kind of plant each family of :mod:`envs.families` draws (True: integrating), checked when the
+# environment is made; ``benchmark`` draws either, as its config says (a draw of the other kind is
+# drawn again).
+_FAMILY_KINDS: dict[str, bool] = {"stable": False, "fopdt": False, "sopdt": False, "lag-chain": False, "integrating": True}
 
 __all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "MODES", "AMPLITUDE_RANGE"]
 
@@ -88,6 +93,8 @@ class DeadTimeTuningEnv(gym.Env):
         self.family = self.default_family if family is None else family
         if self.family not in FAMILIES:
             raise ValueError(f"unknown plant family {self.family!r}; valid families: {', '.join(FAMILIES)}")
+        if self.family in _FAMILY_KINDS and _FAMILY_KINDS[self.family] != self.integrating:
+            raise ValueError(self._wrong_family_kind(_FAMILY_KINDS[self.family]))
         self.family_config = family_config
         self.noise_std = require_number(noise_std, "noise_std", nonnegative=True)
         self.constraints = _dataclass_argument(constraints, Constraints, "constraints") if constraints is not None else self.default_constraints()
@@ -140,8 +147,8 @@ class DeadTimeTuningEnv(gym.Env):
 
         Options
         -------
-        plant : Plant or dict
-            Use this plant (a :class:`~envs.plants.Plant` or its dict) instead of drawing one.
+        plant : Plant, dict, control.TransferFunction or (TransferFunction, delay)
+            Use this plant instead of drawing one (any form :func:`envs.plants.as_plant` takes).
         """
         super().reset(seed=seed)
         options = {} if options is None else dict(options)
@@ -165,8 +172,15 @@ class DeadTimeTuningEnv(gym.Env):
         observation, named = self._observation_and_features()
         return observation, {"plant": self.plant.to_dict(), "features": named}
 
-    def _given_plant(self, plant: Plant | dict) -> Plant:
-        plant = plant if isinstance(plant, Plant) else Plant.from_dict(plant)
+    def _wrong_family_kind(self, integrating: bool) -> str:
+        """The one line for a family (or a draw of it) of the other kind of plant than this environment's."""
+        kinds = ("self-regulating", "integrating")
+        fitting = [f for f, kind in _FAMILY_KINDS.items() if kind == self.integrating] + ["benchmark"]
+        return (f"family {self.family!r} draws {kinds[integrating]} plants; {type(self).__name__} takes "
+                f"{kinds[self.integrating]} plants (families: {', '.join(fitting)})")
+
+    def _given_plant(self, plant: Any) -> Plant:
+        plant = as_plant(plant, "reset options: plant")
         if plant.integrating != self.integrating:
             kind = "an integrating" if self.integrating else "a self-regulating"
             raise ValueError(f"reset options: plant must be {kind} plant for {type(self).__name__}")

@@ -219,3 +219,54 @@ def test_episode_seeds_do_not_depend_on_n():
     large = small[:2] + [("test", "c", None)] + small[2:]
     assert _episode_seeds(small, 5) == [5, 6, 5 + BENCHMARK_SEED_OFFSET, 6 + BENCHMARK_SEED_OFFSET]
     assert _episode_seeds(large, 5) == [5, 6, 7, 5 + BENCHMARK_SEED_OFFSET, 6 + BENCHMARK_SEED_OFFSET]
+
+
+# ------------------------------------------------------------------ issue 13: the user's plants, messages
+USER_PLANTS = [{"num": [2.5], "den": [12.0, 1.0], "delay": 4.0}, {"num": [1.0], "den": [2.0, 3.0, 1.0], "delay": 1.0}]
+
+
+def test_plants_file_is_the_test_set_and_no_plots_says_so(capsys, tmp_path):
+    """``--plants FILE`` replaces the random test set (labels ``user-<i>``); the first stderr line
+    comes before any plant is drawn or scored (a progress line within a second); ``--no-plots``
+    names only what it wrote."""
+    plants = tmp_path / "plants.json"
+    plants.write_text(json.dumps(USER_PLANTS))
+    out = tmp_path / "out"
+    code = main(["evaluate", "--env", "DeadTime/PID-v0", "--policies", "simc-pi", "--plants", str(plants),
+                 "--no-benchmark", "--no-plots", "--resamples", "50", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert err.splitlines()[0] == f"evaluate DeadTime/PID-v0: 2 given plants into {out}"
+    assert err.splitlines()[-1] == f"wrote {out / 'results.md'} (and .csv, .json, per_plant.csv)"
+    assert {row["plant"] for row in _per_plant(out).values()} == {"user-0", "user-1"}
+    assert not list(out.glob("*.png"))
+
+
+@pytest.mark.parametrize(
+    "plants, line",
+    [
+        ("plants.json", "deadtime evaluate: error: --plants: no such file 'plants.json' (nor is it JSON)"),
+        ('{"num": [1]}', "deadtime evaluate: error: --plants must be a non-empty JSON list of plants, got dict"),
+        ('[{"num": [1], "den": [1, 0], "delay": 1}]',
+         "deadtime evaluate: error: --plants[0] must be a self-regulating plant for this environment"),
+    ],
+    ids=["missing-file", "not-a-list", "wrong-kind"],
+)
+def test_bad_plants_are_one_line_and_exit_2(capsys, tmp_path, plants, line):
+    code = main(["evaluate", "--env", "DeadTime/PID-v0", "--policies", "simc-pi", "--plants", plants, "--out", str(tmp_path)])
+    assert (code, capsys.readouterr().err) == (2, line + "\n")
+
+
+def test_a_family_of_the_wrong_kind_is_one_line_and_exit_2(capsys, tmp_path):
+    code = main(["evaluate", "--env", "DeadTime/PID-v0", "--policies", "simc-pi", "--family", "integrating", "--out", str(tmp_path)])
+    assert (code, capsys.readouterr().err) == (2, (
+        "deadtime evaluate: error: family 'integrating' draws integrating plants; PIDEnv takes self-regulating plants "
+        "(families: stable, fopdt, sopdt, lag-chain, benchmark)\n"))
+
+
+def test_version(capsys):
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0 and capsys.readouterr().out == f"deadtime {version('deadtime-gym')}\n"

@@ -300,3 +300,44 @@ def test_rgb_array_rendering():
     assert before.dtype == np.uint8 and before.shape == after.shape == (384, 512, 3)
     assert not np.array_equal(before, after)  # the loop's responses are drawn after the commit
     assert PIDEnv().render() is None
+
+
+@pytest.mark.parametrize(
+    "given",
+    [
+        Plant.from_time_constants(2.5, [12.0], 4.0),
+        {"num": [2.5], "den": [12.0, 1.0], "delay": 4.0},
+        "transfer-function-and-delay",
+    ],
+    ids=["plant", "dict", "transfer-function-and-delay"],
+)
+def test_reset_takes_a_plant_in_every_form(given):
+    import control
+
+    if given == "transfer-function-and-delay":
+        given = (control.tf([2.5], [12.0, 1.0]), 4.0)
+    env = gym.make("DeadTime/PID-v0")
+    _, info = env.reset(seed=0, options={"plant": given})
+    assert Plant.from_dict(info["plant"]) == Plant.from_time_constants(2.5, [12.0], 4.0)
+
+
+def test_reset_names_the_forms_of_a_plant():
+    env = gym.make("DeadTime/PID-v0")
+    with pytest.raises(ValueError) as error:
+        env.reset(seed=0, options={"plant": [2.5, 12.0]})
+    assert str(error.value) == (
+        "reset options: plant must be a Plant, a JSON object with num, den, delay, a control.TransferFunction "
+        "or a (TransferFunction, delay) pair; got list"
+    )
+
+
+def test_a_family_of_the_wrong_kind_is_named_when_the_env_is_made():
+    """Issue 13.5: it used to say "no plant ... could be identified in 10 draws" at reset."""
+    with pytest.raises(ValueError) as error:
+        gym.make("DeadTime/PID-v0", family="integrating")
+    assert str(error.value) == (
+        "family 'integrating' draws integrating plants; PIDEnv takes self-regulating plants "
+        "(families: stable, fopdt, sopdt, lag-chain, benchmark)"
+    )
+    with pytest.raises(ValueError, match="family 'fopdt' draws self-regulating plants; MSPEnv takes integrating plants"):
+        gym.make("DeadTime/MSP-v0", family="fopdt")

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import io
 import json
+import math
+import re
 import os
 import subprocess
 import sys
@@ -22,10 +24,12 @@ from agents.cli import main
 from baselines.pid_rules import ultimate_point, zn_ultimate_pi
 from baselines.rules import RULES
 from envs.identification import model_from_dict
+from envs.plants import Plant
 
 REPO = Path(__file__).resolve().parents[2]
 STABLE = {"num": [1.0], "den": [10.0, 1.0], "delay": 5.0}
 INTEGRATING = {"num": [1.0], "den": [2.0, 1.0, 0.0], "delay": 5.0}
+SECOND_ORDER = {"num": [1.0], "den": [20.0, 12.0, 1.0], "delay": 5.0}
 
 
 def run(*args: str) -> tuple[int, str, str]:
@@ -35,16 +39,20 @@ def run(*args: str) -> tuple[int, str, str]:
     return status, out.getvalue(), err.getvalue()
 
 
-def tune_json(rule: str, plant: dict, model: dict | None = None) -> dict:
-    args = ["tune", "--rule", rule, "--plant", json.dumps(plant), "--json"]
+def tune_json(rule: str, plant: dict | None, model: dict | None = None, status: int = 0) -> dict:
+    """``tune --json``; with ``status=3`` the loop's problem is the one line on stderr."""
+    args = ["tune", "--rule", rule, "--json"]
+    if plant is not None:
+        args += ["--plant", json.dumps(plant)]
     if model is not None:
         args += ["--model", json.dumps(model)]
-    status, out, err = run(*args)
-    assert status == 0, err
-    assert err == ""
+    code, out, err = run(*args)
+    assert code == status, err
     lines = out.strip().splitlines()
     assert len(lines) == 1
-    return json.loads(lines[0])
+    result = json.loads(lines[0])
+    assert err == ("" if status == 0 else f"deadtime tune: {result['problem']}\n")
+    return result
 
 
 def test_list_names_every_rule_with_its_citation():
@@ -58,12 +66,13 @@ def test_list_names_every_rule_with_its_citation():
 
 
 @pytest.mark.parametrize(
-    "rule, plant",
-    [("simc-pi", STABLE), ("gorez-klan-mu-2", STABLE), ("fppi-eq28", STABLE), ("msp-eq43", INTEGRATING),
-     ("zn-ultimate-pid", INTEGRATING)],
+    "rule, plant, status",
+    [("simc-pi", STABLE, 0), ("gorez-klan-mu-2", STABLE, 3), ("fppi-eq28", SECOND_ORDER, 0), ("msp-eq43", INTEGRATING, 0),
+     ("zn-ultimate-pid", INTEGRATING, 3)],
 )
-def test_tune_json_composes_with_analyze(rule, plant):
-    result = tune_json(rule, plant)
+def test_tune_json_composes_with_analyze(rule, plant, status):
+    """Status 3: stable loops outside ``Ms <= 2`` (the identified SOPDT of an FOPDT plant, SPEC "Design")."""
+    result = tune_json(rule, plant, status=status)
     assert result["rule"] == rule and result["citation"] == RULES[rule].citation
     assert result["controller"]["type"] == RULES[rule].controller
     status, out, err = run("analyze", "--plant", json.dumps(plant), "--controller", json.dumps(result["controller"]), "--json")
@@ -73,7 +82,7 @@ def test_tune_json_composes_with_analyze(rule, plant):
 
 
 def test_parameter_is_the_rules_mu():
-    assert tune_json("gorez-klan-mu-1.5", STABLE)["parameter"] == 1.5
+    assert tune_json("gorez-klan-mu-1.5", STABLE, status=3)["parameter"] == 1.5
     assert tune_json("simc-pi", STABLE)["parameter"] is None
 
 
@@ -90,7 +99,7 @@ def test_parameter_is_the_rules_mu():
     ids=["simc-fopdt", "mu-sopdt", "zn-ultimate-fopdt", "fppi-fopdt", "msp-tr-tn-integrating", "msp-eq43-integrating"],
 )
 def test_model_argument_is_what_the_rule_reads(rule, plant, model):
-    result = tune_json(rule, plant, model)
+    result = tune_json(rule, plant, model, status=3 if rule == "zn-ultimate-pi" else 0)
     inputs = result["inputs"]
     if model["type"] == "integrating":
         assert inputs["integrating_model"]["dead_time"] == model["dead_time"] + (model.get("time_constant") or 0)
@@ -124,7 +133,8 @@ BAD = {
                                       "rule gorez-klan-mu-2 is for self-regulating plants"),
     "integrating-rule-stable-plant": (("--rule", "msp-eq43", "--plant", json.dumps(STABLE)),
                                       "rule msp-eq43 is for integrating plants"),
-    "missing-rule": (("--plant", json.dumps(STABLE)), "--rule and --plant are required"),
+    "missing-rule": (("--plant", json.dumps(STABLE)), "--rule and --plant or --model are required (or --list)"),
+    "missing-plant-and-model": (("--rule", "simc-pi"), "--rule and --plant or --model are required (or --list)"),
 }
 
 
@@ -146,3 +156,149 @@ def test_error_reaches_the_shell_without_traceback():
     assert done.stderr.strip().splitlines() == [("deadtime tune: error: unknown rule 'nope'; `deadtime tune --list` names the "
                                                  f"{len(RULES)} rules")]
     assert "Traceback" not in done.stderr
+
+
+# ------------------------------------------------------------- issue 13.1/13.2: a user's own model
+USER_FOPDT = {"type": "fopdt", "gain": 2.5, "time_constant": 12, "dead_time": 4}
+
+
+def test_tune_with_a_model_only_analyses_the_model():
+    """Issue 13.1: no ``--plant``; SIMC on ``2.5 e^{-4s}/(12 s + 1)``: ``K_c = T/(K 2 L) = 0.6``,
+    ``T_i = min(T, 8 L) = 12`` (Skogestad 2003), analysed on that FOPDT (python-control-free closed
+    form: the loop is ``e^{-4s}/(8 s)``, gain margin ``2 pi/2 = pi``)."""
+    result = tune_json("simc-pi", None, USER_FOPDT)
+    assert result["controller"] == {"type": "pid", "kp": 0.6, "ti": 12.0, "td": 0.0, "n": 10.0}
+    assert Plant.from_dict(result["plant"]) == Plant.from_time_constants(2.5, [12.0], 4.0)
+    assert result["analysis"]["stable"] is True and result["problem"] is None
+    assert result["analysis"]["gain_margin"] == pytest.approx(math.pi, rel=1e-9)
+
+
+EXACT_FOPDT_PROBLEMS = {
+    "zn-step-pi": "Ms = 2.566 > 2", "zn-step-pid": "Ms = 3.901 > 2", "zn-ultimate-pi": "Ms = 2.326 > 2",
+    "zn-ultimate-pid": "Ms = 2.578 > 2", "cohen-coon-pi": "Ms = 3.508 > 2", "cohen-coon-pid": "Ms = 4.289 > 2",
+    "chr-setpoint-20-pid": "Ms = 2.459 > 2", "chr-load-0-pid": "Ms = 2.221 > 2", "chr-load-20-pi": "Ms = 2.17 > 2",
+    "chr-load-20-pid": "Ms = 3.173 > 2", "imc-pid": "Ms = 2.142 > 2", "gorez-klan-mu-1.3": "Ms = 2.184 > 2",
+}
+
+
+@pytest.mark.parametrize("rule", [name for name, r in RULES.items() if r.controller in ("pid", "pid-series") and r.plants != "integrating"])
+def test_every_pid_rule_on_an_exact_fopdt_model_closes_a_stable_loop_or_exits_3(rule):
+    """Issue 13.2: the model is read in the rule's own form (no moment-fitted SOPDT: ``simc-pid``,
+    ``haalman-pid`` and the ``mu`` rules used to close loops with 4-6 unstable poles here); a
+    stable loop outside ``Ms <= 2`` exits 3 naming the constraint."""
+    problem = EXACT_FOPDT_PROBLEMS.get(rule)
+    status, out, err = run("tune", "--rule", rule, "--model", json.dumps(USER_FOPDT), "--json")
+    result = json.loads(out)
+    assert result["analysis"]["stable"] is True
+    if problem is None:
+        assert (status, err) == (0, "")
+    else:
+        assert status == 3
+        assert err == f"deadtime tune: {rule} gives a loop outside the constraints on the plant: {problem}\n"
+
+
+def test_mu_rules_read_a_fopdt_model_as_the_sopdt_with_no_second_lag():
+    """Gorez-Klan eq. 3-11 with ``T_2 = 0``, ``D_2 = L``: ``K_p = T_1/(mu K D_2)``, ``T_d = 0``."""
+    result = tune_json("gorez-klan-mu-2", None, USER_FOPDT)
+    assert result["controller"]["kp"] == pytest.approx(12 / (2 * 2.5 * 4), rel=1e-12)
+    assert result["controller"]["ti"] == 12.0 and result["controller"]["td"] == 0.0
+
+
+def test_an_unstable_loop_is_one_line_and_exit_3():
+    """A model whose dead time is a third of the plant's: ZN's step PID is unstable on the plant."""
+    plant = {"num": [2.5], "den": [12.0, 1.0], "delay": 12.0}
+    status, out, err = run("tune", "--rule", "zn-step-pid", "--plant", json.dumps(plant), "--model", json.dumps(USER_FOPDT))
+    assert status == 3 and "stable" in out
+    assert err == "deadtime tune: zn-step-pid gives an unstable loop on the plant (2 closed-loop poles in the right half plane)\n"
+
+
+NUMBER = r"[0-9.]+e-[0-9]+"
+
+
+@pytest.mark.parametrize(
+    "rule, model, error",
+    [("fppi-eq28", USER_FOPDT, "T_f_bar"), ("msp-eq43", {"type": "integrating", "gain": 0.5, "dead_time": 4}, "A")],
+    ids=["fppi-eq28", "msp-eq43"],
+)
+def test_a_degenerate_tr_from_an_exact_model_is_refused_with_exit_3(rule, model, error):
+    """The line exactly, but for its numbers, which are rounding noise of an exact model's zero
+    model error (here ``T_f_bar`` about 6e-14 and ``T_r = 8.3e-7``; ``A`` about 3e-15 and
+    ``T_r`` about 1e-14), hence only required to be below ``1e-5``."""
+    status, out, err = run("tune", "--rule", rule, "--model", json.dumps(model))
+    floor = {"fppi-eq28": "0.08", "msp-eq43": "0.14"}[rule]
+    pattern = (rf"deadtime tune: {rule} gives T_r = ({NUMBER}) = ({NUMBER}) L_n, below the floor {floor} L_n: the model "
+               rf"error \({error} = ({NUMBER})\) is about zero, as for an exact model, and below the floor even the "
+               r"model's own loop has DM < 0.2 L_n\n")
+    match = re.fullmatch(pattern, err)
+    assert (status, out) == (3, "") and match, err
+    assert all(float(x) < 1e-5 for x in match.groups())
+
+
+@pytest.mark.parametrize("controller, floor", [("fppi", 0.0790), ("msp", 0.1394)])
+def test_tr_floors_are_the_exact_model_delay_margin(controller, floor):
+    """At ``TR_FLOORS`` the loop around the exact model keeps ``DM >= 0.2 L_n``; at the measured
+    ``T_r/L_n`` (four digits) it is 0.2 to the rounding of the digits (the DM grows about 3.5 L_n
+    per unit of ``T_r/L_n`` there)."""
+    from baselines.tune import TR_FLOORS
+    from envs.analysis import plant_margins
+    from envs.design import fppi_design, msp_design
+    from envs.identification import FOPDTModel, IntegratingModel
+
+    if controller == "fppi":
+        model = FOPDTModel(2.5, 12.0, 4.0)
+        margin = lambda r: plant_margins(model.plant(), fppi_design(model, r * 4.0)).delay_margin / 4.0  # noqa: E731
+    else:
+        model = IntegratingModel(0.5, 4.0)
+        margin = lambda r: plant_margins(model.plant(), msp_design(model, r * 4.0)).delay_margin / 4.0  # noqa: E731
+    assert margin(TR_FLOORS[controller]) >= 0.2
+    assert margin(floor) == pytest.approx(0.2, abs=5e-4)
+
+
+def test_tune_takes_a_transfer_function_and_delay_or_a_dict():
+    import control
+
+    from baselines.tune import tune
+
+    by_tf = tune("simc-pi", (control.tf([2.5], [12.0, 1.0]), 4.0), USER_FOPDT)
+    by_dict = tune("simc-pi", {"num": [2.5], "den": [12.0, 1.0], "delay": 4.0}, USER_FOPDT)
+    assert by_tf.controller == by_dict.controller
+    assert by_tf.analysis.margins.ms == by_dict.analysis.margins.ms
+
+
+# ------------------------------------------------------------------ issue 13.5: messages made exact
+@pytest.mark.parametrize(
+    "args, line",
+    [
+        (("--rule", "simc-pi", "--plant", "plant.json"), "deadtime tune: error: --plant: no such file 'plant.json' (nor is it JSON)"),
+        (("--rule", "simc-pi", "--model", json.dumps({**USER_FOPDT, "dead_time": 0})),
+         "deadtime tune: error: simc_pi needs dead_time > 0 (its default tau_c is the dead time), got 0.0"),
+        (("--rule", "imc-pi", "--model", json.dumps({**USER_FOPDT, "dead_time": 0})),
+         "deadtime tune: error: imc_pi needs dead_time > 0 (its default lambda is 1.7 times the dead time), got 0.0"),
+    ],
+    ids=["missing-plant-file", "simc-zero-dead-time", "imc-zero-dead-time"],
+)
+def test_messages_are_exact(args, line):
+    assert run("tune", *args) == (2, "", line + "\n")
+
+
+def test_analysis_offers_the_flat_names_of_the_json():
+    """Issue 13.3: ``t.analysis.ms`` as the JSON's ``ms`` (was only ``t.analysis.margins.ms``)."""
+    from baselines.tune import tune
+
+    analysis = tune("simc-pi", model=USER_FOPDT).analysis
+    flat = analysis.to_dict()
+    for name in ("ms", "mt", "gain_margin", "phase_margin_deg", "delay_margin", "iae_load", "iae_setpoint"):
+        assert getattr(analysis, name) == flat[name]
+
+
+def test_a_users_envs_folder_shadowing_ours_is_one_line(tmp_path):
+    """Issue 13.8: an ``envs/`` folder earlier on ``sys.path`` (here by PYTHONPATH) is named."""
+    (tmp_path / "envs").mkdir()
+    (tmp_path / "envs" / "__init__.py").write_text("")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(REPO)])}
+    done = subprocess.run([sys.executable, "-m", "agents.cli", "--version"], check=False, capture_output=True,
+                          text=True, env=env, cwd=tmp_path, timeout=120)
+    assert done.returncode == 2
+    assert done.stderr == (f"deadtime: error: the package 'envs' is imported from {tmp_path / 'envs'}, not from "
+                           f"deadtime-gym's {REPO / 'envs'}: a folder named envs in the working directory or on "
+                           "sys.path shadows ours; rename it or run elsewhere\n")

@@ -100,7 +100,7 @@ def _reference_margins(loop, integrators: int, time_scale: float) -> dict[str, f
         "ms": peak(lambda w: 1 / np.abs(1 + loop(w)), 1 / np.abs(1 + values)),
         "mt": peak(lambda w: np.abs(loop(w) / (1 + loop(w))), np.abs(values / (1 + values))),
         "gain_margin": min([f for f in factors if f > 1], default=math.inf),
-        "phase_margin_deg": math.degrees(min(((angles + 2 * math.pi) % (2 * math.pi)) - math.pi, default=math.inf)),
+        "phase_margin_deg": math.degrees(min(((angles + 2 * math.pi) % (2 * math.pi)) - math.pi, key=abs, default=math.inf)),
         "delay_margin": min(((angles + math.pi) % (2 * math.pi)) / gains, default=math.inf),
         "crossovers": len(gains),
     }

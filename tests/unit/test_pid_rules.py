@@ -344,7 +344,7 @@ def test_simc_pi_half_rule():
         (lambda: rules.chr_pi(INTEGRATING, objective="setpoint"), "integrating"),
         (lambda: rules.chr_pid(FOPDT, objective="load", overshoot=10), "overshoot"),
         (lambda: rules.simc_pi(FOPDTModel(1.0, 0.0, 1.0)), "isimc_pi"),
-        (lambda: rules.imc_pid(FOPDTModel(1.0, 5.0, 0.0)), "lambda > 0"),
+        (lambda: rules.imc_pid(FOPDTModel(1.0, 5.0, 0.0)), "imc_pid needs dead_time > 0 \\(its default lambda is 0.8 times the dead time\\), got 0.0"),
         (lambda: rules.zn_ultimate_pi(1.0, -2.0), "ultimate_period"),
         (lambda: RULES["imc-pid"].design(INTEGRATING), "needs one of FOPDTModel"),
         (lambda: RULES["haalman-pid"].design(INTEGRATING), "needs one of"),

@@ -461,3 +461,49 @@ def test_crossovers_taking_log_only_at_bracket_ends_find_the_same_roots():
     magnitudes = np.array([cr._magnitude(v) for v in values])
     gains, _ = cr._crossovers(transfer, omega, values, magnitudes, cr.ROOT_XTOL, cr.MAX_ROOT_ITERATIONS)
     assert len(gains) == 3 and gains[0] == 0.1 and gains.tolist() == crossovers(transfer, omega, values)[0]
+
+
+def _three_crossover_loop():
+    """``L = 17 (s + 0.1)(s + 0.14) w_r^2 / ((s + 1.25)(s + 5)(s + 0.035)(s^2 + 0.04 s + w_r^2))``,
+    ``w_r = 0.25``: stable in closed loop, three gain crossovers (the lightly damped pair lifts
+    ``|L|`` above 1 a second time), whose wrapped phase margins are about 168.8, -170.7 and 51.2
+    degrees."""
+    numerator = 17 * 0.0625 * np.poly([-0.1, -0.14])
+    denominator = np.polymul(np.poly([-1.25, -5.0, -0.035]), [1.0, 0.04, 0.0625])
+    return numerator, denominator
+
+
+def test_phase_margin_is_python_controls_smallest_in_magnitude_over_three_crossovers():
+    """python-control's ``stability_margins`` reports the phase margin smallest in magnitude
+    (``control/margins.py``), not the most negative: 51.2 degrees here, where the most negative
+    wrapped margin is -170.7.  Both of our paths (numpy and compiled) agree with its exact
+    (polynomial) crossovers: measured <= 1.4e-15 relative, asserted 1e-12 (the crossovers are
+    located to ``ROOT_XTOL = 1e-13`` in log frequency)."""
+    from envs.compiled_robustness import quasi_rational_margins
+    from envs.loop_transfer import QuasiRational
+
+    numerator, denominator = _three_crossover_loop()
+    tf = control.tf(numerator, denominator)
+    assert np.all(control.feedback(tf).poles().real < 0)
+    _, pm, _, _, wgc, _ = control.stability_margins(tf)
+    _, pms, _, _, wgcs, _ = control.stability_margins(tf, returnall=True)
+    assert len(pms) == 3 and min(pms) < -170 and pm == pytest.approx(51.16, abs=0.01)
+    transfer = QuasiRational(((tuple(numerator), 0.0),), ((tuple(denominator), 0.0),))
+    for margins in (loop_margins(lambda w: tf(1j * w), integrators=0), quasi_rational_margins(transfer, integrators=0)):
+        assert margins.stable
+        assert margins.phase_margin_deg == pytest.approx(pm, rel=1e-12)
+        assert margins.gain_crossover_frequency == pytest.approx(wgc, rel=1e-12)
+        np.testing.assert_allclose(margins.gain_crossovers, wgcs, rtol=1e-12)
+        np.testing.assert_allclose(margins.phase_margins_deg, pms, rtol=1e-12)
+
+
+@pytest.mark.parametrize("delay", [0.0, 1e-4])
+def test_ms_is_never_reported_below_one(delay):
+    """Issue 13.5: ``P = 1/(s + 1)``, PI ``kp = 0.5, ti = 1``, so ``L = 0.5 e^{-Ls}/s``: ``|S| < 1`` at
+    every finite frequency of the delay-free loop and ``sup |S| = 1`` (reached as ``w -> inf``; it
+    was reported as 0.99911).  With ``L = 1e-4`` the peak sits beyond the grid's end (``|L| < 0.02``):
+    Ms is within 2% (python-control on a Pade model gives 1.00013)."""
+    margins = plant_margins(Plant.from_time_constants(1.0, [1.0], delay), PID(0.5, 1.0))
+    assert 1.0 <= margins.ms <= 1 / 0.98
+    if delay == 0.0:
+        assert margins.ms == 1.0 and margins.ms_frequency == math.inf

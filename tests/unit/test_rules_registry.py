@@ -231,11 +231,14 @@ def test_rules_name_the_missing_input():
 
 
 # --------------------------------------------------------------------------- RuleInputs.from_model
-def test_from_fopdt_model_derives_the_gorez_klan_sopdt():
+def test_from_fopdt_model_is_the_sopdt_model_with_no_second_lag():
+    """Issue 13.2: a given FOPDT model is not re-fitted by moments (eq. 2-8 would give the SOPDT
+    ``sopdt_from_moments(2.0, 10.0, 0.4)``, dead time 1.31 instead of 4)."""
     model = FOPDTModel(gain=2.0, time_constant=6.0, dead_time=4.0)
     inputs = RuleInputs.from_model(model)
     assert inputs.fopdt == model and inputs.model == model
-    assert inputs.sopdt == sopdt_from_moments(2.0, 10.0, 0.4)
+    assert inputs.sopdt == SOPDTModel(gain=2.0, time_constants=(6.0, 0.0), dead_time=4.0)
+    assert inputs.sopdt != sopdt_from_moments(2.0, 10.0, 0.4)
 
 
 def test_from_sopdt_model_derives_the_moment_fopdt():
