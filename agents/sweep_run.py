@@ -5,9 +5,12 @@ Imported only when a sweep runs (Ray is an optional extra, ``pip install -e '.[s
 
 from __future__ import annotations
 
+import json
 import os
 import sys
+import time
 from dataclasses import asdict
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +76,7 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
     """Train every trial on Ray Tune, evaluate, and write the summary; returns ``summary.json``'s object."""
     import ray
 
+    started = time.perf_counter()
     out = out.resolve()
     _check_directory(sweep_file, out, resume)
     _connect(ray, address)
@@ -84,9 +88,25 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
         print(f"trial {name} failed: {error}", file=sys.stderr)
     trials = [trial for trial in sweep.trials() if trial.name not in failed]
     _evaluate_all(ray, sweep, trials, out)
+    sessions = _record_session(out, time.perf_counter() - started, resume)
     from agents.sweep_summary import write_summary
 
-    return write_summary(sweep, trials, out, failed)
+    return write_summary(sweep, trials, out, failed, sessions)
+
+
+def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, Any]]:
+    """Append this invocation (commit, versions, CPUs, wall time) to ``DIR/sessions.json``; return all."""
+    import ray
+
+    from agents.train import _git_commit, _versions
+
+    path = out / "sessions.json"
+    sessions = json.loads(path.read_text()) if path.is_file() else []
+    sessions.append({"finished": datetime.now(UTC).isoformat(timespec="seconds"), "resumed": resume,
+                     "wall_time_s": round(seconds, 1), "cpus": ray.cluster_resources().get("CPU"),
+                     "commit": _git_commit(), "versions": _versions()})
+    path.write_text(json.dumps(sessions, indent=2) + "\n")
+    return sessions
 
 
 # ------------------------------------------------------------------------------- the trials

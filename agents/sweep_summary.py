@@ -116,13 +116,30 @@ def learning_curves(trials: list[Trial], out: Path) -> dict[str, dict[str, Any]]
     return curves
 
 
+def _json_ready(value: Any) -> Any:
+    """Plain JSON values: numpy numbers as Python ones, ``nan`` and infinities as ``None``."""
+    if isinstance(value, dict):
+        return {key: _json_ready(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_ready(item) for item in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
 def _interval(row: dict[str, Any], key: str) -> str:
     ci = (row.get("ci95") or {}).get(key)
     return "" if ci is None else f" [{ci[0]:.3g}, {ci[1]:.3g}]"
 
 
 def _markdown(summary: dict[str, Any]) -> str:
+    sessions = summary["sessions"]
     lines = [f"# Sweep `{summary['sweep']}`", ""]
+    if sessions:
+        lines += [f"- wall time {summary['wall_time_s']:.0f} s in {len(sessions)} session(s) on {sessions[-1]['cpus']:g} CPUs, "
+                  f"commit {sessions[-1]['commit']}", ""]
     for name, error in summary["failed"].items():
         lines.append(f"- trial `{name}` failed: {error}")
     for env in summary["envs"]:
@@ -200,11 +217,16 @@ def _plots(summary: dict[str, Any], curves: dict[str, dict[str, Any]], profiles:
     plt.close(figure)
 
 
-def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: dict[str, str]) -> dict[str, Any]:
-    """Aggregate the evaluations in ``out`` and write ``summary.{md,csv,json}`` and the plots."""
+def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: dict[str, str],
+                  sessions: list[dict[str, Any]] = ()) -> dict[str, Any]:
+    """Aggregate the evaluations in ``out`` and write ``summary.{md,csv,json}`` and the plots.
+
+    ``sessions`` (the invocations of the sweep, :mod:`agents.sweep_run`) give the wall time.
+    """
     entries = [_environment(sweep, env, trials, out) for env in sweep.envs()]
-    summary = {"sweep": sweep.name, "failed": failed, "envs": [entry for entry, _ in entries]}
-    summary = json.loads(json.dumps(summary, default=float).replace("NaN", "null"))
+    summary = {"sweep": sweep.name, "failed": failed, "envs": [entry for entry, _ in entries],
+               "sessions": list(sessions), "wall_time_s": round(sum(s["wall_time_s"] for s in sessions), 1)}
+    summary = _json_ready(summary)
     curves = learning_curves(trials, out)
     (out / "summary.json").write_text(json.dumps({**summary, "learning_curves": curves}, indent=2) + "\n")
     (out / "summary.md").write_text(_markdown(summary))
