@@ -157,3 +157,11 @@ def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path)
     expected, resumed = (json.loads((d / "summary.json").read_text()) for d in (smoke, out))
     assert resumed["envs"] == expected["envs"]
     assert resumed["learning_curves"] == expected["learning_curves"]
+
+
+def test_without_ray_the_command_names_the_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError, as where it is not installed
+    monkeypatch.delitem(sys.modules, "agents.sweep_run", raising=False)
+    status, _, err = run("sweep", "--config", str(SMOKE), "--out", str(tmp_path / "out"))
+    assert (status, err) == (2, "deadtime sweep: error: deadtime sweep needs Ray Tune: pip install -e '.[sweep]'\n")
+    assert not (tmp_path / "out").exists()
