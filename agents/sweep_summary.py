@@ -6,12 +6,14 @@ the evaluations (:mod:`agents.sweep_run`).  The figures are those of :mod:`agent
 (Agarwal et al. 2021): mean and IQM over (seed, plant) with stratified-bootstrap 95% intervals, the
 violation rate, the normalized score ``oracle/cost`` (IQM and optimality gap), the probability of
 improvement over every rule and the paired difference to the best rule (the rule of lowest mean
-cost on these plants).  A rule or the oracle is deterministic given the plants: its row has no
+cost on these plants).  The tables show the agents, the best rule, the best rule of the
+environment's own structure (``deadtime evaluate``'s ``best_rule``, the baseline of its gap closure)
+and the oracle; ``summary.json`` and ``summary.csv`` hold every rule.  A rule or the oracle is deterministic given the plants: its row has no
 interval (the intervals are over training seeds; the plants are the fixed benchmark).
 
 ``summary.json``::
 
-    {"sweep": NAME, "failed": {TRIAL: ERROR}, "envs": [{"env", "plants", "best_rule",
+    {"sweep": NAME, "failed": {TRIAL: ERROR}, "envs": [{"env", "plants", "best_rule", "best_structure_rule",
       "policies": [{"name", "kind", "seeds", "mean_cost", "iqm_cost", "ci95": {...},
                     "violation_rate", "normalized_iqm", "optimality_gap",
                     "prob_improvement": {"RULE": p, ...}, "diff_to_best_rule": [est, lo, hi],
@@ -27,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.seed_statistics import SeedStatistics, iqm, optimality_gap, seed_statistics
+from agents.seed_statistics import SeedStatistics, iqm, optimality_gap, probability_of_improvement, seed_statistics
 from agents.sweep_config import SweepConfig, Trial
 
 __all__ = ["write_summary"]
@@ -54,12 +56,15 @@ def _vector(costs: dict[tuple, float], plants: list[tuple], where: str) -> np.nd
     return np.array([costs[p] for p in plants])
 
 
-def _deterministic_row(name: str, kind: str, cost: np.ndarray, oracle: np.ndarray, best: np.ndarray) -> dict[str, Any]:
+def _deterministic_row(name: str, kind: str, cost: np.ndarray, oracle: np.ndarray, best_name: str,
+                       best: np.ndarray) -> dict[str, Any]:
+    """The row of a rule or the oracle: one cost per plant, so no interval over seeds."""
     normalized = oracle / cost
     return {"name": name, "kind": kind, "seeds": None, "mean_cost": float(cost.mean()), "iqm_cost": iqm(cost),
             "ci95": None, "violation_rate": float(np.mean(cost >= VIOLATION_COST)),
             "normalized_iqm": iqm(normalized), "optimality_gap": optimality_gap(normalized),
-            "prob_improvement": {}, "diff_to_best_rule": [float(np.mean(cost - best)), None, None],
+            "prob_improvement": {best_name: probability_of_improvement(cost[None, :], best)},
+            "diff_to_best_rule": [float(np.mean(cost - best)), None, None],
             "per_seed_mean_cost": None}
 
 
@@ -83,6 +88,8 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
     if not rules:
         raise ValueError(f"sweep {sweep.name}: evaluation.policies must include at least one rule")
     best_rule = min(rules, key=lambda name: (float(rules[name].mean()), name))
+    results = evaluation_directory(out, env_id, "baselines") / "results.json"
+    own_rule = json.loads(results.read_text()).get("best_rule") if results.is_file() else None
     rows, normalized = [], {}
     for label in dict.fromkeys(t.label for t in trials if t.env_id == env_id):
         group = [t for t in trials if t.env_id == env_id and t.label == label]
@@ -93,10 +100,11 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
         rows.append(_agent_row(label, stats))
         normalized[label] = (oracle / matrix).ravel()
     normalized[best_rule] = oracle / rules[best_rule]
-    rows += [_deterministic_row(name, "rule", cost, oracle, rules[best_rule]) for name, cost in rules.items()]
-    rows.append(_deterministic_row("oracle", "oracle", oracle, oracle, rules[best_rule]))
+    rows += [_deterministic_row(name, "rule", cost, oracle, best_rule, rules[best_rule]) for name, cost in rules.items()]
+    rows.append(_deterministic_row("oracle", "oracle", oracle, oracle, best_rule, rules[best_rule]))
     rows.sort(key=lambda row: (row["kind"] != "agent", row["mean_cost"]))
-    return {"env": env_id, "plants": len(plants), "best_rule": best_rule, "policies": rows}, normalized
+    entry = {"env": env_id, "plants": len(plants), "best_rule": best_rule, "best_structure_rule": own_rule, "policies": rows}
+    return entry, normalized
 
 
 def learning_curves(trials: list[Trial], out: Path) -> dict[str, dict[str, Any]]:
@@ -144,17 +152,20 @@ def _markdown(summary: dict[str, Any]) -> str:
         lines.append(f"- trial `{name}` failed: {error}")
     for env in summary["envs"]:
         best = env["best_rule"]
+        own = env.get("best_structure_rule")
         lines += ["", f"## {env['env']} ({env['plants']} held-out plants; best rule `{best}`)", "",
-                  f"| policy | seeds | mean cost | IQM cost | violation rate | normalized IQM | optimality gap "
-                  f"| P(better than {best}) | difference to {best} |", "|---|---|---|---|---|---|---|---|---|"]
+                  f"| policy | role | seeds | mean cost | IQM cost | violation rate | normalized IQM | optimality gap "
+                  f"| P(better than {best}) | difference to {best} |", "|---|---|---|---|---|---|---|---|---|---|"]
         for row in env["policies"]:
-            if row["kind"] == "rule" and row["name"] != best:
+            if row["kind"] == "rule" and row["name"] not in (best, env.get("best_structure_rule")):
                 continue
             diff = row["diff_to_best_rule"]
             diff_text = f"{diff[0]:.3g}" + ("" if diff[1] is None else f" [{diff[1]:.3g}, {diff[2]:.3g}]")
             probability = row["prob_improvement"].get(best)
+            role = {"agent": "agent", "oracle": "oracle"}.get(row["kind"]) or " and ".join(
+                label for label, name in (("best rule", best), ("best rule of the structure", own)) if row["name"] == name)
             lines.append(
-                f"| {row['name']} | {row['seeds'] or '-'} | {row['mean_cost']:.3g}{_interval(row, 'mean_cost')} "
+                f"| {row['name']} | {role} | {row['seeds'] or '-'} | {row['mean_cost']:.3g}{_interval(row, 'mean_cost')} "
                 f"| {row['iqm_cost']:.3g}{_interval(row, 'iqm_cost')} | {row['violation_rate']:.1%} "
                 f"| {row['normalized_iqm']:.3f}{_interval(row, 'normalized_iqm')} | {row['optimality_gap']:.3f} "
                 f"| {'-' if probability is None else f'{probability:.2f}'} | {diff_text} |"
