@@ -159,7 +159,7 @@ class Progress(tune.Callback):
     def _write(self, line: str) -> None:
         if self.bar is None:
             self.setup()
-        self.bar.write(line)
+        self.bar.write(line, file=sys.stderr)
         self.bar.update()
 
     def on_trial_complete(self, iteration: int, trials: list, trial: Any, **info: Any) -> None:
