@@ -10,11 +10,17 @@ plants, with the same episode seeds), and the deterministic costs ``o[p]`` of th
 * **IQM**: the interquartile mean of all ``C[s, p]``, the mean of the middle 50% (section 4.3):
   ``scipy.stats.trim_mean(C, 0.25, axis=None)``; robust to the outlying runs that a mean is not,
   and less wasteful than a median.
-* **Stratified bootstrap** (section 4.2, rliable's ``StratifiedBootstrap``): the plants are the
-  strata (the tasks of the paper: a fixed benchmark set), and a resample draws the seeds with
-  replacement independently for each plant; the 95% interval is the percentile interval of the
-  statistic over the resamples (rliable's default).  It is the seed-to-seed uncertainty of a figure
-  on these plants, and it is zero with one seed: more seeds, not more plants, narrow it.
+* **Bootstrap intervals, two-way.**  Agarwal et al.'s stratified bootstrap (section 4.2) resamples
+  the runs of each task independently, because there each run is trained and scored on one task.
+  Here one training run (a seed) is one policy scored on every plant, so its costs on the plants are
+  not independent: a good seed is good on most plants.  Resampling seeds within each plant would
+  break that correlation and give intervals several times too narrow (measured on the study of
+  the README: 0.03 wide against a spread of 0.23 between the seeds' means on ``FPPI-v0``).  So a
+  resample draws the seeds (whole rows) and, independently, the plants (whole columns) with
+  replacement, the same plants for every policy (paired): the interval covers both the
+  seed-to-seed variation of training and the variation of the held-out plants, i.e. a claim about
+  the plant distribution and not only the 59 plants drawn.  Percentile intervals (rliable's
+  default), each environment on its own (the environments are the strata).
 * **Normalized score** ``oracle_cost/cost`` per (seed, plant): 1 for the oracle, towards 0 for bad
   designs (a violating design costs at least 21).  Its IQM and its **optimality gap**
   ``mean(max(1 - score, 0))`` (section 4.3, with the target 1 = the oracle).
@@ -42,7 +48,7 @@ __all__ = [
     "performance_profile",
     "probability_of_improvement",
     "seed_statistics",
-    "stratified_interval",
+    "bootstrap_interval",
 ]
 
 RESAMPLES = 2000
@@ -78,35 +84,33 @@ def _matrix(costs: np.ndarray) -> np.ndarray:
     return costs
 
 
-def stratified_interval(
+def bootstrap_interval(
     costs: np.ndarray,
-    statistic: Callable[[np.ndarray], np.ndarray],
+    statistic: Callable[[np.ndarray, np.ndarray], np.ndarray],
     *,
     level: float = 0.95,
     resamples: int = RESAMPLES,
     seed: int = 0,
 ) -> list[float]:
-    """Percentile interval of ``statistic`` under the stratified bootstrap (module docstring).
+    """Percentile interval of ``statistic`` under the two-way bootstrap (module docstring).
 
     Parameters
     ----------
     costs : (seeds, plants) array
-    statistic : function of a ``(..., seeds, plants)`` array returning the figure over the last two
-        axes (vectorized over the leading ones).
+    statistic : function of the resampled costs ``(resamples, seeds, plants)`` and the resampled
+        plant indices ``(resamples, plants)`` (to index the rules' and the oracle's costs, paired),
+        returning one value per resample.
     level, resamples, seed : the interval's coverage, the number of resamples and the seed of the
         resampling (a fixed seed makes the interval reproducible).
     """
     costs = _matrix(costs)
-    if costs.shape[0] == 1:  # one seed: every resample is the sample
-        value = float(statistic(costs))
-        return [value, value]
-
-    def on_columns(*columns: np.ndarray, axis: int = -1) -> np.ndarray:
-        return statistic(np.stack(columns, axis=-1))  # (..., seeds) per plant -> (..., seeds, plants)
-
-    result = stats.bootstrap(tuple(costs.T), on_columns, n_resamples=resamples, confidence_level=level,
-                             method="percentile", vectorized=True, rng=np.random.default_rng(seed))
-    return [float(result.confidence_interval.low), float(result.confidence_interval.high)]
+    seeds, plants = costs.shape
+    rng = np.random.default_rng(seed)
+    seed_rows = rng.integers(0, seeds, (resamples, seeds))
+    plant_columns = rng.integers(0, plants, (resamples, plants))
+    values = statistic(costs[seed_rows[:, :, None], plant_columns[:, None, :]], plant_columns)
+    low, high = np.quantile(values, [(1 - level) / 2, (1 + level) / 2])
+    return [float(low), float(high)]
 
 
 @dataclass(frozen=True)
@@ -150,8 +154,8 @@ def seed_statistics(
     best = np.asarray(rules[best_rule], dtype=float)
     normalized = oracle / costs
 
-    def interval(statistic: Callable[[np.ndarray], np.ndarray]) -> list[float]:
-        return stratified_interval(costs, statistic, resamples=resamples, seed=seed)
+    def interval(statistic: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> list[float]:
+        return bootstrap_interval(costs, statistic, resamples=resamples, seed=seed)
 
     difference = float(np.mean(costs - best))
     return SeedStatistics(
@@ -160,14 +164,14 @@ def seed_statistics(
         mean_cost=float(costs.mean()),
         iqm_cost=iqm(costs),
         ci95={
-            "mean_cost": interval(lambda c: c.mean(axis=(-2, -1))),
-            "iqm_cost": interval(_trimmed),
-            "normalized_iqm": interval(lambda c: _trimmed(oracle / c)),
+            "mean_cost": interval(lambda c, p: c.mean(axis=(-2, -1))),
+            "iqm_cost": interval(lambda c, p: _trimmed(c)),
+            "normalized_iqm": interval(lambda c, p: _trimmed(oracle[p][:, None, :] / c)),
         },
         per_seed_mean_cost=[float(v) for v in costs.mean(axis=1)],
         violation_rate=float(np.mean(costs >= violation_threshold)),
         normalized_iqm=iqm(normalized),
         optimality_gap=optimality_gap(normalized),
         prob_improvement={name: probability_of_improvement(costs, np.asarray(r, dtype=float)) for name, r in rules.items()},
-        diff_to_best_rule=[difference, *interval(lambda c: (c - best).mean(axis=(-2, -1)))],
+        diff_to_best_rule=[difference, *interval(lambda c, p: (c - best[p][:, None, :]).mean(axis=(-2, -1)))],
     )

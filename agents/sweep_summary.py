@@ -3,13 +3,14 @@
 Per environment, every agent group (a training config over its seeds) is compared with the rules
 and the oracle on the same held-out plants and episode seeds, from the ``per_plant.csv`` files of
 the evaluations (:mod:`agents.sweep_run`).  The figures are those of :mod:`agents.seed_statistics`
-(Agarwal et al. 2021): mean and IQM over (seed, plant) with stratified-bootstrap 95% intervals, the
+(Agarwal et al. 2021): mean and IQM over (seed, plant) with two-way bootstrap 95% intervals (seeds
+and plants resampled whole; :mod:`agents.seed_statistics` says why not stratified by plant), the
 violation rate, the normalized score ``oracle/cost`` (IQM and optimality gap), the probability of
 improvement over every rule and the paired difference to the best rule (the rule of lowest mean
-cost on these plants).  The tables show the agents, the best rule, the best rule of the
+cost on these plants).  A rule or the oracle has one cost per plant: its intervals resample the
+plants only.  The tables show the agents, the best rule, the best rule of the
 environment's own structure (``deadtime evaluate``'s ``best_rule``, the baseline of its gap closure)
-and the oracle; ``summary.json`` and ``summary.csv`` hold every rule.  A rule or the oracle is deterministic given the plants: its row has no
-interval (the intervals are over training seeds; the plants are the fixed benchmark).
+and the oracle; ``summary.json`` and ``summary.csv`` hold every rule.
 
 ``summary.json``::
 
@@ -29,13 +30,12 @@ from typing import Any
 
 import numpy as np
 
-from agents.seed_statistics import SeedStatistics, iqm, optimality_gap, probability_of_improvement, seed_statistics
+from agents.seed_statistics import SeedStatistics, seed_statistics
 from agents.sweep_config import SweepConfig, Trial
 
 __all__ = ["write_summary"]
 
 ORACLES = ("oracle", "oracle-full")
-VIOLATION_COST = 21.0  # a violating design costs 21 + grade (envs.scoring)
 
 
 def _per_plant(directory: Path) -> dict[str, dict[tuple, float]]:
@@ -56,23 +56,13 @@ def _vector(costs: dict[tuple, float], plants: list[tuple], where: str) -> np.nd
     return np.array([costs[p] for p in plants])
 
 
-def _deterministic_row(name: str, kind: str, cost: np.ndarray, oracle: np.ndarray, best_name: str,
-                       best: np.ndarray) -> dict[str, Any]:
-    """The row of a rule or the oracle: one cost per plant, so no interval over seeds."""
-    normalized = oracle / cost
-    return {"name": name, "kind": kind, "seeds": None, "mean_cost": float(cost.mean()), "iqm_cost": iqm(cost),
-            "ci95": None, "violation_rate": float(np.mean(cost >= VIOLATION_COST)),
-            "normalized_iqm": iqm(normalized), "optimality_gap": optimality_gap(normalized),
-            "prob_improvement": {best_name: probability_of_improvement(cost[None, :], best)},
-            "diff_to_best_rule": [float(np.mean(cost - best)), None, None],
-            "per_seed_mean_cost": None}
-
-
-def _agent_row(name: str, stats: SeedStatistics) -> dict[str, Any]:
-    return {"name": name, "kind": "agent", "seeds": stats.seeds, "mean_cost": stats.mean_cost, "iqm_cost": stats.iqm_cost,
+def _row(name: str, kind: str, stats: SeedStatistics) -> dict[str, Any]:
+    """A policy's row; a rule or the oracle is one cost per plant (``seeds`` None, plants resampled only)."""
+    return {"name": name, "kind": kind, "seeds": stats.seeds if kind == "agent" else None, "mean_cost": stats.mean_cost, "iqm_cost": stats.iqm_cost,
             "ci95": stats.ci95, "violation_rate": stats.violation_rate, "normalized_iqm": stats.normalized_iqm,
             "optimality_gap": stats.optimality_gap, "prob_improvement": stats.prob_improvement,
-            "diff_to_best_rule": stats.diff_to_best_rule, "per_seed_mean_cost": stats.per_seed_mean_cost}
+            "diff_to_best_rule": stats.diff_to_best_rule,
+            "per_seed_mean_cost": stats.per_seed_mean_cost if kind == "agent" else None}
 
 
 def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -91,17 +81,20 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
     results = evaluation_directory(out, env_id, "baselines") / "results.json"
     own_rule = json.loads(results.read_text()).get("best_rule") if results.is_file() else None
     rows, normalized = [], {}
+
+    def statistics(costs: np.ndarray) -> SeedStatistics:
+        return seed_statistics(costs, oracle, rules, best_rule, resamples=sweep.evaluation.resamples,
+                               seed=sweep.evaluation.seed)
+
     for label in dict.fromkeys(t.label for t in trials if t.env_id == env_id):
         group = [t for t in trials if t.env_id == env_id and t.label == label]
         matrix = np.array([_vector(_per_plant(evaluation_directory(out, env_id, t.name))["agent"], plants, t.name)
                            for t in group])
-        stats = seed_statistics(matrix, oracle, rules, best_rule, resamples=sweep.evaluation.resamples,
-                                seed=sweep.evaluation.seed)
-        rows.append(_agent_row(label, stats))
+        rows.append(_row(label, "agent", statistics(matrix)))
         normalized[label] = (oracle / matrix).ravel()
     normalized[best_rule] = oracle / rules[best_rule]
-    rows += [_deterministic_row(name, "rule", cost, oracle, best_rule, rules[best_rule]) for name, cost in rules.items()]
-    rows.append(_deterministic_row("oracle", "oracle", oracle, oracle, best_rule, rules[best_rule]))
+    rows += [_row(name, "rule", statistics(cost[None, :])) for name, cost in rules.items()]
+    rows.append(_row("oracle", "oracle", statistics(oracle[None, :])))
     rows.sort(key=lambda row: (row["kind"] != "agent", row["mean_cost"]))
     entry = {"env": env_id, "plants": len(plants), "best_rule": best_rule, "best_structure_rule": own_rule, "policies": rows}
     return entry, normalized
@@ -170,8 +163,9 @@ def _markdown(summary: dict[str, Any]) -> str:
                 f"| {row['normalized_iqm']:.3f}{_interval(row, 'normalized_iqm')} | {row['optimality_gap']:.3f} "
                 f"| {'-' if probability is None else f'{probability:.2f}'} | {diff_text} |"
             )
-    lines += ["", "Intervals: stratified bootstrap over training seeds within plants, 95% percentile "
-              "(Agarwal et al. 2021); rules and the oracle are deterministic on these plants.", ""]
+    lines += ["", "Intervals: 95% percentile bootstrap, seeds and plants resampled whole and paired across "
+              "policies (the agents' intervals cover training seeds and plants, the rules' and the oracle's "
+              "plants only).", ""]
     return "\n".join(lines)
 
 
