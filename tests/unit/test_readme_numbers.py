@@ -9,6 +9,7 @@ printed digits (SIMC on ``2.5 e^{-4s}/(12 s + 1)``: ``K_c = 0.6``, ``T_i = 12``;
 from __future__ import annotations
 
 import io
+import itertools
 import json
 import re
 from contextlib import redirect_stderr, redirect_stdout
@@ -43,3 +44,18 @@ def test_the_tr_floors_are_those_of_the_code():
     from baselines.tune import TR_FLOORS
 
     assert f"`{TR_FLOORS['fppi']:g} L_n` (FPPI) or `{TR_FLOORS['msp']:g} L_n` (MSP)" in README.replace("\n", " ")
+
+
+def test_the_results_tables_are_the_committed_sweep_summary():
+    """Every table of the README's Results is a table of ``sweeps/results/summary.md``, verbatim."""
+    summary = (Path(__file__).resolve().parents[2] / "sweeps" / "results" / "summary.md").read_text()
+    results = README[README.index("## Results"):README.index("## How the numbers are computed")]
+    readme_tables = _tables(results)
+    assert len(readme_tables) == 3
+    assert all(table in _tables(summary) for table in readme_tables)
+
+
+def _tables(text: str) -> list[str]:
+    """The Markdown tables of ``text``: runs of consecutive lines that start with ``|``."""
+    return ["\n".join(lines) for is_table, lines in itertools.groupby(text.splitlines(), lambda line: line.startswith("|"))
+            if is_table]
