@@ -22,17 +22,17 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 CORE = [
-    "envs.plants",
-    "envs.simulation",
-    "envs.controllers",
-    "envs.loops",
-    "envs.robustness",
-    "envs.performance",
-    "envs.analysis",
-    "envs.loop_transfer",
-    "envs.compiled_robustness",
-    "envs.compiled_iae",
-    "envs.scoring",
+    "envs.systems.plants",
+    "envs.simulation.delay_systems",
+    "envs.systems.controllers",
+    "envs.simulation.loops",
+    "envs.analysis.robustness",
+    "envs.analysis.performance",
+    "envs.analysis.loop_analysis",
+    "envs.analysis.loop_transfer",
+    "envs.analysis.compiled_robustness",
+    "envs.analysis.compiled_iae",
+    "envs.analysis.scoring",
 ]
 HEAVY = ("torch", "stable_baselines3", "gymnasium")
 

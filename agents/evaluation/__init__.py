@@ -1,0 +1,4 @@
+"""Scoring policies (rules, oracle, agents) on held-out plants (``deadtime evaluate``): the command
+(:mod:`.evaluate`), the policies (:mod:`.policies`), the per-plant runs and their cache (:mod:`.run`),
+the statistics, tables and plots, and the statistics over seeds (:mod:`.seed_statistics`).
+"""

@@ -1,0 +1,173 @@
+"""Statistics of a policy trained with many seeds, as Agarwal et al. (2021) recommend.
+
+R. Agarwal, M. Schwarzer, P. S. Castro, A. Courville, M. G. Bellemare, "Deep reinforcement learning
+at the edge of the statistical precipice", NeurIPS 2021 (the ``rliable`` library; archived, so the
+figures are computed here with ``scipy.stats``).  The data of one environment are the costs
+``C[s, p]`` of the policy trained with seed ``s`` on held-out plant ``p`` (every seed on the same
+plants, with the same episode seeds), and the deterministic costs ``o[p]`` of the oracle and
+``r[p]`` of each rule on those plants.  Lower cost is better.
+
+* **IQM**: the interquartile mean of all ``C[s, p]``, the mean of the middle 50% (section 4.3):
+  ``scipy.stats.trim_mean(C, 0.25, axis=None)``; robust to the outlying runs that a mean is not,
+  and less wasteful than a median.
+* **Stratified bootstrap** (section 4.2, rliable's ``StratifiedBootstrap``): the plants are the
+  strata (the tasks of the paper: a fixed benchmark set), and a resample draws the seeds with
+  replacement independently for each plant; the 95% interval is the percentile interval of the
+  statistic over the resamples (rliable's default).  It is the seed-to-seed uncertainty of a figure
+  on these plants, and it is zero with one seed: more seeds, not more plants, narrow it.
+* **Normalized score** ``oracle_cost/cost`` per (seed, plant): 1 for the oracle, towards 0 for bad
+  designs (a violating design costs at least 21).  Its IQM and its **optimality gap**
+  ``mean(max(1 - score, 0))`` (section 4.3, with the target 1 = the oracle).
+* **Probability of improvement** over a rule (section 4.4): ``P(C[s, p] < r[p])`` over the seeds,
+  ties counting one half (the Mann-Whitney statistic), averaged over the plants.  Above 0.5, the
+  agent is more likely than not to beat the rule on a plant.
+* **Paired difference** to a rule: ``mean_{s,p}(C[s, p] - r[p])``, negative when the agent is better.
+* **Performance profile** (section 4.1): the fraction of runs whose normalized score is at least
+  ``tau``, for ``tau`` in ``[0, 1]``; the area under it is the mean normalized score.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+__all__ = [
+    "RESAMPLES",
+    "SeedStatistics",
+    "iqm",
+    "optimality_gap",
+    "performance_profile",
+    "probability_of_improvement",
+    "seed_statistics",
+    "stratified_interval",
+]
+
+RESAMPLES = 2000
+
+
+def iqm(values: np.ndarray) -> float:
+    """Interquartile mean of every value (the mean of the middle 50%)."""
+    return float(stats.trim_mean(np.asarray(values, dtype=float), 0.25, axis=None))
+
+
+def optimality_gap(normalized: np.ndarray) -> float:
+    """``mean(max(1 - normalized, 0))``: how far the runs fall short of the oracle, on average."""
+    return float(np.mean(np.maximum(1.0 - np.asarray(normalized, dtype=float), 0.0)))
+
+
+def probability_of_improvement(costs: np.ndarray, rule: np.ndarray) -> float:
+    """``P(cost < rule cost)`` per plant over the seeds (ties one half), averaged over the plants."""
+    costs, rule = _matrix(costs), np.asarray(rule, dtype=float)
+    wins = (costs < rule).astype(float) + 0.5 * (costs == rule)
+    return float(wins.mean())
+
+
+def performance_profile(normalized: np.ndarray, taus: np.ndarray) -> np.ndarray:
+    """Fraction of the runs (every seed and plant) whose normalized score is at least each ``tau``."""
+    values = np.asarray(normalized, dtype=float).ravel()
+    return np.array([float(np.mean(values >= tau)) for tau in np.asarray(taus, dtype=float)])
+
+
+def _matrix(costs: np.ndarray) -> np.ndarray:
+    costs = np.asarray(costs, dtype=float)
+    if costs.ndim != 2 or costs.shape[0] < 1 or costs.shape[1] < 1:
+        raise ValueError(f"costs must be a (seeds, plants) matrix, got shape {costs.shape}")
+    return costs
+
+
+def stratified_interval(
+    costs: np.ndarray,
+    statistic: Callable[[np.ndarray], np.ndarray],
+    *,
+    level: float = 0.95,
+    resamples: int = RESAMPLES,
+    seed: int = 0,
+) -> list[float]:
+    """Percentile interval of ``statistic`` under the stratified bootstrap (module docstring).
+
+    Parameters
+    ----------
+    costs : (seeds, plants) array
+    statistic : function of a ``(..., seeds, plants)`` array returning the figure over the last two
+        axes (vectorized over the leading ones).
+    level, resamples, seed : the interval's coverage, the number of resamples and the seed of the
+        resampling (a fixed seed makes the interval reproducible).
+    """
+    costs = _matrix(costs)
+    if costs.shape[0] == 1:  # one seed: every resample is the sample
+        value = float(statistic(costs))
+        return [value, value]
+
+    def on_columns(*columns: np.ndarray, axis: int = -1) -> np.ndarray:
+        return statistic(np.stack(columns, axis=-1))  # (..., seeds) per plant -> (..., seeds, plants)
+
+    result = stats.bootstrap(tuple(costs.T), on_columns, n_resamples=resamples, confidence_level=level,
+                             method="percentile", vectorized=True, rng=np.random.default_rng(seed))
+    return [float(result.confidence_interval.low), float(result.confidence_interval.high)]
+
+
+@dataclass(frozen=True)
+class SeedStatistics:
+    """The figures of one policy over seeds and plants (module docstring); intervals are ``[lo, hi]``."""
+
+    seeds: int
+    plants: int
+    mean_cost: float
+    iqm_cost: float
+    ci95: dict[str, list[float]]
+    per_seed_mean_cost: list[float]
+    violation_rate: float
+    normalized_iqm: float
+    optimality_gap: float
+    prob_improvement: dict[str, float]
+    diff_to_best_rule: list[float]  # [estimate, lo, hi]
+
+
+def _trimmed(values: np.ndarray) -> np.ndarray:
+    flat = values.reshape(*values.shape[:-2], -1)
+    return stats.trim_mean(flat, 0.25, axis=-1)
+
+
+def seed_statistics(
+    costs: np.ndarray,
+    oracle: np.ndarray,
+    rules: Mapping[str, np.ndarray],
+    best_rule: str,
+    *,
+    violation_threshold: float = 21.0,
+    resamples: int = RESAMPLES,
+    seed: int = 0,
+) -> SeedStatistics:
+    """Every figure of :class:`SeedStatistics` for costs ``(seeds, plants)`` against the oracle and rules.
+
+    ``violation_threshold`` is the cost from which a design violates a constraint (the scoring
+    charges ``21 + grade``; :mod:`envs.analysis.scoring`).
+    """
+    costs, oracle = _matrix(costs), np.asarray(oracle, dtype=float)
+    best = np.asarray(rules[best_rule], dtype=float)
+    normalized = oracle / costs
+
+    def interval(statistic: Callable[[np.ndarray], np.ndarray]) -> list[float]:
+        return stratified_interval(costs, statistic, resamples=resamples, seed=seed)
+
+    difference = float(np.mean(costs - best))
+    return SeedStatistics(
+        seeds=costs.shape[0],
+        plants=costs.shape[1],
+        mean_cost=float(costs.mean()),
+        iqm_cost=iqm(costs),
+        ci95={
+            "mean_cost": interval(lambda c: c.mean(axis=(-2, -1))),
+            "iqm_cost": interval(_trimmed),
+            "normalized_iqm": interval(lambda c: _trimmed(oracle / c)),
+        },
+        per_seed_mean_cost=[float(v) for v in costs.mean(axis=1)],
+        violation_rate=float(np.mean(costs >= violation_threshold)),
+        normalized_iqm=iqm(normalized),
+        optimality_gap=optimality_gap(normalized),
+        prob_improvement={name: probability_of_improvement(costs, np.asarray(r, dtype=float)) for name, r in rules.items()},
+        diff_to_best_rule=[difference, *interval(lambda c: (c - best).mean(axis=(-2, -1)))],
+    )
