@@ -82,7 +82,6 @@ class DeadTimeTuningEnv(gym.Env):
         weights: CostWeights | dict | None = None,
         budget: int = 4,
         excursion_limit: float = 5.0,
-        oracle: bool = False,
         render_mode: str | None = None,
     ) -> None:
         if experiments not in MODES:
@@ -103,7 +102,6 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
         self.budget = int(budget)
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
-        self.oracle = bool(oracle)
         self.render_mode = render_mode
         self._controller = None
         self.parameter_range = PARAMETER_RANGES[self.structure]
@@ -236,8 +234,6 @@ class DeadTimeTuningEnv(gym.Env):
         self._done = True
         observation, named = self._observation_and_features()
         info = self._final_info(result, relative, controller, named)
-        if self.oracle:
-            info.update(self._oracle_info())
         return observation, -float(result.cost), True, False, info
 
     # ------------------------------------------------------------------ scoring
@@ -272,13 +268,6 @@ class DeadTimeTuningEnv(gym.Env):
             "experiment_time": self.evidence.experiment_time / self.plant.residence_time,
             "features": named,
         }
-
-    def _oracle_info(self) -> dict:
-        # The oracle is a baseline; imported here so that the environments need baselines only when asked.
-        from baselines.oracle import oracle
-
-        best = oracle(self.plant, self.identification, self.structure, constraints=self.constraints, weights=self.weights)
-        return {"oracle_cost": float(best.cost), "oracle_parameter": float(best.relative_parameter)}
 
     # ------------------------------------------------------------------ rendering
     def render(self) -> np.ndarray | None:
@@ -380,17 +369,18 @@ _SHARED_DOC = """
     | `weights`         | `CostWeights()` (1, 1, 0.01) | :class:`envs.analysis.scoring.CostWeights` or a dict              |
     | `budget`          | `4`                         | experiments per episode (agent mode)                      |
     | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
-    | `oracle`          | `False`                     | add the oracle's cost to the final `info` (slow: ~1 s)    |
     | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
 
     ## Info
     At reset: ``plant`` (dict), ``features``.  On the final step: ``cost``, ``feasible``, ``score``
     (every figure of :class:`envs.analysis.scoring.Score`), ``plant``, ``model`` (identified), ``controller``,
-    ``parameter`` (relative), ``experiment_time`` (in true ``T_ar``), ``features``, and with
-    ``oracle=True`` ``oracle_cost`` and ``oracle_parameter``.
+    ``parameter`` (relative), ``experiment_time`` (in true ``T_ar``), ``features``.  The wrapper
+    ``agents.evaluation.oracle_info.OracleInfo`` adds ``oracle_cost`` and ``oracle_parameter``.
 
     ## Version History
-    * v0: initial version.
+    * v0: initial version.  (Issue 14 moved the ``oracle=True`` argument out, to the wrapper
+      ``OracleInfo``, so that ``envs`` imports nothing from ``baselines``; dynamics, rewards and
+      observations unchanged.)
 """
 
 

@@ -84,6 +84,20 @@ class SnapshotWrapper(gymnasium.Wrapper):
         self.env = pickle.loads(snapshot)  # noqa: S301  (our own checkpoint, verified by checksum)
 
 
+def _check_modules(snapshot: bytes) -> None:
+    """Refuse, in one line, an environment snapshot that names modules this code no longer has.
+
+    A pickle names its classes by module path: a checkpoint written before the modules moved into
+    subpackages (issue 14; e.g. ``envs.scoring``, now ``envs.analysis.scoring``) cannot be resumed.
+    """
+    try:
+        pickle.loads(snapshot)  # noqa: S301  (our own checkpoint, verified by checksum)
+    except ModuleNotFoundError as error:
+        raise ValueError(f"the checkpoint's environments name the module {error.name!r}, which this version does not "
+                         "have (modules moved in issue 14): resume it with the commit in the run's config.yaml, or "
+                         "start a new run") from None
+
+
 # ----------------------------------------------------------------------------------- state
 def capture_state(model: Any, vecnormalize: Any = None) -> dict[str, Any]:
     """What a model zip, replay buffer and ``VecNormalize`` pickle leave out (see the module docstring)."""
@@ -106,6 +120,7 @@ def restore_state(state: Mapping[str, Any], model: Any, vecnormalize: Any = None
 
     venv = model.get_env()
     for index, snapshot in enumerate(state["environments"]):
+        _check_modules(snapshot)
         venv.env_method("checkpoint_restore", snapshot, indices=[index])
     base = venv.unwrapped
     base._seeds = [None] * base.num_envs  # loading reseeded them for a reset that never comes  # noqa: SLF001

@@ -165,14 +165,6 @@ def test_info_carries_every_figure():
     assert info["model"]["type"] == "sopdt" and info["controller"]["type"] == "pid-series"
 
 
-@pytest.mark.slow
-def test_oracle_cost_in_info_is_no_worse_than_the_policy():
-    env = PIDEnv(oracle=True)
-    env.reset(seed=1)
-    info = env.step(np.array([0.0], dtype=np.float32))[4]
-    assert info["oracle_cost"] <= info["cost"] + 1e-9
-
-
 @pytest.mark.parametrize("kwargs, message", [
     ({"experiments": "both"}, "experiments must be one of fixed, agent"),
     ({"family": "sine"}, "unknown plant family 'sine'"),

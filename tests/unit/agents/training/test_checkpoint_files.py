@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from agents.training.checkpoints import DamagedFileError, find_checkpoint, read_manifest
+from agents.training.checkpoints import DamagedFileError, _check_modules, find_checkpoint, read_manifest
 from agents.training.files import atomic_write, file_digest, write_json
 
 
@@ -96,3 +96,9 @@ def test_a_missing_file_is_named_as_it_is(tmp_path: Path) -> None:
         find_checkpoint(tmp_path)
     assert str(caught.value).startswith(f"{directory / 'model_64.zip'} is missing (named by latest.json)")
     assert ".zip.zip" not in str(caught.value)
+
+
+def test_a_checkpoint_of_the_old_module_paths_is_refused_in_one_line():
+    """A snapshot pickled before issue 14 names ``envs.scoring`` (now ``envs.analysis.scoring``)."""
+    with pytest.raises(ValueError, match=r"module 'envs\.scoring'.*issue 14"):
+        _check_modules(b"cenvs.scoring\nScore\n.")
