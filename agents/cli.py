@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 from importlib import import_module
@@ -172,13 +171,6 @@ def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Nam
     return parser, handlers
 
 
-# One thread for the linear algebra and the compiled kernels, unless the user says otherwise: the
-# matrices here are tiny, and OpenBLAS's threads made ``scipy.linalg.expm`` about 10 times slower on
-# 2 cores (measured by ``deadtime bench``); parallelism comes from vectorized environments and
-# ``--workers`` instead.  Set before numpy is imported (subprocess workers inherit it).
-SINGLE_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
-
-
 def shadowed_package() -> str | None:
     """One line if ``envs`` or ``baselines`` would be imported from elsewhere than beside ``agents``.
 
@@ -200,8 +192,9 @@ def shadowed_package() -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    for name in SINGLE_THREAD_VARIABLES:
-        os.environ.setdefault(name, "1")
+    from agents.runtime import single_thread_defaults
+
+    single_thread_defaults()  # before numpy is imported (agents.runtime)
     shadowed = shadowed_package()
     if shadowed is not None:
         print(f"deadtime: error: {shadowed}", file=sys.stderr)

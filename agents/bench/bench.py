@@ -17,7 +17,7 @@ Three parts, each on the same machine state:
    issue's yardstick) and for SAC (``configs/sac.yaml``, the agent of the demo).
 
 Every part runs in a child process whose BLAS, OpenMP and numba pools have one thread
-(:data:`THREAD_VARIABLES`; the variables must be set before numpy is imported): on this 2-core
+(:data:`agents.runtime.THREAD_VARIABLES`; the variables must be set before numpy is imported): on this 2-core
 machine under load, OpenBLAS's default two threads made ``scipy.linalg.expm`` of the small matrices
 of the discretizations up to ten times slower.  Vectorized workers inherit the setting.
 
@@ -35,8 +35,9 @@ import platform
 import subprocess
 import sys
 import time
-from pathlib import Path
 from typing import Any
+
+from agents.runtime import REPO, THREAD_VARIABLES, git, versions
 
 __all__ = ["HEADLINE", "add_arguments", "run"]
 
@@ -50,7 +51,6 @@ HEADLINE = (
     "episodes_per_s_agent",
     "env_share_of_ppo_time",
 )
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 CHILD_VARIABLE = "DEADTIME_BENCH_CHILD"
 ENV_ID = "DeadTime/PID-v0"
 SEED = 0
@@ -72,34 +72,19 @@ def _progress(message: str) -> None:
     print(f"[bench {time.strftime('%H:%M:%S')}] {message}", file=sys.stderr, flush=True)
 
 
-def _git(*args: str) -> str | None:
-    root = Path(__file__).resolve().parents[2]
-    try:
-        done = subprocess.run(["git", *args], cwd=root, capture_output=True, text=True, check=False, timeout=10)
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return done.stdout.strip() if done.returncode == 0 else None
-
-
 def machine_info() -> dict[str, Any]:
     """CPU count, load, versions, commit."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    versions = {}
-    for package in ("numpy", "scipy", "numba", "control", "gymnasium", "stable_baselines3", "torch"):
-        try:
-            versions[package] = version(package.replace("_", "-"))
-        except PackageNotFoundError:
-            versions[package] = None
-    status = _git("status", "--porcelain", "--", "envs", "baselines")
+    packages = ("numpy", "scipy", "numba", "control", "gymnasium", "stable_baselines3", "torch")
+    package_versions = {k: v for k, v in versions(packages, missing=None).items() if k != "python"}
+    status = git("status", "--porcelain", "--", "envs", "baselines")
     return {
         "cpu_count": os.cpu_count(),
         "load_average": list(os.getloadavg()),
         "platform": platform.platform(),
         "processor": platform.processor() or platform.machine(),
         "python": platform.python_version(),
-        "versions": versions,
-        "commit": _git("rev-parse", "--short", "HEAD"),
+        "versions": package_versions,
+        "commit": git("rev-parse", "--short", "HEAD"),
         "envs_uncommitted_changes": bool(status) if status is not None else None,
         "thread_variables": {name: os.environ.get(name) for name in THREAD_VARIABLES},
     }
@@ -176,7 +161,7 @@ def _env_part(quick: bool) -> dict[str, Any]:
 def _training_part(quick: bool) -> dict[str, Any]:
     from agents.bench.episodes import training_env_share
 
-    root = Path(__file__).resolve().parents[2] / "configs"
+    root = REPO / "configs"
     n_steps = 16 if quick else 128
     _progress(f"PPO (configs/ppo.yaml): one rollout of {n_steps} steps and one update")
     ppo = training_env_share(str(root / "ppo.yaml"), ENV_ID, n_steps, (f"hyperparameters.n_steps={n_steps}",))
@@ -281,7 +266,7 @@ def _in_child(args: argparse.Namespace) -> dict[str, Any]:
         argv += [flag] if on else []
     for flag, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
         argv += [flag, str(value)] if value is not None else []
-    root = str(Path(__file__).resolve().parents[2])
+    root = str(REPO)
     path = os.environ.get("PYTHONPATH")
     env = {**os.environ, **dict.fromkeys(THREAD_VARIABLES, "1"), CHILD_VARIABLE: "1"}
     env["PYTHONPATH"] = root if not path else f"{root}{os.pathsep}{path}"

@@ -29,13 +29,9 @@ __all__ = ["episodes_per_s", "make_env", "training_env_share", "vector_episodes_
 def make_env(env_id: str, experiments: str, oracle: bool, wrapper: Callable | None = None):
     """A registered DeadTime environment (importable by worker processes); ``oracle``: with the
     oracle's cost in the final ``info`` (:class:`~agents.evaluation.oracle_info.OracleInfo`)."""
-    import gymnasium
+    from agents.environments import make_env as make
 
-    import envs  # noqa: F401  (registers the ids)
-    from agents.evaluation.oracle_info import OracleInfo
-
-    env = gymnasium.make(env_id, experiments=experiments)
-    env = OracleInfo(env) if oracle else env
+    env = make(env_id, {"experiments": experiments}, oracle=oracle)
     return wrapper(env) if wrapper is not None else env
 
 

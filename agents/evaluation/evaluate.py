@@ -40,6 +40,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from agents.environments import make_env
+
 __all__ = ["add_arguments", "evaluate", "run"]
 
 
@@ -85,18 +87,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- setup
-def _make_env(env_id: str, **kwargs: Any) -> Any:
-    import gymnasium
-
-    import envs  # noqa: F401  (registers the DeadTime/ environments)
-
-    try:
-        return gymnasium.make(env_id, **kwargs)
-    except gymnasium.error.Error as error:
-        known = sorted(k for k in gymnasium.registry if k.startswith("DeadTime/"))
-        raise ValueError(f"unknown environment {env_id!r} ({error}); known: {', '.join(known) or 'none'}") from None
-
-
 def _as_list(plants: Any, prefix: str) -> list[tuple[str, Any]]:
     if isinstance(plants, dict):
         return list(plants.items())
@@ -154,7 +144,7 @@ def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) 
         path = str(getattr(policy, "path", spec.path))
         stamp = os.path.getmtime(path) if os.path.exists(path) else 0.0
         identity = f"agent|{os.path.abspath(path)}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
-        agents[name] = (policy, _make_env(env_id, **kwargs), identity)
+        agents[name] = (policy, make_env(env_id, kwargs), identity)
     return agents
 
 
@@ -216,7 +206,7 @@ def evaluate(
         raise ValueError(f"--workers must be positive, got {workers!r}")
     started = time.perf_counter()
     env_kwargs: dict[str, Any] = {} if family is None else {"family": family}
-    env = _make_env(env_id, experiments="fixed", **env_kwargs)
+    env = make_env(env_id, {"experiments": "fixed", **env_kwargs})
     unwrapped = env.unwrapped
     structure = unwrapped.structure
     family = family or getattr(unwrapped, "family", None) or ("integrating" if structure == "msp" else "stable")

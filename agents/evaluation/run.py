@@ -332,13 +332,11 @@ _WORKER_ENVS: dict[str, Any] = {}
 
 def _worker_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
     """One environment per worker process and configuration, made on first use."""
-    import gymnasium
-
-    import envs  # noqa: F401  (registers the environments in the worker)
+    from agents.environments import make_env
 
     key = json.dumps([env_id, env_kwargs], sort_keys=True, default=str)
     if key not in _WORKER_ENVS:
-        _WORKER_ENVS[key] = gymnasium.make(env_id, **env_kwargs)
+        _WORKER_ENVS[key] = make_env(env_id, env_kwargs)
     return _WORKER_ENVS[key]
 
 

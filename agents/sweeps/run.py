@@ -16,11 +16,11 @@ from typing import Any
 
 from ray import tune
 
+from agents.runtime import THREAD_VARIABLES, git_commit, versions
 from agents.sweeps.config import SweepConfig, Trial
 
 __all__ = ["Progress", "evaluation_directory", "run_sweep", "trial_function"]
 
-THREAD_VARIABLES = {name: "1" for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")}
 REPORTS_PER_TRIAL = 10  # progress reports to Tune per trial, besides the final one
 
 
@@ -60,7 +60,7 @@ def _check_reachable(address: str) -> None:
 def _connect(ray: Any, address: str | None) -> None:
     """Start a local Ray instance, or join the cluster at ``address``; one thread per task."""
     options = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False,
-               "runtime_env": {"env_vars": THREAD_VARIABLES}}
+               "runtime_env": {"env_vars": dict.fromkeys(THREAD_VARIABLES, "1")}}
     if ray.is_initialized():
         return
     if address:
@@ -98,13 +98,11 @@ def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, A
     """Append this invocation (commit, versions, CPUs, wall time) to ``DIR/sessions.json``; return all."""
     import ray
 
-    from agents.training.train import _git_commit, _versions
-
     path = out / "sessions.json"
     sessions = json.loads(path.read_text()) if path.is_file() else []
     sessions.append({"finished": datetime.now(UTC).isoformat(timespec="seconds"), "resumed": resume,
                      "wall_time_s": round(seconds, 1), "cpus": ray.cluster_resources().get("CPU"),
-                     "commit": _git_commit(), "versions": _versions()})
+                     "commit": git_commit(), "versions": versions()})
     path.write_text(json.dumps(sessions, indent=2) + "\n")
     return sessions
 

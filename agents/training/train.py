@@ -36,31 +36,29 @@ import argparse
 import dataclasses
 import functools
 import json
-import platform
 import shlex
 import signal
-import subprocess
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
-from importlib import metadata
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import yaml
 
+from agents.environments import make_env
+from agents.runtime import git_commit, versions
 from agents.training.config import TrainConfig, load_config, validate
 
 if TYPE_CHECKING:
     from agents.training.checkpoints import Checkpoint
 
-__all__ = ["TrainResult", "add_arguments", "make_env", "run", "train"]
+__all__ = ["TrainResult", "add_arguments", "run", "train"]
 
 # Keys that may differ between a run's saved config and the one given on --resume.
 _RESUMABLE_CHANGES = {"total_timesteps", "output_dir", "progress_bar"}
-_VERSIONED = ("numpy", "scipy", "numba", "control", "gymnasium", "stable-baselines3", "torch", "deadtime-gym")
 _ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU", "silu": "SiLU"}
 _OPTIMIZERS = {"adam": "Adam", "adamw": "AdamW", "rmsprop": "RMSprop", "sgd": "SGD"}
 
@@ -140,15 +138,6 @@ def run_directory(config: TrainConfig) -> Path:
 
 
 # ----------------------------------------------------------------------------------- environments
-def make_env(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
-    """``gymnasium.make(env_id, **env_kwargs)``, registering the DeadTime ids first."""
-    import gymnasium
-
-    if env_id.startswith("DeadTime/"):
-        import envs  # noqa: F401  (registers the DeadTime ids)
-    return gymnasium.make(env_id, **dict(env_kwargs))
-
-
 def _monitored_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
     """``Monitor``-wrapped, inside the :class:`agents.training.checkpoints.SnapshotWrapper` that checkpoints it whole.
 
@@ -223,30 +212,6 @@ def _setup_torch(config: TrainConfig) -> None:
     torch.use_deterministic_algorithms(True)
 
 
-# ----------------------------------------------------------------------------------- provenance
-def _git_commit() -> str | None:
-    root = Path(__file__).resolve().parents[2]
-    try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, check=False)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
-                               capture_output=True, text=True, check=False)
-    except OSError:
-        return None
-    if commit.returncode != 0:
-        return None
-    return commit.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
-
-
-def _versions() -> dict[str, str]:
-    versions = {"python": platform.python_version()}
-    for name in _VERSIONED:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions
-
-
 def _config_yaml(config: TrainConfig, provenance: Mapping[str, Any]) -> str:
     header = [f"# deadtime train: resolved config, {provenance['started']}",
               f"# command: {provenance['command']}",
@@ -316,7 +281,7 @@ def train(
         print(f"{run_dir} already finished {finished.num_timesteps} steps (raise total_timesteps to extend it)")
         return finished
 
-    provenance = {"command": command or "(python API)", "commit": _git_commit(), "versions": _versions(),
+    provenance = {"command": command or "(python API)", "commit": git_commit(), "versions": versions(),
                   "started": datetime.now(UTC).isoformat(timespec="seconds")}
     text = _config_yaml(config, provenance)
     print(text, end="")

@@ -59,7 +59,7 @@ def _episode_costs(run_dir: Path, n: int = 3) -> list[float]:
     """The loaded agent's costs on a few episodes (seeds 0..n-1) of its training environment."""
     from agents.training.callbacks import validate_policy, validation_plants
     from agents.training.policies import load_policy
-    from agents.training.train import make_env
+    from agents.environments import make_env
 
     policy = load_policy(run_dir)
     env = make_env(policy.env_id, policy.env_kwargs)
@@ -125,7 +125,7 @@ def test_train_from_the_command_line_and_load(tmp_path: Path, algorithm: str, ca
         assert (run_dir / "checkpoints" / checkpoints["replay_buffer"]).is_file()
 
     from agents.training.policies import load_policy
-    from agents.training.train import make_env
+    from agents.environments import make_env
 
     policy = load_policy(run_dir)
     assert policy.algorithm == algorithm.upper() and policy.name == "run"
