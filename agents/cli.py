@@ -4,14 +4,13 @@ Each subcommand lives in the package that owns its concept and is imported only 
 so that ``deadtime analyze`` never loads torch.  Bad input anywhere prints one line naming what is
 wrong and exits with status 2; no traceback.  ``deadtime tune`` exits with status 3
 (:data:`LOOP_PROBLEM`) when the rule's loop is unstable or outside the constraints on the plant,
-or the rule's ``T_r`` is degenerate (:mod:`baselines.tune`), after one line on stderr saying so.
+or the rule's ``T_r`` is degenerate (:mod:`baselines.rules.tune`), after one line on stderr saying so.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 from importlib import import_module
@@ -41,9 +40,9 @@ def load_json_argument(text: str, name: str) -> Any:
 
 
 def _analyze(args: argparse.Namespace) -> int:
-    from envs.analysis import analyze
-    from envs.controllers import controller_from_dict
-    from envs.plants import Plant
+    from envs.analysis.loop_analysis import analyze
+    from envs.systems.controllers import controller_from_dict
+    from envs.systems.plants import Plant
 
     plant = Plant.from_dict(load_json_argument(args.plant, "--plant"))
     controller = controller_from_dict(load_json_argument(args.controller, "--controller"))
@@ -67,9 +66,9 @@ def _format(value: Any) -> str:
 
 
 def _tune(args: argparse.Namespace) -> int:
-    from baselines.tune import rule_list, tune
-    from envs.identification import model_from_dict
-    from envs.plants import Plant
+    from baselines.rules.tune import rule_list, tune
+    from envs.identification.models import model_from_dict
+    from envs.systems.plants import Plant
 
     if args.list:
         rules = rule_list()
@@ -101,7 +100,7 @@ def _tune(args: argparse.Namespace) -> int:
 
 
 def _reproduce(args: argparse.Namespace) -> int:
-    from baselines.reproduce import run_reproductions
+    from baselines.reproduction.reproduce import run_reproductions
 
     return run_reproductions(args.name, as_json=args.json, figures=Path(args.figures))
 
@@ -109,10 +108,10 @@ def _reproduce(args: argparse.Namespace) -> int:
 # Subcommands that own a module of ``agents``: the module defines ``add_arguments(parser)`` and
 # ``run(args) -> int``, and imports its heavy dependencies (torch, stable-baselines3) inside ``run``.
 _MODULE_COMMANDS: dict[str, tuple[str, str]] = {
-    "train": ("agents.train", "train an agent from a YAML config"),
-    "evaluate": ("agents.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
-    "bench": ("agents.bench", "measure the speed and accuracy of the scoring and the environments"),
-    "sweep": ("agents.sweep", "train many seeds and configs on Ray Tune, evaluate them, and summarize"),
+    "train": ("agents.training.train", "train an agent from a YAML config"),
+    "evaluate": ("agents.evaluation.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
+    "bench": ("agents.bench.bench", "measure the speed and accuracy of the scoring and the environments"),
+    "sweep": ("agents.sweeps.sweep", "train many seeds and configs on Ray Tune, evaluate them, and summarize"),
 }
 
 
@@ -172,13 +171,6 @@ def _parser() -> tuple[argparse.ArgumentParser, dict[str, Callable[[argparse.Nam
     return parser, handlers
 
 
-# One thread for the linear algebra and the compiled kernels, unless the user says otherwise: the
-# matrices here are tiny, and OpenBLAS's threads made ``scipy.linalg.expm`` about 10 times slower on
-# 2 cores (measured by ``deadtime bench``); parallelism comes from vectorized environments and
-# ``--workers`` instead.  Set before numpy is imported (subprocess workers inherit it).
-SINGLE_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
-
-
 def shadowed_package() -> str | None:
     """One line if ``envs`` or ``baselines`` would be imported from elsewhere than beside ``agents``.
 
@@ -200,8 +192,9 @@ def shadowed_package() -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    for name in SINGLE_THREAD_VARIABLES:
-        os.environ.setdefault(name, "1")
+    from agents.runtime import single_thread_defaults
+
+    single_thread_defaults()  # before numpy is imported (agents.runtime)
     shadowed = shadowed_package()
     if shadowed is not None:
         print(f"deadtime: error: {shadowed}", file=sys.stderr)

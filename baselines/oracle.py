@@ -2,7 +2,7 @@
 
 For a true plant, a model of it and a controller structure, :func:`oracle` searches the one design
 parameter of SPEC "Design" (``mu`` of the Gorez-Klan PID, ``T_r`` of the FPPI or of the MSP) for
-the smallest cost of :func:`envs.scoring.score`, constraints included.  A constraint violation
+the smallest cost of :func:`envs.analysis.scoring.score`, constraints included.  A constraint violation
 costs more than every feasible design and is graded by how far it violates, so the minimum of the
 cost is the constrained optimum when a feasible parameter exists, and the least-violating parameter
 otherwise: one objective serves both cases.
@@ -20,7 +20,7 @@ is global, then local, in ``log`` of the relative parameter:
 3. two probes at relative distance :data:`BINDING_PROBE` either side of the optimum, which decide
    the binding constraint.
 
-Infeasible parameters are not simulated (:func:`~envs.scoring.score` skips the IAE), so they cost
+Infeasible parameters are not simulated (:func:`~envs.analysis.scoring.score` skips the IAE), so they cost
 only the frequency-domain analysis.  Measured on the benchmark plants (idle machine): 0.6-3 s per
 search, except the PID on Ingimundarson's stable P6 (about 20 s: the margins of its many unstable
 loops are slow to compute).
@@ -48,7 +48,7 @@ one, and is charged no experiment time (:func:`exact_models`):
   first moment of ``1 - y/K``), ``tau = 1 - T_a/T_ar`` (eq. 2-7) and ``theta`` from eq. 2-9;
 * FOPDT: ``T_n`` by Ingimundarson eq. 11 on the exact, noise-free open-loop unit-step response,
   ``T_n = e int_0^{T_ar} y dt/K`` (the integral by a matrix exponential), clipped as the identified
-  model is (:func:`envs.identification.fopdt_from_area`).  This is the model the seeds' procedure
+  model is (:func:`envs.identification.models.fopdt_from_area`).  This is the model the seeds' procedure
   converges to with perfect measurements, so the full-information oracle isolates the effect of
   noise and finite experiments; ``T_n = T_a`` (moments) would change the model class as well.
 * integrating: ``K_v`` exact and ``L_n = T_ar`` of the dynamics additional to the integrator
@@ -70,9 +70,9 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from envs.controllers import Controller
+from envs.systems.controllers import Controller
 from envs.design import PARAMETER_RANGES, STRUCTURES, design, relative_scale
-from envs.identification import (
+from envs.identification.models import (
     FOPDTModel,
     IntegratingModel,
     SOPDTModel,
@@ -81,9 +81,9 @@ from envs.identification import (
     sopdt_from_moments,
     step_time_constant,
 )
-from envs.plants import Plant
-from envs.procedure import Identification
-from envs.scoring import Constraints, CostWeights, Score, score
+from envs.systems.plants import Plant
+from envs.identification.procedure import Identification
+from envs.analysis.scoring import Constraints, CostWeights, Score, score
 from envs.threads import single_threaded
 from envs.validation import require_number
 
@@ -278,12 +278,12 @@ def oracle(
     plant : Plant
         The true plant.
     identification : Identification
-        The seeds' procedure on ``plant`` (:func:`envs.procedure.identify`): the PID uses its SOPDT
+        The seeds' procedure on ``plant`` (:func:`envs.identification.procedure.identify`): the PID uses its SOPDT
         model, the FPPI its FOPDT model, the MSP its two-parameter model; its experiment time is
         charged, as for the rules.
     structure : {"pid", "fppi", "msp"}
     constraints, weights
-        As for :func:`envs.scoring.score`.
+        As for :func:`envs.analysis.scoring.score`.
     grid : int
         Number of log-spaced grid points (>= 3) before the local refinement.
     parameter_range : (float, float), optional

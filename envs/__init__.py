@@ -2,8 +2,10 @@
 
 The ids live in the ``DeadTime`` namespace (``gymnasium.make("DeadTime/PID-v0")``); the classes are
 in :mod:`envs.tuning_env`, the only module here that imports Gymnasium besides this registration.
-The numerical modules (plants, simulation, experiments, controllers, robustness, scoring) import
-numpy and scipy only.
+The numerical subpackages, in the order of an episode, import numpy, scipy and numba only:
+:mod:`envs.systems` (plants, families, controllers), :mod:`envs.simulation`,
+:mod:`envs.identification` (experiments and models) and :mod:`envs.analysis` (margins, IAE, the
+cost); then :mod:`envs.design`, :mod:`envs.episode` and the environments.
 """
 
 from gymnasium.envs.registration import register

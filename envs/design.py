@@ -25,8 +25,8 @@ design is the one of a model with that small dead time, and ``mu`` keeps the rol
 
 from __future__ import annotations
 
-from envs.controllers import FPPI, MSP, SeriesPID
-from envs.identification import FOPDTModel, IntegratingModel, SOPDTModel
+from envs.systems.controllers import FPPI, MSP, SeriesPID
+from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
 
 __all__ = [
     "DERIVATIVE_FILTER",

@@ -33,8 +33,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from envs.closed_loop_experiment import ClosedLoopStepResult, closed_loop_step
-from envs.open_loop_experiments import (
+from envs.identification.closed_loop_experiment import ClosedLoopStepResult, closed_loop_step
+from envs.identification.open_loop_experiments import (
     OpenLoopPulseResult,
     OpenLoopRampResult,
     OpenLoopStepResult,
@@ -42,9 +42,9 @@ from envs.open_loop_experiments import (
     open_loop_ramp,
     open_loop_step,
 )
-from envs.plants import Plant
-from envs.procedure import PULSE_LENGTH, Identification
-from envs.relay import RelayResult, relay_feedback
+from envs.systems.plants import Plant
+from envs.identification.procedure import PULSE_LENGTH, Identification
+from envs.identification.relay import RelayResult, relay_feedback
 
 __all__ = [
     "STABLE_EXPERIMENTS",
@@ -140,7 +140,7 @@ class Evidence:
 
 
 def evidence_from_identification(identification: Identification, noise_std: float) -> Evidence:
-    """The evidence of the seeds' procedure (:func:`envs.procedure.identify`, amplitude 1)."""
+    """The evidence of the seeds' procedure (:func:`envs.identification.procedure.identify`, amplitude 1)."""
     evidence = Evidence.empty(identification.integrating)
     second = "pulse" if identification.integrating else "open-loop-step"
     counts = tuple(int(name in ("closed-loop-step", second)) for name in evidence.experiments)

@@ -8,8 +8,8 @@ threads, ``DeadTime/PID-v0`` episodes (reset and one step) ran at 17 per second 
 matrices about ten times slower.  The command line sets the thread variables before numpy loads;
 a user of the Python API should not have to know.
 
-So the public entry points (``Env.reset`` and ``Env.step``, :func:`envs.scoring.score`,
-:func:`envs.analysis.analyze`, the rules' ``tune`` and the oracle) run under
+So the public entry points (``Env.reset`` and ``Env.step``, :func:`envs.analysis.scoring.score`,
+:func:`envs.analysis.loop_analysis.analyze`, the rules' ``tune`` and the oracle) run under
 :func:`single_threaded`, which limits the BLAS libraries to one thread with ``threadpoolctl`` for
 the duration of the call and restores the user's setting afterwards, so the rest of the user's
 process (say, a large matrix product of their own) keeps its threads.  Where every BLAS library

@@ -2,7 +2,7 @@
 
 The only module of :mod:`envs` that imports Gymnasium.  The numerics are elsewhere: the
 experiments and features in :mod:`envs.episode`, the designs in :mod:`envs.design`, the cost in
-:mod:`envs.scoring`.  Ids are registered in :mod:`envs` (``DeadTime/PID-v0``, ``DeadTime/FPPI-v0``,
+:mod:`envs.analysis.scoring`.  Ids are registered in :mod:`envs` (``DeadTime/PID-v0``, ``DeadTime/FPPI-v0``,
 ``DeadTime/MSP-v0``); see the docstrings of :class:`PIDEnv`, :class:`FPPIEnv` and :class:`MSPEnv`.
 """
 
@@ -25,14 +25,14 @@ from envs.episode import (
     identification,
     run_experiment,
 )
-from envs.families import FAMILIES, sample_plant
-from envs.plants import Plant, as_plant
-from envs.procedure import Identification, identify
+from envs.systems.families import FAMILIES, sample_plant
+from envs.systems.plants import Plant, as_plant
+from envs.identification.procedure import Identification, identify
 from envs.threads import single_threaded
-from envs.scoring import Constraints, CostWeights, Score, score
+from envs.analysis.scoring import Constraints, CostWeights, Score, score
 from envs.validation import require_number
 
-# The kind of plant each family of :mod:`envs.families` draws (True: integrating), checked when the
+# The kind of plant each family of :mod:`envs.systems.families` draws (True: integrating), checked when the
 # environment is made; ``benchmark`` draws either, as its config says (a draw of the other kind is
 # drawn again).
 _FAMILY_KINDS: dict[str, bool] = {"stable": False, "fopdt": False, "sopdt": False, "lag-chain": False, "integrating": True}
@@ -82,7 +82,6 @@ class DeadTimeTuningEnv(gym.Env):
         weights: CostWeights | dict | None = None,
         budget: int = 4,
         excursion_limit: float = 5.0,
-        oracle: bool = False,
         render_mode: str | None = None,
     ) -> None:
         if experiments not in MODES:
@@ -103,7 +102,6 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
         self.budget = int(budget)
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
-        self.oracle = bool(oracle)
         self.render_mode = render_mode
         self._controller = None
         self.parameter_range = PARAMETER_RANGES[self.structure]
@@ -148,7 +146,7 @@ class DeadTimeTuningEnv(gym.Env):
         Options
         -------
         plant : Plant, dict, control.TransferFunction or (TransferFunction, delay)
-            Use this plant instead of drawing one (any form :func:`envs.plants.as_plant` takes).
+            Use this plant instead of drawing one (any form :func:`envs.systems.plants.as_plant` takes).
         """
         super().reset(seed=seed)
         options = {} if options is None else dict(options)
@@ -236,8 +234,6 @@ class DeadTimeTuningEnv(gym.Env):
         self._done = True
         observation, named = self._observation_and_features()
         info = self._final_info(result, relative, controller, named)
-        if self.oracle:
-            info.update(self._oracle_info())
         return observation, -float(result.cost), True, False, info
 
     # ------------------------------------------------------------------ scoring
@@ -273,13 +269,6 @@ class DeadTimeTuningEnv(gym.Env):
             "features": named,
         }
 
-    def _oracle_info(self) -> dict:
-        # The oracle is a baseline; imported here so that the environments need baselines only when asked.
-        from baselines.oracle import oracle
-
-        best = oracle(self.plant, self.identification, self.structure, constraints=self.constraints, weights=self.weights)
-        return {"oracle_cost": float(best.cost), "oracle_parameter": float(best.relative_parameter)}
-
     # ------------------------------------------------------------------ rendering
     def render(self) -> np.ndarray | None:
         """``render_mode="rgb_array"``: an image of the experiments' measured outputs so far and,
@@ -306,7 +295,7 @@ class DeadTimeTuningEnv(gym.Env):
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
     def _plot_loop(self, axes, scale: float) -> None:
-        from envs.loops import closed_loop_response, simulation_step
+        from envs.simulation.loops import closed_loop_response, simulation_step
 
         dt = simulation_step(self.plant, self._controller)
         steps = int(min(40.0 * scale / dt, 20_000))
@@ -352,15 +341,15 @@ _SHARED_DOC = """
 
     ## Rewards
     ``r = -cost`` on the step that commits the design, 0 on experiment steps, where
-    (:mod:`envs.scoring`) ``cost = w_load IAE_load/(|K| T_ar) + w_sp IAE_sp/T_ar + w_exp t_exp/T_ar``
+    (:mod:`envs.analysis.scoring`) ``cost = w_load IAE_load/(|K| T_ar) + w_sp IAE_sp/T_ar + w_exp t_exp/T_ar``
     on the TRUE plant (``K``, ``T_ar`` true; integrating plants: ``IAE_load/(|K_v| T_ar^2)``),
     capped at 20 when the loop meets the constraints, and ``21 + grade`` when it does not (unstable:
     grade 5; else the sum of the relative violations).  The cost is the one of ``deadtime analyze``
-    and :func:`envs.scoring.score` for the same plant and controller.
+    and :func:`envs.analysis.scoring.score` for the same plant and controller.
 
     ## Starting State
     A plant drawn from ``family`` with ``self.np_random`` (or ``options["plant"]`` of ``reset``).
-    Fixed mode: the seeds' procedure has run (:func:`envs.procedure.identify`: closed-loop step,
+    Fixed mode: the seeds' procedure has run (:func:`envs.identification.procedure.identify`: closed-loop step,
     then open-loop step, or pulse for integrating plants, amplitude 1, noise ``noise_std``).
     Agent mode: nothing has run; the observation is zero.
 
@@ -373,24 +362,25 @@ _SHARED_DOC = """
     | argument          | default                     | meaning                                                  |
     |-------------------|-----------------------------|----------------------------------------------------------|
     | `experiments`     | `"fixed"`                   | `"fixed"` or `"agent"`                                   |
-    | `family`          | see class                   | plant family of :mod:`envs.families`                     |
+    | `family`          | see class                   | plant family of :mod:`envs.systems.families`                     |
     | `family_config`   | `None`                      | the family's config dataclass (its parameter ranges)      |
     | `noise_std`       | `0.01`                      | measurement noise, relative to a unit output change       |
-    | `constraints`     | see class                   | :class:`envs.scoring.Constraints` or a dict of its fields |
-    | `weights`         | `CostWeights()` (1, 1, 0.01) | :class:`envs.scoring.CostWeights` or a dict              |
+    | `constraints`     | see class                   | :class:`envs.analysis.scoring.Constraints` or a dict of its fields |
+    | `weights`         | `CostWeights()` (1, 1, 0.01) | :class:`envs.analysis.scoring.CostWeights` or a dict              |
     | `budget`          | `4`                         | experiments per episode (agent mode)                      |
     | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
-    | `oracle`          | `False`                     | add the oracle's cost to the final `info` (slow: ~1 s)    |
     | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
 
     ## Info
     At reset: ``plant`` (dict), ``features``.  On the final step: ``cost``, ``feasible``, ``score``
-    (every figure of :class:`envs.scoring.Score`), ``plant``, ``model`` (identified), ``controller``,
-    ``parameter`` (relative), ``experiment_time`` (in true ``T_ar``), ``features``, and with
-    ``oracle=True`` ``oracle_cost`` and ``oracle_parameter``.
+    (every figure of :class:`envs.analysis.scoring.Score`), ``plant``, ``model`` (identified), ``controller``,
+    ``parameter`` (relative), ``experiment_time`` (in true ``T_ar``), ``features``.  The wrapper
+    ``agents.evaluation.oracle_info.OracleInfo`` adds ``oracle_cost`` and ``oracle_parameter``.
 
     ## Version History
-    * v0: initial version.
+    * v0: initial version.  (Issue 14 moved the ``oracle=True`` argument out, to the wrapper
+      ``OracleInfo``, so that ``envs`` imports nothing from ``baselines``; dynamics, rewards and
+      observations unchanged.)
 """
 
 

@@ -1,7 +1,7 @@
 """Shared test helpers: an independent fine-step simulator for linear loops with dead times.
 
-The reference shares no code with :mod:`envs.simulation`, :mod:`envs.controllers` or
-:mod:`envs.loops`: the loop equations below are written out by hand from the block diagrams
+The reference shares no code with :mod:`envs.simulation.delay_systems`, :mod:`envs.systems.controllers` or
+:mod:`envs.simulation.loops`: the loop equations below are written out by hand from the block diagrams
 (plants as chains of first-order lags, the controllers as in Ingimundarson Fig. 4 and Fig. 10),
 and are integrated with the classical explicit Runge-Kutta method (RK4) on a fine grid while the
 delayed signals are kept in a history buffer (method of steps).  Every dead time must be a whole

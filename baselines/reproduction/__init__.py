@@ -7,7 +7,7 @@
 * :mod:`~baselines.reproduction.delay_errors`: stability of the compensators under dead-time errors;
 * :mod:`~baselines.reproduction.plots`: the PNG figures.
 
-The registry and the command live in :mod:`baselines.reproduce`.
+The registry and the command live in :mod:`baselines.reproduction.reproduce`.
 """
 
 from baselines.reproduction.common import Reproduction, Row

@@ -12,7 +12,7 @@ Eq. 33 and 49 are printed with ``e^{+i omega_bar}`` in the denominator; normaliz
 Integrators.  ``(T s + 1)^2 - e^{-s}`` vanishes at ``s = 0`` with derivative ``2 T + 1 != 0``, and
 nowhere else in ``Re s >= 0`` (there ``|T s + 1|^2 > 1 >= |e^{-s}|`` unless ``s = 0``), so loop (33) is
 of type 1: its only closed-right-half-plane pole is a simple pole at the origin, which
-:func:`envs.robustness.loop_margins` takes as ``integrators=1``.  Likewise ``T s + 1 - e^{-s}``
+:func:`envs.analysis.robustness.loop_margins` takes as ``integrators=1``.  Likewise ``T s + 1 - e^{-s}``
 has a simple zero at the origin only, so loop (49), with its extra ``s``, has ``integrators=2``.
 
 Delay errors.  A dead-time change multiplies ``L(i omega)`` by ``e^{-i omega delta_L}`` and leaves
@@ -36,10 +36,10 @@ from typing import Callable
 
 import numpy as np
 
-from envs.controllers import FPPI, MSP
-from envs.loops import closed_loop_response
-from envs.plants import Plant
-from envs.robustness import loop_margins
+from envs.systems.controllers import FPPI, MSP
+from envs.simulation.loops import closed_loop_response
+from envs.systems.plants import Plant
+from envs.analysis.robustness import loop_margins
 
 __all__ = [
     "KINDS",
@@ -206,7 +206,7 @@ def simulated_growth(kind: str, tr: float, delta: float, horizon: float = 40.0) 
 
     The controller (FPPI with ``K_n = T_n = L_n = 1``, ``T_f = T_r``; or MSP with ``K_n = L_n = 1``) runs
     a unit set-point step on the plant ``e^{-(1+delta) s}/(s + 1)`` (FPPI; loop eq. 31 does not depend
-    on ``T_n``) or ``e^{-(1+delta) s}/s`` (MSP), simulated exactly (:mod:`envs.loops`) with ``T_r/10``
+    on ``T_n``) or ``e^{-(1+delta) s}/s`` (MSP), simulated exactly (:mod:`envs.simulation.loops`) with ``T_r/10``
     per sample over ``horizon`` dead times.  Below 1: decaying; above 1: growing; ``inf``: diverged.
     """
     if delta <= -1:

@@ -8,7 +8,7 @@
   gives ``K_n`` and ``L_n`` (eq. 10 with the integrated input, section 2.1); a pulse gives ``A``
   (eq. 46); ``T_r`` by eq. 43 with ``beta = A``.  ``T_n`` is that of ``P_i(s) e^{-5s}`` (eq. 11).
 
-All experiments are noise free (:mod:`envs.experiments`, exact simulation).
+All experiments are noise free (:mod:`envs.identification.experiments`, exact simulation).
 """
 
 from __future__ import annotations
@@ -17,13 +17,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from baselines.dtc_rules import fppi_eq28_29, fppi_time_constant, msp_eq43, msp_time_constant
+from baselines.rules.dtc import fppi_eq28_29, fppi_time_constant, msp_eq43, msp_time_constant
 from baselines.reproduction.common import Reproduction, Row, printed, printed_decimals, within_rounding
-from envs.experiments import closed_loop_step, open_loop_pulse, open_loop_ramp, open_loop_step
-from envs.families import benchmark_plants
-from envs.identification import FOPDTModel, mismatch_time
-from envs.plants import Plant
-from envs.simulation import open_loop_response
+from envs.identification.experiments import closed_loop_step, open_loop_pulse, open_loop_ramp, open_loop_step
+from envs.systems.families import benchmark_plants
+from envs.identification.models import FOPDTModel, mismatch_time
+from envs.systems.plants import Plant
+from envs.simulation.delay_systems import open_loop_response
 
 __all__ = ["table1", "table2", "fopdt_procedure", "pulse_area_scan", "PULSE_DURATION"]
 

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401
-from envs.simulation import MAX_RUN_SAMPLES
+from envs.simulation.delay_systems import MAX_RUN_SAMPLES
 
 IDS = ("DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0")
 MODES = ("fixed", "agent")
@@ -94,8 +94,8 @@ def test_random_agents_are_bounded_long():
 
 def test_the_plant_that_hung_ppo_runs_its_relay_within_the_bound():
     """Issue 12.2: ramp, closed-loop step, open-loop step at amplitude 10, relay at 0.1 (agent mode)."""
-    from envs.relay import relay_feedback
-    from envs.plants import Plant
+    from envs.identification.relay import relay_feedback
+    from envs.systems.plants import Plant
 
     plant = Plant.from_dict(HUNG_PPO)
     result = _timed(relay_feedback, plant, np.random.default_rng(0), 0.1 / abs(plant.gain), 0.03, noise_std=0.01)

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from envs.plants import Plant
+from envs.systems.plants import Plant
 from envs.tuning_env import FPPIEnv, MSPEnv, PIDEnv
 
 ENVS = {"pid": PIDEnv(), "fppi": FPPIEnv(), "msp": MSPEnv()}

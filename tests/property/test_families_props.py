@@ -4,7 +4,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from envs.families import (
+from envs.systems.families import (
     FAMILIES,
     FopdtConfig,
     IntegratingConfig,

@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from envs.experiments import closed_loop_step, open_loop_step
-from envs.identification import sopdt_from_moments, theta_from_tau
-from envs.plants import Plant
+from envs.identification.experiments import closed_loop_step, open_loop_step
+from envs.identification.models import sopdt_from_moments, theta_from_tau
+from envs.systems.plants import Plant
 
 taus = st.floats(min_value=0.0, max_value=1.0)
 normalized_dead_times = st.floats(min_value=0.05, max_value=0.95)

@@ -8,7 +8,7 @@
   of the full-information oracle unchanged.
 * Full information vs identification: what is true is *not* "the exact model is never worse".  With
   noise-free experiments the identified models are the exact ones to within 0.5-1.5 % (see
-  tests/unit/test_oracle.py), and the two oracles agree once the experiment cost is excluded (to
+  tests/unit/baselines/test_oracle.py), and the two oracles agree once the experiment cost is excluded (to
   the 2 % below); with noisy experiments either may win, since the exact SOPDT/FOPDT is not the
   best model for a fixed-structure design.  Only the experiment cost is guaranteed to favour full
   information (it is zero).
@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 from baselines.oracle import PARAMETER_RANGES, design, exact_models, full_information_oracle, oracle, relative_scale
-from envs.families import sample_plants
-from envs.plants import Plant
-from envs.procedure import identify
-from envs.scoring import CostWeights, score
+from envs.systems.families import sample_plants
+from envs.systems.plants import Plant
+from envs.identification.procedure import identify
+from envs.analysis.scoring import CostWeights, score
 
 NO_EXPERIMENT = CostWeights(experiment=0.0)
 

@@ -32,7 +32,7 @@ import pytest
 
 import envs  # noqa: F401  (registers the ids)
 from agents.cli import main
-from baselines.rules import RULES
+from baselines.rules.registry import RULES
 
 FILE = Path(__file__).with_name("fingerprint.json")
 IDS = ("DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0")

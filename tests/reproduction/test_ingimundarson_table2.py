@@ -12,7 +12,7 @@ import pytest
 
 from baselines.reproduction.common import within_rounding
 from baselines.reproduction.ingimundarson_tables import PAPER_INPUTS_TR43, PULSE_DURATION, TABLE2, pulse_area_scan, table2
-from envs.families import benchmark_plants
+from envs.systems.families import benchmark_plants
 
 CASES = sorted(TABLE2)
 REPRODUCED = {
@@ -50,7 +50,7 @@ def test_tr_follows_eq_43(reproduction, case):
 
 @pytest.mark.parametrize("case", CASES)
 def test_superposition_scan_agrees_with_the_pulse_experiment(reproduction, case):
-    # Two independent routes to A: the pulse experiment (envs.experiments) and the shifted step
+    # Two independent routes to A: the pulse experiment (envs.identification.experiments) and the shifted step
     # response; they differ by the sampling (T/200 vs 0.01) and the identified L_n (~1e-4).
     plant = benchmark_plants("integrating")[f"ingimundarson-integrating-{case}"]
     areas, _ = pulse_area_scan(plant, (PULSE_DURATION,))

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from agents.cli import main
-from baselines.reproduce import REPRODUCTIONS, reproduce, run_reproductions
+from baselines.reproduction.reproduce import REPRODUCTIONS, reproduce, run_reproductions
 
 
 def test_unknown_name_lists_the_valid_ones():

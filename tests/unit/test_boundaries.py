@@ -1,9 +1,15 @@
-"""One direction of dependency (STYLE.md, Boundaries).
+"""One direction of dependency (STYLE.md, Boundaries; issue 14.3).
+
+``envs`` -> ``baselines`` -> ``agents``: no module under ``envs/`` imports ``baselines`` or
+``agents``, and none under ``baselines/`` imports ``agents`` (every import statement counts, the
+lazy ones inside functions too, and ``importlib.import_module("...")`` with a literal name; read
+from the source with :mod:`ast`, so no import has to run).  torch, stable-baselines3 and Ray are
+imported under ``agents/`` only, and ``baselines`` never imports gymnasium.
 
 The physics core of ``envs`` (plants, simulation, controllers, loops, robustness, performance,
-analysis) is importable without torch or stable-baselines3; inside ``envs`` only
-``envs/__init__.py`` (registration) and one module holding the ``gymnasium.Env`` classes may import
-gymnasium, and no module imports torch or stable-baselines3.  Importing any ``envs`` module runs
+analysis) and the baselines are importable without torch or stable-baselines3 (checked in a fresh
+interpreter); inside ``envs`` only ``envs/__init__.py`` (registration) and one module holding the
+``gymnasium.Env`` classes may import gymnasium.  Importing any ``envs`` module runs
 ``envs/__init__.py`` and so loads gymnasium: that is the registration on ``import envs`` that SPEC
 asks for (and STYLE's "``envs/__init__.py`` holds the ``register(...)`` calls"); the numerical
 modules themselves never import it (checked statically below).
@@ -22,17 +28,20 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 CORE = [
-    "envs.plants",
-    "envs.simulation",
-    "envs.controllers",
-    "envs.loops",
-    "envs.robustness",
-    "envs.performance",
-    "envs.analysis",
-    "envs.loop_transfer",
-    "envs.compiled_robustness",
-    "envs.compiled_iae",
-    "envs.scoring",
+    "envs.systems.plants",
+    "envs.simulation.delay_systems",
+    "envs.systems.controllers",
+    "envs.simulation.loops",
+    "envs.analysis.robustness",
+    "envs.analysis.performance",
+    "envs.analysis.loop_analysis",
+    "envs.analysis.loop_transfer",
+    "envs.analysis.compiled_robustness",
+    "envs.analysis.compiled_iae",
+    "envs.analysis.scoring",
+    "baselines.rules.registry",
+    "baselines.rules.tune",
+    "baselines.oracle",
 ]
 HEAVY = ("torch", "stable_baselines3", "gymnasium")
 
@@ -58,13 +67,18 @@ def test_core_does_not_load_learning_packages(loaded_after_core_import, package)
 
 
 def _imported_packages(path: Path) -> set[str]:
-    """Top-level names of every import in the module, including those inside functions."""
+    """Top-level names of every import in the module, including those inside functions, and of
+    ``importlib.import_module``/``__import__`` calls with a literal name."""
     names = set()
     for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
         if isinstance(node, ast.Import):
             names.update(alias.name.split(".")[0] for alias in node.names)
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             names.add(node.module.split(".")[0])
+        elif isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant):
+            function = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+            if function in ("import_module", "__import__") and isinstance(node.args[0].value, str):
+                names.add(node.args[0].value.split(".")[0])
     return names
 
 
@@ -80,11 +94,28 @@ def _defines_env_class(path: Path) -> bool:
 
 
 ENV_MODULES = sorted((REPO / "envs").rglob("*.py"))
+BASELINE_MODULES = sorted((REPO / "baselines").rglob("*.py"))
+LEARNING = {"torch", "stable_baselines3", "ray"}
+# What each package may not import: the layers below it never import the layers above.
+FORBIDDEN = {"envs": {"baselines", "agents"} | LEARNING, "baselines": {"agents", "gymnasium"} | LEARNING}
 
 
-@pytest.mark.parametrize("path", ENV_MODULES, ids=lambda p: str(p.relative_to(REPO)))
-def test_no_envs_module_imports_learning_packages(path):
-    assert not _imported_packages(path) & {"torch", "stable_baselines3"}
+def _relative(path: Path) -> str:
+    return str(path.relative_to(REPO))
+
+
+@pytest.mark.parametrize("path", ENV_MODULES + BASELINE_MODULES, ids=_relative)
+def test_no_module_imports_a_layer_above_it_or_learning_packages(path):
+    package = path.relative_to(REPO).parts[0]
+    assert sorted(_imported_packages(path) & FORBIDDEN[package]) == []
+
+
+def test_the_scan_finds_a_lazy_import(tmp_path):
+    """The check itself: an import inside a function, and a literal ``import_module``, are found."""
+    module = tmp_path / "module.py"
+    module.write_text("def f():\n    from baselines.oracle import oracle\n\n"
+                      "def g():\n    import importlib\n    importlib.import_module('torch.nn')\n")
+    assert _imported_packages(module) == {"baselines", "importlib", "torch"}
 
 
 def test_only_registration_and_one_env_class_module_import_gymnasium():

@@ -41,7 +41,7 @@ def test_the_model_only_example_runs_as_written():
 
 
 def test_the_tr_floors_are_those_of_the_code():
-    from baselines.tune import TR_FLOORS
+    from baselines.rules.tune import TR_FLOORS
 
     assert f"`{TR_FLOORS['fppi']:g} L_n` (FPPI) or `{TR_FLOORS['msp']:g} L_n` (MSP)" in README.replace("\n", " ")
 

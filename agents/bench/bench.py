@@ -1,0 +1,292 @@
+"""``deadtime bench``: the speed and accuracy of the scoring and the environments, in one run.
+
+Usage::
+
+    deadtime bench [--json] [--quick] [--skip-envs] [--skip-ppo]
+
+Three parts, each on the same machine state:
+
+1. Scoring (:mod:`agents.bench.scoring`): our :func:`envs.analysis.scoring.score` on designed loops of four
+   plant families, one loop at a time and batched, against the same figures computed the
+   python-control way (:mod:`agents.bench.reference`, Padé dead times); the accuracy of both is
+   the largest relative IAE error against an independent fine-step simulation
+   (:mod:`agents.bench.fine_step`).  This part runs pinned to one CPU (``os.sched_setaffinity``).
+2. Environments (:mod:`agents.bench.episodes`): episodes per second of ``DeadTime/PID-v0``, single
+   and vectorized (2 copies), in both modes, with and without the oracle.
+3. Training: the share of ``learn`` spent inside the environment, for PPO (``configs/ppo.yaml``, the
+   issue's yardstick) and for SAC (``configs/sac.yaml``, the agent of the demo).
+
+Every part runs in a child process whose BLAS, OpenMP and numba pools have one thread
+(:data:`agents.runtime.THREAD_VARIABLES`; the variables must be set before numpy is imported): on this 2-core
+machine under load, OpenBLAS's default two threads made ``scipy.linalg.expm`` of the small matrices
+of the discretizations up to ten times slower.  Vectorized workers inherit the setting.
+
+``--json`` prints one object with every figure (see :data:`HEADLINE` for the main ones; those of a
+skipped part are null); progress goes to standard error.  Rates are wall-clock figures of this machine at this moment: the JSON
+records the commit, whether ``envs/`` had uncommitted changes, the CPU count and the load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from typing import Any
+
+from agents.runtime import REPO, THREAD_VARIABLES, git, versions
+
+__all__ = ["HEADLINE", "add_arguments", "run"]
+
+HEADLINE = (
+    "scorings_per_s_single",
+    "scorings_per_s_batched",
+    "speedup_vs_python_control",
+    "accuracy_ours",
+    "accuracy_python_control",
+    "episodes_per_s_fixed",
+    "episodes_per_s_agent",
+    "env_share_of_ppo_time",
+)
+CHILD_VARIABLE = "DEADTIME_BENCH_CHILD"
+ENV_ID = "DeadTime/PID-v0"
+SEED = 0
+N_ENVS = 2
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare the options of ``deadtime bench``."""
+    parser.add_argument("--json", action="store_true", help="print one JSON object with every figure")
+    parser.add_argument("--quick", action="store_true", help="a smoke run (4 loops, one episode per setting: its rates are not measurements)")
+    parser.add_argument("--skip-envs", action="store_true", help="skip the environment episodes")
+    parser.add_argument("--skip-ppo", action="store_true", help="skip the training shares (PPO and SAC)")
+    parser.add_argument("--pade-order", type=int, default=None, help="Padé order of the python-control reference")
+    parser.add_argument("--reference-samples", type=int, default=None,
+                        help="python-control reference steps per plant time scale T_ar")  # fmt: skip
+
+
+def _progress(message: str) -> None:
+    print(f"[bench {time.strftime('%H:%M:%S')}] {message}", file=sys.stderr, flush=True)
+
+
+def machine_info() -> dict[str, Any]:
+    """CPU count, load, versions, commit."""
+    packages = ("numpy", "scipy", "numba", "control", "gymnasium", "stable_baselines3", "torch")
+    package_versions = {k: v for k, v in versions(packages, missing=None).items() if k != "python"}
+    status = git("status", "--porcelain", "--", "envs", "baselines")
+    return {
+        "cpu_count": os.cpu_count(),
+        "load_average": list(os.getloadavg()),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "python": platform.python_version(),
+        "versions": package_versions,
+        "commit": git("rev-parse", "--short", "HEAD"),
+        "envs_uncommitted_changes": bool(status) if status is not None else None,
+        "thread_variables": {name: os.environ.get(name) for name in THREAD_VARIABLES},
+    }
+
+
+def _one_core() -> tuple[set[int] | None, list[int] | None]:
+    """Pin this process to one CPU; returns the previous affinity (to restore) and the new one."""
+    if not hasattr(os, "sched_setaffinity"):
+        return None, None
+    previous = os.sched_getaffinity(0)
+    core = min(previous)
+    os.sched_setaffinity(0, {core})
+    return previous, [core]
+
+
+def _scoring_part(quick: bool, pade_order: int | None, samples: int | None) -> dict[str, Any]:
+    from agents.bench.reference import PADE_ORDER, SAMPLES_PER_TIME_SCALE
+    from agents.bench.scoring import bench_loops, scoring_figures
+
+    previous, core = _one_core()
+    try:
+        _progress("building the benchmark loops (identification and designs)")
+        loops = bench_loops(1 if quick else 5, SEED)
+        figures = scoring_figures(
+            loops,
+            min_time=0.3 if quick else 2.0,
+            pade_order=pade_order or PADE_ORDER,
+            samples_per_time_scale=samples or SAMPLES_PER_TIME_SCALE,
+            progress=_progress,
+        )
+    finally:
+        if previous is not None:
+            os.sched_setaffinity(0, previous)
+    figures["loops"] = len(loops)
+    figures["loop_structures"] = {s: sum(loop.structure == s for loop in loops) for s in ("pid", "fppi", "msp")}
+    figures["scoring_cpu_affinity"] = core
+    return figures
+
+
+def _min_episodes(quick: bool, oracle: bool) -> int:
+    """Episodes per measurement: agent-mode episodes vary a lot in cost, oracle episodes are long."""
+    return 1 if quick else (4 if oracle else 16)
+
+
+def _env_part(quick: bool) -> dict[str, Any]:
+    from agents.bench.episodes import episodes_per_s, vector_episodes_per_s
+
+    min_time = 0.0 if quick else 3.0
+    rates: dict[str, float] = {}
+    for mode in ("fixed", "agent"):
+        for oracle in (False, True):
+            name = f"single/{mode}" + ("/oracle" if oracle else "")
+            _progress(f"episodes: {name}")
+            rates[name] = episodes_per_s(ENV_ID, mode, oracle, min_time, SEED, _min_episodes(quick, oracle))
+    kinds = ("dummy",) if quick else ("sync", "dummy", "subproc")
+    for kind in kinds:
+        for mode in ("fixed",) if quick else ("fixed", "agent"):
+            for oracle in (False,) if quick else (False, True):
+                name = f"{kind}{N_ENVS}/{mode}" + ("/oracle" if oracle else "")
+                _progress(f"episodes: {name}")
+                rates[name] = vector_episodes_per_s(
+                    kind, ENV_ID, mode, oracle, N_ENVS, min_time, SEED, _min_episodes(quick, oracle)
+                )
+    return {
+        "episodes_per_s_fixed": rates["single/fixed"],
+        "episodes_per_s_agent": rates["single/agent"],
+        "episodes_per_s_fixed_oracle": rates["single/fixed/oracle"],
+        "episodes_per_s_agent_oracle": rates["single/agent/oracle"],
+        "episodes_per_s": rates,
+        "env_id": ENV_ID,
+    }
+
+
+def _training_part(quick: bool) -> dict[str, Any]:
+    from agents.bench.episodes import training_env_share
+
+    root = REPO / "configs"
+    n_steps = 16 if quick else 128
+    _progress(f"PPO (configs/ppo.yaml): one rollout of {n_steps} steps and one update")
+    ppo = training_env_share(str(root / "ppo.yaml"), ENV_ID, n_steps, (f"hyperparameters.n_steps={n_steps}",))
+    starts, sac_steps = (16, 16) if quick else (256, 256)
+    _progress(f"SAC (configs/sac.yaml): {sac_steps} steps after {starts} random ones")
+    sac = training_env_share(str(root / "sac.yaml"), ENV_ID, sac_steps, (f"hyperparameters.learning_starts={starts}",),
+                             warmup_steps=starts)  # fmt: skip
+    return {
+        "env_share_of_ppo_time": ppo["share"], "ppo_learn_seconds": ppo["learn_seconds"],
+        "ppo_env_seconds": ppo["env_seconds"], "ppo_timesteps": ppo["timesteps"], "ppo_n_steps": n_steps,
+        "env_share_of_sac_time": sac["share"], "sac_learn_seconds": sac["learn_seconds"],
+        "sac_env_seconds": sac["env_seconds"], "sac_timesteps": sac["timesteps"],
+    }  # fmt: skip
+
+
+def bench(quick: bool = False, envs: bool = True, ppo: bool = True, pade_order: int | None = None,
+          reference_samples: int | None = None) -> dict[str, Any]:  # fmt: skip
+    """Every figure of ``deadtime bench`` as one dict (see the module docstring)."""
+    start = time.perf_counter()
+    figures: dict[str, Any] = {"quick": quick, "machine": machine_info()}
+    figures.update(_scoring_part(quick, pade_order, reference_samples))
+    if envs:
+        figures.update(_env_part(quick))
+    if ppo:
+        figures.update(_training_part(quick))
+    for key in HEADLINE:  # skipped parts: null in the JSON
+        figures.setdefault(key, None)
+    figures["machine"]["load_average_end"] = list(os.getloadavg())
+    figures["bench_seconds"] = time.perf_counter() - start
+    return figures
+
+
+def _format(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    if value is None:
+        return "-"
+    return str(value)
+
+
+ROWS = (
+    ("Scoring (score(): load and set-point IAE, Ms, GM, PM, DM, stability), one core", None),
+    ("scorings_per_s_single", "our scorings/s, one loop at a time"),
+    ("scorings_per_s_batched", "our scorings/s, batched"),
+    ("batched_method", "  batched via"),
+    ("margins_per_s", "  robustness alone, loops/s"),
+    ("iae_per_s_single", "  IAE alone, loops/s"),
+    ("iae_per_s_batched", "  IAE alone batched, loops/s"),
+    ("scorings_per_s_python_control", "python-control scorings/s"),
+    ("iae_per_s_python_control", "  IAE alone (forced_response), loops/s"),
+    ("iae_per_s_scipy_dlsim", "  IAE alone (scipy.signal.dlsim, ZOH), loops/s"),
+    ("speedup_vs_python_control", "speed-up vs python-control"),
+    ("speedup_batched_vs_python_control", "speed-up vs python-control, batched"),
+    ("Accuracy (largest relative IAE error vs the fine-step reference)", None),
+    ("accuracy_ours", "ours"),
+    ("accuracy_python_control", "python-control"),
+    ("accuracy_ours_median", "ours, median"),
+    ("accuracy_python_control_median", "python-control, median"),
+    ("pade_order", "Padé order"),
+    ("python_control_step", "python-control step"),
+    ("our_step", "our step"),
+    ("margin_agreement", "margins ours vs python-control (rel.)"),
+    ("Environments (episodes/s, DeadTime/PID-v0, random actions)", None),
+    ("episodes_per_s_fixed", "single, fixed"),
+    ("episodes_per_s_agent", "single, agent"),
+    ("Training (one environment)", None),
+    ("env_share_of_ppo_time", "environment share of PPO.learn"),
+    ("ppo_learn_seconds", "learn seconds"),
+    ("ppo_timesteps", "timesteps"),
+    ("env_share_of_sac_time", "environment share of SAC.learn (configs/sac.yaml)"),
+    ("sac_learn_seconds", "learn seconds"),
+    ("sac_timesteps", "timesteps"),
+)
+
+
+def format_table(figures: dict[str, Any]) -> str:
+    """The human-readable table."""
+    lines = []
+    for key, label in ROWS:
+        if label is None:
+            lines.append(f"\n{key}")
+        elif key in figures:
+            lines.append(f"  {label:48s} {_format(figures[key])}")
+        if key == "episodes_per_s_agent":
+            for name, rate in figures.get("episodes_per_s", {}).items():
+                if name not in ("single/fixed", "single/agent"):
+                    lines.append(f"  {name:48s} {_format(rate)}")
+    m = figures["machine"]
+    lines.append(
+        f"\nMachine: {m['cpu_count']} CPUs, load {m['load_average'][0]:.2f}, python {m['python']}, commit {m['commit']}"
+        + (" (envs/ has uncommitted changes)" if m["envs_uncommitted_changes"] else "")
+        + f"; BLAS/OpenMP/numba threads {m['thread_variables'].get('OPENBLAS_NUM_THREADS') or 'default'}"
+        + f"; bench took {figures['bench_seconds']:.0f} s"
+    )
+    return "\n".join(lines).lstrip("\n")
+
+
+def _in_child(args: argparse.Namespace) -> dict[str, Any]:
+    """Run the bench in a child process with one thread per pool (see the module docstring)."""
+    argv = [sys.executable, "-m", "agents.cli", "bench", "--json"]
+    for flag, on in (("--quick", args.quick), ("--skip-envs", args.skip_envs), ("--skip-ppo", args.skip_ppo)):
+        argv += [flag] if on else []
+    for flag, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
+        argv += [flag, str(value)] if value is not None else []
+    root = str(REPO)
+    path = os.environ.get("PYTHONPATH")
+    env = {**os.environ, **dict.fromkeys(THREAD_VARIABLES, "1"), CHILD_VARIABLE: "1"}
+    env["PYTHONPATH"] = root if not path else f"{root}{os.pathsep}{path}"
+    done = subprocess.run(argv, env=env, cwd=root, stdout=subprocess.PIPE, text=True, check=False)
+    if done.returncode != 0:
+        raise ValueError(f"the bench's child process failed with status {done.returncode} (see its messages above)")
+    return json.loads(done.stdout)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the bench and print the table or the JSON object."""
+    for name, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
+        if value is not None and value < 1:
+            raise ValueError(f"{name} must be >= 1, got {value}")
+    if os.environ.get(CHILD_VARIABLE) == "1":
+        figures = bench(args.quick, not args.skip_envs, not args.skip_ppo, args.pade_order, args.reference_samples)
+    else:
+        figures = _in_child(args)
+    print(json.dumps(figures) if args.json else format_table(figures))
+    if args.quick:
+        print("bench --quick is a smoke run: it times one episode per setting (the first reset outside the timer), so its "
+              "rates are not measurements; run deadtime bench without --quick for those", file=sys.stderr)
+    return 0

@@ -1,0 +1,33 @@
+"""The one factory of the environments that ``agents`` trains, evaluates and benchmarks.
+
+:func:`make_env` registers the DeadTime ids first (a worker process, spawned, has not imported
+``envs``), makes the environment with its keyword arguments, refuses an unknown id in one line
+naming the known ones, and with ``oracle=True`` adds the oracle's figures to the final ``info``
+(:class:`agents.evaluation.oracle_info.OracleInfo`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+__all__ = ["make_env"]
+
+
+def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle: bool = False) -> Any:
+    """``gymnasium.make(env_id, **env_kwargs)``, the DeadTime ids registered; a ``ValueError`` for an
+    unknown id; wrapped in ``OracleInfo`` if ``oracle``."""
+    import gymnasium
+
+    import envs  # noqa: F401  (registers the DeadTime ids)
+
+    try:
+        env = gymnasium.make(env_id, **dict(env_kwargs or {}))
+    except gymnasium.error.Error as error:
+        known = sorted(k for k in gymnasium.registry if k.startswith("DeadTime/"))
+        raise ValueError(f"unknown environment {env_id!r} ({error}); known: {', '.join(known) or 'none'}") from None
+    if oracle:
+        from agents.evaluation.oracle_info import OracleInfo
+
+        env = OracleInfo(env)
+    return env

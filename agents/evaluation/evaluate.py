@@ -1,0 +1,422 @@
+"""``deadtime evaluate``: policies against every rule and the per-plant oracle on held-out plants.
+
+::
+
+    deadtime evaluate --env DeadTime/PID-v0 --policies all-rules,oracle,agent=runs/x/model.zip \\
+        --n 50 --seed 0 --out results/pid
+
+Plants: the fixed held-out test set ``envs.systems.plant_sets.plant_set(family, "test", n)`` (or the user's
+own, ``--plants FILE``: a JSON list of plants, labelled ``user-0``, ``user-1``, ...) and, unless
+``--no-benchmark``, the seeds' benchmark batch of the environment's structure
+(``envs.systems.plant_sets.benchmark_set``).  Each plant is played in one episode, reset with seed
+``--seed + i`` for test plant ``i`` and ``--seed + 1000000 + j`` for benchmark plant ``j`` (so that
+no seed depends on ``--n``): the noise of its identification is the same for every policy.
+How each policy is scored, and what a rule's failure costs: :mod:`agents.evaluation.run`; the
+policies: :mod:`agents.evaluation.policies`; the statistics (regret, gap closure, paired
+bootstrap seeded with ``--seed``): :mod:`agents.evaluation.stats`.
+
+The gap closure's best rule is the rule of lowest mean cost over all plants among the rules of the
+environment's own structure (the ``mu`` rules in ``PID-v0``, the FPPI ``T_r`` rules in ``FPPI-v0``,
+the MSP ``T_r`` rules in ``MSP-v0``): the oracle is the per-plant optimum of that structure's one
+parameter, so only those rules are bounded by it.  They and the oracle are always computed (regret
+and gap closure need them); the table shows the listed policies plus the oracle and the best rule.
+
+Writes into ``--out``: ``results.md``, ``results.csv``, ``results.json`` (also printed by
+``--json``), ``per_plant.csv``, ``costs.png`` and, for a few representative plants (the best
+rule's median- and largest-regret plants, and each agent's median-regret plant),
+``responses_<plant>.png`` and ``nyquist_<plant>.png``.  Per-plant results are appended to
+``cache.jsonl``, so an interrupted run resumes where it stopped; the key holds a hash of the source
+of ``envs`` and ``baselines``, so results of other code are recomputed, not reused.
+``--workers N`` scores the rules and oracles in ``N`` processes (the oracle dominates: 0.5-3 s per
+plant, up to 20 s on an odd benchmark plant); results do not depend on it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from agents.environments import make_env
+
+__all__ = ["add_arguments", "evaluate", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare the options of ``deadtime evaluate``."""
+    parser.add_argument("--env", required=True, help="environment id, e.g. DeadTime/PID-v0")
+    parser.add_argument(
+        "--policies", required=True,
+        help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH",
+    )  # fmt: skip
+    parser.add_argument("--n", type=int, default=50, help="number of random held-out test plants (default 50)")
+    parser.add_argument("--plants", help="a JSON list of plants (each {\"num\": [...], \"den\": [...], \"delay\": L}) or a "
+                        "file of one: the user's own test set, instead of --n random plants")
+    parser.add_argument("--seed", type=int, default=0, help="episode seeds are seed + plant index; also seeds the bootstrap")
+    parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument("--json", action="store_true", help="print results.json to stdout")
+    parser.add_argument("--family", help="plant family of the test set (default: the environment's)")
+    parser.add_argument("--no-benchmark", action="store_true", help="leave out the seeds' benchmark batch")
+    parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (default 2000)")
+    parser.add_argument("--no-plots", action="store_true", help="write the tables only")
+    parser.add_argument("--workers", type=int, default=1, help="processes for the rules and oracles (default 1)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``deadtime evaluate``; bad input is a ValueError (one line, exit status 2)."""
+    from agents.cli import load_json_argument
+
+    plants = None if args.plants is None else load_json_argument(args.plants, "--plants")
+    result = evaluate(
+        env_id=args.env, policies=args.policies, n=args.n, seed=args.seed, out=Path(args.out), family=args.family,
+        benchmark=not args.no_benchmark, resamples=args.resamples, plots=not args.no_plots, workers=args.workers,
+        plants=plants,
+    )  # fmt: skip
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return 0
+    from agents.evaluation.report import summary_table
+
+    print(summary_table(result))
+    plots = "" if args.no_plots else ", plots"
+    print(f"wrote {Path(args.out) / 'results.md'} (and .csv, .json, per_plant.csv{plots})", file=sys.stderr)
+    return 0
+
+
+# --------------------------------------------------------------------------- setup
+def _as_list(plants: Any, prefix: str) -> list[tuple[str, Any]]:
+    if isinstance(plants, dict):
+        return list(plants.items())
+    return [(f"{prefix}-{i}", plant) for i, plant in enumerate(plants)]
+
+
+def _plants(family: str, structure: str, n: int, benchmark: bool, given: list | None = None) -> list[tuple[str, str, Any]]:
+    """``(subset, label, plant)`` of the test set (the plants ``given``, labelled ``user-<i>``, else
+    ``n`` of the family's), then the benchmark batch."""
+    from envs.systems.plant_sets import benchmark_set, plant_set
+
+    if given is None:
+        plants = [("test", label, plant) for label, plant in _as_list(plant_set(family, "test", n), f"test-{family}")]
+    else:
+        plants = [("test", f"user-{i}", plant) for i, plant in enumerate(given)]
+    if benchmark:
+        plants += [("benchmark", label, plant) for label, plant in _as_list(benchmark_set(structure), "benchmark")]
+    return plants
+
+
+def _given_plants(given: Any, structure: str) -> list[Any]:
+    """The user's plants (:func:`envs.systems.plants.as_plant` of each), all of the environment's kind."""
+    from envs.systems.plants import as_plant
+
+    if not isinstance(given, list) or not given:
+        raise ValueError(f"--plants must be a non-empty JSON list of plants, got {type(given).__name__}")
+    plants = [as_plant(value, f"--plants[{i}]") for i, value in enumerate(given)]
+    for i, plant in enumerate(plants):
+        if plant.integrating != (structure == "msp"):
+            kind = "integrating" if structure == "msp" else "self-regulating"
+            raise ValueError(f"--plants[{i}] must be a {kind} plant for this environment")
+    return plants
+
+
+def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) -> dict[str, tuple[Any, Any, str]]:
+    """Each agent with the environment it plays and its cache identity.
+
+    The agent's environment takes the agent's own keyword arguments (``experiments``, budget: its
+    interface) but the evaluation's scoring (``scoring``: constraints, weights, noise), so that every
+    policy is scored the same way.
+    """
+    import os
+
+    from agents.evaluation.policies import load_agent
+
+    agents: dict[str, tuple[Any, Any, str]] = {}
+    for spec in specs:
+        name, policy = load_agent(spec)
+        if name in taken or name in agents:
+            raise ValueError(f"policy name {name!r} of agent {spec.path!r} is taken; name it with NAME=PATH")
+        trained_on = getattr(policy, "env_id", None)
+        if trained_on is not None and trained_on != env_id:
+            raise ValueError(f"agent {spec.path!r} was trained on {trained_on}, not {env_id}")
+        kwargs = {**dict(getattr(policy, "env_kwargs", None) or {}), **scoring}
+        path = str(getattr(policy, "path", spec.path))
+        stamp = os.path.getmtime(path) if os.path.exists(path) else 0.0
+        identity = f"agent|{os.path.abspath(path)}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
+        agents[name] = (policy, make_env(env_id, kwargs), identity)
+    return agents
+
+
+BENCHMARK_SEED_OFFSET = 1_000_000
+"""Episode seed of benchmark plant ``j``: ``--seed + BENCHMARK_SEED_OFFSET + j``, whatever ``--n``."""
+
+
+def _episode_seeds(plants: list[tuple[str, str, Any]], seed: int) -> list[int]:
+    """``seed + i`` for test plant ``i``; ``seed + BENCHMARK_SEED_OFFSET + j`` for benchmark plant ``j``.
+
+    Neither depends on ``--n`` (the ``i``-th test plant does not either), so runs with different
+    ``n`` agree on their common plants and share the cache.
+    """
+    out, benchmark = [], 0
+    for i, (subset, _, _) in enumerate(plants):
+        if subset == "test":
+            out.append(seed + i)
+        else:
+            out.append(seed + BENCHMARK_SEED_OFFSET + benchmark)
+            benchmark += 1
+    return out
+
+
+# --------------------------------------------------------------------------- the run
+def evaluate(
+    env_id: str,
+    policies: str,
+    n: int,
+    seed: int,
+    out: Path,
+    *,
+    family: str | None = None,
+    benchmark: bool = True,
+    resamples: int = 2000,
+    plots: bool = True,
+    workers: int = 1,
+    plants: list | None = None,
+) -> dict[str, Any]:
+    """Evaluate ``policies`` on ``env_id``'s held-out plants and write the outputs into ``out``.
+
+    Returns the ``results.json`` object.  See the module docstring.  ``plants``, a list of plants
+    in any form :func:`envs.systems.plants.as_plant` takes, replaces the ``n`` random test plants.
+
+    Raises
+    ------
+    ValueError
+        For an unknown environment, policy or rule, ``n <= 0``, ``resamples <= 0`` or an agent
+        that cannot be loaded.
+    """
+    import numpy as np
+
+    from agents.evaluation.policies import own_rules, parse_policies
+
+    if isinstance(n, bool) or int(n) != n or n <= 0:
+        raise ValueError(f"--n must be a positive integer, got {n!r}")
+    if resamples <= 0:
+        raise ValueError(f"--resamples must be positive, got {resamples!r}")
+    if workers <= 0:
+        raise ValueError(f"--workers must be positive, got {workers!r}")
+    started = time.perf_counter()
+    env_kwargs: dict[str, Any] = {} if family is None else {"family": family}
+    env = make_env(env_id, {"experiments": "fixed", **env_kwargs})
+    unwrapped = env.unwrapped
+    structure = unwrapped.structure
+    family = family or getattr(unwrapped, "family", None) or ("integrating" if structure == "msp" else "stable")
+    specs = parse_policies(policies, structure)
+    listed_rules = [s.name for s in specs if s.kind == "rule"]
+    own = own_rules(structure)
+    rules = listed_rules + [name for name in own if name not in listed_rules]
+    scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **env_kwargs}
+    if hasattr(unwrapped, "noise_std"):
+        scoring["noise_std"] = unwrapped.noise_std
+    agents = _agents([s for s in specs if s.kind == "agent"], env_id, scoring, {*rules, "oracle", "oracle-full"})
+    given = None if plants is None else _given_plants(plants, structure)
+    count = f"{n} test plants" if given is None else f"{len(given)} given plants"
+    print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
+    plants = _plants(family, structure, n, benchmark, given)
+
+    out.mkdir(parents=True, exist_ok=True)
+    full = any(s.kind == "oracle-full" for s in specs)
+    results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, plants, seed, rules, agents, out, full, workers)
+    means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
+    best_rule = min(own, key=lambda name: (means[name], name))
+    shown = [s.name for s in specs if s.kind != "agent"] + list(agents)
+    shown += [name for name in ("oracle", best_rule) if name not in shown]
+    roles = _roles(shown, list(agents), best_rule, listed_rules)
+    subsets = _subset_statistics(plants, results, shown, best_rule, resamples, seed)
+    elapsed = time.perf_counter() - started
+    extra = {
+        "family": family,
+        "structure": structure,
+        "plants": len(plants),
+        "benchmark_plants": sum(1 for p in plants if p[0] == "benchmark"),
+        "best_rule": best_rule,
+        "own_structure_rules": own,
+        "oracle_rescore_max_difference": mismatch,
+        "resamples": resamples,
+        "wall_time_s": round(elapsed, 2),
+    }
+    from agents.evaluation.report import write_tables
+
+    notes = _notes(best_rule, own) + _failure_notes(results, plants)
+    result = write_tables(out, env_id, int(n), seed, subsets, roles, extra, per_plant, notes)
+    if plots:
+        _plots(out, env_id, plants, results, shown, roles, best_rule, list(agents), unwrapped.constraints)
+    return result
+
+
+def _score_plants(
+    env: Any,
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    plants: list,
+    seed: int,
+    rules: list[str],
+    agents: dict,
+    out: Path,
+    full: bool,
+    workers: int,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], float]:
+    """Every policy on every plant (with a progress bar): results, ``per_plant.csv`` rows, and the
+    largest difference between the oracle's own cost and the environment's for its optimum.
+
+    With ``workers > 1`` the rules and oracles run in that many processes first (into the cache);
+    the agents then run in this process.
+    """
+    from tqdm import tqdm
+
+    from agents.evaluation.run import Cache, evaluate_plant, fill_cache_in_parallel, plant_key
+
+    cache = Cache(out / "cache.jsonl")
+    seeds = _episode_seeds(plants, seed)
+    family = env.unwrapped.family
+    keys = [
+        plant_key(env_id, family, seeds[i], i if subset == "test" else label, plant.to_dict())
+        for i, (subset, label, plant) in enumerate(plants)
+    ]
+    mismatch = 0.0
+    if workers > 1:
+        with tqdm(total=len(plants), desc=f"evaluate {env_id} ({workers} workers)", unit="plant", file=sys.stderr) as bar:
+            episodes = [(plant, seeds[i], keys[i]) for i, (_, _, plant) in enumerate(plants)]
+            mismatch = fill_cache_in_parallel(
+                env_id, {"experiments": "fixed", **env_kwargs}, episodes, rules, cache, workers,
+                full_oracle=full, progress=bar.update,
+            )  # fmt: skip
+    results: list[dict[str, Any]] = []
+    rows: list[dict[str, Any]] = []
+    for index, (subset, label, plant) in enumerate(tqdm(plants, desc=f"evaluate {env_id}", unit="plant", file=sys.stderr)):
+        key = keys[index]
+        found, off = evaluate_plant(env, plant, seeds[index], rules, agents, cache, key, full_oracle=full)
+        mismatch = max(mismatch, off)
+        results.append(found)
+        common = {"index": index, "subset": subset, "plant": label, "seed": seeds[index]}
+        rows += [
+            {**common, "policy": name, **r.to_dict(), "controller": json.dumps(r.controller), "error": r.error or ""}
+            for name, r in found.items()
+        ]
+    return results, rows, mismatch
+
+
+def _roles(shown: list[str], agents: list[str], best_rule: str, listed_rules: list[str]) -> dict[str, str]:
+    """The role of each row of the tables (see :mod:`agents.evaluation.report`)."""
+    roles = {name: "rule" for name in shown}
+    roles.update({name: "agent" for name in agents})
+    roles.update({name: name for name in ("oracle", "oracle-full") if name in shown})
+    roles[best_rule] = "best rule" if best_rule in listed_rules else "best rule (reference)"
+    return roles
+
+
+def _subset_statistics(
+    plants: list, results: list[dict[str, Any]], shown: list[str], best_rule: str, resamples: int, seed: int
+) -> dict[str, list]:
+    """:func:`agents.evaluation.stats.summarize` over all plants, the test set and the benchmark batch."""
+    import numpy as np
+
+    from agents.evaluation.stats import summarize
+
+    def column(name: str, field: str, rows: np.ndarray) -> np.ndarray:
+        return np.array([getattr(found[name], field) for found in results], dtype=float)[rows]
+
+    subsets: dict[str, list] = {}
+    for subset in ("all", "test", "benchmark"):
+        rows = np.array([subset == "all" or p[0] == subset for p in plants])
+        if not rows.any():
+            continue
+        subsets[subset] = summarize(
+            {name: column(name, "cost", rows) for name in shown},
+            {name: 1.0 - column(name, "feasible", rows) for name in shown},
+            {name: column(name, "failure", rows) for name in shown},
+            {name: column(name, "experiment_time", rows) for name in shown},
+            column("oracle", "cost", rows),
+            column(best_rule, "cost", rows),
+            resamples=resamples,
+            seed=seed,
+        )
+    return subsets
+
+
+def _notes(best_rule: str, own: list[str]) -> list[str]:
+    from agents.evaluation.run import FAILURE_COST
+
+    best = (
+        f"Best rule: {best_rule}, the lowest mean cost among the rules of the environment's own structure "
+        f"({', '.join(own)}); the oracle is the per-plant optimum of that structure's parameter, so only these "
+        "rules are bounded by it. Gap closure = (mean cost of the best rule - mean cost)/(mean cost of the best rule "
+        "- mean cost of the oracle)."
+    )
+    regret = (
+        "Regret = mean over plants of (cost - oracle cost), the oracle searched on the same identified data and "
+        "re-scored by the environment (experiment cost included)."
+    )
+    failure = (
+        "A rule that raises on a plant (it needs a quantity that was not identified, e.g. msp-tr-tn a positive T_n, "
+        "or its formula gives an invalid controller) is a failure: it counts as a violation with the cost of an "
+        f"unstable loop ({FAILURE_COST:g}); `failures` is their share."
+    )
+    intervals = (
+        "Intervals: 95 % percentile bootstrap over plants, paired (every policy on the same resampled plants), the "
+        "best rule fixed (chosen on all plants, also in the subsets' tables). Experiment time in units of the true "
+        "plant's T_ar."
+    )
+    return [best, regret, failure, intervals]
+
+
+def _failure_notes(results: list, plants: list) -> list[str]:
+    """One line per policy that failed somewhere: how often, and the first plant and message."""
+    failed: dict[str, list[tuple[str, str]]] = {}
+    for (_, label, _), found in zip(plants, results):
+        for name, result in found.items():
+            if result.failure:
+                failed.setdefault(name, []).append((label, result.error or ""))
+    return [
+        f"Failures of {name}: {len(cases)} of {len(plants)} plants; first on {cases[0][0]}: {cases[0][1]}"
+        for name, cases in sorted(failed.items())
+    ]
+
+
+def _curve_label(name: str, result: Any) -> str:
+    """``name: cost C, parameter P`` for a responses legend."""
+    parameter = "" if result.parameter is None else f", parameter {result.parameter:.3g}"
+    return f"{name}: cost {result.cost:.3g}{parameter}"
+
+
+def _plots(out: Path, env_id: str, plants: list, results: list, shown: list[str], roles: dict[str, str],
+           best_rule: str, agents: list[str], constraints: Any) -> None:  # fmt: skip
+    import numpy as np
+
+    from agents.evaluation.plots import cost_distribution_plot, nyquist_plot, responses_plot
+    from envs.systems.controllers import controller_from_dict
+    from envs.analysis.scoring import FEASIBLE_CAP
+
+    for stale in [*out.glob("responses_*.png"), *out.glob("nyquist_*.png")]:
+        stale.unlink()  # from an earlier run with other representative plants
+    costs = {name: np.array([found[name].cost for found in results]) for name in shown}
+    cost_distribution_plot(costs, roles, out / "costs.png", f"{env_id}: cost per plant ({len(plants)} plants)", FEASIBLE_CAP)
+    oracle = costs["oracle"]
+    chosen: list[int] = []
+    for name in [best_rule, *agents]:
+        regret = costs[name] - oracle
+        order = np.argsort(regret, kind="stable")
+        picks = [int(order[len(order) // 2])] + ([int(order[-1])] if name == best_rule else [])
+        chosen += [i for i in picks if i not in chosen]
+    drawn = ["oracle", best_rule, *agents] + (["oracle-full"] if "oracle-full" in shown else [])
+    for i in chosen[:4]:
+        _, label, plant = plants[i]
+        controllers = {
+            name: controller_from_dict(results[i][name].controller)
+            for name in drawn
+            if results[i][name].controller is not None
+        }
+        title = f"{env_id}, plant {label}"
+        slug = "".join(c if c.isalnum() or c in "-_" else "_" for c in label)
+        labels = {name: _curve_label(name, results[i][name]) for name in controllers}
+        responses_plot(plant, controllers, out / f"responses_{slug}.png", title, labels)
+        nyquist_plot(plant, controllers, constraints.max_sensitivity, out / f"nyquist_{slug}.png", title)

@@ -1,0 +1,47 @@
+"""The oracle's figures in the final ``info`` of a DeadTime environment.
+
+The environments (``envs``) know nothing of the baselines; this wrapper, in the layer that owns
+both, runs :func:`baselines.oracle.oracle` on the episode's true plant and identification when the
+design is committed, with the environment's own constraints and weights, and adds its cost and
+relative parameter (``mu``, ``T_r/T_n`` or ``T_r/L_n``) to that step's ``info``.  It is slow (about
+a second per episode: a log grid, then bounded Brent).
+
+Examples
+--------
+>>> import gymnasium as gym
+>>> import numpy as np
+>>> import envs  # registers the ids
+>>> from agents.evaluation.oracle_info import OracleInfo
+>>> env = OracleInfo(gym.make("DeadTime/PID-v0"))
+>>> _ = env.reset(seed=1)
+>>> info = env.step(np.array([0.0], dtype=np.float32))[4]
+>>> info["oracle_cost"] <= info["cost"] + 1e-9
+True
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+
+__all__ = ["OracleInfo", "oracle_info"]
+
+
+def oracle_info(env: Any) -> dict[str, float]:
+    """``oracle_cost`` and ``oracle_parameter`` of the episode of a DeadTime environment ``env``
+    (its unwrapped instance, after the design is committed)."""
+    from baselines.oracle import oracle
+
+    best = oracle(env.plant, env.identification, env.structure, constraints=env.constraints, weights=env.weights)
+    return {"oracle_cost": float(best.cost), "oracle_parameter": float(best.relative_parameter)}
+
+
+class OracleInfo(gymnasium.Wrapper):
+    """Adds ``oracle_cost`` and ``oracle_parameter`` to the ``info`` of the step that ends an episode."""
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        observation, reward, terminated, truncated, info = self.env.step(action)
+        if terminated:
+            info = {**info, **oracle_info(self.env.unwrapped)}
+        return observation, reward, terminated, truncated, info

@@ -1,0 +1,119 @@
+"""The policies of ``deadtime evaluate``: parsing ``--policies`` and the rules of a structure.
+
+A policy is one of
+
+* a rule name of :data:`baselines.rules.registry.RULES`;
+* ``all-rules``: the rules of the environment's own structure and every PI/PID rule of the
+  literature (the Gorez-Klan ``mu`` rules included), among those that apply to the environment's
+  plants (self-regulating in ``PID-v0`` and ``FPPI-v0``, integrating in ``MSP-v0``; rules marked
+  ``both`` count for either).  The ``T_r`` rules of the other dead-time compensator are left out
+  (the FPPI rules in ``PID-v0``): they tune a different controller class, and they can still be
+  named one by one.  (On the PID-v0 test set ``fppi-eq34`` beats even the PID oracle, the limit of
+  the PID structure itself: 1.99 against 2.25 at n = 30.)
+* ``oracle``: :func:`baselines.oracle.oracle` on the identified data of the episode;
+* ``oracle-full``: :func:`baselines.oracle.full_information_oracle` (exact model, no experiment);
+* a path to a saved agent, loaded by ``agents.training.policies.load_policy``, or ``NAME=PATH`` to name it
+  in the tables (default: the loaded policy's ``name``).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["STRUCTURE_CONTROLLER", "PolicySpec", "applicable_rules", "load_agent", "own_rules", "parse_policies"]
+
+STRUCTURE_CONTROLLER = {"pid": "pid-series", "fppi": "fppi", "msp": "msp"}
+"""The controller type of each environment structure's design (the rules of its own structure)."""
+
+_PLANT_KINDS = {"pid": ("stable", "both"), "fppi": ("stable", "both"), "msp": ("integrating", "both")}
+
+
+@dataclass(frozen=True)
+class PolicySpec:
+    """One policy to evaluate: ``kind`` is ``"rule"``, ``"oracle"``, ``"oracle-full"`` or ``"agent"``."""
+
+    name: str
+    kind: str
+    path: str | None = None
+
+
+def applicable_rules(structure: str) -> list[str]:
+    """Names of the rules for the plants of an environment of ``structure`` (``all-rules``)."""
+    from baselines.rules.registry import RULES
+
+    kinds, own = _PLANT_KINDS[structure], STRUCTURE_CONTROLLER[structure]
+    classes = {"pid", "pid-series", own}
+    return [name for name, rule in RULES.items() if rule.plants in kinds and rule.controller in classes]
+
+
+def own_rules(structure: str) -> list[str]:
+    """Names of the rules that set the environment's own design parameter (``mu`` or ``T_r``).
+
+    These, and only these, compete for "best rule" in the gap closure: the oracle is the
+    per-plant optimum of that structure's one parameter, so a rule of another structure (a full
+    PID, or the FPPI in ``PID-v0``) is not bounded by it and the gap would not be a share of
+    anything.
+    """
+    from baselines.rules.registry import RULES
+
+    controller = STRUCTURE_CONTROLLER[structure]
+    return [name for name, rule in RULES.items() if rule.controller == controller and rule.parameter is not None]
+
+
+def parse_policies(text: str, structure: str) -> list[PolicySpec]:
+    """The policies of a comma-separated ``--policies`` value, in order, without duplicates.
+
+    Raises
+    ------
+    ValueError
+        For an empty list or an unknown rule (the message names it).  Agent paths are checked
+        when loaded (:func:`load_agent`).
+    """
+    from baselines.rules.registry import RULES, get_rule
+
+    items = [item.strip() for item in text.split(",")]
+    if not text.strip() or any(not item for item in items):
+        raise ValueError(f"--policies must be a comma-separated list of policies, got {text!r}")
+    specs: list[PolicySpec] = []
+    for item in items:
+        if item == "all-rules":
+            specs += [PolicySpec(name, "rule") for name in applicable_rules(structure)]
+        elif item in ("oracle", "oracle-full"):
+            specs.append(PolicySpec(item, item))
+        elif item in RULES:
+            specs.append(PolicySpec(item, "rule"))
+        elif "=" in item or os.sep in item or item.endswith(".zip") or os.path.exists(item):
+            name, _, path = item.rpartition("=")
+            if not path:
+                raise ValueError(f"policy {item!r} names no agent path after '='")
+            specs.append(PolicySpec(name, "agent", path))  # name "" -> the policy's own name
+        else:
+            get_rule(item)  # raises: unknown rule, naming it
+    unique: dict[tuple[str, str | None], PolicySpec] = {}
+    for spec in specs:
+        unique.setdefault((spec.name, spec.path), spec)
+    return list(unique.values())
+
+
+def load_agent(spec: PolicySpec) -> tuple[str, Any]:
+    """``(name, policy)`` of an agent spec, through ``agents.training.policies.load_policy``.
+
+    Raises
+    ------
+    ValueError
+        If the agent cannot be loaded (the message names the path).
+    """
+    try:
+        from agents.training.policies import load_policy, resolve_model_path
+    except ImportError as error:
+        raise ValueError(f"cannot load agent {spec.path!r}: agents.training.policies is not available ({error})") from None
+    try:
+        resolve_model_path(spec.path)  # a missing or unreadable file is named before torch is imported
+        policy = load_policy(spec.path)
+    except ValueError:
+        raise
+    except (OSError, KeyError, RuntimeError, EOFError) as error:
+        raise ValueError(f"cannot load agent {spec.path!r}: {error}") from None
+    return spec.name or str(getattr(policy, "name", "agent")), policy

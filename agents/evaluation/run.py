@@ -1,0 +1,386 @@
+"""Scoring every policy on one plant, the way ``deadtime evaluate`` does, with a resumable cache.
+
+One plant, one episode: the environment (``experiments="fixed"``) is reset once with the plant and
+the seed ``seed + index``, which runs the seeds' identification procedure with its noise; then
+
+* a rule designs from :meth:`baselines.rules.registry.RuleInputs.from_identification` of that identification
+  and is scored by the environment's own ``score_controller`` (its constraints, weights and
+  experiment time), so every policy is scored by the same code;
+* the oracle (:func:`baselines.oracle.oracle`) searches on the same identification with the
+  environment's constraints and weights; its optimum is re-scored with ``score_controller`` so that
+  its cost follows the environment's cost convention exactly (experiment cost included) -- the
+  experiment cost is the same constant for every parameter, so the optimum does not move;
+* the full-information oracle designs from the exact model and is charged no experiment;
+* an agent plays its own environment (made with the agent's ``env_kwargs`` if it has them) reset
+  with the same plant and seed, one step in fixed mode, until termination in agent mode; its cost
+  is the final step's ``info["cost"]``.
+
+A rule that raises ``ValueError`` on a plant (a rule may need a quantity the procedure did not
+identify, e.g. ``msp-tr-tn`` a positive ``T_n``; a formula may give an invalid controller) is a *failure*: it
+counts as a constraint violation with the cost of an unstable loop,
+``FEASIBLE_CAP + 1 + UNSTABLE_GRADE`` (:mod:`envs.analysis.scoring`), and is counted separately.  The same
+holds for the oracles.
+
+Experiment time is in units of the true plant's ``T_ar``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "evaluate_plant", "plant_key"]
+
+
+FAILURE_COST = 26.0
+"""The cost charged for a failure: that of an unstable loop (``FEASIBLE_CAP + 1 + UNSTABLE_GRADE``)."""
+
+
+@dataclass(frozen=True)
+class PolicyResult:
+    """The outcome of one policy on one plant.
+
+    ``controller`` is the controller's JSON (``None`` on failure); ``parameter`` the dimensionless
+    design parameter where the policy has one (``mu``, ``T_r/T_n`` or ``T_r/L_n``, as the agent's
+    and the oracle's), else ``None``; ``error`` the failure's message.
+    """
+
+    cost: float
+    feasible: bool
+    failure: bool
+    experiment_time: float
+    controller: dict[str, Any] | None = None
+    parameter: float | None = None
+    error: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PolicyResult:
+        return cls(**data)
+
+    @classmethod
+    def failed(cls, error: Exception, experiment_time: float) -> PolicyResult:
+        return cls(FAILURE_COST, False, True, experiment_time, error=str(error))
+
+
+CACHE_VERSION = 2
+"""Bumped whenever a cached result would change meaning (2: dimensionless rule parameters)."""
+
+
+_FINGERPRINT: list[str] = []
+
+
+def code_fingerprint() -> str:
+    """A hash of the source of ``envs`` and ``baselines``: cached results of other code are not reused."""
+    if not _FINGERPRINT:
+        import baselines
+        import envs
+
+        digest = hashlib.sha1()
+        for package in (envs, baselines):
+            root = Path(package.__file__).parent
+            for path in sorted(root.rglob("*.py")):
+                digest.update(str(path.relative_to(root)).encode())
+                digest.update(path.read_bytes())
+        _FINGERPRINT.append(digest.hexdigest())
+    return _FINGERPRINT[0]
+
+
+def plant_key(env_id: str, family: str, seed: int, position: int | str, plant_dict: dict[str, Any]) -> str:
+    """The cache key of one episode: cache version, :func:`code_fingerprint`, environment, plant set,
+    episode seed, position in the set (index or name) and the plant itself."""
+    text = json.dumps([CACHE_VERSION, code_fingerprint(), env_id, family, seed, position, plant_dict], sort_keys=True)
+    return hashlib.sha1(text.encode()).hexdigest()
+
+
+class Cache:
+    """Per-plant, per-policy results appended to a JSON-lines file, read back on a rerun.
+
+    Several evaluations may share one file (two runs on one ``--out``): each append holds an
+    exclusive ``fcntl.flock`` on the file, reads first what the others appended since this cache
+    last read it, and skips a result that is already there, so every ``(key, policy)`` is written
+    once; a lookup that misses reads the others' new lines too, so a result computed by one run is
+    not recomputed by the other once it is on file.  A line cut short by an interruption is
+    skipped (and closed by the next append's newline).
+    """
+
+    def __init__(self, path: Path | None) -> None:
+        self.path = path
+        self.entries: dict[tuple[str, str], PolicyResult] = {}
+        self._on_file: set[tuple[str, str]] = set()
+        self._offset = 0  # bytes of the file read so far (whole lines only)
+        self._refresh()
+
+    def _refresh(self, file: Any = None) -> None:
+        """Read the whole lines appended to the file since the last read."""
+        if self.path is None:
+            return
+        if file is None:
+            if not self.path.is_file():
+                return
+            with self.path.open("rb") as handle:
+                handle.seek(self._offset)
+                data = handle.read()
+        else:
+            file.seek(self._offset)
+            data = file.read()
+        complete = data[: data.rfind(b"\n") + 1]
+        self._offset += len(complete)
+        for line in complete.decode("utf-8", errors="replace").splitlines():
+            try:
+                entry = json.loads(line)
+                found = (entry["key"], entry["policy"])
+                self.entries[found] = PolicyResult.from_dict(entry["result"])
+                self._on_file.add(found)
+            except (json.JSONDecodeError, KeyError, TypeError):
+                continue  # a line cut short by an interruption
+
+    def get(self, key: str, policy: str) -> PolicyResult | None:
+        found = self.entries.get((key, policy))
+        if found is None and self.path is not None:
+            self._refresh()
+            found = self.entries.get((key, policy))
+        return found
+
+    def put(self, key: str, policy: str, result: PolicyResult) -> None:
+        self.entries[(key, policy)] = result
+        if self.path is None:
+            return
+        line = json.dumps({"key": key, "policy": policy, "result": result.to_dict()}) + "\n"
+        with self.path.open("a+b") as file:
+            _lock(file)
+            self._refresh(file)
+            if (key, policy) in self._on_file:
+                return  # another run wrote it first
+            file.seek(0, 2)
+            end = file.tell()
+            if end > 0:
+                file.seek(end - 1)
+                if file.read(1) != b"\n":
+                    file.write(b"\n")  # close a line cut short by an interruption
+            file.write(line.encode())
+            file.flush()
+            self._offset = file.tell()
+            self._on_file.add((key, policy))
+            self.entries[(key, policy)] = result
+
+
+def _lock(file: Any) -> None:
+    """An exclusive lock on ``file`` until it is closed (``fcntl.flock``; none where there is no fcntl)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        return
+    fcntl.flock(file.fileno(), fcntl.LOCK_EX)
+
+
+def _finite(x: Any) -> float | None:
+    return float(x) if x is not None and math.isfinite(float(x)) else None
+
+
+_STRUCTURE_OF = {"pid-series": "pid", "fppi": "fppi", "msp": "msp"}
+
+
+def _relative_parameter(rule: Any, inputs: Any) -> float | None:
+    """A ``mu``/``T_r`` rule's parameter made dimensionless as the agent's and the oracle's:
+    ``mu``, ``T_r/T_n`` (FOPDT model) or ``T_r/L_n`` (two-parameter model); None for the full PI/PID rules."""
+    from envs.design import relative_scale
+
+    if rule.parameter is None:
+        return None
+    structure = _STRUCTURE_OF[rule.controller]
+    model = {"pid": inputs.sopdt, "fppi": inputs.fopdt, "msp": inputs.integrating_model}[structure]
+    return rule.parameter(inputs) / relative_scale(structure, model)
+
+
+def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
+    from baselines.rules.registry import RuleInputs, get_rule
+
+    rule = get_rule(name)
+    try:
+        inputs = RuleInputs.from_identification(env.unwrapped.identification)
+        controller = rule(inputs)
+        parameter = _relative_parameter(rule, inputs)
+        score = env.unwrapped.score_controller(controller)
+    except ValueError as error:
+        return PolicyResult.failed(error, experiment_time)
+    return PolicyResult(float(score.cost), bool(score.feasible), False, experiment_time, controller.to_dict(), _finite(parameter))
+
+
+def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[PolicyResult, float]:
+    """The oracle's result and ``|its own cost - the environment's cost|`` of its optimum."""
+    from baselines.oracle import exact_models, full_information_oracle, oracle
+    from envs.design import design
+    from envs.analysis.scoring import score
+
+    unwrapped = env.unwrapped
+    plant, structure = unwrapped.plant, unwrapped.structure
+    options = {"constraints": unwrapped.constraints, "weights": unwrapped.weights}
+    identification = unwrapped.identification
+    try:
+        if full:
+            result = full_information_oracle(plant, structure, **options)
+            models = exact_models(plant)
+        else:
+            result = oracle(plant, identification, structure, **options)
+            models = identification
+        model = {"pid": models.sopdt, "fppi": models.fopdt, "msp": models.integrating_model}[structure]
+        controller = design(structure, model, result.parameter)
+        if full:
+            checked = score(plant, controller, experiment_time=0.0, **options)
+        else:
+            checked = unwrapped.score_controller(controller)
+    except ValueError as error:
+        return PolicyResult.failed(error, 0.0 if full else experiment_time), 0.0
+    mismatch = abs(float(checked.cost) - float(result.cost))
+    return (
+        PolicyResult(
+            float(checked.cost), bool(checked.feasible), False, 0.0 if full else experiment_time,
+            controller.to_dict(), _finite(result.relative_parameter),
+        ),
+        mismatch,
+    )  # fmt: skip
+
+
+def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
+    import numpy as np
+
+    observation, info = env.reset(seed=seed, options={"plant": plant})
+    for _ in range(10_000):
+        action, _ = policy.predict(observation, deterministic=True)
+        observation, _, terminated, truncated, info = env.step(np.asarray(action, dtype=np.float32).reshape(env.action_space.shape))
+        if terminated or truncated:
+            break
+    else:
+        raise ValueError("the agent's episode did not end within 10000 steps")
+    return PolicyResult(
+        float(info["cost"]), bool(info["feasible"]), False, float(info.get("experiment_time", math.nan)),
+        info.get("controller"), _finite(info.get("parameter")),
+    )  # fmt: skip
+
+
+def evaluate_plant(
+    env: Any,
+    plant: Any,
+    seed: int,
+    rules: list[str],
+    agents: dict[str, tuple[Any, Any, str]],
+    cache: Cache,
+    key: str,
+    *,
+    full_oracle: bool = False,
+) -> tuple[dict[str, PolicyResult], float]:
+    """Every policy's result on ``plant`` (see the module docstring), from ``cache`` where present.
+
+    Parameters
+    ----------
+    env : gymnasium.Env
+        The environment in ``experiments="fixed"`` mode (rules and oracles).
+    plant : envs.systems.plants.Plant
+    seed : int
+        The episode seed (``--seed`` plus the plant's index).
+    rules : list of str
+        Rule names.
+    agents : dict of str to (policy, env, str)
+        Each agent with the environment it plays and its cache identity (path and modification
+        time, so that a retrained agent is not served stale results).
+    cache : Cache
+    key : str
+        The episode's :func:`plant_key`.
+    full_oracle : bool
+        Also run the full-information oracle (``"oracle-full"``).
+
+    Returns
+    -------
+    (dict of str to PolicyResult, float)
+        Results by policy name (``"oracle"`` always), and how far the oracle's own cost was from the
+        environment's for its optimum (0 when served from the cache).
+    """
+    wanted = ["oracle", *rules] + (["oracle-full"] if full_oracle else [])
+    results = {name: cache.get(key, name) for name in wanted}
+    mismatch = 0.0
+    if any(result is None for result in results.values()):
+        env.reset(seed=seed, options={"plant": plant})
+        experiment_time = env.unwrapped.identification.experiment_time / plant.residence_time
+        for name in wanted:
+            if results[name] is not None:
+                continue
+            if name in ("oracle", "oracle-full"):
+                results[name], off = _oracle_result(env, name == "oracle-full", experiment_time)
+                mismatch = max(mismatch, off) if name == "oracle" else mismatch
+            else:
+                results[name] = _rule_result(env, name, experiment_time)
+            cache.put(key, name, results[name])
+    for name, (policy, agent_env, identity) in agents.items():
+        result = cache.get(key, identity)
+        if result is None:
+            result = _agent_result(agent_env, policy, seed, plant)
+            cache.put(key, identity, result)
+        results[name] = result
+    return results, mismatch  # type: ignore[return-value]
+
+
+# --------------------------------------------------------------------------- parallel rules and oracles
+_WORKER_ENVS: dict[str, Any] = {}
+
+
+def _worker_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
+    """One environment per worker process and configuration, made on first use."""
+    from agents.environments import make_env
+
+    key = json.dumps([env_id, env_kwargs], sort_keys=True, default=str)
+    if key not in _WORKER_ENVS:
+        _WORKER_ENVS[key] = make_env(env_id, env_kwargs)
+    return _WORKER_ENVS[key]
+
+
+def _worker(
+    env_id: str, env_kwargs: dict[str, Any], plant: Any, seed: int, rules: list[str], key: str, full_oracle: bool
+) -> tuple[str, dict[str, PolicyResult], float]:
+    env = _worker_env(env_id, env_kwargs)
+    results, mismatch = evaluate_plant(env, plant, seed, rules, {}, Cache(None), key, full_oracle=full_oracle)
+    return key, results, mismatch
+
+
+def fill_cache_in_parallel(
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    episodes: list[tuple[Any, int, str]],
+    rules: list[str],
+    cache: Cache,
+    workers: int,
+    *,
+    full_oracle: bool = False,
+    progress: Any = None,
+) -> float:
+    """Score the rules and oracles of every ``(plant, seed, key)`` episode missing from ``cache`` in
+    ``workers`` processes (``spawn``: no state is inherited), and store them in ``cache``.
+
+    Agents are not run here (their models stay in the main process).  ``progress`` is called once
+    per episode finished.  Returns the largest oracle re-scoring difference (see :func:`evaluate_plant`).
+    """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    wanted = ["oracle", *rules] + (["oracle-full"] if full_oracle else [])
+    missing = [(plant, seed, key) for plant, seed, key in episodes if any(cache.get(key, name) is None for name in wanted)]
+    mismatch = 0.0
+    if not missing:
+        return mismatch
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(_worker, env_id, env_kwargs, plant, seed, rules, key, full_oracle) for plant, seed, key in missing]
+        for future in as_completed(futures):
+            key, results, off = future.result()
+            mismatch = max(mismatch, off)
+            for name, result in results.items():
+                if cache.get(key, name) is None:
+                    cache.put(key, name, result)
+            if progress is not None:
+                progress()
+    return mismatch

@@ -1,0 +1,3 @@
+"""Many seeds and configs on Ray Tune (``deadtime sweep``): the command (:mod:`.sweep`), the sweep
+file's schema (:mod:`.config`), the trials (:mod:`.run`) and the summary over seeds (:mod:`.summary`).
+"""

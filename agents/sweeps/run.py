@@ -1,0 +1,242 @@
+"""The Ray Tune side of ``deadtime sweep`` (:mod:`agents.sweeps.sweep`): trials, evaluations, progress.
+
+Imported only when a sweep runs (Ray is an optional extra, ``pip install -e '.[sweep]'``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from dataclasses import asdict
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from ray import tune
+
+from agents.runtime import THREAD_VARIABLES, git_commit, versions
+from agents.sweeps.config import SweepConfig, Trial
+
+__all__ = ["Progress", "evaluation_directory", "run_sweep", "trial_function"]
+
+REPORTS_PER_TRIAL = 10  # progress reports to Tune per trial, besides the final one
+
+
+# ------------------------------------------------------------------------------- the sweep
+def _check_directory(sweep_file: Path, out: Path, resume: bool) -> None:
+    """Check that ``out`` fits the request, writing nothing (a refused sweep leaves no trace)."""
+    saved = out / "sweep.yaml"
+    if saved.is_file():
+        if not resume:
+            raise ValueError(f"{out} already holds a sweep; pass --resume to finish it, or choose another --out")
+        if saved.read_text() != sweep_file.read_text():
+            raise ValueError(f"--resume: {sweep_file} differs from the sweep in {saved}; resume with the same file")
+    elif out.exists() and any(out.iterdir()):
+        raise ValueError(f"{out} is not empty and holds no sweep.yaml; choose another --out")
+
+
+def _check_reachable(address: str) -> None:
+    """Refuse at once an address where nothing listens (``ray.init`` would retry for minutes)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if address in ("auto", "local"):
+        return
+    parts = urlsplit(address if "://" in address else f"//{address}")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host, port = None, None
+    if not host or port is None:
+        raise ValueError(f"--address {address}: expected HOST:PORT (or ray://HOST:PORT, or auto)")
+    try:
+        socket.create_connection((host, port), timeout=5.0).close()
+    except OSError as error:
+        raise ValueError(f"--address {address}: no Ray cluster answers at {host}:{port} ({error.strerror or error})") from None
+
+
+def _connect(ray: Any, address: str | None) -> None:
+    """Start a local Ray instance, or join the cluster at ``address``; one thread per task."""
+    options = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False,
+               "runtime_env": {"env_vars": dict.fromkeys(THREAD_VARIABLES, "1")}}
+    if ray.is_initialized():
+        return
+    if address:
+        _check_reachable(address)
+    try:
+        ray.init(address=address, **options) if address else ray.init(**options)
+    except Exception as error:  # ray raises ConnectionError, RuntimeError or its own errors
+        where = f"--address {address}" if address else "a local Ray instance"
+        raise ValueError(f"{where}: Ray could not start or connect ({type(error).__name__}: {str(error).splitlines()[0]})") from None
+
+
+def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str | None = None, resume: bool = False) -> dict[str, Any]:
+    """Train every trial on Ray Tune, evaluate, and write the summary; returns ``summary.json``'s object."""
+    import ray
+
+    started = time.perf_counter()
+    out = out.resolve()
+    _check_directory(sweep_file, out, resume)
+    _connect(ray, address)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "sweep.yaml").write_text(sweep_file.read_text())
+    results = _train_all(sweep, out, resume)
+    failed = {name: error for name, error in results.items() if error is not None}
+    for name, error in failed.items():
+        print(f"trial {name} failed: {error}", file=sys.stderr)
+    trials = [trial for trial in sweep.trials() if trial.name not in failed]
+    _evaluate_all(ray, sweep, trials, out)
+    sessions = _record_session(out, time.perf_counter() - started, resume)
+    from agents.sweeps.summary import write_summary
+
+    return write_summary(sweep, trials, out, failed, sessions)
+
+
+def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, Any]]:
+    """Append this invocation (commit, versions, CPUs, wall time) to ``DIR/sessions.json``; return all."""
+    import ray
+
+    path = out / "sessions.json"
+    sessions = json.loads(path.read_text()) if path.is_file() else []
+    sessions.append({"finished": datetime.now(UTC).isoformat(timespec="seconds"), "resumed": resume,
+                     "wall_time_s": round(seconds, 1), "cpus": ray.cluster_resources().get("CPU"),
+                     "commit": git_commit(), "versions": versions()})
+    path.write_text(json.dumps(sessions, indent=2) + "\n")
+    return sessions
+
+
+# ------------------------------------------------------------------------------- the trials
+def trial_function(config: dict[str, Any]) -> None:
+    """One Tune trial: ``deadtime train`` of ``config["trial"]`` into ``config["out"]/runs/NAME``."""
+    from agents.training.train import train
+
+    trial = Trial(**{**config["trial"], "overrides": tuple(config["trial"]["overrides"])})
+    run_dir = Path(config["out"]) / "runs" / trial.name
+    train_config = trial.train_config(run_dir)
+    result = train(train_config, resume=True, command=f"deadtime sweep (trial {trial.name})",
+                   callbacks=[_tune_reporter(train_config.total_timesteps)])
+    tune.report({"timesteps": result.num_timesteps, "best_cost": result.best_cost, "final_cost": result.final_cost,
+                 "finished": True})
+
+
+def _tune_reporter(total_timesteps: int) -> Any:
+    """An SB3 callback that reports the step count to Tune ``REPORTS_PER_TRIAL`` times in a run."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    every = max(1, total_timesteps // REPORTS_PER_TRIAL)
+
+    class TuneReporter(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.model.num_timesteps % every == 0 and self.model.num_timesteps < total_timesteps:
+                tune.report({"timesteps": self.model.num_timesteps, "finished": False})
+            return True
+
+    return TuneReporter()
+
+
+class Progress(tune.Callback):
+    """Tune callback: one line per finished or failed trial, and a bar over the trials.
+
+    The bar is left out of the pickled state, so that the callback pickles with Tune's experiment
+    state (and is made again when a restored sweep runs).
+    """
+
+    def __init__(self, total: int) -> None:
+        self.total, self.bar = total, None
+
+    def setup(self, **info: Any) -> None:
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=self.total, desc="trials", unit="trial", file=sys.stderr)
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {"total": self.total, "bar": None}
+
+    def _write(self, line: str) -> None:
+        if self.bar is None:
+            self.setup()
+        self.bar.write(line, file=sys.stderr)
+        self.bar.update()
+
+    def on_trial_complete(self, iteration: int, trials: list, trial: Any, **info: Any) -> None:
+        result, name = trial.last_result or {}, trial.config["trial"]
+        self._write(f"finished {name['label']} {name['env_id']} seed {name['seed']}: {result.get('timesteps')} "
+                    f"steps, best validation cost {result.get('best_cost', float('nan')):.6g}")
+
+    def on_trial_error(self, iteration: int, trials: list, trial: Any, **info: Any) -> None:
+        name = trial.config["trial"]
+        self._write(f"failed {name['label']} {name['env_id']} seed {name['seed']} (after its retries)")
+
+
+def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | None]:
+    """Run (or restore and finish) the Tune experiment; each trial's name with its error or None."""
+    trials = sweep.trials()
+    storage = out / "tune"
+    trainable = tune.with_resources(trial_function, {"cpu": 1})
+    if resume and tune.Tuner.can_restore(str(storage / "trials")):
+        tuner = tune.Tuner.restore(str(storage / "trials"), trainable=trainable, resume_unfinished=True, restart_errored=True)
+    else:
+        run_config = tune.RunConfig(
+            name="trials", storage_path=str(storage), verbose=0,
+            failure_config=tune.FailureConfig(max_failures=sweep.failure.max_failures),
+            callbacks=[Progress(len(trials))],
+        )  # fmt: skip
+        space = {"trial": tune.grid_search([_trial_dict(t) for t in trials]), "out": str(out)}
+        tuner = tune.Tuner(trainable, param_space=space, run_config=run_config)
+    os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's classic reporter, which verbose=0 silences
+    grid = tuner.fit()
+    outcome: dict[str, str | None] = {}
+    for result in grid:
+        trial = result.config["trial"]
+        name = Trial(**{**trial, "overrides": tuple(trial["overrides"])}).name
+        finished = result.error is None and (result.metrics or {}).get("finished")
+        outcome[name] = None if finished else _error_line(result.error)
+    missing = [t.name for t in trials if t.name not in outcome]
+    outcome.update({name: "never ran" for name in missing})
+    return outcome
+
+
+def _trial_dict(trial: Trial) -> dict[str, Any]:
+    data = asdict(trial)
+    data["overrides"] = list(trial.overrides)
+    return data
+
+
+def _error_line(error: BaseException | None) -> str:
+    if error is None:
+        return "did not finish"
+    cause = getattr(error, "cause", None) or error
+    text = str(cause).strip().splitlines()
+    return f"{type(cause).__name__}: {text[-1] if text else ''}"
+
+
+# ---------------------------------------------------------------------------- evaluation
+def evaluation_directory(out: Path, env_id: str, name: str) -> Path:
+    """``DIR/eval/ENV/NAME``: where the evaluation of a trial (or of the baselines) is written."""
+    return out / "eval" / env_id.split("/")[-1] / name
+
+
+def _evaluate_task(env_id: str, policies: str, n: int, seed: int, resamples: int, directory: str) -> str:
+    from agents.evaluation.evaluate import evaluate
+
+    evaluate(env_id, policies, n, seed, Path(directory), resamples=resamples, plots=False)
+    return directory
+
+
+def _evaluate_all(ray: Any, sweep: SweepConfig, trials: list[Trial], out: Path) -> None:
+    """The baselines once per environment and every trained agent, as Ray tasks (one CPU each)."""
+    from tqdm import tqdm
+
+    task = ray.remote(num_cpus=1)(_evaluate_task)
+    evaluation = sweep.evaluation
+    jobs = [(env, ",".join(evaluation.policies), evaluation_directory(out, env, "baselines")) for env in sweep.envs()]
+    jobs += [(t.env_id, f"agent={out / 'runs' / t.name}", evaluation_directory(out, t.env_id, t.name)) for t in trials]
+    pending = [task.remote(env, policies, evaluation.n, evaluation.seed, evaluation.resamples, str(directory))
+               for env, policies, directory in jobs]
+    with tqdm(total=len(pending), desc="evaluations", unit="run", file=sys.stderr) as bar:
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            ray.get(done)
+            bar.update(len(done))

@@ -1,0 +1,241 @@
+"""The summary of a sweep: ``DIR/summary.{md,csv,json}``, learning curves and performance profiles.
+
+Per environment, every agent group (a training config over its seeds) is compared with the rules
+and the oracle on the same held-out plants and episode seeds, from the ``per_plant.csv`` files of
+the evaluations (:mod:`agents.sweeps.run`).  The figures are those of :mod:`agents.evaluation.seed_statistics`
+(Agarwal et al. 2021): mean and IQM over (seed, plant) with two-way bootstrap 95% intervals (seeds
+and plants resampled whole; :mod:`agents.evaluation.seed_statistics` says why not stratified by plant), the
+violation rate, the normalized score ``oracle/cost`` (IQM and optimality gap), the probability of
+improvement over every rule and the paired difference to the best rule (the rule of lowest mean
+cost on these plants).  A rule or the oracle has one cost per plant: its intervals resample the
+plants only.  The tables show the agents, the best rule, the best rule of the
+environment's own structure (``deadtime evaluate``'s ``best_rule``, the baseline of its gap closure)
+and the oracle; ``summary.json`` and ``summary.csv`` hold every rule.
+
+``summary.json``::
+
+    {"sweep": NAME, "failed": {TRIAL: ERROR}, "envs": [{"env", "plants", "best_rule", "best_structure_rule",
+      "policies": [{"name", "kind", "seeds", "mean_cost", "iqm_cost", "ci95": {...},
+                    "violation_rate", "normalized_iqm", "optimality_gap",
+                    "prob_improvement": {"RULE": p, ...}, "diff_to_best_rule": [est, lo, hi],
+                    "per_seed_mean_cost": [...]}]}]}
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.evaluation.seed_statistics import SeedStatistics, seed_statistics
+from agents.sweeps.config import SweepConfig, Trial
+
+__all__ = ["write_summary"]
+
+ORACLES = ("oracle", "oracle-full")
+
+
+def _per_plant(directory: Path) -> dict[str, dict[tuple, float]]:
+    """``{policy: {(index, plant, seed): cost}}`` of an evaluation's ``per_plant.csv``."""
+    path = directory / "per_plant.csv"
+    if not path.is_file():
+        raise ValueError(f"{path}: missing (the evaluation did not finish; run the sweep again with --resume)")
+    costs: dict[str, dict[tuple, float]] = {}
+    with path.open(newline="") as file:
+        for row in csv.DictReader(file):
+            costs.setdefault(row["policy"], {})[(int(row["index"]), row["plant"], int(row["seed"]))] = float(row["cost"])
+    return costs
+
+
+def _vector(costs: dict[tuple, float], plants: list[tuple], where: str) -> np.ndarray:
+    if sorted(costs) != plants:
+        raise ValueError(f"{where}: its plants differ from the baselines' (same evaluation n and seed needed)")
+    return np.array([costs[p] for p in plants])
+
+
+def _row(name: str, kind: str, stats: SeedStatistics) -> dict[str, Any]:
+    """A policy's row; a rule or the oracle is one cost per plant (``seeds`` None, plants resampled only)."""
+    return {"name": name, "kind": kind, "seeds": stats.seeds if kind == "agent" else None, "mean_cost": stats.mean_cost, "iqm_cost": stats.iqm_cost,
+            "ci95": stats.ci95, "violation_rate": stats.violation_rate, "normalized_iqm": stats.normalized_iqm,
+            "optimality_gap": stats.optimality_gap, "prob_improvement": stats.prob_improvement,
+            "diff_to_best_rule": stats.diff_to_best_rule,
+            "per_seed_mean_cost": stats.per_seed_mean_cost if kind == "agent" else None}
+
+
+def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """The environment's entry of ``summary.json``, and the normalized scores of the agents and best rule."""
+    from agents.sweeps.run import evaluation_directory
+
+    baselines = _per_plant(evaluation_directory(out, env_id, "baselines"))
+    if "oracle" not in baselines:
+        raise ValueError(f"sweep {sweep.name}: evaluation.policies must include 'oracle' (the normalized score needs it)")
+    plants = sorted(baselines["oracle"])
+    oracle = _vector(baselines["oracle"], plants, "oracle")
+    rules = {name: _vector(c, plants, name) for name, c in baselines.items() if name not in ORACLES}
+    if not rules:
+        raise ValueError(f"sweep {sweep.name}: evaluation.policies must include at least one rule")
+    best_rule = min(rules, key=lambda name: (float(rules[name].mean()), name))
+    results = evaluation_directory(out, env_id, "baselines") / "results.json"
+    own_rule = json.loads(results.read_text()).get("best_rule") if results.is_file() else None
+    rows, normalized = [], {}
+
+    def statistics(costs: np.ndarray) -> SeedStatistics:
+        return seed_statistics(costs, oracle, rules, best_rule, resamples=sweep.evaluation.resamples,
+                               seed=sweep.evaluation.seed)
+
+    for label in dict.fromkeys(t.label for t in trials if t.env_id == env_id):
+        group = [t for t in trials if t.env_id == env_id and t.label == label]
+        matrix = np.array([_vector(_per_plant(evaluation_directory(out, env_id, t.name))["agent"], plants, t.name)
+                           for t in group])
+        rows.append(_row(label, "agent", statistics(matrix)))
+        normalized[label] = (oracle / matrix).ravel()
+    normalized[best_rule] = oracle / rules[best_rule]
+    rows += [_row(name, "rule", statistics(cost[None, :])) for name, cost in rules.items()]
+    rows.append(_row("oracle", "oracle", statistics(oracle[None, :])))
+    rows.sort(key=lambda row: (row["kind"] != "agent", row["mean_cost"]))
+    entry = {"env": env_id, "plants": len(plants), "best_rule": best_rule, "best_structure_rule": own_rule, "policies": rows}
+    return entry, normalized
+
+
+def learning_curves(trials: list[Trial], out: Path) -> dict[str, dict[str, Any]]:
+    """Validation cost against steps per ``label/env``: median and quartiles over the seeds."""
+    curves: dict[str, dict[str, Any]] = {}
+    for key in dict.fromkeys(f"{t.label}/{t.env_id}" for t in trials):
+        per_seed = []
+        for trial in (t for t in trials if f"{t.label}/{t.env_id}" == key):
+            path = out / "runs" / trial.name / "evaluations.json"
+            history = json.loads(path.read_text()) if path.is_file() else []
+            per_seed.append({entry["num_timesteps"]: entry["mean_cost"] for entry in history})
+        steps = sorted(set.intersection(*(set(s) for s in per_seed))) if per_seed else []
+        values = np.array([[s[step] for step in steps] for s in per_seed]) if steps else np.empty((0, 0))
+        curves[key] = {"steps": steps,
+                       **{name: np.quantile(values, q, axis=0).tolist() if steps else []
+                          for name, q in (("q25", 0.25), ("median", 0.5), ("q75", 0.75))}}
+    return curves
+
+
+def _json_ready(value: Any) -> Any:
+    """Plain JSON values: numpy numbers as Python ones, ``nan`` and infinities as ``None``."""
+    if isinstance(value, dict):
+        return {key: _json_ready(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_ready(item) for item in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def _interval(row: dict[str, Any], key: str) -> str:
+    ci = (row.get("ci95") or {}).get(key)
+    return "" if ci is None else f" [{ci[0]:.3g}, {ci[1]:.3g}]"
+
+
+def _markdown(summary: dict[str, Any]) -> str:
+    sessions = summary["sessions"]
+    lines = [f"# Sweep `{summary['sweep']}`", ""]
+    if sessions:
+        lines += [f"- wall time {summary['wall_time_s']:.0f} s in {len(sessions)} session(s) on {sessions[-1]['cpus']:g} CPUs, "
+                  f"commit {sessions[-1]['commit']}", ""]
+    for name, error in summary["failed"].items():
+        lines.append(f"- trial `{name}` failed: {error}")
+    for env in summary["envs"]:
+        best = env["best_rule"]
+        own = env.get("best_structure_rule")
+        lines += ["", f"## {env['env']} ({env['plants']} held-out plants; best rule `{best}`)", "",
+                  f"| policy | role | seeds | mean cost | IQM cost | violation rate | normalized IQM | optimality gap "
+                  f"| P(better than {best}) | difference to {best} |", "|---|---|---|---|---|---|---|---|---|---|"]
+        for row in env["policies"]:
+            if row["kind"] == "rule" and row["name"] not in (best, env.get("best_structure_rule")):
+                continue
+            diff = row["diff_to_best_rule"]
+            diff_text = f"{diff[0]:.3g}" + ("" if diff[1] is None else f" [{diff[1]:.3g}, {diff[2]:.3g}]")
+            probability = row["prob_improvement"].get(best)
+            role = {"agent": "agent", "oracle": "oracle"}.get(row["kind"]) or " and ".join(
+                label for label, name in (("best rule", best), ("best rule of the structure", own)) if row["name"] == name)
+            lines.append(
+                f"| {row['name']} | {role} | {row['seeds'] or '-'} | {row['mean_cost']:.3g}{_interval(row, 'mean_cost')} "
+                f"| {row['iqm_cost']:.3g}{_interval(row, 'iqm_cost')} | {row['violation_rate']:.1%} "
+                f"| {row['normalized_iqm']:.3f}{_interval(row, 'normalized_iqm')} | {row['optimality_gap']:.3f} "
+                f"| {'-' if probability is None else f'{probability:.2f}'} | {diff_text} |"
+            )
+    lines += ["", "Intervals: 95% percentile bootstrap, seeds and plants resampled whole and paired across "
+              "policies (the agents' intervals cover training seeds and plants, the rules' and the oracle's "
+              "plants only).", ""]
+    return "\n".join(lines)
+
+
+def _csv(summary: dict[str, Any], path: Path) -> None:
+    with path.open("w", newline="") as file:
+        writer = csv.writer(file)
+        writer.writerow(["env", "policy", "kind", "seeds", "mean_cost", "mean_cost_lo", "mean_cost_hi", "iqm_cost",
+                         "iqm_cost_lo", "iqm_cost_hi", "violation_rate", "normalized_iqm", "optimality_gap",
+                         "prob_improvement_best_rule", "diff_to_best_rule", "diff_lo", "diff_hi"])
+        for env in summary["envs"]:
+            for row in env["policies"]:
+                ci = row["ci95"] or {}
+                writer.writerow([env["env"], row["name"], row["kind"], row["seeds"], row["mean_cost"],
+                                 *(ci.get("mean_cost") or ["", ""]), row["iqm_cost"], *(ci.get("iqm_cost") or ["", ""]),
+                                 row["violation_rate"], row["normalized_iqm"], row["optimality_gap"],
+                                 row["prob_improvement"].get(env["best_rule"], ""),
+                                 *["" if v is None else v for v in row["diff_to_best_rule"]]])
+
+
+def _plots(summary: dict[str, Any], curves: dict[str, dict[str, Any]], profiles: list[dict[str, np.ndarray]], out: Path) -> None:
+    """``learning_curves.png`` (median and quartiles over seeds) and ``performance_profiles.png``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from agents.evaluation.seed_statistics import performance_profile
+
+    envs = summary["envs"]
+    figure, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 3.6), squeeze=False)
+    for axis, env in zip(axes[0], envs):
+        for key, curve in curves.items():
+            if key.endswith("/" + env["env"]) and curve["steps"]:
+                line, = axis.plot(curve["steps"], curve["median"], label=f"{key.split('/')[0]} (median)")
+                axis.fill_between(curve["steps"], curve["q25"], curve["q75"], alpha=0.25, color=line.get_color(),
+                                  label="quartiles over seeds")
+        axis.set(title=env["env"], xlabel="environment steps", ylabel="validation mean cost")
+        axis.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(out / "learning_curves.png", dpi=120)
+    plt.close(figure)
+
+    taus = np.linspace(0.0, 1.0, 101)
+    figure, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 3.6), squeeze=False)
+    for axis, env, scores in zip(axes[0], envs, profiles):
+        for name, values in scores.items():
+            style = "--" if name == env["best_rule"] else "-"
+            axis.plot(taus, performance_profile(values, taus), style, label=name)
+        axis.set(title=env["env"], xlabel="normalized score tau (oracle cost / cost)",
+                 ylabel="fraction of runs with score >= tau", ylim=(0, 1.02))
+        axis.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(out / "performance_profiles.png", dpi=120)
+    plt.close(figure)
+
+
+def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: dict[str, str],
+                  sessions: list[dict[str, Any]] = ()) -> dict[str, Any]:
+    """Aggregate the evaluations in ``out`` and write ``summary.{md,csv,json}`` and the plots.
+
+    ``sessions`` (the invocations of the sweep, :mod:`agents.sweeps.run`) give the wall time.
+    """
+    entries = [_environment(sweep, env, trials, out) for env in sweep.envs()]
+    summary = {"sweep": sweep.name, "failed": failed, "envs": [entry for entry, _ in entries],
+               "sessions": list(sessions), "wall_time_s": round(sum(s["wall_time_s"] for s in sessions), 1)}
+    summary = _json_ready(summary)
+    curves = learning_curves(trials, out)
+    (out / "summary.json").write_text(json.dumps({**summary, "learning_curves": curves}, indent=2) + "\n")
+    (out / "summary.md").write_text(_markdown(summary))
+    _csv(summary, out / "summary.csv")
+    _plots(summary, curves, [profile for _, profile in entries], out)
+    return summary
+

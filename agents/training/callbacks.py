@@ -1,0 +1,251 @@
+"""stable-baselines3 callbacks of ``deadtime train``: progress, validation, atomic checkpoints.
+
+stable-baselines3 and torch are imported inside the functions that need them; the callback
+classes are built by :func:`make_callbacks` so that importing this module stays cheap.
+
+Validation (:func:`validate_policy`) runs one deterministic episode per plant of the validation set
+``envs.systems.plant_sets.plant_set(family, "validation", n)`` (never a test set), resetting with
+``options={"plant": p}`` and the seed ``VALIDATION_SEED + k`` (3_000_000 + k) for plant ``k``.  Training
+environments use the seeds ``seed + i`` of a config's small integer seed, so the two never meet.
+Environments without plant sets (any non-``DeadTime`` id) are validated on ``n`` episodes reset with
+those seeds alone.
+
+Checkpoints (:mod:`agents.training.checkpoints`) are written at the start of a rollout, after the previous
+rollout was trained on, every ``checkpoint_freq`` steps, and at the next rollout start after a
+SIGINT/SIGTERM (:class:`agents.training.interrupts.StopRequest`), after which training stops.
+"""
+
+from __future__ import annotations
+
+import pickle
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.training.files import atomic_write, write_json, write_text
+
+__all__ = [
+    "VALIDATION_SEED",
+    "ValidationResult",
+    "atomic_write",
+    "make_callbacks",
+    "save_model",
+    "validate_policy",
+    "validation_plants",
+    "write_json",
+    "write_text",
+]
+
+# Reset seed of validation plant k is VALIDATION_SEED + k: disjoint from the training environments
+# (seed + i) and from deadtime evaluate's (seed + i, seed + 1_000_000 + j).
+VALIDATION_SEED = 3_000_000
+
+
+def save_model(model: Any, path: str | Path, vecnormalize: Any = None) -> Path:
+    """Save ``model`` to ``path`` (a ``.zip``) atomically, and the ``VecNormalize`` statistics beside it.
+
+    The statistics go to ``<stem>.vecnormalize.pkl`` (see :func:`agents.training.policies.load_policy`), written
+    before the model, whose ``deadtime_vecnormalize`` attribute says that they are needed.
+    """
+    path = Path(path)
+    if vecnormalize is not None:
+        atomic_write(path.with_suffix(".vecnormalize.pkl"), lambda handle: pickle.dump(vecnormalize, handle))
+    atomic_write(path, model.save)
+    return path
+
+
+# ----------------------------------------------------------------------------------- validation
+@dataclass(frozen=True)
+class ValidationResult:
+    """Deterministic-policy costs on the validation episodes."""
+
+    num_timesteps: int
+    mean_cost: float
+    median_cost: float
+    violation_rate: float | None
+    costs: tuple[float, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        data = asdict(self)
+        data["costs"] = list(self.costs)
+        return data
+
+
+def validation_plants(env: Any, n: int, family: str | None = None) -> list[Any] | None:
+    """The validation plants of a ``DeadTime`` environment (None for other environments).
+
+    ``family`` defaults to the environment's own (``env.unwrapped.family`` if it has one, else
+    ``integrating`` for the MSP structure and ``stable`` otherwise).
+    """
+    unwrapped = env.unwrapped
+    if not hasattr(unwrapped, "structure"):
+        return None
+    from envs.systems.plant_sets import plant_set
+
+    if family is None:
+        family = getattr(unwrapped, "family", None)
+    if family is None:
+        family = "integrating" if unwrapped.structure == "msp" else "stable"
+    return list(plant_set(family, "validation", n))
+
+
+def validate_policy(
+    predict: Callable[[np.ndarray], np.ndarray],
+    env: Any,
+    n_episodes: int,
+    plants: Sequence[Any] | None = None,
+    num_timesteps: int = 0,
+) -> ValidationResult:
+    """Run one episode per validation plant (or per seed) with deterministic actions.
+
+    The cost of an episode is ``info["cost"]`` of its last step when the environment reports one,
+    else minus the episode's return.
+    """
+    costs, feasible = [], []
+    for k in range(n_episodes if plants is None else len(plants)):
+        options = None if plants is None else {"plant": plants[k]}
+        observation, info = env.reset(seed=VALIDATION_SEED + k, options=options)
+        total, done = 0.0, False
+        while not done:
+            observation, reward, terminated, truncated, info = env.step(predict(observation))
+            total += float(reward)
+            done = terminated or truncated
+        costs.append(float(info["cost"]) if "cost" in info else -total)
+        if "feasible" in info:
+            feasible.append(bool(info["feasible"]))
+    values = np.asarray(costs)
+    return ValidationResult(
+        num_timesteps=int(num_timesteps),
+        mean_cost=float(values.mean()),
+        median_cost=float(np.median(values)),
+        violation_rate=None if not feasible else 1.0 - float(np.mean(feasible)),
+        costs=tuple(costs),
+    )
+
+
+# ----------------------------------------------------------------------------------- callbacks
+def make_callbacks(
+    run_dir: Path,
+    total_timesteps: int,
+    eval_env: Any,
+    n_eval_episodes: int,
+    eval_freq: int,
+    eval_family: str | None,
+    checkpoint_freq: int,
+    progress_bar: bool,
+    vecnormalize: Any = None,
+    history: Sequence[dict[str, Any]] = (),
+    stop: Any = None,
+    resumed: Mapping[str, Any] | None = None,
+) -> tuple[list[Any], Any, Any]:
+    """The callbacks of a run: ``(callbacks, validator, checkpointer)``.
+
+    ``validator.validate(model)`` runs one validation; ``checkpointer.save()`` writes a checkpoint.
+    ``stop`` is an :class:`agents.training.interrupts.StopRequest` (a checkpoint at the next rollout start, then
+    a stop); ``resumed`` the checkpoint's ``periodic_checkpoint`` step and training ``state``
+    (:func:`agents.training.checkpoints.capture_state`), whose action noise is put back when training starts.
+    The validation plants are drawn when this is called, so a bad ``eval_family`` fails here.
+    """
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from agents.training.checkpoints import restore_action_noise, save_checkpoint
+
+    plants = validation_plants(eval_env, n_eval_episodes, eval_family)
+
+    class Validator(BaseCallback):
+        """Validation every ``eval_freq`` steps; keeps ``best_model.zip`` and ``evaluations.json``."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.plants = plants
+            self.history = list(history)
+            self.best = min((entry["mean_cost"] for entry in self.history), default=np.inf)
+            self.last = self.history[-1]["num_timesteps"] if self.history else 0
+
+        def _on_step(self) -> bool:
+            steps = self.model.num_timesteps
+            # the last step is validated once, after the last update, by the end of training
+            if eval_freq > 0 and steps - self.last >= eval_freq and steps < total_timesteps:
+                self.validate(self.model)
+            return True
+
+        def _predict(self, observation: np.ndarray) -> np.ndarray:
+            if vecnormalize is not None:
+                observation = vecnormalize.normalize_obs(observation)
+            return self.model.predict(observation, deterministic=True)[0]
+
+        def validate(self, model: Any) -> ValidationResult:
+            self.model = model
+            self.last = model.num_timesteps
+            result = validate_policy(self._predict, eval_env, n_eval_episodes, self.plants, model.num_timesteps)
+            self.history.append({key: value for key, value in result.to_dict().items() if key != "costs"})
+            if result.mean_cost < self.best:
+                self.best = result.mean_cost
+                save_model(model, run_dir / "best_model.zip", vecnormalize)
+            write_json(run_dir / "evaluations.json", self.history)
+            model.logger.record("eval/mean_cost", result.mean_cost)
+            model.logger.record("eval/median_cost", result.median_cost)
+            if result.violation_rate is not None:
+                model.logger.record("eval/violation_rate", result.violation_rate)
+            model.logger.record("eval/best_mean_cost", self.best)
+            model.logger.dump(model.num_timesteps)
+            from tqdm import tqdm
+
+            violations = "" if result.violation_rate is None else f", violations {result.violation_rate:.0%}"
+            tqdm.write(f"step {model.num_timesteps}: validation mean cost {result.mean_cost:.6g} "
+                       f"(median {result.median_cost:.6g}{violations}); best {self.best:.6g}")
+            return result
+
+    class Checkpointer(BaseCallback):
+        """Checkpoints at rollout starts every ``checkpoint_freq`` steps, and one after a stop request."""
+
+        def _init_callback(self) -> None:
+            self.periodic = self.model.num_timesteps if resumed is None else int(resumed["periodic_checkpoint"])
+            self.directory = run_dir / "checkpoints"
+            self.stopping = False
+            self.stopped_at: int | None = None
+
+        def _on_training_start(self) -> None:
+            if resumed is not None and resumed.get("state") is not None:
+                restore_action_noise(resumed["state"], self.model)
+
+        def _on_step(self) -> bool:
+            return not self.stopping  # False ends learn() one step after the stop checkpoint
+
+        def _on_rollout_start(self) -> None:
+            due = checkpoint_freq > 0 and self.model.num_timesteps - self.periodic >= checkpoint_freq
+            requested = stop is not None and stop.requested and not self.stopping
+            if due or requested:
+                self.save(periodic=due)
+            if requested:
+                self.stopping, self.stopped_at = True, self.model.num_timesteps
+
+        def save(self, periodic: bool = True) -> Path:
+            if periodic:
+                self.periodic = self.model.num_timesteps
+            return save_checkpoint(self.directory, self.model, vecnormalize, validator.history, self.periodic)
+
+    class Progress(BaseCallback):
+        """A tqdm bar over the run's total timesteps (stable-baselines3's own needs ``rich``)."""
+
+        def _on_training_start(self) -> None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total_timesteps, initial=self.model.num_timesteps, unit="step",
+                            dynamic_ncols=True, smoothing=0.1)
+
+        def _on_step(self) -> bool:
+            self.bar.update(self.model.num_timesteps - self.bar.n)
+            return True
+
+        def _on_training_end(self) -> None:
+            self.bar.close()
+
+    validator, checkpointer = Validator(), Checkpointer()
+    callbacks: list[Any] = [validator, checkpointer]
+    if progress_bar:
+        callbacks.append(Progress())
+    return callbacks, validator, checkpointer

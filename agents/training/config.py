@@ -1,0 +1,400 @@
+"""Training configuration: a typed, frozen schema and the rl-baselines3-zoo style YAML files.
+
+A file in ``configs/`` holds one algorithm's settings keyed by environment id, with a ``default``
+entry::
+
+    default:                      # applies to every environment id
+      algorithm: PPO
+      env_id: DeadTime/PID-v0
+      total_timesteps: 20000
+      hyperparameters: {n_steps: 64, batch_size: 64}
+    DeadTime/MSP-v0:              # merged over ``default`` when training on this id
+      hyperparameters: {learning_rate: 0.001}
+
+Precedence: the schema's defaults < the file's ``default`` entry < the entry of the environment id <
+command-line overrides ``key=value`` (dotted keys reach into the mapping fields, e.g.
+``hyperparameters.n_steps=32`` or ``env_kwargs.noise_std=0.02``; each value is parsed with
+``yaml.safe_load``).  Mappings merge key by key; every other value replaces.  An unknown key anywhere
+is a ``ValueError`` that names it.  Numbers in exponent form that YAML 1.1 reads as strings
+(``1e5``, ``3e-4``) are read as numbers in the integer fields and the hyperparameters.
+Hyperparameters and policy keyword arguments are checked against the stable-baselines3
+constructors by :func:`validate` (which imports stable-baselines3, so it is called when training,
+not when this module is imported).
+
+A run directory's ``config.yaml`` holds one resolved config (the fields below at top level, no
+``default``); :func:`load_config` reads both kinds of file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import yaml
+
+__all__ = [
+    "ALGORITHMS",
+    "MAPPING_FIELDS",
+    "TrainConfig",
+    "apply_overrides",
+    "load_config",
+    "merge",
+    "parse_override",
+    "validate",
+]
+
+ALGORITHMS = ("A2C", "PPO", "SAC", "TD3")
+OFF_POLICY = ("SAC", "TD3")
+VEC_ENVS = ("dummy", "subproc")
+# Fields that hold open mappings (dotted override keys reach into them).
+MAPPING_FIELDS = ("env_kwargs", "hyperparameters", "policy_kwargs")
+# Constructor arguments that the config sets through its own fields, never through ``hyperparameters``.
+_RESERVED = {
+    "policy": "policy",
+    "env": "env_id",
+    "seed": "seed",
+    "policy_kwargs": "policy_kwargs",
+    "tensorboard_log": "the run directory",
+    "verbose": "the command line",
+    "device": "device",
+    "_init_setup_model": "stable-baselines3",
+    "replay_buffer_class": "stable-baselines3 (classes are not configurable from YAML)",
+    "rollout_buffer_class": "stable-baselines3 (classes are not configurable from YAML)",
+}
+
+
+def _frozen(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
+    return MappingProxyType(dict(mapping))
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything a training run depends on.
+
+    Attributes
+    ----------
+    algorithm : str
+        One of ``A2C``, ``PPO``, ``SAC``, ``TD3`` (stable-baselines3).
+    env_id : str
+        A registered Gymnasium id, e.g. ``DeadTime/PID-v0``.
+    total_timesteps : int
+        Environment steps over all vectorized environments (one step = one episode in fixed mode).
+    seed : int
+        The one training seed: ``set_random_seed(seed)``; vectorized environment ``i`` gets ``seed + i``.
+    n_envs, vec_env : int, str
+        Number of training environments and their vectorization (``dummy`` or ``subproc``).
+    normalize, normalize_reward : bool
+        Wrap the training environments in ``VecNormalize`` (observations; rewards too if
+        ``normalize_reward``).  The statistics are saved beside every model.
+    env_kwargs : mapping
+        Keyword arguments of ``gymnasium.make`` (e.g. ``experiments``, ``family``, ``noise_std``, ``budget``).
+    policy, policy_kwargs : str, mapping
+        The policy alias and its keyword arguments (``net_arch``; ``activation_fn`` and
+        ``optimizer_class`` by name: ``tanh``, ``relu``, ``elu``, ``leaky_relu``, ``gelu``, ``silu``;
+        ``adam``, ``adamw``, ``rmsprop``, ``sgd``).
+    hyperparameters : mapping
+        Keyword arguments of the algorithm's constructor.  ``action_noise`` is given as
+        ``{type: normal | ornstein-uhlenbeck, sigma: s}``; ``train_freq`` as an int or ``[n, step|episode]``.
+    eval_freq : int
+        Environment steps between two evaluations on the validation plant set (0: only at the end).
+    n_eval_episodes : int
+        Number of validation plants (one episode each).
+    eval_family : str or None
+        Family of the validation plant set; default the environment's family.
+    checkpoint_freq : int
+        Environment steps between two checkpoints (0: none).
+    output_dir : str or None
+        Run directory; default ``runs/<algorithm>-<env name>-s<seed>``.
+    device : str
+        Torch device (``cpu``).
+    torch_threads : int
+        ``torch.set_num_threads`` of the training process.
+    progress_bar : bool
+        Show a tqdm progress bar.
+    """
+
+    algorithm: str
+    env_id: str
+    total_timesteps: int
+    seed: int = 0
+    n_envs: int = 1
+    vec_env: str = "dummy"
+    normalize: bool = False
+    normalize_reward: bool = False
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    policy: str = "MlpPolicy"
+    policy_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    hyperparameters: Mapping[str, Any] = field(default_factory=dict)
+    eval_freq: int = 0
+    n_eval_episodes: int = 16
+    eval_family: str | None = None
+    checkpoint_freq: int = 0
+    output_dir: str | None = None
+    device: str = "cpu"
+    torch_threads: int = 1
+    progress_bar: bool = True
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.algorithm, str) or self.algorithm.upper() not in ALGORITHMS:
+            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}")
+        object.__setattr__(self, "algorithm", self.algorithm.upper())
+        for name in ("env_id", "policy", "device"):
+            value = getattr(self, name)
+            _require(isinstance(value, str) and bool(value), name, "a non-empty string", value)
+        for name, low in (("total_timesteps", 1), ("seed", 0), ("n_envs", 1), ("eval_freq", 0),
+                          ("n_eval_episodes", 1), ("checkpoint_freq", 0), ("torch_threads", 1)):
+            value = _number(getattr(self, name))
+            if isinstance(value, float) and value.is_integer():  # YAML reads 1.0e5 as a float
+                value = int(value)
+                object.__setattr__(self, name, value)
+            _require(isinstance(value, int) and not isinstance(value, bool) and value >= low, name, f"an integer >= {low}", value)
+        for name in ("normalize", "normalize_reward", "progress_bar"):
+            _require(isinstance(getattr(self, name), bool), name, "true or false", getattr(self, name))
+        _require(self.vec_env in VEC_ENVS, "vec_env", " or ".join(VEC_ENVS), self.vec_env)
+        for name in ("eval_family", "output_dir"):
+            value = getattr(self, name)
+            _require(value is None or (isinstance(value, str) and value), name, "a non-empty string or null", value)
+        for name in MAPPING_FIELDS:
+            value = getattr(self, name)
+            _require(isinstance(value, Mapping), name, "a mapping", value)
+            for key in value:
+                _require(isinstance(key, str), f"{name} key", "a string", key)
+            if name == "hyperparameters":
+                value = {key: _number(item) for key, item in value.items()}
+            object.__setattr__(self, name, _frozen(value))
+
+    @property
+    def off_policy(self) -> bool:
+        """True for the algorithms with a replay buffer (SAC, TD3)."""
+        return self.algorithm in OFF_POLICY
+
+    @property
+    def run_name(self) -> str:
+        """``<algorithm>-<env name>-s<seed>``, e.g. ``ppo-PID-v0-s0``."""
+        return f"{self.algorithm.lower()}-{self.env_id.rsplit('/', 1)[-1]}-s{self.seed}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values (for YAML and JSON), in field order."""
+        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], where: str = "config") -> TrainConfig:
+        """Build from a mapping of field names; unknown or missing keys are errors naming them."""
+        if not isinstance(data, Mapping):
+            raise ValueError(f"{where} must be a mapping of config keys, got {type(data).__name__}")  # noqa: TRY004
+        known = [f.name for f in dataclasses.fields(cls)]
+        for key in data:
+            if key not in known:
+                raise ValueError(f"unknown config key {key!r} in {where} (known keys: {', '.join(known)})")
+        missing = [f.name for f in dataclasses.fields(cls)
+                   if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING and f.name not in data]
+        if missing:
+            raise ValueError(f"{where} is missing the required key(s) {', '.join(missing)}")
+        return cls(**data)
+
+
+_EXPONENT_NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
+
+
+def _number(value: Any) -> Any:
+    """A number written in exponent form without a dot or sign (``1e5``, ``3e-4``), which YAML 1.1
+    reads as a string, as a float; any other value unchanged."""
+    if isinstance(value, str) and _EXPONENT_NUMBER.fullmatch(value.strip()):
+        return float(value)
+    return value
+
+
+def _require(condition: bool, name: str, what: str, value: Any) -> None:
+    if not condition:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {key: _plain(item) for key, item in value.items()}
+    if isinstance(value, tuple | list):
+        return [_plain(item) for item in value]
+    return value
+
+
+# ----------------------------------------------------------------------------------- merging
+def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
+    """``base`` updated by ``update``: mappings merge key by key, every other value replaces."""
+    merged = dict(base)
+    for key, value in update.items():
+        if isinstance(value, Mapping) and isinstance(merged.get(key), Mapping):
+            merged[key] = merge(merged[key], value)
+        else:
+            merged[key] = value
+    return merged
+
+
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """``"hyperparameters.n_steps=32"`` -> ``(["hyperparameters", "n_steps"], 32)`` (value by ``yaml.safe_load``)."""
+    key, sep, raw = text.partition("=")
+    path = key.strip().split(".")
+    if not sep or not all(path):
+        raise ValueError(f"override {text!r} must be key=value (dotted keys for nesting, e.g. hyperparameters.n_steps=32)")
+    try:
+        value = yaml.safe_load(raw) if raw.strip() else None
+    except yaml.YAMLError as error:
+        raise ValueError(f"override {text!r}: the value is not valid YAML ({error.__class__.__name__})") from None
+    return path, value
+
+
+def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """Apply ``key=value`` overrides to a config mapping; unknown top-level keys are errors naming them."""
+    known = [f.name for f in dataclasses.fields(TrainConfig)]
+    result = dict(data)
+    for text in overrides:
+        path, value = parse_override(text)
+        if path[0] not in known:
+            raise ValueError(f"unknown config key {path[0]!r} in override {text!r} (known keys: {', '.join(known)})")
+        if len(path) > 1 and path[0] not in MAPPING_FIELDS:
+            raise ValueError(f"override {text!r}: {path[0]!r} is not a mapping (dotted keys reach into {', '.join(MAPPING_FIELDS)})")
+        nested: Any = value
+        for key in reversed(path[1:]):
+            nested = {key: nested}
+        if len(path) > 1:
+            result = merge(result, {path[0]: nested})
+        else:
+            result[path[0]] = value
+    return result
+
+
+def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence[str] = ()) -> TrainConfig:
+    """Resolve a training config from a YAML file, an environment id and ``key=value`` overrides.
+
+    Parameters
+    ----------
+    path : str or Path
+        A zoo-style file (``default`` plus entries keyed by environment id), or a run's resolved
+        ``config.yaml`` (the fields at top level).
+    env_id : str, optional
+        The environment to train on; default the ``env_id`` override, else the file's ``env_id``.
+    overrides : sequence of str
+        ``key=value`` strings applied last.
+
+    Raises
+    ------
+    ValueError
+        On an unreadable file, an unknown key (named), or an invalid value (named).
+    """
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as error:
+        raise ValueError(f"{path} is not valid YAML: {error}") from None
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise ValueError(f"{path} must hold a mapping, got {type(data).__name__}")  # noqa: TRY004
+    if "default" not in data and "algorithm" in data:  # a run's resolved config.yaml
+        resolved = dict(data)
+    else:
+        default = data.get("default") or {}
+        if not isinstance(default, Mapping):
+            raise ValueError(f"{path}: 'default' must be a mapping")
+        if "env_id" in data and "default" in data:
+            raise ValueError(f"unknown config key 'env_id' at the top of {path} (put it under 'default')")
+        chosen = env_id or _override_value(overrides, "env_id") or default.get("env_id")
+        if chosen is None:
+            raise ValueError(f"no environment id: pass --env or set env_id in the 'default' entry of {path}")
+        entry = data.get(chosen) or {}
+        if not isinstance(entry, Mapping):
+            raise ValueError(f"{path}: the entry {chosen!r} must be a mapping")
+        if "env_id" in entry:
+            raise ValueError(f"{path}: the entry {chosen!r} must not set env_id (it is the entry's key)")
+        resolved = merge(default, entry)
+        resolved["env_id"] = chosen
+        if "algorithm" not in resolved and path.stem.upper() in ALGORITHMS:
+            resolved["algorithm"] = path.stem.upper()
+    resolved = apply_overrides(resolved, overrides)
+    if env_id is not None:
+        resolved["env_id"] = env_id
+    return TrainConfig.from_dict(resolved, where=str(path))
+
+
+def _override_value(overrides: Sequence[str], key: str) -> Any:
+    value = None
+    for text in overrides:
+        path, parsed = parse_override(text)
+        if path == [key]:
+            value = parsed
+    return value
+
+
+# ----------------------------------------------------------------------------------- validation
+def _parameters(function: Any) -> tuple[set[str], bool]:
+    """Names a callable accepts, and whether it takes ``**kwargs``."""
+    parameters = inspect.signature(function).parameters.values()
+    names = {p.name for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    return names, any(p.kind is p.VAR_KEYWORD for p in parameters)
+
+
+def validate(config: TrainConfig) -> None:
+    """Check ``hyperparameters``, ``policy``, ``policy_kwargs`` and ``env_kwargs`` against the constructors:
+    the keys, then the values (:mod:`agents.training.hyperparameters`).
+
+    Imports stable-baselines3 (hence torch) and the environment's module.  The values of
+    ``env_kwargs`` are checked by the environment itself when ``deadtime train`` builds it, before
+    anything is written.
+
+    Raises
+    ------
+    ValueError
+        Naming the first unknown key or invalid value.
+    """
+    import stable_baselines3
+
+    algorithm = getattr(stable_baselines3, config.algorithm)
+    accepted, _ = _parameters(algorithm.__init__)
+    for key in config.hyperparameters:
+        if key in _RESERVED:
+            raise ValueError(f"hyperparameters.{key} is not allowed here (it is set by {_RESERVED[key]})")
+        if key not in accepted:
+            raise ValueError(f"unknown hyperparameter {key!r} for {config.algorithm} "
+                             f"(known: {', '.join(sorted(accepted - set(_RESERVED) - {'self'}))})")
+    if config.policy not in algorithm.policy_aliases:
+        raise ValueError(f"unknown policy {config.policy!r} for {config.algorithm} (known: {', '.join(algorithm.policy_aliases)})")
+    policy_class = algorithm.policy_aliases[config.policy]
+    accepted, open_ended = _parameters(policy_class.__init__)
+    accepted -= {"self", "observation_space", "action_space", "lr_schedule"}
+    for key in config.policy_kwargs:
+        if key not in accepted and not open_ended:
+            raise ValueError(f"unknown policy_kwargs key {key!r} for {config.algorithm} {config.policy} "
+                             f"(known: {', '.join(sorted(accepted))})")
+    from agents.training.hyperparameters import check_hyperparameters, check_policy_kwargs
+
+    check_hyperparameters(config.algorithm, config.hyperparameters, config.n_envs)
+    check_policy_kwargs(config.policy_kwargs)
+    _validate_env_kwargs(config)
+
+
+def _validate_env_kwargs(config: TrainConfig) -> None:
+    import gymnasium
+
+    if config.env_id.startswith("DeadTime/"):
+        import envs  # noqa: F401  (registers the DeadTime ids)
+    try:
+        spec = gymnasium.spec(config.env_id)
+    except gymnasium.error.Error as error:
+        raise ValueError(f"env_id {config.env_id!r} is not a registered environment ({error})") from None
+    entry_point = spec.entry_point
+    if isinstance(entry_point, str):
+        from gymnasium.envs.registration import load_env_creator
+
+        entry_point = load_env_creator(entry_point)
+    target = entry_point.__init__ if inspect.isclass(entry_point) else entry_point
+    accepted, open_ended = _parameters(target)
+    accepted |= {"max_episode_steps", "disable_env_checker", "autoreset", "apply_api_compatibility"}
+    for key in config.env_kwargs:
+        if key not in accepted and not open_ended:
+            raise ValueError(f"unknown env_kwargs key {key!r} for {config.env_id} "
+                             f"(known: {', '.join(sorted(accepted - {'self'}))})")

@@ -1,0 +1,387 @@
+"""One registry of every analytic rule: name -> :class:`Rule` (``deadtime tune``, ``deadtime evaluate``).
+
+A rule is a plain function of the identified quantities (:class:`RuleInputs`) that returns a
+controller.  Three kinds, all cited in :data:`RULES`:
+
+* the PI/PID rules of the literature, adapted from :data:`baselines.rules.pid_registry.RULES` (their
+  formulas are in :mod:`baselines.rules.pid`);
+* the ``mu`` rules of the Gorez-Klan PID (:mod:`baselines.rules.mu`), designed by
+  :func:`envs.design.pid_design`;
+* the ``T_r`` rules of the FPPI and the MSP (:mod:`baselines.rules.dtc`), designed by
+  :func:`envs.design.fppi_design` and :func:`envs.design.msp_design`.
+
+The ``mu`` and ``T_r`` rules go through the design maps of :mod:`envs.design`, so that a rule's
+controller is exactly what the environments and the oracle produce for the same parameter;
+:attr:`Rule.parameter` gives that parameter.
+
+Which model each rule reads from :class:`RuleInputs`: FOPDT rules the ``fopdt`` model (eq. 11 of
+Ingimundarson, or the given model), SOPDT rules and the ``mu`` rules the Gorez-Klan ``sopdt``
+model (eq. 2-8; a given FOPDT model as the SOPDT model with ``T_2 = 0``), the ultimate-gain rules the exact ultimate point of ``model`` (the given model,
+or the SOPDT model from identification), the MSP rules the two-parameter ``integrating_model``
+(Ingimundarson eq. 2), and the PID rules that accept integrating plants ``model``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from baselines.rules import dtc as dtc_rules
+from baselines.rules import mu as mu_rules
+from baselines.rules.pid_registry import RULES as PID_RULES
+from baselines.rules.pid_registry import RuleSpec
+from envs.systems.controllers import Controller
+from envs.design import fppi_design, msp_design, pid_design
+from envs.identification.models import (
+    FOPDTModel,
+    IntegratingModel,
+    Model,
+    SOPDTModel,
+    fopdt_from_moments,
+    mismatch_time,
+)
+from envs.identification.open_loop_experiments import open_loop_pulse, open_loop_step
+from envs.systems.plants import Plant
+from envs.identification.procedure import PULSE_LENGTH, Identification
+
+__all__ = ["FPPI_DEAD_TIME_ERROR", "MSP_RELATIVE_DEAD_TIME_ERROR", "RULES", "Rule", "RuleInputs", "get_rule"]
+
+ControllerKind = Literal["pid", "pid-series", "fppi", "msp"]
+PlantKind = Literal["stable", "integrating", "both"]
+
+FPPI_DEAD_TIME_ERROR = 0.1
+"""``Delta L/L_n`` assumed by ``fppi-eq34`` (Ingimundarson section 4.2 leaves it to the user)."""
+
+MSP_RELATIVE_DEAD_TIME_ERROR = 0.2
+"""``delta_L`` of ``msp-eq50`` (Ingimundarson eq. 50; 0.2 gives ``T_r = L_n/2``)."""
+
+
+@dataclass(frozen=True)
+class RuleInputs:
+    """The identified quantities every rule is a function of.
+
+    Attributes
+    ----------
+    integrating : bool
+        Whether the plant (and the model) is integrating.
+    gain : float
+        ``K_n``: static gain, or velocity gain if integrating.
+    residence_time : float
+        ``T_ar`` (eq. 10); for integrating plants that of the dynamics additional to the integrator.
+    fopdt, sopdt : FOPDTModel, SOPDTModel or None
+        ``K_n e^{-L_n s}/(T_n s + 1)`` (Ingimundarson eq. 1) and Gorez-Klan's SOPDT model
+        (eq. 2-8); None if integrating.
+    integrating_model : IntegratingModel or None
+        The two-parameter model ``K_n e^{-L_n s}/s`` (Ingimundarson eq. 2), ``L_n = T_ar``; None
+        if stable.
+    model : FOPDTModel, SOPDTModel or IntegratingModel
+        The model the ultimate-gain rules and the integrating PID rules use: the given model
+        (:meth:`from_model`), else the SOPDT model (stable) or the two-parameter model.
+    mismatch_time : float
+        ``T_f_bar`` (eq. 22), nan if unknown or integrating.
+    pulse_area : float
+        ``A`` (eq. 46), nan if unknown or stable.
+    apparent_time_constant : float
+        ``T_n`` of the dynamics additional to the integrator (``msp-tr-tn``): the given model's
+        ``time_constant``, or the closed-loop ``T_a`` (Gorez-Klan appendix B on the integrated
+        input); nan if unknown.
+    """
+
+    integrating: bool
+    gain: float
+    residence_time: float
+    fopdt: FOPDTModel | None
+    sopdt: SOPDTModel | None
+    integrating_model: IntegratingModel | None
+    model: Model
+    mismatch_time: float = math.nan
+    pulse_area: float = math.nan
+    apparent_time_constant: float = math.nan
+
+    @classmethod
+    def from_identification(cls, identification: Identification) -> RuleInputs:
+        """The quantities of :func:`envs.identification.procedure.identify` (the seeds' procedure)."""
+        i = identification
+        model = i.integrating_model if i.integrating else i.sopdt
+        if model is None:
+            raise ValueError("the identification produced no model")
+        return cls(
+            integrating=i.integrating,
+            gain=i.gain,
+            residence_time=i.residence_time,
+            fopdt=i.fopdt,
+            sopdt=i.sopdt,
+            integrating_model=i.integrating_model,
+            model=model,
+            mismatch_time=i.mismatch_time,
+            pulse_area=i.pulse_area,
+            apparent_time_constant=i.closed_loop.apparent_time_constant if i.integrating else math.nan,
+        )
+
+    @classmethod
+    def from_model(cls, model: Model, plant: Plant | None = None) -> RuleInputs:
+        """The quantities of a given model, with ``T_f_bar``/``A`` measured on the true ``plant``.
+
+        A rule reads the given model in the form it was written for: a FOPDT model is the SOPDT
+        model with ``T_2 = 0`` (Gorez-Klan eq. 2-2; Skogestad 2003 and Haalman 1965 give the PI as
+        that case of their PID), so the SOPDT rules and the ``mu`` rules use its own ``T_1`` and
+        dead time, not the moment-fitted SOPDT of eq. 2-8 (which moves the dead time of
+        ``2.5 e^{-4s}/(12s + 1)`` to 1.23 and closes unstable loops on the model itself).  From an
+        SOPDT model the FOPDT model follows by its moments (``T_ar = T_1 + T_2 + D_2``,
+        ``T_a = sqrt(T_1^2 + T_2^2)``, eq. 2-5, 2-6).  With ``plant``, the mismatch time of eq. 22
+        (open-loop step to steady state) or the pulse area of eq. 46 (pulse of ``L_n/3``, as
+        :func:`envs.identification.procedure.identify`) is computed against the model on the noise-free plant.
+
+        Raises
+        ------
+        ValueError
+            If the model's kind (stable or integrating) differs from the plant's.
+        """
+        if plant is not None and isinstance(model, IntegratingModel) != plant.integrating:
+            kind = "integrating" if isinstance(model, IntegratingModel) else model.to_dict()["type"]
+            plant_kind = "integrating" if plant.integrating else "self-regulating"
+            raise ValueError(f"model.type {kind} does not fit the plant, which is {plant_kind}")
+        if isinstance(model, IntegratingModel):
+            two_parameter = IntegratingModel(gain=model.gain, dead_time=model.residence_time)
+            return cls(
+                integrating=True, gain=model.gain, residence_time=model.residence_time, fopdt=None, sopdt=None,
+                integrating_model=two_parameter, model=model,
+                pulse_area=_pulse_area(plant, two_parameter) if plant is not None else math.nan,
+                apparent_time_constant=model.time_constant if model.time_constant is not None else math.nan,
+            )
+        if isinstance(model, FOPDTModel):
+            fopdt = model
+            # the FOPDT model in the SOPDT form (Gorez-Klan eq. 2-2 with T_2 = 0), not re-fitted by moments
+            sopdt = SOPDTModel(model.gain, (model.time_constant, 0.0), model.dead_time)
+        elif isinstance(model, SOPDTModel):
+            t1, t2 = model.time_constants
+            sopdt = model
+            fopdt = fopdt_from_moments(model.gain, model.residence_time, math.hypot(t1, t2))
+        else:
+            raise TypeError(f"model must be a FOPDTModel, SOPDTModel or IntegratingModel, got {type(model).__name__}")
+        return cls(
+            integrating=False, gain=model.gain, residence_time=model.residence_time, fopdt=fopdt, sopdt=sopdt,
+            integrating_model=None, model=model,
+            mismatch_time=_mismatch_time(plant, fopdt) if plant is not None else math.nan,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON form (``null`` for absent models and unknown numbers)."""
+
+        def number(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        def as_dict(m: Model | None) -> dict[str, Any] | None:
+            return None if m is None else m.to_dict()
+
+        return {
+            "integrating": self.integrating,
+            "gain": self.gain,
+            "residence_time": self.residence_time,
+            "fopdt": as_dict(self.fopdt),
+            "sopdt": as_dict(self.sopdt),
+            "integrating_model": as_dict(self.integrating_model),
+            "mismatch_time": number(self.mismatch_time),
+            "pulse_area": number(self.pulse_area),
+            "apparent_time_constant": number(self.apparent_time_constant),
+        }
+
+
+def _mismatch_time(plant: Plant, model: FOPDTModel) -> float:
+    """``T_f_bar`` of eq. 22: the noise-free unit open-loop step of ``plant`` against ``model``."""
+    height = 1.0 / abs(model.gain)
+    step = open_loop_step(plant, np.random.default_rng(0), height, model.residence_time, model.gain)
+    if not step.settled:
+        return math.nan
+    return mismatch_time(step.timepts, step.output / height, model)
+
+
+def _pulse_area(plant: Plant, model: IntegratingModel) -> float:
+    """``A`` of eq. 46: the noise-free pulse response of ``plant`` against the two-parameter ``model``."""
+    if model.dead_time <= 0:
+        return math.nan
+    pulse = open_loop_pulse(
+        plant, np.random.default_rng(0), 1.0 / abs(model.gain), PULSE_LENGTH * model.dead_time, model.gain, model.dead_time
+    )
+    return pulse.area
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One analytic rule.
+
+    Attributes
+    ----------
+    name : str
+        Kebab-case registry key: the rule, then the controller (``zn-step-pi``, ``fppi-eq28``).
+    citation : str
+        Paper, equation and table.
+    controller : {"pid", "pid-series", "fppi", "msp"}
+        The controller JSON type the rule returns.
+    plants : {"stable", "integrating", "both"}
+        The plants (and models) the rule applies to.
+    design : callable
+        ``RuleInputs -> Controller``.
+    parameter : callable or None
+        ``RuleInputs -> float``: the design parameter (``mu``, or ``T_r``) of the rules that go
+        through :mod:`envs.design`; None for the full PI/PID rules.
+    """
+
+    name: str
+    citation: str
+    controller: ControllerKind
+    plants: PlantKind
+    design: Callable[[RuleInputs], Controller]
+    parameter: Callable[[RuleInputs], float] | None = None
+
+    def __call__(self, inputs: RuleInputs) -> Controller:
+        """``self.design(inputs)``."""
+        return self.design(inputs)
+
+
+def _rule(
+    name: str,
+    citation: str,
+    controller: ControllerKind,
+    plants: PlantKind,
+    design: Callable[[RuleInputs], Controller],
+    parameter: Callable[[RuleInputs], float] | None = None,
+) -> Rule:
+    """A :class:`Rule` whose ``design`` refuses inputs of the wrong plant kind, naming the rule."""
+
+    def checked(inputs: RuleInputs) -> Controller:
+        if plants == "stable" and inputs.integrating:
+            raise ValueError(f"rule {name} is for self-regulating plants; the plant is integrating")
+        if plants == "integrating" and not inputs.integrating:
+            raise ValueError(f"rule {name} is for integrating plants; the plant is self-regulating")
+        return design(inputs)
+
+    return Rule(name, citation, controller, plants, checked, parameter)
+
+
+def _needs(value: Any, what: str, rule: str) -> Any:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        raise ValueError(f"rule {rule} needs {what}, which is unknown here")
+    return value
+
+
+# --------------------------------------------------------------------------- PI/PID of the literature
+def _pid_rule(spec: RuleSpec) -> Rule:
+    def model(inputs: RuleInputs) -> Model:
+        if inputs.integrating:
+            return inputs.model
+        if spec.model == "ultimate":
+            return inputs.model
+        return _needs(inputs.fopdt if spec.model == "fopdt" else inputs.sopdt, f"a {spec.model.upper()} model", spec.name)
+
+    return _rule(
+        name=spec.name,
+        citation=spec.citation,
+        controller="pid" if spec.form == "ideal" else "pid-series",
+        plants="both" if spec.integrating else "stable",
+        design=lambda inputs: spec.design(model(inputs)),
+    )
+
+
+# --------------------------------------------------------------------------- mu rules (Gorez-Klan PID)
+_GK = "Gorez & Klan, Simple models for process control, eq. 3-11 (PID)"
+
+
+def _mu_rule(name: str, mu: float, source: str) -> Rule:
+    def design(inputs: RuleInputs) -> Controller:
+        return pid_design(_needs(inputs.sopdt, "the SOPDT model", name), mu)
+
+    return _rule(name, f"{_GK}; mu = {mu:.6g} from {source}", "pid-series", "stable", design, lambda inputs: mu)
+
+
+def _mu_rules() -> list[Rule]:
+    table = [_mu_rule(f"gorez-klan-mu-{m:g}", mu_rules.mu_table(m), "section 3 table") for m in mu_rules.MU_TABLE]
+    return table + [
+        _mu_rule("gorez-klan-pm-60", mu_rules.mu_for_phase_margin(60.0), "eq. 3-14 (phase margin 60 deg on the model loop)"),
+        _mu_rule("gorez-klan-gm-3", mu_rules.mu_for_gain_margin(3.0), "eq. 3-13 (gain margin 3 on the model loop)"),
+    ]
+
+
+# --------------------------------------------------------------------------- T_r rules (FPPI, MSP)
+_IN = "Ingimundarson, Robust tuning procedures of dead-time compensating controllers"
+
+
+def _fppi_rule(name: str, tr: Callable[[RuleInputs], float], citation: str) -> Rule:
+    def design(inputs: RuleInputs) -> Controller:
+        return fppi_design(_needs(inputs.fopdt, "the FOPDT model", name), tr(inputs))
+
+    return _rule(name, citation, "fppi", "stable", design, tr)
+
+
+def _msp_rule(name: str, tr: Callable[[RuleInputs], float], citation: str) -> Rule:
+    def design(inputs: RuleInputs) -> Controller:
+        return msp_design(_needs(inputs.integrating_model, "the two-parameter model", name), tr(inputs))
+
+    return _rule(name, citation, "msp", "integrating", design, tr)
+
+
+def _fppi_eq28(inputs: RuleInputs) -> float:
+    fopdt = _needs(inputs.fopdt, "the FOPDT model", "fppi-eq28")
+    return dtc_rules.fppi_time_constant(fopdt.time_constant, _needs(inputs.mismatch_time, "T_f_bar (eq. 22)", "fppi-eq28"))
+
+
+def _fppi_eq34(inputs: RuleInputs) -> float:
+    fopdt = _needs(inputs.fopdt, "the FOPDT model", "fppi-eq34")
+    bound = _needs(inputs.mismatch_time, "T_f_bar (eq. 22)", "fppi-eq34") + FPPI_DEAD_TIME_ERROR * fopdt.dead_time
+    return dtc_rules.fppi_time_constant(fopdt.time_constant, bound)
+
+
+def _ppi_kappa1(inputs: RuleInputs) -> float:
+    return _needs(inputs.fopdt, "the FOPDT model", "ppi-kappa1").time_constant
+
+
+def _msp_eq43(inputs: RuleInputs) -> float:
+    model = _needs(inputs.integrating_model, "the two-parameter model", "msp-eq43")
+    return dtc_rules.msp_time_constant(model.gain, model.dead_time, _needs(inputs.pulse_area, "A (eq. 46)", "msp-eq43"))
+
+
+def _msp_eq50(inputs: RuleInputs) -> float:
+    model = _needs(inputs.integrating_model, "the two-parameter model", "msp-eq50")
+    return dtc_rules.msp_eq50(model.gain, model.dead_time, MSP_RELATIVE_DEAD_TIME_ERROR).tr
+
+
+def _msp_tr_tn(inputs: RuleInputs) -> float:
+    t_n = _needs(inputs.apparent_time_constant, "T_n of the dynamics additional to the integrator", "msp-tr-tn")
+    if not t_n > 0:
+        raise ValueError(f"rule msp-tr-tn needs T_n > 0 (the dynamics additional to the integrator), got {t_n!r}")
+    return t_n
+
+
+def _dtc_rules() -> list[Rule]:
+    return [
+        _fppi_rule("fppi-eq28", _fppi_eq28, f"{_IN}, eq. 28 and 29 (T_r = max(sqrt(T_f_bar T_n), T_f_bar)), T_f = T_r, Table 1"),
+        _fppi_rule(
+            "fppi-eq34", _fppi_eq34,
+            f"{_IN}, eq. 34 (as derived: kappa = sqrt(T_n/(T_f_bar + Delta L)); the printed form is inverted), "
+            f"Delta L = {FPPI_DEAD_TIME_ERROR:g} L_n, section 4.2",
+        ),
+        _fppi_rule("ppi-kappa1", _ppi_kappa1, f"Hagglund 1996, Control Eng. Practice 4:749-756 (kappa = 1, T_r = T_n); {_IN}, eq. 15"),
+        _msp_rule("msp-eq43", _msp_eq43, f"{_IN}, eq. 43 with beta = A (eq. 46), section 5.1, Table 2"),
+        _msp_rule("msp-eq50", _msp_eq50, f"{_IN}, eq. 50 (T_r/L_n = 2 delta_L/(1 - delta_L)), delta_L = {MSP_RELATIVE_DEAD_TIME_ERROR:g}"),
+        _msp_rule(
+            "msp-tr-tn", _msp_tr_tn,
+            f"Matausek & Micic 1996, IEEE TAC 41 (T_r = T_n); {_IN}, section 5.3; T_n = closed-loop T_a of the "
+            "dynamics additional to the integrator (Gorez-Klan appendix B) or the given model's time_constant",
+        ),
+    ]
+
+
+RULES: dict[str, Rule] = {rule.name: rule for rule in [*map(_pid_rule, PID_RULES.values()), *_mu_rules(), *_dtc_rules()]}
+"""Every rule by name; see :class:`Rule`."""
+
+
+def get_rule(name: str) -> Rule:
+    """The rule called ``name``; an unknown name is a ValueError that says where the names are."""
+    try:
+        return RULES[name]
+    except KeyError:
+        raise ValueError(f"unknown rule {name!r}; `deadtime tune --list` names the {len(RULES)} rules") from None

@@ -1,0 +1,177 @@
+"""The episode cost of a design: dimensionless IAE under robustness constraints on the true plant.
+
+For a controller designed from identified data, the loop is closed around the TRUE plant and
+analysed exactly as ``deadtime analyze`` does (:func:`envs.analysis.loop_analysis.analyze`).  With ``K`` the true
+static gain (velocity gain ``K_v`` for integrating plants) and ``T_ar`` the true residence time
+(``L_n`` for integrating plants):
+
+* ``J_load = IAE_load/(|K| T_ar)`` (stable) or ``IAE_load/(|K_v| T_ar^2)`` (integrating): a unit
+  load step at the plant input moves the output by ``K`` per unit (``K_v t`` when integrating);
+* ``J_setpoint = IAE_setpoint/T_ar``;
+* ``J_experiment = experiment_time/T_ar``.
+
+Both IAE terms are invariant to the plant's gain and time scale.  The feasible cost is
+``c = w_load J_load + w_setpoint J_setpoint + w_experiment J_experiment``, capped at
+``FEASIBLE_CAP`` (a design that bad is useless anyway; the cap keeps the ordering below strict).
+A design that violates a constraint costs ``FEASIBLE_CAP + 1 + grade``: strictly worse than every
+feasible design and graded by how far it violates.  The grade sums the relative violations
+``Ms/Ms_max - 1``, ``1 - DM_rel/DM_min``, ``1 - GM/GM_min``, ``1 - PM/PM_min`` (each when positive),
+plus ``UNSTABLE_GRADE`` for an unstable loop (whose margins are then undefined and not graded).
+The delay margin is relative to the true dead time ``L`` (to ``T_ar`` if ``L = 0``).
+
+A feasible design whose cost is capped is simulated only until that is certain: the IAE terms
+are non-negative integrals, so once ``w_load J_load + w_setpoint J_setpoint`` over the horizon
+simulated so far exceeds ``FEASIBLE_CAP - w_experiment J_experiment`` (an
+:class:`~envs.analysis.performance.IAEBound`), the cost is ``FEASIBLE_CAP`` whatever follows.  The
+:class:`Score` then says ``iae_lower_bound=True``: its IAE and load/set-point cost terms are
+those of the horizon simulated, lower bounds of the full ones.  The cost is the same as with the
+full simulation, bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any
+
+from envs.analysis.loop_analysis import plant_margins
+from envs.systems.controllers import Controller
+from envs.analysis.performance import IAEBound, iae
+from envs.systems.plants import Plant
+from envs.analysis.robustness import Margins
+from envs.threads import single_threaded
+from envs.validation import require_number
+
+__all__ = ["Constraints", "CostWeights", "Score", "score", "FEASIBLE_CAP", "UNSTABLE_GRADE"]
+
+FEASIBLE_CAP = 20.0
+UNSTABLE_GRADE = 5.0
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """Robustness constraints on the true loop; ``None`` disables one.
+
+    Attributes
+    ----------
+    max_sensitivity : float or None
+        ``Ms <= max_sensitivity`` (default 2.0).
+    min_relative_delay_margin : float or None
+        ``DM/L >= min_relative_delay_margin`` (default 0.2), ``L`` the true dead time.
+    min_gain_margin, min_phase_margin_deg : float or None
+        Optional classical margins (default off).
+    """
+
+    max_sensitivity: float | None = 2.0
+    min_relative_delay_margin: float | None = 0.2
+    min_gain_margin: float | None = None
+    min_phase_margin_deg: float | None = None
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if value is not None:
+                require_number(value, f"constraints.{name}", positive=True)
+
+
+@dataclass(frozen=True)
+class CostWeights:
+    """Weights of the dimensionless cost terms (see the module docstring)."""
+
+    load: float = 1.0
+    setpoint: float = 1.0
+    experiment: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            require_number(value, f"weights.{name}", nonnegative=True)
+
+
+@dataclass(frozen=True)
+class Score:
+    """The cost of one design on the true plant, with every figure behind it.
+
+    ``iae_lower_bound`` is True when the design's cost is capped and its simulation stopped as soon
+    as that was certain: ``iae_load``, ``iae_setpoint``, ``load_cost`` and ``setpoint_cost`` are
+    then lower bounds (the figures of the horizon simulated), not the full IAE; the full IAE is that
+    of :func:`envs.analysis.loop_analysis.analyze`.
+    """
+
+    cost: float
+    feasible: bool
+    violations: dict[str, float]
+    stable: bool
+    ms: float
+    gain_margin: float
+    phase_margin_deg: float
+    delay_margin: float
+    relative_delay_margin: float
+    iae_load: float
+    iae_setpoint: float
+    load_cost: float
+    setpoint_cost: float
+    experiment_cost: float
+    margins: Margins = field(repr=False)
+    iae_lower_bound: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready figures (``None`` for infinite or undefined values)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "margins"}  # asdict would copy margins
+        out["violations"] = dict(self.violations)
+        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
+
+
+def _violations(margins: Margins, relative_delay_margin: float, constraints: Constraints) -> dict[str, float]:
+    """Relative violation of each active constraint (only those that are violated)."""
+    if not margins.stable:
+        return {"stability": UNSTABLE_GRADE}
+    c, found = constraints, {}
+    if c.max_sensitivity is not None:
+        found["max_sensitivity"] = margins.ms / c.max_sensitivity - 1
+    if c.min_relative_delay_margin is not None:
+        found["min_relative_delay_margin"] = 1 - relative_delay_margin / c.min_relative_delay_margin
+    if c.min_gain_margin is not None:
+        found["min_gain_margin"] = 1 - margins.gain_margin / c.min_gain_margin
+    if c.min_phase_margin_deg is not None:
+        found["min_phase_margin_deg"] = 1 - margins.phase_margin_deg / c.min_phase_margin_deg
+    return {k: float(v) for k, v in found.items() if v > 0}
+
+
+@single_threaded
+def score(
+    plant: Plant,
+    controller: Controller,
+    *,
+    experiment_time: float = 0.0,
+    constraints: Constraints = Constraints(),
+    weights: CostWeights = CostWeights(),
+) -> Score:
+    """The cost of ``controller`` on the true ``plant`` (see the module docstring).
+
+    An infeasible design is not simulated (its cost does not depend on the IAE); its IAE is
+    reported as ``inf`` if the loop is unstable and ``nan`` otherwise.  A capped feasible design
+    is simulated only until its cap is certain (``iae_lower_bound``, see the module docstring).
+    """
+    scale = plant.residence_time
+    margins = plant_margins(plant, controller)
+    reference = plant.delay if plant.delay > 0 else scale
+    relative_dm = margins.delay_margin / reference
+    violations = _violations(margins, relative_dm, constraints)
+    experiment_cost = weights.experiment * experiment_time / scale
+    if violations:
+        undefined = math.inf if not margins.stable else math.nan
+        return Score(
+            FEASIBLE_CAP + 1 + sum(violations.values()), False, violations, margins.stable, margins.ms,
+            margins.gain_margin, margins.phase_margin_deg, margins.delay_margin, relative_dm,
+            undefined, undefined, undefined, undefined, experiment_cost, margins,
+        )  # fmt: skip
+    load_scale = abs(plant.gain) * scale * (scale if plant.integrating else 1.0)
+    bound = IAEBound(weights.load / load_scale, weights.setpoint / scale, FEASIBLE_CAP - experiment_cost)
+    performance = iae(plant, controller, bound=bound)
+    load_cost = weights.load * performance.load / load_scale
+    setpoint_cost = weights.setpoint * performance.setpoint / scale
+    cost = min(load_cost + setpoint_cost + experiment_cost, FEASIBLE_CAP)
+    return Score(
+        cost, True, {}, True, margins.ms, margins.gain_margin, margins.phase_margin_deg, margins.delay_margin,
+        relative_dm, performance.load, performance.setpoint, load_cost, setpoint_cost, experiment_cost, margins,
+        performance.lower_bound,
+    )  # fmt: skip

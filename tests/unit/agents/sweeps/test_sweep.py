@@ -1,0 +1,167 @@
+"""``deadtime sweep`` (:mod:`agents.sweeps.sweep`): bad input, the smoke sweep end to end, and resume.
+
+The end-to-end tests run ``sweeps/smoke.yaml`` (2 seeds of SAC on PID-v0, 300 steps each) on a
+local Ray instance in a subprocess, as a user would; they are slow (about a minute each on 2 cores).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import pytest
+
+from agents.cli import main
+from agents.sweeps.config import load_sweep
+
+REPO = Path(__file__).resolve().parents[4]
+SMOKE = REPO / "sweeps" / "smoke.yaml"
+
+
+def run(*args: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        status = main(list(args))
+    return status, out.getvalue(), err.getvalue()
+
+
+def _sweep_file(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "sweep.yaml"
+    path.write_text(text)
+    return path
+
+
+GOOD = f"""
+trials:
+  - config: {REPO / 'configs' / 'sac.yaml'}
+    envs: [DeadTime/PID-v0]
+    seeds: {{first: 3, count: 2}}
+"""
+
+
+def test_a_sweep_file_resolves_every_trial(tmp_path: Path) -> None:
+    sweep = load_sweep(_sweep_file(tmp_path, GOOD))
+    assert sweep.name == "sweep"
+    assert [t.name for t in sweep.trials()] == ["sac-PID-v0-s3", "sac-PID-v0-s4"]
+    config = sweep.trials()[1].train_config(tmp_path / "run")
+    assert (config.seed, config.env_id, config.output_dir) == (4, "DeadTime/PID-v0", str(tmp_path / "run"))
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (GOOD + "bogus: 1\n", "unknown key 'bogus' in "),
+        (GOOD.replace("seeds: {first: 3, count: 2}", "seeds: []"), "trials[0].seeds must be a non-empty list"),
+        (GOOD.replace("count: 2", "count: 0"), "trials[0].seeds.count must be an integer >= 1"),
+        (GOOD.replace(str(REPO / "configs" / "sac.yaml"), "configs/sac.yml"), "trials[0].config: no such file"),
+        (GOOD.replace(str(REPO / "configs" / "sac.yaml"), "[configs/sac.yaml]"), "trials[0].config: no such file"),
+        (GOOD + "evaluation: {n: 0}\n", "evaluation.n must be an integer >= 1"),
+        (GOOD + "evaluation: {policis: [oracle]}\n", "unknown key 'policis' in evaluation"),
+        (GOOD.replace("envs: [DeadTime/PID-v0]", "envs: [DeadTime/PID-v0]\n    overrides: [hyperparameters.batch_sise=3]"),
+         "trial sac-PID-v0-s3:"),
+        ("trials: []\n", "trials must be a non-empty list"),
+    ],
+    ids=["unknown-key", "empty-seeds", "zero-count", "config-typo", "config-not-a-path", "n-zero",
+         "unknown-evaluation-key", "bad-override", "no-trials"],
+)
+def test_bad_sweep_files_get_one_line_and_exit_2(tmp_path: Path, text: str, message: str) -> None:
+    path = _sweep_file(tmp_path, text)
+    status, out, err = run("sweep", "--config", str(path), "--out", str(tmp_path / "out"))
+    assert status == 2
+    assert out == ""
+    assert err.count("\n") == 1 and message in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_missing_sweep_file(tmp_path: Path) -> None:
+    status, _, err = run("sweep", "--config", str(tmp_path / "none.yaml"), "--out", str(tmp_path / "out"))
+    assert (status, err.strip()) == (2, f"deadtime sweep: error: --config {tmp_path / 'none.yaml'}: no such file")
+
+
+@pytest.mark.parametrize("address", ["127.0.0.1:1", "nohost"])
+def test_unreachable_address_is_refused_at_once_and_leaves_nothing(tmp_path: Path, address: str) -> None:
+    status, _, err = run("sweep", "--config", str(SMOKE), "--out", str(tmp_path / "out"), "--address", address)
+    assert status == 2
+    assert err.count("\n") == 1 and f"--address {address}:" in err, err
+    assert not (tmp_path / "out").exists()
+
+
+# ------------------------------------------------------------------------------ end to end
+def _environment() -> dict[str, str]:
+    return {**os.environ, "OPENBLAS_NUM_THREADS": "1", "RAY_ADDRESS": ""}
+
+
+def _sweep_command(out: Path, *extra: str) -> list[str]:
+    return [sys.executable, "-m", "agents.cli", "sweep", "--config", str(SMOKE), "--out", str(out), *extra]
+
+
+def _agent_costs(path: Path) -> list[str]:
+    with path.open(newline="") as file:
+        return [row["cost"] for row in csv.DictReader(file) if row["policy"] == "agent"]
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("sweep") / "smoke"
+    subprocess.run(_sweep_command(out, "--json"), cwd=REPO, env=_environment(), check=True, capture_output=True, timeout=900)
+    return out
+
+
+@pytest.mark.slow
+def test_smoke_sweep_equals_the_runs_done_one_by_one(smoke: Path, tmp_path: Path) -> None:
+    summary = json.loads((smoke / "summary.json").read_text())
+    for name in ("summary.md", "summary.csv", "learning_curves.png", "performance_profiles.png"):
+        assert (smoke / name).is_file(), name
+    sweep = load_sweep(SMOKE)
+    trial = sweep.trials()[0]
+    run_dir, evaluation = tmp_path / "run", tmp_path / "eval"
+    overrides = [*trial.overrides, f"seed={trial.seed}"]
+    done = subprocess.run([sys.executable, "-m", "agents.cli", "train", "--config", trial.config_path, "--env", trial.env_id,
+                           "--out", str(run_dir), *overrides], cwd=REPO, env=_environment(), capture_output=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    e = sweep.evaluation
+    done = subprocess.run([sys.executable, "-m", "agents.cli", "evaluate", "--env", trial.env_id, "--policies", f"agent={run_dir}",
+                           "--n", str(e.n), "--seed", str(e.seed), "--out", str(evaluation), "--no-plots"],
+                          cwd=REPO, env=_environment(), capture_output=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    one_by_one = _agent_costs(evaluation / "per_plant.csv")
+    assert one_by_one == _agent_costs(smoke / "eval" / "PID-v0" / trial.name / "per_plant.csv")
+    agent = next(p for p in summary["envs"][0]["policies"] if p["kind"] == "agent")
+    assert agent["seeds"] == 2
+    assert agent["per_seed_mean_cost"][0] == pytest.approx(sum(map(float, one_by_one)) / len(one_by_one), rel=1e-12)
+    assert (run_dir / "evaluations.json").read_text() == (smoke / "runs" / trial.name / "evaluations.json").read_text()
+
+
+@pytest.mark.slow
+def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path) -> None:
+    out = tmp_path / "killed"
+    driver = subprocess.Popen(_sweep_command(out), cwd=REPO, env=_environment(), stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.monotonic() + 600
+    while not list(out.glob("runs/*/checkpoints/latest.json")) and time.monotonic() < deadline and driver.poll() is None:
+        time.sleep(0.2)
+    os.killpg(driver.pid, signal.SIGKILL)  # the driver and the local Ray instance it started
+    driver.wait()
+    assert not (out / "summary.json").exists()
+    done = subprocess.run(_sweep_command(out, "--resume", "--json"), cwd=REPO, env=_environment(), capture_output=True,
+                          text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    expected, resumed = (json.loads((d / "summary.json").read_text()) for d in (smoke, out))
+    assert resumed["envs"] == expected["envs"]
+    assert resumed["learning_curves"] == expected["learning_curves"]
+
+
+def test_without_ray_the_command_names_the_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError, as where it is not installed
+    monkeypatch.delitem(sys.modules, "agents.sweep_run", raising=False)
+    status, _, err = run("sweep", "--config", str(SMOKE), "--out", str(tmp_path / "out"))
+    assert (status, err) == (2, "deadtime sweep: error: deadtime sweep needs Ray Tune: pip install -e '.[sweep]'\n")
+    assert not (tmp_path / "out").exists()

@@ -1,0 +1,118 @@
+"""The episode score of envs/analysis/scoring.py: invariances, ordering of violations, the cost's terms, bad input.
+
+* Gain and time-scale invariance: ``P(s) -> k P(a s)`` with the controller designed from the equally
+  scaled model leaves every dimensionless figure unchanged (the IAE is simulated on a grid
+  proportional to ``T_ar``, so the agreement is to rounding, not to the simulation's accuracy).
+* A violation costs ``FEASIBLE_CAP + 1 + grade``: more than every feasible design.
+"""
+
+import math
+
+import pytest
+
+from envs.systems.controllers import PID
+from envs.design import fppi_design, msp_design, pid_design
+from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
+from envs.systems.plants import Plant
+from envs.analysis.scoring import FEASIBLE_CAP, UNSTABLE_GRADE, Constraints, CostWeights, score
+
+FIGURES = ("cost", "ms", "relative_delay_margin", "load_cost", "setpoint_cost", "experiment_cost")
+
+
+def _stable_plant(gain: float = 1.0, scale: float = 1.0) -> Plant:
+    return Plant.from_time_constants(gain, [3.0 * scale, 1.0 * scale], 2.0 * scale)
+
+
+def _integrating_plant(gain: float = 1.0, scale: float = 1.0) -> Plant:
+    return Plant.from_time_constants(gain / scale, [1.0 * scale], 4.0 * scale, integrating=True)
+
+
+def _designs(gain: float, scale: float):
+    """Each structure designed from an (imperfect) model scaled like the plant."""
+    fopdt = FOPDTModel(gain, 3.4 * scale, 2.6 * scale)
+    sopdt = SOPDTModel(gain, (2.8 * scale, 0.9 * scale), 2.3 * scale)
+    integrating = IntegratingModel(gain / scale, 5.0 * scale)
+    return {
+        "fppi": (_stable_plant(gain, scale), fppi_design(fopdt, 1.5 * scale)),
+        "pid": (_stable_plant(gain, scale), pid_design(sopdt, 2.0)),
+        "msp": (_integrating_plant(gain, scale), msp_design(integrating, 12.0 * scale)),
+    }
+
+
+@pytest.mark.parametrize("structure", ["fppi", "pid", "msp"])
+@pytest.mark.parametrize("gain, scale", [(-3.0, 1.0), (1.0, 7.0), (0.2, 0.05)])
+def test_score_is_invariant_to_gain_and_time_scale(structure, gain, scale):
+    plant, controller = _designs(1.0, 1.0)[structure]
+    scaled_plant, scaled_controller = _designs(gain, scale)[structure]
+    reference = score(plant, controller, experiment_time=20.0)
+    scaled = score(scaled_plant, scaled_controller, experiment_time=20.0 * scale)
+    assert reference.feasible and scaled.feasible
+    for name in FIGURES:
+        assert getattr(scaled, name) == pytest.approx(getattr(reference, name), rel=1e-6), name
+
+
+def test_violation_scores_worse_than_any_feasible_design():
+    plant = _stable_plant()
+    model = FOPDTModel(1.0, 4.5, 1.5)  # dead time underestimated: small T_r breaks Ms <= 2
+    feasible = score(plant, fppi_design(model, 100.0), experiment_time=1e6)  # slow and expensive: capped
+    assert feasible.feasible and feasible.cost == FEASIBLE_CAP
+    barely = score(plant, fppi_design(model, 1.5))
+    assert not barely.feasible and barely.stable
+    assert barely.cost == pytest.approx(FEASIBLE_CAP + 1 + sum(barely.violations.values()))
+    assert barely.cost > FEASIBLE_CAP + 1 > feasible.cost
+    assert math.isnan(barely.iae_load)  # infeasible designs are not simulated
+
+
+def test_violations_are_graded():
+    plant, model = _stable_plant(), FOPDTModel(1.0, 4.5, 1.5)
+    costs = [score(plant, fppi_design(model, tr)).cost for tr in (1.5, 1.0, 0.5)]
+    assert FEASIBLE_CAP + 1 < costs[0] < costs[1] < costs[2]
+
+
+def test_unstable_loop_gives_a_stability_violation_without_crashing():
+    result = score(_stable_plant(), PID(kp=20.0, ti=1.0))
+    assert not result.stable and not result.feasible
+    assert result.violations == {"stability": UNSTABLE_GRADE}
+    assert result.cost == FEASIBLE_CAP + 1 + UNSTABLE_GRADE
+    assert result.iae_load == math.inf and result.iae_setpoint == math.inf
+    assert result.to_dict()["iae_load"] is None
+
+
+def test_cost_is_the_weighted_sum_of_the_reported_terms():
+    plant, controller = _designs(1.0, 1.0)["fppi"]
+    unit = score(plant, controller, experiment_time=10.0)
+    weights = CostWeights(load=2.0, setpoint=0.5, experiment=0.1)
+    weighted = score(plant, controller, experiment_time=10.0, weights=weights)
+    assert unit.cost == pytest.approx(unit.load_cost + unit.setpoint_cost + unit.experiment_cost, rel=1e-12)
+    assert weighted.cost == pytest.approx(weighted.load_cost + weighted.setpoint_cost + weighted.experiment_cost, rel=1e-12)
+    assert weighted.load_cost == pytest.approx(2.0 * unit.load_cost, rel=1e-12)
+    assert weighted.setpoint_cost == pytest.approx(0.5 * unit.setpoint_cost, rel=1e-12)
+    assert weighted.experiment_cost == pytest.approx(10.0 * unit.experiment_cost, rel=1e-12)
+    assert unit.experiment_cost == pytest.approx(0.01 * 10.0 / plant.residence_time, rel=1e-12)
+    assert unit.load_cost == pytest.approx(unit.iae_load / (abs(plant.gain) * plant.residence_time), rel=1e-12)
+    assert unit.setpoint_cost == pytest.approx(unit.iae_setpoint / plant.residence_time, rel=1e-12)
+
+
+def test_disabled_constraints_admit_a_design_that_the_defaults_refuse():
+    plant, model = _stable_plant(), FOPDTModel(1.0, 4.5, 1.5)
+    controller = fppi_design(model, 1.0)
+    assert not score(plant, controller).feasible
+    relaxed = score(plant, controller, constraints=Constraints(max_sensitivity=None, min_relative_delay_margin=None))
+    assert relaxed.feasible and relaxed.cost < FEASIBLE_CAP
+
+
+@pytest.mark.parametrize(
+    "make, field",
+    [
+        (lambda: Constraints(max_sensitivity=-1.0), "constraints.max_sensitivity"),
+        (lambda: Constraints(min_relative_delay_margin=0.0), "constraints.min_relative_delay_margin"),
+        (lambda: Constraints(min_gain_margin=float("nan")), "constraints.min_gain_margin"),
+        (lambda: Constraints(min_phase_margin_deg="45"), "constraints.min_phase_margin_deg"),
+        (lambda: CostWeights(load=-1.0), "weights.load"),
+        (lambda: CostWeights(setpoint=float("inf")), "weights.setpoint"),
+        (lambda: CostWeights(experiment=True), "weights.experiment"),
+    ],
+)
+def test_bad_constraints_and_weights_are_refused_naming_the_field(make, field):
+    with pytest.raises(ValueError, match=field):
+        make()
