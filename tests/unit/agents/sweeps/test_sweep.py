@@ -161,7 +161,7 @@ def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path)
 
 def test_without_ray_the_command_names_the_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError, as where it is not installed
-    monkeypatch.delitem(sys.modules, "agents.sweep_run", raising=False)
+    monkeypatch.delitem(sys.modules, "agents.sweeps.run", raising=False)
     status, _, err = run("sweep", "--config", str(SMOKE), "--out", str(tmp_path / "out"))
     assert (status, err) == (2, "deadtime sweep: error: deadtime sweep needs Ray Tune: pip install -e '.[sweep]'\n")
     assert not (tmp_path / "out").exists()
