@@ -60,6 +60,35 @@ def _dataclass_argument(value: Any, kind: type, name: str) -> Any:
     raise ValueError(f"{name} must be a {kind.__name__}, a dict or None, got {type(value).__name__}")
 
 
+DIVERGED_RANGE = 5.0
+"""``render()`` draws a diverging response until it leaves ``DIVERGED_RANGE`` times the first tenth
+of its run (or the bounded responses' range, where there are any) and marks where it leaves."""
+
+
+def _draw_bounded(axes: Any, curves: list[tuple[np.ndarray, np.ndarray, str, str, bool]]) -> None:
+    """Draw ``(time, values, style, label, diverged)`` curves; the axis follows the bounded ones."""
+    bounded = [values for _, values, *_, diverged in curves if not diverged]
+    if bounded:
+        low, high = min(float(np.nanmin(v)) for v in bounded), max(float(np.nanmax(v)) for v in bounded)
+    else:
+        start = np.concatenate([values[: max(1, len(values) // 10)] for _, values, *_ in curves])
+        reach = DIVERGED_RANGE * max(float(np.nanmax(np.abs(start))), 1e-12)
+        low, high = -reach, reach
+    margin = 0.05 * (high - low or 1.0)
+    low, high = low - margin, high + margin
+    for time, values, style, label, diverged in curves:
+        if not diverged:
+            axes.plot(time, values, style, lw=1.0, label=label)
+            continue
+        outside = np.flatnonzero(~((values >= low) & (values <= high)))
+        end = int(outside[0]) if outside.size else len(values)
+        line, = axes.plot(time[:end], values[:end], style, lw=1.0, label=f"{label} (diverged)")
+        if end < len(values):
+            axes.plot(time[end - 1 if end else 0], np.clip(values[end - 1 if end else 0], low, high), "x",
+                      color=line.get_color(), ms=8)
+    axes.set_ylim(low, high)
+
+
 class DeadTimeTuningEnv(gym.Env):
     """Base class of the tuning environments; see :class:`PIDEnv` for the full documentation.
 
@@ -231,6 +260,7 @@ class DeadTimeTuningEnv(gym.Env):
         controller = self.design(relative)
         self._controller = controller
         result = self.score_controller(controller)
+        self._design = (relative, float(result.cost))
         self._done = True
         observation, named = self._observation_and_features()
         info = self._final_info(result, relative, controller, named)
@@ -272,39 +302,51 @@ class DeadTimeTuningEnv(gym.Env):
     # ------------------------------------------------------------------ rendering
     def render(self) -> np.ndarray | None:
         """``render_mode="rgb_array"``: an image of the experiments' measured outputs so far and,
-        once the design is committed, the loop's set-point and load responses on the true plant
-        (time in units of the true ``T_ar``)."""
+        once the design is committed, the loop's set-point and load responses on the true plant:
+        the output in one panel, the control signal in another, labelled with the design's parameter
+        and cost, time in units of the true ``T_ar``.  A diverging response is drawn until it leaves
+        the axes and marked; the axes follow the bounded ones."""
         if self.render_mode != "rgb_array" or self.evidence is None:
             return None
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
-        figure = Figure(figsize=(6.4, 4.8), dpi=80)
+        figure = Figure(figsize=(6.4, 6.4), dpi=80)
         canvas = FigureCanvasAgg(figure)
-        experiments, loop = figure.subplots(2, 1)
+        experiments, output, control = figure.subplots(3, 1)
         scale = self.plant.residence_time
         for name, result in self.evidence.results.items():
             experiments.plot(result.timepts / scale, result.output, lw=0.8, label=name)
         experiments.set_title("experiments (measured output)", fontsize=9)
-        experiments.legend(fontsize=7)
+        if self.evidence.results:
+            experiments.legend(fontsize=7)
         if self._controller is not None:
-            self._plot_loop(loop, scale)
-        loop.set_xlabel("t / T_ar", fontsize=8)
+            self._plot_loop(output, control, scale)
+        control.set_xlabel("t / T_ar", fontsize=8)
         figure.tight_layout()
         canvas.draw()
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
-    def _plot_loop(self, axes, scale: float) -> None:
+    def _plot_loop(self, output, control, scale: float) -> None:
         from envs.simulation.loops import closed_loop_response, simulation_step
 
         dt = simulation_step(self.plant, self._controller)
         steps = int(min(40.0 * scale / dt, 20_000))
         gain = abs(self.plant.gain) * (scale if self.integrating else 1.0)
-        for label, kwargs, unit in (("set point", {"setpoint": 1.0}, 1.0), ("load", {"load": 1.0}, gain)):
+        symbol = {"pid": "mu", "fppi": "T_r/T_n", "msp": "T_r/L_n"}[self.structure]
+        curves = {output: [], control: []}
+        for label, kwargs, unit, style in (("set point", {"setpoint": 1.0}, 1.0, "-"), ("load / |K|", {"load": 1.0}, gain, "--")):
             response = closed_loop_response(self.plant, self._controller, steps, dt, **kwargs)
-            axes.plot(response.timepts / scale, response.output / unit, lw=1.0, label=label)
-        axes.set_title("designed loop on the true plant (load response / |K|)", fontsize=9)
-        axes.legend(fontsize=7)
+            time = response.timepts / scale
+            curves[output].append((time, response.output / unit, style, label, response.diverged))
+            curves[control].append((time, response.control * unit, style, label, response.diverged))
+        for axes, drawn in curves.items():
+            _draw_bounded(axes, drawn)
+        output.set_title(f"designed loop on the true plant: {symbol} = {self._design[0]:.3g}, cost {self._design[1]:.3g}",
+                         fontsize=9)
+        output.set_ylabel("y", fontsize=8)
+        control.set_ylabel("u (load: u |K|)", fontsize=8)
+        output.legend(fontsize=7)
 
     # ------------------------------------------------------------------ observation
     def _observation_and_features(self) -> tuple[np.ndarray, dict[str, float]]:

@@ -289,7 +289,7 @@ def test_rgb_array_rendering():
     before = env.render()
     env.step(np.array([0.0], dtype=np.float32))
     after = env.render()
-    assert before.dtype == np.uint8 and before.shape == after.shape == (384, 512, 3)
+    assert before.dtype == np.uint8 and before.shape == after.shape == (512, 512, 3)
     assert not np.array_equal(before, after)  # the loop's responses are drawn after the commit
     assert PIDEnv().render() is None
 
