@@ -27,7 +27,7 @@ weighted IAE is certainly above the budget.  The test keeps a relative margin of
 ``BOUND_MARGIN`` so that the rounding of the sums cannot matter.
 
 How it is computed.  The loop is assembled as rows of coefficients (:func:`~envs.simulation.loops.loop_rows`),
-and everything else is one compiled call (:func:`~envs.analysis.compiled_iae.step_iae`): the loop's one-step
+and everything else is one compiled call (:func:`~envs.analysis._iae_kernels.step_iae`): the loop's one-step
 map (that of :func:`~envs.simulation.delay_systems.discretize` to rounding: within ``1e-10`` relative in the IAE,
 measured <= 1.1e-11), the steady offsets, both step runs over the horizons with the trapezoidal
 areas, their sums and the tests above.  It gives the numbers of :func:`~envs.simulation.delay_systems.simulate`
@@ -43,7 +43,7 @@ from typing import Sequence
 
 import numpy as np
 
-from envs.analysis.compiled_iae import step_iae
+from envs.analysis._iae_kernels import step_iae
 from envs.systems.controllers import Controller
 from envs.simulation.loops import loop_rows, sample_time
 from envs.systems.plants import Plant
@@ -77,7 +77,7 @@ class IAEBound:
 
     def exceeded(self, load: float, setpoint: float) -> bool:
         """Whether IAEs of at least ``load`` and ``setpoint`` are certainly above the budget (the
-        test that :func:`~envs.analysis.compiled_iae.step_iae` applies)."""
+        test that :func:`~envs.analysis._iae_kernels.step_iae` applies)."""
         return self.load_weight * load + self.setpoint_weight * setpoint > self.threshold  # False for nan (0 inf)
 
 

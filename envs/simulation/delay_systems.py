@@ -29,7 +29,7 @@ import numba
 import numpy as np
 import scipy.linalg
 
-from envs.simulation.run_kernels import _run, _run_one
+from envs.simulation._run_kernels import _run, _run_one
 
 try:  # the steps of scipy.linalg.expm (see _expm)
     from scipy.linalg._matfuncs import _exp_sinch
@@ -334,7 +334,7 @@ def _stack(discretes: Sequence[DiscreteDelaySystem]) -> dict[str, np.ndarray]:
 
 
 def loop_arrays(discrete: DiscreteDelaySystem) -> tuple[np.ndarray, ...]:
-    """The arrays of the compiled recursion (:func:`envs.simulation.run_kernels._loop_sample`) of one system:
+    """The arrays of the compiled recursion (:func:`envs.simulation._run_kernels._loop_sample`) of one system:
     ``Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a`` with ``R`` of shape ``(n, 3 n_v)`` and
     ``a = fraction/dt``, the values of ``_stack([discrete])`` (contiguous, float64 and int64)."""
     s = discrete.system
@@ -463,7 +463,7 @@ class LoopRun:
     stayed below the earlier, smaller limit, hence below this one.  A run that diverged stays
     stopped (a restart with a larger limit would stop later): continue only runs that did not
     diverge.  ``capacity`` is the expected longest horizon (the buffers grow if a longer one comes).
-    (The closed-loop step ran on it before its compiled run, :mod:`envs.simulation.run_kernels`; the tests
+    (The closed-loop step ran on it before its compiled run, :mod:`envs.simulation._run_kernels`; the tests
     keep that run as the reference.)
     """
 

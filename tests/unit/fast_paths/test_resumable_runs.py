@@ -2,7 +2,7 @@
 
 The experiments and the IAE extend a simulation by doubling its horizon until it settles.  They
 continue it from the saved state and delay buffer (:class:`envs.simulation.delay_systems.LoopRun`,
-:class:`envs.simulation.delay_systems.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.simulation.run_kernels`, which
+:class:`envs.simulation.delay_systems.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.simulation._run_kernels`, which
 stops at its first steady or aborting sample), and only the new samples are tested for steady state
 (:func:`envs.identification.steady_state.steady_state_tail`, :class:`envs.identification.steady_state.SteadyStateTest`).  The recursions and the running sums are causal, so
 the results must be those of restarting every horizon from rest, bit for bit: every comparison here
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from envs.identification.closed_loop_experiment import _cumulative_integral, _run_closed_loop
-from envs.analysis.compiled_iae import discretize_compiled
+from envs.analysis._iae_kernels import discretize_compiled
 from envs.identification.commissioning import commissioning_pi
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.identification.experiment_base import excursion_index, run_until_settled
@@ -208,7 +208,7 @@ IAE_LOOPS = {
 
 @pytest.mark.parametrize("name", IAE_LOOPS)
 def test_iae_equals_simulation_from_rest(name):
-    """The compiled IAE (envs.analysis.compiled_iae), the runs continued over the horizons, gives the IAE of
+    """The compiled IAE (envs.analysis._iae_kernels), the runs continued over the horizons, gives the IAE of
     the general path bit for bit."""
     plant, controller = IAE_LOOPS[name]
     assert iae(plant, controller) == _iae_from_rest(plant, controller)
