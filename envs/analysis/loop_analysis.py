@@ -2,7 +2,7 @@
 
 :func:`analyze` is what ``deadtime analyze`` prints and what the environments score: stability,
 ``Ms``, ``Mt``, gain, phase and delay margins of ``L = P C_fb`` on the exact frequency response
-(the algorithm of :mod:`envs.analysis.robustness`, compiled in :mod:`envs.analysis.compiled_robustness` on the
+(the algorithm of :mod:`envs.analysis.robustness`, compiled in :mod:`envs.analysis._robustness_kernels` on the
 loop's quasi-rational form of :mod:`envs.analysis.loop_transfer`), and the IAE for unit load and set-point steps (:mod:`envs.analysis.performance`).
 An unstable loop is a result (``stable=False``, infinite IAE), not an error.
 """
@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
-from envs.analysis.compiled_robustness import packed_margins
+from envs.analysis._robustness_kernels import packed_margins
 from envs.systems.controllers import Controller
 from envs.analysis.loop_transfer import loop_packed
 from envs.analysis.performance import IAEResult, iae
@@ -77,7 +77,7 @@ class LoopAnalysis:
 
 def plant_margins(plant: Plant, controller: Controller) -> Margins:
     """Robustness figures of ``L = P C_fb``: :func:`envs.analysis.robustness.loop_margins` compiled
-    (:func:`envs.analysis.compiled_robustness.quasi_rational_margins` on :func:`envs.analysis.loop_transfer.loop_transfer`,
+    (:func:`envs.analysis._robustness_kernels.quasi_rational_margins` on :func:`envs.analysis.loop_transfer.loop_transfer`,
     through the packed form that skips the intermediate objects).
 
     The figures equal those of ``loop_margins(lambda w: loop_response(plant, controller, w), ...)``

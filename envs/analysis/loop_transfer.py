@@ -29,7 +29,7 @@ with polynomials ``a_i``, ``b_j`` and dead times ``alpha_i, beta_j >= 0``.  The 
 The integral actions of FPPI and MSP are roots at ``s = 0`` of the denominators above, not
 factored out.  Near ``s = 0`` such a side is a difference of nearly equal terms; evaluated as
 written (and as :func:`envs.simulation.loops.loop_response` does) it loses ``log10(1/(omega T))`` digits.
-The compiled evaluation (:func:`envs.analysis.compiled_robustness.transfer_at`) writes each side as
+The compiled evaluation (:func:`envs.analysis._robustness_kernels.transfer_at`) writes each side as
 ``(sum_i a_i)(s) + sum_i a_i(s) (e^{-alpha_i s} - 1)``: the polynomial ``sum_i a_i`` is evaluated
 from the summed coefficients (its root at the origin is then exact) and
 ``e^{-i x} - 1 = -2 sin(x/2)^2 - 2 i sin(x/2) cos(x/2)`` has no cancellation, so the value is
@@ -52,9 +52,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
-import numba
 import numpy as np
 
+from envs.analysis._loop_transfer_kernels import _FPPI, _MSP, _PID, _packed_loop
 from envs.systems.controllers import FPPI, MSP, PID, Controller, SeriesPID
 from envs.systems.plants import Plant
 
@@ -86,7 +86,7 @@ def _scale(factor: float, a: Polynomial) -> Polynomial:
 
 
 def _rows(terms: Terms) -> tuple[np.ndarray, np.ndarray]:
-    """One side as :func:`envs.analysis.compiled_robustness.transfer_at` takes it: the coefficient rows, padded with leading zeros to
+    """One side as :func:`envs.analysis._robustness_kernels.transfer_at` takes it: the coefficient rows, padded with leading zeros to
     one width, and the dead times."""
     width = max(len(coefficients) for coefficients, _ in terms)
     rows = [(0.0,) * (width - len(coefficients)) + coefficients for coefficients, _ in terms]
@@ -94,7 +94,7 @@ def _rows(terms: Terms) -> tuple[np.ndarray, np.ndarray]:
 
 
 def packed(numerator: Terms, denominator: Terms) -> tuple[np.ndarray, tuple[int, int, int, int]]:
-    """Both sides in one flat array, as :func:`envs.analysis.compiled_robustness.packed_margins` takes them:
+    """Both sides in one flat array, as :func:`envs.analysis._robustness_kernels.packed_margins` takes them:
     the rows of :func:`_rows` of the numerator, its dead times, then those of the denominator; and
     the shapes ``(numerator rows, width, denominator rows, width)``.  One array of Python floats
     built at once: each ``numpy.array`` call costs about a microsecond."""
@@ -136,7 +136,7 @@ class QuasiRational:
     @cached_property
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(rows, dead times)`` of the numerator, then of the denominator, as
-        :func:`envs.analysis.compiled_robustness.transfer_at` takes them."""
+        :func:`envs.analysis._robustness_kernels.transfer_at` takes them."""
         return _rows(self.numerator) + _rows(self.denominator)
 
     def packed(self) -> tuple[np.ndarray, tuple[int, int, int, int]]:
@@ -193,14 +193,27 @@ def loop_transfer(plant: Plant, controller: Controller) -> QuasiRational:
     return QuasiRational(*_loop_terms(plant, controller))
 
 
-def loop_packed(plant: Plant, controller: Controller) -> tuple[np.ndarray, tuple[int, int, int, int]]:
-    """``loop_transfer(plant, controller).packed()``, in one compiled call.
+def loop_packed(
+    plant: Plant, controller: Controller, method: str = "compiled"
+) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """``loop_transfer(plant, controller).packed()``.
 
-    The kernels do the arithmetic of :func:`feedback_transfer`, :func:`_loop_terms` and
-    :func:`packed` operation by operation, in the same order (products summed term by term as in
-    :func:`_multiply`, no fused multiply-adds), so the array is the same bit for bit
-    (``tests/unit/envs/analysis/test_loop_transfer.py``); they cost about a fifth of the Python version's ~25 us.
+    Parameters
+    ----------
+    plant, controller
+        The loop ``P C_fb``.
+    method : {"compiled", "reference"}
+        ``"compiled"`` (default): one call to the kernels of
+        :mod:`envs.analysis._loop_transfer_kernels`, which do the arithmetic of
+        :func:`feedback_transfer`, :func:`_loop_terms` and :func:`packed` operation by operation, in
+        the same order (products summed term by term as in :func:`_multiply`, no fused
+        multiply-adds), at about a fifth of the cost.  ``"reference"``: those Python functions.  The
+        two arrays are the same bit for bit (``tests/unit/envs/analysis/test_loop_transfer.py``).
     """
+    if method == "reference":
+        return packed(*_loop_terms(plant, controller))
+    if method != "compiled":
+        raise ValueError(f"method must be 'compiled' or 'reference', got {method!r}")
     if isinstance(controller, PID | SeriesPID):
         has_ti, ti = controller.ti is not None, 0.0 if controller.ti is None else float(controller.ti)
         kind, args = _PID, (float(controller.kp), ti, float(controller.td), float(controller.n), 0.0, has_ti, isinstance(controller, SeriesPID))
@@ -228,136 +241,3 @@ def _loop_terms(plant: Plant, controller: Controller) -> tuple[Terms, Terms]:
     )
 
 
-# ---------------------------------------------------------------- compiled loop_packed
-# Polynomials are float arrays of their exact length (no padding: a leading zero would change the
-# packed widths); each helper is the Python function of the same name, operation for operation.
-
-
-@numba.njit(cache=True)
-def _multiply_c(a, b):  # pragma: no cover - compiled
-    """:func:`_multiply`: ``product[i + j] += a[i] b[j]``, ``i`` outer, ``j`` inner."""
-    product = np.zeros(a.size + b.size - 1)
-    for i in range(a.size):
-        for j in range(b.size):
-            product[i + j] += a[i] * b[j]
-    return product
-
-
-@numba.njit(cache=True)
-def _add_c(a, b):  # pragma: no cover - compiled
-    """:func:`_add`: the shorter added to the trailing coefficients of the longer."""
-    if a.size < b.size:
-        a, b = b, a
-    total, pad = _part(a, 0, a.size), a.size - b.size
-    for k in range(b.size):
-        total[pad + k] = a[pad + k] + b[k]
-    return total
-
-
-@numba.njit(cache=True)
-def _scale_c(factor, a):  # pragma: no cover - compiled
-    """:func:`_scale`."""
-    scaled = np.empty(a.size)
-    for k in range(a.size):
-        scaled[k] = factor * a[k]
-    return scaled
-
-
-@numba.njit(cache=True)
-def _pair(first, second):  # pragma: no cover - compiled
-    """The polynomial ``(first, second)``."""
-    out = np.empty(2)
-    out[0], out[1] = first, second
-    return out
-
-
-@numba.njit(cache=True)
-def _packed_c(plant, size, delay, numerator, denominator, denominator_2, beta_2, two_terms):  # pragma: no cover - compiled
-    """:func:`packed` of :func:`_loop_terms` for a controller with one numerator term (dead time 0)
-    and one or two denominator terms (dead times 0 and ``beta_2``); ``plant`` is the plant's
-    numerator (``size`` coefficients) then denominator, ``delay`` its dead time."""
-    plant_numerator, plant_denominator = _part(plant, 0, size), _part(plant, size, plant.size)
-    top = _multiply_c(plant_numerator, numerator)
-    first = _multiply_c(plant_denominator, denominator)
-    second = _multiply_c(plant_denominator, denominator_2) if two_terms else first
-    rows = 2 if two_terms else 1
-    width = max(first.size, second.size)
-    flat = np.zeros(top.size + 1 + rows * width + rows)  # rows padded with leading zeros
-    _put(flat, 0, top)
-    flat[top.size] = delay + 0.0  # plant.delay + alpha, alpha = 0.0
-    start = top.size + 1
-    _put(flat, start + width - first.size, first)
-    if two_terms:
-        _put(flat, start + 2 * width - second.size, second)
-        flat[start + 2 * width], flat[start + 2 * width + 1] = 0.0, beta_2
-    else:
-        flat[start + width] = 0.0
-    return flat, 1, top.size, rows, width
-
-
-@numba.njit(cache=True)
-def _part(values, start, stop):  # pragma: no cover - compiled
-    """``values[start:stop].copy()`` (explicit loops compile several times faster than slicing)."""
-    part = np.empty(stop - start)
-    for k in range(stop - start):
-        part[k] = values[start + k]
-    return part
-
-
-@numba.njit(cache=True)
-def _put(target, start, values):  # pragma: no cover - compiled
-    """``target[start : start + values.size] = values``."""
-    for k in range(values.size):
-        target[start + k] = values[k]
-
-
-_PID, _FPPI, _MSP = 0, 1, 2  # the controller kinds of _packed_loop
-
-
-@numba.njit(cache=True)
-def _packed_loop(plant, size, delay, kind, a, b, c, d, e, flag, other_flag):  # pragma: no cover - compiled
-    """:func:`loop_packed`: the controller's terms (:func:`_pid_terms`, :func:`_fppi_terms` or
-    :func:`_msp_terms` by ``kind``, parameters ``a .. other_flag`` in their order), then the loop
-    packed by :func:`_packed_c`.  One entry point for the three kinds: each compiled entry costs
-    seconds of cold compilation."""
-    if kind == _PID:
-        numerator, denominator, denominator_2, beta_2, two_terms = _pid_terms(a, b, c, d, flag, other_flag)
-    elif kind == _FPPI:
-        numerator, denominator, denominator_2, beta_2, two_terms = _fppi_terms(a, b, c, d, e)
-    else:
-        numerator, denominator, denominator_2, beta_2, two_terms = _msp_terms(a, b, c, d, e, flag)
-    return _packed_c(plant, size, delay, numerator, denominator, denominator_2, beta_2, two_terms)
-
-
-@numba.njit(cache=True)
-def _pid_terms(kp, ti, td, n, has_ti, series):  # pragma: no cover - compiled
-    """:func:`_pid`: ``(numerator, denominator, denominator, 0.0, False)`` (one term each side)."""
-    num, den = np.ones(1), np.ones(1)
-    if has_ti:
-        num, den = _pair(ti, 1.0), _pair(ti, 0.0)
-    if td > 0 and not series:
-        filter_ = _pair(td / n, 1.0)
-        num, den = _add_c(_multiply_c(num, filter_), _multiply_c(den, _pair(td, 0.0))), _multiply_c(den, filter_)
-    elif td > 0:
-        num, den = _multiply_c(num, _pair(td, 1.0)), _multiply_c(den, _pair(td / n, 1.0))
-    return _scale_c(kp, num), den, den, 0.0, False
-
-
-@numba.njit(cache=True)
-def _fppi_terms(k, gain, tn, tf, dead_time):  # pragma: no cover - compiled
-    """:func:`_fppi`: ``(numerator, rational, (-K K_n,), L_n, True)``."""
-    k_kn = k * gain
-    rational = np.empty(3)
-    rational[0], rational[1], rational[2] = tn * tf, tn + k_kn * tf, k_kn
-    return _pair(k * tn, k), rational, np.full(1, -k_kn), dead_time, True
-
-
-@numba.njit(cache=True)
-def _msp_terms(k0, kn, tr, td, dead_time, extension):  # pragma: no cover - compiled
-    """:func:`_msp`: ``(numerator, K_n predictor lead, -K_n lead, L_n, True)``."""
-    f, lead = (_pair(td, 1.0), _pair(td / 10, 1.0)) if extension else (np.ones(1), np.ones(1))
-    predictor = _pair(tr, 1.0)
-    lead_s = np.zeros(lead.size + 1)  # lead + (0.0,)
-    _put(lead_s, 0, lead)
-    numerator = _add_c(_scale_c(k0 * kn, _multiply_c(f, predictor)), lead_s)
-    return numerator, _scale_c(kn, _multiply_c(predictor, lead)), _scale_c(-kn, lead), dead_time, True

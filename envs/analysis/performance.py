@@ -27,27 +27,39 @@ weighted IAE is certainly above the budget.  The test keeps a relative margin of
 ``BOUND_MARGIN`` so that the rounding of the sums cannot matter.
 
 How it is computed.  The loop is assembled as rows of coefficients (:func:`~envs.simulation.loops.loop_rows`),
-and everything else is one compiled call (:func:`~envs.analysis.compiled_iae.step_iae`): the loop's one-step
+and everything else is one compiled call (:func:`~envs.analysis._iae_kernels.step_iae`): the loop's one-step
 map (that of :func:`~envs.simulation.delay_systems.discretize` to rounding: within ``1e-10`` relative in the IAE,
 measured <= 1.1e-11), the steady offsets, both step runs over the horizons with the trapezoidal
 areas, their sums and the tests above.  It gives the numbers of :func:`~envs.simulation.delay_systems.simulate`
-and :func:`integrated_absolute_error` on the same map bit for bit
-(``tests/unit/fast_paths/test_resumable_runs.py`` keeps that general path as the reference).
+and :func:`integrated_absolute_error` on the same map bit for bit.  That general path is
+``iae(..., method="reference")``: the loop as a :class:`~envs.simulation.delay_systems.DelaySystem`
+(:func:`~envs.simulation.loops.closed_loop`), its map by :func:`~envs.simulation.delay_systems.discretize`,
+both runs by :class:`~envs.simulation.delay_systems.LoopRun`, the areas by
+:func:`integrated_absolute_error` and the offsets by numpy's DC gain; it agrees with the compiled
+path within the ``1e-10`` of the map above, and bit for bit on the compiled map
+(``tests/unit/fast_paths/test_resumable_runs.py``).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
-from envs.analysis.compiled_iae import step_iae
+from envs.analysis._iae_kernels import step_iae
 from envs.systems.controllers import Controller
-from envs.simulation.loops import loop_rows, sample_time
+from envs.simulation.delay_systems import (
+    MAX_RUN_SAMPLES,
+    DelaySystem,
+    DiscreteDelaySystem,
+    LoopRun,
+    discretize,
+    divergence_limit,
+)
+from envs.simulation.loops import closed_loop, loop_rows, sample_time
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import MAX_RUN_SAMPLES, divergence_limit
 
 __all__ = ["IAEBound", "IAEResult", "integrated_absolute_error", "iae", "iae_batch"]
 
@@ -77,7 +89,7 @@ class IAEBound:
 
     def exceeded(self, load: float, setpoint: float) -> bool:
         """Whether IAEs of at least ``load`` and ``setpoint`` are certainly above the budget (the
-        test that :func:`~envs.analysis.compiled_iae.step_iae` applies)."""
+        test that :func:`~envs.analysis._iae_kernels.step_iae` applies)."""
         return self.load_weight * load + self.setpoint_weight * setpoint > self.threshold  # False for nan (0 inf)
 
 
@@ -107,12 +119,24 @@ def integrated_absolute_error(error: np.ndarray, dt: float) -> float:
 
 
 def iae(
-    plant: Plant, controller: Controller, *, samples_per_residence_time: int = 50, bound: IAEBound | None = None
+    plant: Plant,
+    controller: Controller,
+    *,
+    samples_per_residence_time: int = 50,
+    bound: IAEBound | None = None,
+    method: str = "compiled",
 ) -> IAEResult:
     """IAE of the loop for a unit load step and a unit set-point step (see the module docstring).
 
     With ``bound``, a run that exceeds it stops early and returns lower bounds (``lower_bound``).
+    ``method`` is ``"compiled"`` (default: one call to
+    :func:`~envs.analysis._iae_kernels.step_iae`) or ``"reference"`` (the general path of the module
+    docstring, equal to the compiled one within ``1e-10`` relative, several times slower).
     """
+    if method == "reference":
+        return _reference_iae(plant, controller, samples_per_residence_time, bound)
+    if method != "compiled":
+        raise ValueError(f"method must be 'compiled' or 'reference', got {method!r}")
     return _loop_iae(plant, controller, samples_per_residence_time, bound)
 
 
@@ -167,3 +191,53 @@ def _bounded_horizons(scale: float, dt: float, delays: np.ndarray) -> tuple[floa
         longest *= 2.0
     return HORIZON, longest
 
+
+
+def _reference_iae(
+    plant: Plant,
+    controller: Controller,
+    samples_per_residence_time: int,
+    bound: IAEBound | None,
+    discretization: Callable[[DelaySystem, float], DiscreteDelaySystem] = discretize,
+) -> IAEResult:
+    """``iae(..., method="reference")``: the computation of :func:`_loop_iae` written with the
+    package's general functions (the module docstring); ``discretization`` gives the one-step map
+    (the tests pass the compiled one to hold the rest equal bit for bit)."""
+    system = closed_loop(plant, controller)
+    dt = sample_time(plant, system.delays, samples_per_residence_time)
+    if not dt > 0 or not math.isfinite(dt):
+        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    scale = plant.step_time_scale()
+    horizon, longest = _bounded_horizons(scale, dt, system.delays)
+    if horizon is None:
+        return IAEResult(math.inf, math.inf, False, 0.0, dt)
+    discrete, offsets = discretization(system, dt), _steady_offsets(system)
+    runs, limit = (LoopRun(discrete), LoopRun(discrete)), divergence_limit(plant.gain)
+    while True:
+        steps = int(math.ceil(horizon * scale / dt)) + 1
+        inputs = np.zeros((2, steps, 3))
+        inputs[0, :, 1] = 1.0  # a unit load step
+        inputs[1, :, 0] = 1.0  # a unit set-point step
+        results = [run.advance(inputs[k], limit) for k, run in enumerate(runs)]
+        if any(result.diverged for result in results):
+            return IAEResult(math.inf, math.inf, True, horizon, dt)
+        errors = [result.outputs[:, 2] for result in results]
+        totals = [integrated_absolute_error(e, dt) for e in errors]
+        tails = [integrated_absolute_error(e[-max(e.size // 10, 2) :], dt) for e in errors]
+        load, setpoint = (math.inf if offsets[k] else totals[k] for k in (0, 1))
+        settled = all(tails[k] <= SETTLED_SHARE * max(totals[k], 1e-300) for k in (0, 1) if not offsets[k])
+        if settled or horizon >= longest:
+            return IAEResult(load, setpoint, settled, horizon, dt)
+        if bound is not None and bound.exceeded(load, setpoint):
+            return IAEResult(load, setpoint, False, horizon, dt, lower_bound=True)
+        horizon *= 2
+
+
+def _steady_offsets(system: DelaySystem) -> tuple[bool, bool]:
+    """Whether the error keeps an offset after a unit load and a unit set-point step, by numpy's DC
+    gain (a loop with a pole at the origin is left to the simulation)."""
+    try:
+        gain = system.dc_gain()
+    except np.linalg.LinAlgError:
+        return False, False
+    return abs(gain[2, 1]) > OFFSET_TOLERANCE, abs(gain[2, 0]) > OFFSET_TOLERANCE

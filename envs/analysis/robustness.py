@@ -22,7 +22,7 @@ section 3, after Landau et al.).
 Every step evaluates ``L`` on arrays of frequencies, never point by point: the cost of an analysis
 is a few dozen vectorized evaluations.  :func:`loop_margins` takes any such ``L``; for a loop of a
 plant and a controller of deadtime-gym, :func:`envs.analysis.loop_analysis.plant_margins` runs the same algorithm
-compiled (:mod:`envs.analysis.compiled_robustness`), and the tests hold the two to rounding.
+compiled (:mod:`envs.analysis._robustness_kernels`), and the tests hold the two to rounding.
 """
 
 from __future__ import annotations
@@ -347,7 +347,7 @@ def assemble_margins(
     phase: np.ndarray,
 ) -> Margins:
     """The :class:`Margins` from the figures of :func:`loop_margins` (shared with
-    :mod:`envs.analysis.compiled_robustness`): ``unstable`` from :func:`_winding`, ``tame`` from
+    :mod:`envs.analysis._robustness_kernels`): ``unstable`` from :func:`_winding`, ``tame`` from
     :func:`_high_frequency`, ``peaks = (Ms, its frequency, Mt, its frequency)``, the results of
     :func:`_gain_margin` and :func:`_phase_and_delay_margins`, the gain crossovers and the phase
     crossovers with ``Re L < 0``.  The delay margin of an unstable loop is 0."""

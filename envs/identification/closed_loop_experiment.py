@@ -51,7 +51,7 @@ from envs.identification.models import (
 )
 from envs.simulation.loops import closed_loop_of_block
 from envs.systems.plants import Plant
-from envs.simulation.run_kernels import ABORTED, NO_EVENT, SETTLED, _closed_loop_run
+from envs.simulation._run_kernels import ABORTED, NO_EVENT, SETTLED, _closed_loop_run
 from envs.simulation.delay_systems import discretize, divergence_limit, loop_arrays
 from envs.identification.steady_state import window_samples
 from envs.validation import require_number
@@ -203,7 +203,7 @@ def _run_closed_loop(
     sample ``k`` is the last with finite outputs).  The run ends at the first sample that settles or
     aborts, else at the cap; every test is causal, so that sample and the signals up to it are
     those of simulating and testing any longer run from the start.  The run is compiled
-    (:func:`envs.simulation.run_kernels._closed_loop_run`), one call per block of noise drawn
+    (:func:`envs.simulation._run_kernels._closed_loop_run`), one call per block of noise drawn
     (``NOISE_BLOCK_WINDOWS`` windows, doubling), or one call if the noise is given or zero.
     """
     noise = as_noise(noise)
@@ -231,7 +231,7 @@ class _ClosedLoopRun(ExperimentRun):
 
 
 class _CompiledRun:
-    """The run of :func:`_run_closed_loop` in compiled calls (:func:`envs.simulation.run_kernels._closed_loop_run`),
+    """The run of :func:`_run_closed_loop` in compiled calls (:func:`envs.simulation._run_kernels._closed_loop_run`),
     each continuing the run in :class:`_RunBuffers`."""
 
     def __init__(self, integrating, discrete, amplitude, noise, window, excursion_limit, gain=1.0) -> None:
@@ -277,7 +277,7 @@ def _without_load(arrays: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
 
 
 class _RunBuffers:
-    """The arrays :func:`envs.simulation.run_kernels._closed_loop_run` continues from one horizon to the next
+    """The arrays :func:`envs.simulation._run_kernels._closed_loop_run` continues from one horizon to the next
     (state, delayed signals, outputs, measurement, drive, running sums, largest input so far), for the
     longest run allowed.
 

@@ -7,7 +7,7 @@ and the fitted slope is insignificant; without noise, the tolerance floor is
 (second differences inside a window, fourth differences for :func:`noise_level`), so no noise
 level has to be known in advance.
 
-The compiled running sums and window tests live in :mod:`envs.simulation.run_kernels`, with the loop
+The compiled running sums and window tests live in :mod:`envs.simulation._run_kernels`, with the loop
 recursion, so that the closed-loop step can simulate and test in one compiled call.
 """
 
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from envs.simulation.run_kernels import CONFIDENCE, STEADY_STATE_TOLERANCE, _extend_sums, _tests
+from envs.simulation._run_kernels import CONFIDENCE, STEADY_STATE_TOLERANCE, _extend_sums, _tests
 
 __all__ = [
     "STEADY_STATE_TOLERANCE",

@@ -29,13 +29,7 @@ import numba
 import numpy as np
 import scipy.linalg
 
-from envs.simulation.run_kernels import _run, _run_one
-
-try:  # the steps of scipy.linalg.expm (see _expm)
-    from scipy.linalg._matfuncs import _exp_sinch
-    from scipy.linalg._matfuncs_expm import pade_UV_calc, pick_pade_structure
-except ImportError:  # pragma: no cover - another scipy: its expm itself
-    pick_pade_structure = None
+from envs.simulation._run_kernels import _run, _run_one
 
 __all__ = [
     "DelaySystem",
@@ -167,65 +161,8 @@ def _integrals(A: np.ndarray, span: float, unit: np.ndarray | None = None) -> tu
     matrix for ``T = 1``, if the caller has it: its product by ``T`` is the same block, bit for bit).
     """
     n = A.shape[0]
-    e = _expm((_unit_block(A) if unit is None else unit) * span)
+    e = scipy.linalg.expm((_unit_block(A) if unit is None else unit) * span)
     return e[:n, :n], e[:n, n : 2 * n], e[:n, 2 * n :]
-
-
-def _expm(a: np.ndarray) -> np.ndarray:
-    """``scipy.linalg.expm(a)`` of a square float64 matrix, bit for bit, without its generic glue.
-
-    These are the steps scipy 1.17's ``expm`` takes for one such matrix (the Pade structure and
-    approximant of ``scipy.linalg._matfuncs_expm``, the squarings, and the exact diagonal of a
-    triangular matrix); its wrapper, batching and checks cost as much as the arithmetic here.  The
-    tests compare the two on many matrices; with another scipy (no such helpers) it is
-    ``scipy.linalg.expm`` itself.
-    """
-    n = a.shape[0]
-    if pick_pade_structure is None or n < 2 or a.dtype != np.float64 or a.ndim != 2:
-        return scipy.linalg.expm(a)
-    lower, upper = _off_diagonal(a)  # whether scipy's bandwidths are non-zero
-    if not (lower or upper):
-        return np.diag(np.exp(np.diag(a)))
-    Am = np.empty((5, n, n))
-    Am[0] = a
-    m, s = pick_pade_structure(Am)
-    if m < 0 or pade_UV_calc(Am, m) != 0:
-        return scipy.linalg.expm(a)  # scipy's errors (an allocation failed)
-    eAw = Am[0]
-    triangular = not lower or not upper
-    if s != 0 and triangular:  # scipy's Code Fragment 2.1 of Al-Mohy and Higham (2009)
-        diag_aw = np.diag(a)
-        np.einsum("ii->i", eAw)[:] = np.exp(diag_aw * 2 ** (-s))
-        sd = np.diag(a, k=-1 if not upper else 1)
-        for i in range(s - 1, -1, -1):
-            eAw = eAw @ eAw
-            np.einsum("ii->i", eAw)[:] = np.exp(diag_aw * 2.0 ** (-i))
-            exp_sd = _exp_sinch(diag_aw * (2.0 ** (-i))) * (sd * 2 ** (-i))
-            if not upper:
-                np.einsum("ii->i", eAw[1:, :-1])[:] = exp_sd
-            else:
-                np.einsum("ii->i", eAw[:-1, 1:])[:] = exp_sd
-    elif s != 0:
-        for _ in range(s):
-            eAw = eAw @ eAw
-    eA = np.empty((n, n))
-    if triangular:
-        eA[...] = np.triu(eAw) if not lower else np.tril(eAw)
-    else:
-        eA[...] = eAw
-    return eA
-
-
-@numba.njit(cache=True)
-def _off_diagonal(a):  # pragma: no cover - compiled
-    """Whether ``a`` has a non-zero (or NaN) entry below and above the diagonal."""
-    lower, upper = False, False
-    for i in range(a.shape[0]):
-        for j in range(a.shape[1]):
-            if a[i, j] != 0.0:
-                lower = lower or j < i
-                upper = upper or j > i
-    return lower, upper
 
 
 def _unit_block(A: np.ndarray) -> np.ndarray:
@@ -334,7 +271,7 @@ def _stack(discretes: Sequence[DiscreteDelaySystem]) -> dict[str, np.ndarray]:
 
 
 def loop_arrays(discrete: DiscreteDelaySystem) -> tuple[np.ndarray, ...]:
-    """The arrays of the compiled recursion (:func:`envs.simulation.run_kernels._loop_sample`) of one system:
+    """The arrays of the compiled recursion (:func:`envs.simulation._run_kernels._loop_sample`) of one system:
     ``Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a`` with ``R`` of shape ``(n, 3 n_v)`` and
     ``a = fraction/dt``, the values of ``_stack([discrete])`` (contiguous, float64 and int64)."""
     s = discrete.system
@@ -463,7 +400,7 @@ class LoopRun:
     stayed below the earlier, smaller limit, hence below this one.  A run that diverged stays
     stopped (a restart with a larger limit would stop later): continue only runs that did not
     diverge.  ``capacity`` is the expected longest horizon (the buffers grow if a longer one comes).
-    (The closed-loop step ran on it before its compiled run, :mod:`envs.simulation.run_kernels`; the tests
+    (The closed-loop step ran on it before its compiled run, :mod:`envs.simulation._run_kernels`; the tests
     keep that run as the reference.)
     """
 

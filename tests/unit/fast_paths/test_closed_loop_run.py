@@ -1,7 +1,7 @@
 """The compiled closed-loop step run and recursion against the paths they replaced, bit for bit.
 
 * :func:`envs.identification.closed_loop_experiment._run_closed_loop` (compiled calls of
-  :func:`envs.simulation.run_kernels._closed_loop_run`) against the chunked run it replaced, written out here
+  :func:`envs.simulation._run_kernels._closed_loop_run`) against the chunked run it replaced, written out here
   (:class:`_ChunkedTrial`: :class:`~envs.simulation.delay_systems.LoopRun` continued chunk by chunk, the new
   samples tested by :class:`~envs.identification.steady_state.SteadyStateTest`, through
   :func:`~envs.identification.experiment_base.run_until_settled`): the same last sample, outcome and signals up to
@@ -11,7 +11,7 @@
   sample at a time under the limit of :func:`~envs.simulation.delay_systems.simulate` for the inputs so far): it
   aborts at the first sample whose state step reaches ``DIVERGENCE_LIMIT`` times the largest input
   so far, whatever the chunks of the old run, the blocks of noise drawn or the noise after it;
-* the recursion of :func:`envs.simulation.delay_systems.simulate` (:func:`envs.simulation.run_kernels._run_one`) against the
+* the recursion of :func:`envs.simulation.delay_systems.simulate` (:func:`envs.simulation._run_kernels._run_one`) against the
   same recursion written as a Python loop.
 """
 

@@ -5,7 +5,7 @@
 * the figures of :func:`envs.analysis.robustness.loop_margins` against a point-by-point reference built on
   ``brentq`` and ``minimize_scalar`` (the method used before the vectorization);
 * the compiled analysis of a plant-controller loop (:func:`envs.analysis.loop_analysis.plant_margins`,
-  :mod:`envs.analysis.compiled_robustness`) against :func:`envs.analysis.robustness.loop_margins` on a few hundred
+  :mod:`envs.analysis._robustness_kernels`) against :func:`envs.analysis.robustness.loop_margins` on a few hundred
   random loops of every controller type, and against the point-by-point reference;
 * :func:`envs.identification.commissioning._first_violation` against the table of ``max |1/(1 + k L)|`` over
   gains and frequencies in complex arithmetic;

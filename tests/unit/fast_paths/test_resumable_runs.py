@@ -2,7 +2,7 @@
 
 The experiments and the IAE extend a simulation by doubling its horizon until it settles.  They
 continue it from the saved state and delay buffer (:class:`envs.simulation.delay_systems.LoopRun`,
-:class:`envs.simulation.delay_systems.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.simulation.run_kernels`, which
+:class:`envs.simulation.delay_systems.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.simulation._run_kernels`, which
 stops at its first steady or aborting sample), and only the new samples are tested for steady state
 (:func:`envs.identification.steady_state.steady_state_tail`, :class:`envs.identification.steady_state.SteadyStateTest`).  The recursions and the running sums are causal, so
 the results must be those of restarting every horizon from rest, bit for bit: every comparison here
@@ -17,18 +17,16 @@ import numpy as np
 import pytest
 
 from envs.identification.closed_loop_experiment import _cumulative_integral, _run_closed_loop
-from envs.analysis.compiled_iae import discretize_compiled
+from envs.analysis._iae_kernels import discretize_compiled
 from envs.identification.commissioning import commissioning_pi
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.identification.experiment_base import excursion_index, run_until_settled
 from envs.simulation.loops import closed_loop, closed_loop_of_block, loop_rows, simulation_step
 from envs.identification.open_loop_experiments import _run_to_steady_state
 from envs.analysis.performance import (
-    HORIZON,
-    MAX_HORIZON,
     OFFSET_TOLERANCE,
-    SETTLED_SHARE,
-    IAEResult,
+    IAEBound,
+    _reference_iae,
     iae,
     iae_batch,
     integrated_absolute_error,
@@ -159,42 +157,6 @@ def test_open_loop_run_equals_restarted_run(noise_std, start):
     assert restarted.settled
 
 
-def _steady_offsets(system) -> tuple[bool, bool]:
-    """Whether the error keeps an offset after a unit load and set-point step, by numpy's DC gain
-    (a loop with a pole at the origin is left to the simulation)."""
-    try:
-        gain = system.dc_gain()
-    except np.linalg.LinAlgError:
-        return False, False
-    return abs(gain[2, 1]) > OFFSET_TOLERANCE, abs(gain[2, 0]) > OFFSET_TOLERANCE
-
-
-def _iae_from_rest(plant, controller):
-    """:func:`iae` by the general path: every horizon both step runs simulated from rest
-    (:func:`simulate_batch`) on the compiled one-step map, the IAE and the settling test of
-    ``integrated_absolute_error`` on the error samples, the offsets by numpy (the module docstring
-    of :mod:`envs.analysis.performance`)."""
-    system = closed_loop(plant, controller)
-    discrete = discretize_compiled(system, simulation_step(plant, controller, 50, system=system))
-    dt, offsets, horizon = discrete.dt, _steady_offsets(system), HORIZON
-    while True:
-        steps = int(math.ceil(horizon * plant.step_time_scale() / dt)) + 1
-        inputs = np.zeros((2, steps, 3))
-        inputs[0, :, 1] = 1.0  # load
-        inputs[1, :, 0] = 1.0  # set point
-        runs = simulate_batch([discrete, discrete], inputs)
-        if any(run.diverged for run in runs):
-            return IAEResult(math.inf, math.inf, True, horizon, dt)
-        errors = [run.outputs[:, 2] for run in runs]
-        totals = [integrated_absolute_error(e, dt) for e in errors]
-        tails = [integrated_absolute_error(e[-max(e.size // 10, 2) :], dt) for e in errors]
-        settled = all(tails[k] <= SETTLED_SHARE * max(totals[k], 1e-300) for k in (0, 1) if not offsets[k])
-        if settled or horizon >= MAX_HORIZON:
-            values = [math.inf if offsets[k] else totals[k] for k in (0, 1)]
-            return IAEResult(values[0], values[1], settled, horizon, dt)
-        horizon *= 2
-
-
 IAE_LOOPS = {
     **LOOPS,
     "slowly-settling-pi": (Plant.from_time_constants(1.0, [3.0, 1.0], 0.2), PID(0.3, 100.0)),
@@ -208,10 +170,32 @@ IAE_LOOPS = {
 
 @pytest.mark.parametrize("name", IAE_LOOPS)
 def test_iae_equals_simulation_from_rest(name):
-    """The compiled IAE (envs.analysis.compiled_iae), the runs continued over the horizons, gives the IAE of
-    the general path bit for bit."""
+    """The compiled IAE (envs.analysis._iae_kernels), the runs continued over the horizons, gives the IAE of
+    the general path (``iae(..., method="reference")``) on the same one-step map bit for bit."""
     plant, controller = IAE_LOOPS[name]
-    assert iae(plant, controller) == _iae_from_rest(plant, controller)
+    assert iae(plant, controller) == _reference_iae(plant, controller, 50, None, discretization=discretize_compiled)
+
+
+@pytest.mark.parametrize("name", IAE_LOOPS)
+@pytest.mark.parametrize("budget", [None, 0.5, 5.0])
+def test_iae_reference_method_equals_compiled(name, budget):
+    """``method="reference"`` (the map of ``discretize``) against the compiled path: the maps agree to
+    ``1e-12`` (tests/unit/fast_paths/test_iae_kernels.py), the IAE within ``1e-10`` relative (the module
+    docstring of envs.analysis.performance; measured <= 1.1e-11); the horizons and verdicts exactly."""
+    plant, controller = IAE_LOOPS[name]
+    bound = None if budget is None else IAEBound(1.0, 1.0, budget)
+    fast, reference = iae(plant, controller, bound=bound), iae(plant, controller, bound=bound, method="reference")
+    assert (fast.settled, fast.horizon, fast.dt, fast.lower_bound) == (
+        reference.settled, reference.horizon, reference.dt, reference.lower_bound,
+    )  # fmt: skip
+    assert fast.load == pytest.approx(reference.load, rel=1e-10)
+    assert fast.setpoint == pytest.approx(reference.setpoint, rel=1e-10)
+
+
+def test_iae_refuses_unknown_method():
+    plant, controller = LOOPS["pid-fopdt"]
+    with pytest.raises(ValueError, match="method must be"):
+        iae(plant, controller, method="fast")
 
 
 def test_iae_batch_equals_single_loops():

@@ -6,7 +6,7 @@ Cross-checks:
   Ingimundarson eq. 13-16 for the FPPI, eq. 35-38 and 51 for the MSP) against
   :func:`envs.simulation.loops.loop_response`, which evaluates the controllers' own block-diagram formulas,
   in numpy (:meth:`QuasiRational.response`) and compiled
-  (:func:`envs.analysis.compiled_robustness.transfer_at`, through ``_evaluate``);
+  (:func:`envs.analysis._robustness_kernels.transfer_at`, through ``_evaluate``);
 * the compiled evaluation against the same quasi-polynomials evaluated with 40 significant digits
   (mpmath), down to ``omega T = 1e-9`` where ``loop_response`` has lost digits;
 * the PID coefficients against the controllers' ``transfer_function``.
@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envs.analysis.compiled_robustness import _evaluate as _compiled  # transfer_at on an array
+from envs.analysis._robustness_kernels import _evaluate as _compiled  # transfer_at on an array
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.analysis.loop_transfer import QuasiRational, _loop_terms, _pid, feedback_transfer, loop_packed, loop_transfer, packed
 from envs.simulation.loops import loop_response
@@ -160,14 +160,15 @@ def _random_controllers(rng: np.random.Generator, count: int) -> list:
 
 
 def test_compiled_loop_packed_equals_python_packing_bit_for_bit():
-    """loop_packed (compiled) against packed(*_loop_terms(...)) (the Python arithmetic it replaces)."""
+    """loop_packed's compiled method against its reference (packed(*_loop_terms(...)), the Python arithmetic)."""
     pairs = [(p, c) for p in PLANTS.values() for c in CONTROLLERS.values()]
     rng = np.random.default_rng(3)
     plants = list(PLANTS.values())
     pairs += [(plants[rng.integers(len(plants))], c) for c in _random_controllers(rng, 600)]
     for plant, controller in pairs:
         flat, shape = loop_packed(plant, controller)
-        expected, expected_shape = packed(*_loop_terms(plant, controller))
+        expected, expected_shape = loop_packed(plant, controller, method="reference")
+        assert expected.tobytes() == packed(*_loop_terms(plant, controller))[0].tobytes()
         assert shape == expected_shape
         assert flat.dtype == expected.dtype and flat.tobytes() == expected.tobytes(), (plant, controller)
 
@@ -175,3 +176,5 @@ def test_compiled_loop_packed_equals_python_packing_bit_for_bit():
 def test_loop_packed_refuses_unknown_controller():
     with pytest.raises(TypeError, match="PID, SeriesPID, FPPI or MSP"):
         loop_packed(PLANTS["fopdt"], object())
+    with pytest.raises(ValueError, match="method must be"):
+        loop_packed(PLANTS["fopdt"], CONTROLLERS["pid"], method="fast")

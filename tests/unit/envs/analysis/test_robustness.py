@@ -312,7 +312,7 @@ def test_msp_uncertainty_bound_is_eq_40_from_the_characteristic_equation():
 def test_packed_path_gives_the_margins_of_the_quasi_rational_path():
     """``plant_margins`` hands the loop over packed (``loop_packed``): the figures of
     ``quasi_rational_margins(loop_transfer(...))`` bit for bit."""
-    from envs.analysis.compiled_robustness import quasi_rational_margins
+    from envs.analysis._robustness_kernels import quasi_rational_margins
     from envs.analysis.loop_transfer import loop_packed, loop_transfer
 
     stable, integrating = Plant.from_time_constants(2.0, [1.0, 0.3], 0.5), Plant.from_time_constants(1.0, [0.5], 0.5, integrating=True)
@@ -337,7 +337,7 @@ def _search_loops():
 
 
 def _prepared(plant, controller):
-    from envs.analysis.compiled_robustness import _prepare
+    from envs.analysis._robustness_kernels import _prepare
     from envs.analysis.loop_transfer import loop_transfer
 
     return _prepare(*loop_transfer(plant, controller).arrays), int(plant.integrating) + controller.integrators
@@ -345,7 +345,7 @@ def _prepared(plant, controller):
 
 def test_high_frequency_search_stopping_a_failed_decade_early_is_the_full_sweep():
     """A decade's sweep stops once it certainly fails: the result of sweeping every point."""
-    import envs.analysis.compiled_robustness as cr
+    import envs.analysis._robustness_kernels as cr
 
     def full_sweeps(transfer, start, points):  # the search as before the early stop
         w, top = start, math.nan
@@ -369,7 +369,7 @@ def test_high_frequency_search_stopping_a_failed_decade_early_is_the_full_sweep(
 
 def test_low_frequency_search_as_needed_is_the_search_on_every_decade():
     """The decades evaluated one by one: the frequency found by evaluating all of them first."""
-    import envs.analysis.compiled_robustness as cr
+    import envs.analysis._robustness_kernels as cr
 
     def all_decades(transfer, integrators, start, decades):  # the search as before
         omega = [start]
@@ -396,7 +396,7 @@ def test_summed_coefficients_and_the_reused_row_give_the_evaluation_as_written()
     reused) equals, bit for bit, the sums formed at every evaluation."""
     import numba
 
-    import envs.analysis.compiled_robustness as cr
+    import envs.analysis._robustness_kernels as cr
 
     sin_cos = numba.njit(lambda x: (math.sin(x), math.cos(x)))  # compiled as there (one sincos call)
 
@@ -433,7 +433,7 @@ def test_summed_coefficients_and_the_reused_row_give_the_evaluation_as_written()
 def test_crossovers_taking_log_only_at_bracket_ends_find_the_same_roots():
     """The gain brackets found from ``|L|`` against 1, with ``log |L|`` only at their ends: the
     crossovers of the tests on ``log |L|`` at every grid point, bit for bit."""
-    import envs.analysis.compiled_robustness as cr
+    import envs.analysis._robustness_kernels as cr
 
     def crossovers(transfer, omega, values):  # as before: log |L| at every point
         roots = ([], [])
@@ -479,7 +479,7 @@ def test_phase_margin_is_python_controls_smallest_in_magnitude_over_three_crosso
     wrapped margin is -170.7.  Both of our paths (numpy and compiled) agree with its exact
     (polynomial) crossovers: measured <= 1.4e-15 relative, asserted 1e-12 (the crossovers are
     located to ``ROOT_XTOL = 1e-13`` in log frequency)."""
-    from envs.analysis.compiled_robustness import quasi_rational_margins
+    from envs.analysis._robustness_kernels import quasi_rational_margins
     from envs.analysis.loop_transfer import QuasiRational
 
     numerator, denominator = _three_crossover_loop()

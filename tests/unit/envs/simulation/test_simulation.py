@@ -420,24 +420,3 @@ def test_discretize_and_delayed_zoh_equal_the_reference_bit_for_bit():
                 old_zoh = _delayed_zoh_reference(plant.state_space(), plant.delay, dt)
                 assert all(_same_bytes(a, b) for a, b in zip(new_zoh, old_zoh)) and new_zoh[3] == old_zoh[3]
     assert count > 300
-
-
-def test_expm_is_scipys_bit_for_bit():
-    """:func:`envs.simulation.delay_systems._expm` takes scipy's steps without its glue: the same bytes as
-    ``scipy.linalg.expm`` on generic, triangular (both ways), diagonal and block matrices of every
-    norm (no squaring to many, and overflowing ones)."""
-    from envs.simulation.delay_systems import _expm, _unit_block
-
-    rng = np.random.default_rng(0)
-    matrices = []
-    for n in range(2, 13):
-        for scale in (1e-6, 1e-3, 0.1, 1.0, 5.0, 50.0, 500.0):
-            a = rng.standard_normal((n, n)) * scale
-            k = max(n // 3, 1)
-            matrices += [a, np.triu(a), np.tril(a), np.diag(np.diag(a)), np.triu(a, 1), np.tril(a, -1), np.triu(a, -1)]
-            matrices.append(_unit_block(a[:k, :k]) * scale)
-            matrices.append(_unit_block(np.triu(a[:k, :k])) * scale)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # the overflowing ones
-        for a in matrices:
-            assert _same_bytes(_expm(a), scipy.linalg.expm(a))

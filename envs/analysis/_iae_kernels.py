@@ -415,7 +415,7 @@ def _advance(Phi, gamma, R, c_e, d_e, f_e, C2, d_w, D22, whole, a, limit, x, his
     ``x[:, k]`` is the state of run ``k``, ``history[j mod size, i, k]`` its delayed signal ``w_i[j]``;
     ``gamma[:, k]``, ``d_e[k]``, ``d_w[:, k]`` are the columns of ``Gamma``, ``D11[e]``, ``D21`` for
     the input of run ``k``; ``c_e``, ``f_e`` the rows of ``C1``, ``D12`` for the error.  Every sum is
-    in the order of :func:`envs.simulation.run_kernels._run_one`; the two runs share each coefficient load.
+    in the order of :func:`envs.simulation._run_kernels._run_one`; the two runs share each coefficient load.
     """
     n, nv = Phi.shape[0], a.size
     mask = history.shape[0] - 1

@@ -1,4 +1,4 @@
-"""The compiled pieces of the IAE (envs.analysis.compiled_iae) against scipy, numpy and the reference path.
+"""The compiled pieces of the IAE (envs.analysis._iae_kernels) against scipy, numpy and the reference path.
 
 The whole compiled IAE (step runs continued over the horizons, areas, sums, settling test, steady
 offsets) is checked against the general simulation, bit for bit, in
@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from envs.analysis.compiled_iae import _pairwise_sum, _steady_offsets, discretize_compiled, expm
+from envs.analysis._iae_kernels import _pairwise_sum, _steady_offsets, discretize_compiled, expm
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.simulation.loops import closed_loop, loop_rows, simulation_step
 from envs.analysis.performance import SETTLED_SHARE, iae, integrated_absolute_error
@@ -166,7 +166,7 @@ def test_steady_offsets_of_a_loop_with_a_pole_at_the_origin_are_left_to_the_simu
 def test_products_skipping_zero_entries_are_every_term_summed():
     """``_product`` skips the terms of a zero ``A[i, k]`` where ``B[k]`` is finite: the sums of every
     term in order, bit for bit (signs of zero included), and ``nan`` where ``B[k]`` is not finite."""
-    from envs.analysis.compiled_iae import _product
+    from envs.analysis._iae_kernels import _product
 
     def every_term(A, B):
         out = [[0.0] * B.shape[1] for _ in range(A.shape[0])]

@@ -1,0 +1,85 @@
+"""The compiled kernels of :mod:`envs.identification.models`: checks and trapezoid terms.
+
+The validation of the signals (finite, increasing times) and the terms of the trapezoidal rule
+(``numpy.trapezoid(y, t)`` is ``(diff(t) * (y[1:] + y[:-1]) / 2.0).sum()``) formed without numpy's
+temporaries; numpy's own ``sum`` adds the terms (its pairwise summation) in
+:mod:`envs.identification.models`, so the results are numpy.trapezoid's bits (the unit tests
+compare them).
+
+Every compiled function calls only compiled functions of this module: numba's on-disk cache is
+invalidated per file, and a function that inlined one from another file could keep a stale copy.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+_LARGEST = float(np.finfo(float).max)  # |x| <= _LARGEST: x is finite (NaN compares False)
+
+
+@numba.njit(cache=True)
+def _increasing_and_finite(t):  # pragma: no cover - compiled
+    """``np.isfinite(t).all() and not (t[1:] <= t[:-1]).any()`` (without early exits, which vectorize)."""
+    ok = True
+    for i in range(t.size):
+        ok &= abs(t[i]) <= _LARGEST
+    for i in range(1, t.size):
+        ok &= t[i] > t[i - 1]
+    return ok
+
+
+@numba.njit(cache=True)
+def _all_finite(v):  # pragma: no cover - compiled
+    """``np.isfinite(v).all()``."""
+    ok = True
+    for i in range(v.size):
+        ok &= abs(v[i]) <= _LARGEST
+    return ok
+
+
+@numba.njit(cache=True)
+def _trapezoid_terms(y, t):  # pragma: no cover - compiled
+    """The terms ``(t[i+1] - t[i]) (y[i+1] + y[i]) / 2`` of numpy.trapezoid."""
+    terms = np.empty(max(t.size - 1, 0))
+    for i in range(terms.size):
+        terms[i] = (t[i + 1] - t[i]) * (y[i + 1] + y[i]) / 2.0
+    return terms
+
+
+@numba.njit(cache=True)
+def _distance_terms(y, z, t):  # pragma: no cover - compiled
+    """The trapezoid terms of ``|y - z|``."""
+    terms = np.empty(max(t.size - 1, 0))
+    for i in range(terms.size):
+        terms[i] = (t[i + 1] - t[i]) * (abs(y[i + 1] - z[i + 1]) + abs(y[i] - z[i])) / 2.0
+    return terms
+
+
+@numba.njit(cache=True)
+def _moment_terms(t, s, initial, final):  # pragma: no cover - compiled
+    """The trapezoid terms of ``c`` and of ``(t - t[0]) c`` (see :func:`_moments`)."""
+    n = t.size
+    c = np.empty(n)
+    for i in range(n):
+        c[i] = 1.0 - (s[i] - initial) / (final - initial)
+    first, second = np.empty(max(n - 1, 0)), np.empty(max(n - 1, 0))
+    for i in range(n - 1):
+        step = t[i + 1] - t[i]
+        first[i] = step * (c[i + 1] + c[i]) / 2.0
+        second[i] = step * ((t[i + 1] - t[0]) * c[i + 1] + (t[i] - t[0]) * c[i]) / 2.0
+    return first, second
+
+
+@numba.njit(cache=True)
+def _pulse_distance_terms(t, y, gain, dead_time, height, duration):  # pragma: no cover - compiled
+    """The trapezoid terms of :func:`_pulse_distance`."""
+    distance = np.empty(t.size)
+    for i in range(t.size):
+        now = max(t[i] - dead_time, 0.0)
+        before = max((t[i] - duration) - dead_time, 0.0)
+        distance[i] = abs(y[i] - height * (gain * now - gain * before))
+    terms = np.empty(max(t.size - 1, 0))
+    for i in range(terms.size):
+        terms[i] = (t[i + 1] - t[i]) * (distance[i + 1] + distance[i]) / 2.0
+    return terms
