@@ -487,7 +487,7 @@ def _matched_rules() -> list[Rule]:
     for t in MS_TARGETS:
         name = f"imc-pid-ms{t:g}"
         rules.append(_matched_rule(
-            name, "Rivera, Morari & Skogestad 1986, Ind. Eng. Chem. Process Des. Dev. 25:252-265, Table II (PID); lambda for Ms = {t:g} on the model loop, lambda in "
+            name, f"Rivera, Morari & Skogestad 1986, Ind. Eng. Chem. Process Des. Dev. 25:252-265, Table II (PID); lambda for Ms = {t:g} on the model loop, lambda in "
             f"[0.001, 100] T_ar, as {_GS}", "pid", "stable",
             fopdt(name), pid_rules.imc_pid, "ms", t, residence(1e-3, 100.0), False,
         ))
