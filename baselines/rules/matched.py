@@ -12,11 +12,14 @@ on a log-scale bracket of the parameter (:func:`match_parameter`):
 rule                   parameter         design                       target                     bracket
 =====================  ================  ===========================  =========================  ===============
 ``gorez-klan-msX``     ``mu``            :func:`envs.design.pid_design`   ``Ms = X``             ``[0.3, 300]``
-``fppi-msX``           ``T_r``           :func:`envs.design.fppi_design`  ``Ms = X``             ``[0.08 L_n, 100 T_ar]``
+``fppi-msX``           ``T_r``           :func:`envs.design.fppi_design`  ``Ms = X``             ``[0.08 L_n, 100 T_ar]`` (a)
 ``msp-dmX``            ``T_r``           :func:`envs.design.msp_design`   ``DM = X L_n``         ``[0.14 L_n, 100 L_n]``
 ``simc-pi-msX``        ``tau_c``         SIMC PI ([SK])               ``Ms = X``                 ``[0.001, 100] T_ar``
 ``imc-pid-msX``        ``lambda``        IMC PID ([RMS] Table II)     ``Ms = X``                 ``[0.001, 100] T_ar``
 =====================  ================  ===========================  =========================  ===============
+
+(a) ``L_n`` at least ``0.01 T_ar`` (:data:`envs.design.MIN_RELATIVE_DEAD_TIME`, as the PID's ``D_2``): a FOPDT
+model of a plant with a strong lead can have ``L_n = 0``.
 
 **The model loop.**  The plant of the loop is the identified model of :class:`RuleInputs`
 (``inputs.model``): the given model (``deadtime tune --model``), or the SOPDT model of the seeds'

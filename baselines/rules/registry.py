@@ -42,7 +42,7 @@ from baselines.rules import pid as pid_rules
 from baselines.rules.pid_registry import RULES as PID_RULES
 from baselines.rules.pid_registry import RuleSpec
 from envs.systems.controllers import Controller
-from envs.design import fppi_design, msp_design, pid_design
+from envs.design import MIN_RELATIVE_DEAD_TIME, fppi_design, msp_design, pid_design
 from envs.identification.models import (
     FOPDTModel,
     IntegratingModel,
@@ -465,9 +465,10 @@ def _matched_rules() -> list[Rule]:
         name = f"fppi-ms{t:g}"
         rules.append(_matched_rule(
             name, f"{_IN}, eq. 14-15, T_f = T_r (section 4.3); T_r for Ms = {t:g} on the model loop, "
-            f"T_r in [{matched.FPPI_TR_FLOOR:g} L_n, 100 T_ar]; {_GS}", "fppi", "stable",
+            f"T_r in [{matched.FPPI_TR_FLOOR:g} max(L_n, 0.01 T_ar), 100 T_ar]; {_GS}", "fppi", "stable",
             fopdt(name), fppi_design, "ms", t,
-            lambda inputs, model: (matched.FPPI_TR_FLOOR * model.dead_time, 100.0 * inputs.residence_time), True,
+            lambda inputs, model: (matched.FPPI_TR_FLOOR * max(model.dead_time, MIN_RELATIVE_DEAD_TIME * inputs.residence_time),
+                                   100.0 * inputs.residence_time), True,
         ))
     for t in DM_TARGETS:
         name = f"msp-dm{t:g}"
