@@ -8,9 +8,13 @@ controller.  Three kinds, all cited in :data:`RULES`:
 * the ``mu`` rules of the Gorez-Klan PID (:mod:`baselines.rules.mu`), designed by
   :func:`envs.design.pid_design`;
 * the ``T_r`` rules of the FPPI and the MSP (:mod:`baselines.rules.dtc`), designed by
-  :func:`envs.design.fppi_design` and :func:`envs.design.msp_design`.
+  :func:`envs.design.fppi_design` and :func:`envs.design.msp_design`;
+* the robustness-matched rules (:mod:`baselines.rules.matched`, Grimholt and Skogestad 2018): ``mu``,
+  ``T_r``, SIMC's ``tau_c`` or IMC's ``lambda`` chosen so that the loop on the identified model meets
+  an ``Ms`` target (``gorez-klan-ms1.6``, ``fppi-ms1.6``, ``simc-pi-ms1.6``, ``imc-pid-ms1.6``) or a
+  delay-margin target (``msp-dm0.5``); :data:`MATCHED` gives their root find's result.
 
-The ``mu`` and ``T_r`` rules go through the design maps of :mod:`envs.design`, so that a rule's
+The ``mu`` and ``T_r`` rules (matched ones included) go through the design maps of :mod:`envs.design`, so that a rule's
 controller is exactly what the environments and the oracle produce for the same parameter;
 :attr:`Rule.parameter` gives that parameter.
 
@@ -26,16 +30,19 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, Literal
 
 import numpy as np
 
 from baselines.rules import dtc as dtc_rules
+from baselines.rules import matched
 from baselines.rules import mu as mu_rules
+from baselines.rules import pid as pid_rules
 from baselines.rules.pid_registry import RULES as PID_RULES
 from baselines.rules.pid_registry import RuleSpec
 from envs.systems.controllers import Controller
-from envs.design import fppi_design, msp_design, pid_design
+from envs.design import MIN_RELATIVE_DEAD_TIME, fppi_design, msp_design, pid_design
 from envs.identification.models import (
     FOPDTModel,
     IntegratingModel,
@@ -48,7 +55,17 @@ from envs.identification.open_loop_experiments import open_loop_pulse, open_loop
 from envs.systems.plants import Plant
 from envs.identification.procedure import PULSE_LENGTH, Identification
 
-__all__ = ["FPPI_DEAD_TIME_ERROR", "MSP_RELATIVE_DEAD_TIME_ERROR", "RULES", "Rule", "RuleInputs", "get_rule"]
+__all__ = [
+    "DM_TARGETS",
+    "FPPI_DEAD_TIME_ERROR",
+    "MATCHED",
+    "MSP_RELATIVE_DEAD_TIME_ERROR",
+    "MS_TARGETS",
+    "RULES",
+    "Rule",
+    "RuleInputs",
+    "get_rule",
+]
 
 ControllerKind = Literal["pid", "pid-series", "fppi", "msp"]
 PlantKind = Literal["stable", "integrating", "both"]
@@ -228,7 +245,8 @@ class Rule:
         ``RuleInputs -> Controller``.
     parameter : callable or None
         ``RuleInputs -> float``: the design parameter (``mu``, or ``T_r``) of the rules that go
-        through :mod:`envs.design`; None for the full PI/PID rules.
+        through :mod:`envs.design`, matched ones included; None for the full PI/PID rules (for the
+        matched SIMC and IMC rules :data:`MATCHED` gives ``tau_c`` or ``lambda``).
     """
 
     name: str
@@ -375,7 +393,111 @@ def _dtc_rules() -> list[Rule]:
     ]
 
 
-RULES: dict[str, Rule] = {rule.name: rule for rule in [*map(_pid_rule, PID_RULES.values()), *_mu_rules(), *_dtc_rules()]}
+# --------------------------------------------------------------------------- robustness-matched rules
+MS_TARGETS: tuple[float, ...] = (1.4, 1.6, 1.8)
+"""``Ms`` targets of the matched rules: 1.4 (robust), 1.6 (Grimholt and Skogestad's typical choice, about
+SIMC's ``tau_c = theta``), 1.8 (tight; the environments allow 2)."""
+
+DM_TARGETS: tuple[float, ...] = (0.3, 0.5, 0.7)
+"""Delay-margin targets of the matched MSP rules, in ``L_n`` (``MSP-v0`` requires ``0.2 L``)."""
+
+_GS = "Grimholt & Skogestad 2018, J. Process Control 70:36-46 (free parameter for a robustness target on the model loop)"
+
+MATCHED: dict[str, Callable[[RuleInputs], matched.MatchedParameter]] = {}
+"""The root find of every matched rule by name: ``RuleInputs -> MatchedParameter`` (the parameter,
+the figure reached on the model loop, the bracket).  Cached per inputs object."""
+
+
+def _matched_rule(
+    name: str,
+    citation: str,
+    controller: ControllerKind,
+    plants: PlantKind,
+    design_model: Callable[[RuleInputs], Model],
+    design: Callable[[Model, float], Controller],
+    figure: matched.Figure,
+    target: float,
+    bracket: Callable[[RuleInputs, Model], tuple[float, float]],
+    has_parameter: bool,
+) -> Rule:
+    """A rule whose parameter makes the loop ``design(model, p)`` on ``inputs.model`` meet ``target``."""
+
+    @lru_cache(maxsize=16)
+    def solve(inputs: RuleInputs) -> matched.MatchedParameter:
+        model = design_model(inputs)
+        scale = model.dead_time if figure == "delay_margin" else 1.0
+        return matched.match_parameter(
+            lambda p: design(model, p), inputs.model.plant(), figure, target, bracket(inputs, model), scale=scale, name=name
+        )
+
+    def build(inputs: RuleInputs) -> Controller:
+        return design(design_model(inputs), solve(inputs).parameter)
+
+    MATCHED[name] = solve
+    parameter = (lambda inputs: solve(inputs).parameter) if has_parameter else None
+    return _rule(name, citation, controller, plants, build, parameter)
+
+
+def _matched_rules() -> list[Rule]:
+    def sopdt(name: str) -> Callable[[RuleInputs], Model]:
+        return lambda inputs: _needs(inputs.sopdt, "the SOPDT model", name)
+
+    def fopdt(name: str) -> Callable[[RuleInputs], Model]:
+        return lambda inputs: _needs(inputs.fopdt, "the FOPDT model", name)
+
+    def fopdt_or_integrating(name: str) -> Callable[[RuleInputs], Model]:
+        return lambda inputs: inputs.model if inputs.integrating else _needs(inputs.fopdt, "the FOPDT model", name)
+
+    def two_parameter(name: str) -> Callable[[RuleInputs], Model]:
+        return lambda inputs: _needs(inputs.integrating_model, "the two-parameter model", name)
+
+    def residence(low: float, high: float) -> Callable[[RuleInputs, Model], tuple[float, float]]:
+        return lambda inputs, model: (low * inputs.residence_time, high * inputs.residence_time)
+
+    rules = []
+    for t in MS_TARGETS:
+        name = f"gorez-klan-ms{t:g}"
+        rules.append(_matched_rule(
+            name, f"{_GK}; mu for Ms = {t:g} on the model loop, mu in [0.3, 300]; {_GS}", "pid-series", "stable",
+            sopdt(name), pid_design, "ms", t, lambda inputs, model: (0.3, 300.0), True,
+        ))
+    for t in MS_TARGETS:
+        name = f"fppi-ms{t:g}"
+        rules.append(_matched_rule(
+            name, f"{_IN}, eq. 14-15, T_f = T_r (section 4.3); T_r for Ms = {t:g} on the model loop, "
+            f"T_r in [{matched.FPPI_TR_FLOOR:g} max(L_n, 0.01 T_ar), 100 T_ar]; {_GS}", "fppi", "stable",
+            fopdt(name), fppi_design, "ms", t,
+            lambda inputs, model: (matched.FPPI_TR_FLOOR * max(model.dead_time, MIN_RELATIVE_DEAD_TIME * inputs.residence_time),
+                                   100.0 * inputs.residence_time), True,
+        ))
+    for t in DM_TARGETS:
+        name = f"msp-dm{t:g}"
+        rules.append(_matched_rule(
+            name, f"{_IN}, eq. 36-38; T_r for delay margin = {t:g} L_n on the model loop (delay margin: section 3), "
+            f"T_r in [{matched.MSP_TR_FLOOR:g}, 100] L_n; {_GS}", "msp", "integrating",
+            two_parameter(name), msp_design, "delay_margin", t,
+            lambda inputs, model: (matched.MSP_TR_FLOOR * model.dead_time, 100.0 * model.dead_time), True,
+        ))
+    for t in MS_TARGETS:
+        name = f"simc-pi-ms{t:g}"
+        rules.append(_matched_rule(
+            name, f"{_GS}, SIMC PI (Skogestad 2003, J. Process Control 13:291-309) with tau_c for Ms = {t:g} "
+            "on the model loop, tau_c in [0.001, 100] T_ar", "pid", "both",
+            fopdt_or_integrating(name), pid_rules.simc_pi, "ms", t, residence(1e-3, 100.0), False,
+        ))
+    for t in MS_TARGETS:
+        name = f"imc-pid-ms{t:g}"
+        rules.append(_matched_rule(
+            name, f"Rivera, Morari & Skogestad 1986, Ind. Eng. Chem. Process Des. Dev. 25:252-265, Table II (PID); lambda for Ms = {t:g} on the model loop, lambda in "
+            f"[0.001, 100] T_ar, as {_GS}", "pid", "stable",
+            fopdt(name), pid_rules.imc_pid, "ms", t, residence(1e-3, 100.0), False,
+        ))
+    return rules
+
+
+RULES: dict[str, Rule] = {
+    rule.name: rule for rule in [*map(_pid_rule, PID_RULES.values()), *_mu_rules(), *_dtc_rules(), *_matched_rules()]
+}
 """Every rule by name; see :class:`Rule`."""
 
 

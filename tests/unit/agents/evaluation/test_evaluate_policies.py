@@ -18,9 +18,10 @@ def test_failure_costs_an_unstable_loop():
 @pytest.mark.parametrize(
     "structure, own",
     [
-        ("pid", ["gorez-klan-mu-1.3", "gorez-klan-mu-1.5", "gorez-klan-mu-2", "gorez-klan-mu-3", "gorez-klan-pm-60", "gorez-klan-gm-3"]),
-        ("fppi", ["fppi-eq28", "fppi-eq34", "ppi-kappa1"]),
-        ("msp", ["msp-eq43", "msp-eq50", "msp-tr-tn"]),
+        ("pid", ["gorez-klan-mu-1.3", "gorez-klan-mu-1.5", "gorez-klan-mu-2", "gorez-klan-mu-3", "gorez-klan-pm-60", "gorez-klan-gm-3",
+                 "gorez-klan-ms1.4", "gorez-klan-ms1.6", "gorez-klan-ms1.8"]),
+        ("fppi", ["fppi-eq28", "fppi-eq34", "ppi-kappa1", "fppi-ms1.4", "fppi-ms1.6", "fppi-ms1.8"]),
+        ("msp", ["msp-eq43", "msp-eq50", "msp-tr-tn", "msp-dm0.3", "msp-dm0.5", "msp-dm0.7"]),  # issue 16.1: matched rules
     ],
 )
 def test_own_structure_rules(structure, own):
@@ -31,10 +32,11 @@ def test_own_structure_rules(structure, own):
 def test_all_rules_follow_the_plants_and_the_controller_class():
     pid, fppi, msp = (set(applicable_rules(s)) for s in ("pid", "fppi", "msp"))
     assert {"simc-pi", "cohen-coon-pid", "haalman-pid", "gorez-klan-mu-2"} <= pid & fppi
-    assert not {"fppi-eq28", "fppi-eq34", "ppi-kappa1"} & pid  # the other compensator's rules
-    assert {"fppi-eq28", "fppi-eq34", "ppi-kappa1"} <= fppi
-    assert fppi - pid == {"fppi-eq28", "fppi-eq34", "ppi-kappa1"}
-    assert not {"msp-eq43", "msp-eq50", "msp-tr-tn"} & (pid | fppi)
+    fppi_rules = {"fppi-eq28", "fppi-eq34", "ppi-kappa1", "fppi-ms1.4", "fppi-ms1.6", "fppi-ms1.8"}
+    assert not fppi_rules & pid  # the other compensator's rules
+    assert fppi_rules <= fppi
+    assert fppi - pid == fppi_rules
+    assert not {"msp-eq43", "msp-eq50", "msp-tr-tn", "msp-dm0.5"} & (pid | fppi)
     assert {"msp-eq43", "zn-step-pi", "simc-pi"} <= msp
     assert not {"cohen-coon-pi", "gorez-klan-mu-2", "fppi-eq28"} & msp
     assert pid | fppi | msp == set(RULES)
