@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import pickle
 import sys
 import time
 from dataclasses import asdict
@@ -174,17 +175,15 @@ def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | N
     """Run (or restore and finish) the Tune experiment; each trial's name with its error or None."""
     trials = sweep.trials()
     storage = out / "tune"
-    trainable = tune.with_resources(trial_function, {"cpu": 1})
-    if resume and tune.Tuner.can_restore(str(storage / "trials")):
-        tuner = tune.Tuner.restore(str(storage / "trials"), trainable=trainable, resume_unfinished=True, restart_errored=True)
-    else:
+    tuner = _restored(storage) if resume else None
+    if tuner is None:
         run_config = tune.RunConfig(
-            name="trials", storage_path=str(storage), verbose=0,
+            name=_free_name(storage), storage_path=str(storage), verbose=0,
             failure_config=tune.FailureConfig(max_failures=sweep.failure.max_failures),
             callbacks=[Progress(len(trials))],
         )  # fmt: skip
         space = {"trial": tune.grid_search([_trial_dict(t) for t in trials]), "out": str(out)}
-        tuner = tune.Tuner(trainable, param_space=space, run_config=run_config)
+        tuner = tune.Tuner(_trainable(), param_space=space, run_config=run_config)
     os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's classic reporter, which verbose=0 silences
     grid = tuner.fit()
     outcome: dict[str, str | None] = {}
@@ -196,6 +195,42 @@ def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | N
     missing = [t.name for t in trials if t.name not in outcome]
     outcome.update({name: "never ran" for name in missing})
     return outcome
+
+
+def _trainable() -> Any:
+    return tune.with_resources(trial_function, {"cpu": 1})
+
+
+def _latest_experiment(storage: Path) -> Path | None:
+    names = sorted((p for p in storage.glob("trials*") if p.is_dir()), key=lambda p: p.stat().st_mtime)
+    return names[-1] if names else None
+
+
+def _free_name(storage: Path) -> str:
+    """``trials``, or ``trials-2``, ``trials-3`` ... where an earlier experiment could not be restored."""
+    name, index = "trials", 1
+    while (storage / name).exists():
+        index += 1
+        name = f"trials-{index}"
+    return name
+
+
+def _restored(storage: Path) -> Any:
+    """The latest Tune experiment in ``storage`` restored (``Tuner.restore``), or None.
+
+    An experiment state that this version cannot read (written before a module it names moved)
+    is reported in one line and left in place; a new experiment then runs the same trials, and each
+    trial resumes its own run directory from its checkpoint, so nothing trained is lost.
+    """
+    path = _latest_experiment(storage)
+    if path is None or not tune.Tuner.can_restore(str(path)):
+        return None
+    try:
+        return tune.Tuner.restore(str(path), trainable=_trainable(), resume_unfinished=True, restart_errored=True)
+    except (ImportError, AttributeError, pickle.UnpicklingError) as error:
+        print(f"deadtime sweep: cannot restore {path} ({type(error).__name__}: {error}); running its trials again "
+              "as a new Tune experiment, each resuming its run directory", file=sys.stderr)
+        return None
 
 
 def _trial_dict(trial: Trial) -> dict[str, Any]:
