@@ -67,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime evaluate``; bad input is a ValueError (one line, exit status 2)."""
-    from agents.cli import load_json_argument
+    from agents.commands.arguments import load_json_argument
 
     plants = None if args.plants is None else load_json_argument(args.plants, "--plants")
     result = evaluate(
