@@ -5,8 +5,9 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-# One BLAS/OpenMP/numba thread per process (the matrices are tiny; threads made expm ~10x slower on
-# 2 cores, see `deadtime bench`); the command line sets the same defaults.
+# The thread defaults of agents/runtime.py (THREAD_VARIABLES, set to 1 unless already set; the reasons
+# are in its docstring), exported here too so that `make test` and every process it starts get them
+# before numpy is imported.  tests/unit/agents/test_runtime.py checks that the two lists agree.
 export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1

@@ -6,7 +6,9 @@
   ``deadtime bench``); parallelism comes from vectorized environments, ``--workers`` and Ray trials
   instead.  The variables take effect only if set before numpy is imported: ``deadtime`` sets their
   defaults first thing (:func:`single_thread_defaults`), and child processes (the bench's child,
-  Ray's workers) get them in their environment.  The ``Makefile`` exports the same four.
+  Ray's workers) get them in their environment.  This is the one place that defines them; the
+  ``Makefile`` exports the same four with the same default (``make test`` sets them before pytest
+  starts), and ``tests/unit/agents/test_runtime.py`` holds the two lists equal.
 * **Provenance.**  The git commit of this code (:func:`git_commit`, ``-dirty`` with uncommitted
   changes) and the versions of the packages (:func:`versions`), recorded beside every result:
   ``deadtime train``'s ``config.yaml``, ``deadtime sweep``'s ``sessions.json``, ``deadtime bench

@@ -21,9 +21,9 @@ is global, then local, in ``log`` of the relative parameter:
    the binding constraint.
 
 Infeasible parameters are not simulated (:func:`~envs.analysis.scoring.score` skips the IAE), so they cost
-only the frequency-domain analysis.  Measured on the benchmark plants (idle machine): 0.6-3 s per
-search, except the PID on Ingimundarson's stable P6 (about 20 s: the margins of its many unstable
-loops are slow to compute).
+only the frequency-domain analysis.  A search costs at most ``grid`` + :data:`REFINEMENT_EVALUATIONS`
++ 2 scorings; loops with many unstable closed-loop poles (the PID on Ingimundarson's stable P6) are
+the slowest to analyse (the times measured are in the README's Performance section).
 
 Binding constraint
 ------------------

@@ -1,6 +1,9 @@
-"""An independent fine-step reference for the IAE of a loop: RK4 with an exact delay buffer.
+"""An independent fine-step reference for the responses and the IAE of a loop: RK4 with a delay buffer.
 
-This is the yardstick of ``deadtime bench``'s accuracy figures.  It shares no simulation code with
+This is the yardstick of ``deadtime bench``'s accuracy figures (:func:`fine_step_iae`) and of the
+tests that check the simulation, the IAE and the Nyquist verdict of :mod:`envs` against a time
+simulation (:func:`fine_step_response`: ``y``, ``u`` and ``e`` on the fine grid); it is the
+project's one fine-step simulator.  It shares no simulation code with
 :mod:`envs` (only the :class:`~envs.systems.plants.Plant` and controller dataclasses, for their
 parameters): the plant is realized with ``scipy.signal.tf2ss`` and the controllers' equations are
 written out by hand from their block diagrams (Ingimundarson Fig. 4 and Fig. 10 for the FPPI and the
@@ -12,7 +15,7 @@ The loop ``y = P (u + l)``, ``u = C(r, y)`` is integrated by the classical Runge
 (method of steps).  The delayed value at any instant, including the half steps of RK4 and a
 fractional number of steps back, is the four-point cubic Lagrange interpolation of that history
 (the delayed signals are outputs of strictly proper blocks, hence smooth after ``t = 0``).  ``|e|``
-is integrated by the trapezoidal rule on the fine grid, split at sign changes.
+is integrated by the trapezoidal rule on the fine grid, split at sign changes (:func:`absolute_area`).
 
 With the default ``h = T/2000`` (smaller if a dead time spans fewer than 8 steps) the IAE changes by
 less than about ``1e-7`` (relative) when ``h`` is halved on the bench's loops, four orders of
@@ -31,13 +34,29 @@ import scipy.signal
 from envs.systems.controllers import FPPI, MSP, PID, Controller, SeriesPID
 from envs.systems.plants import Plant
 
-__all__ = ["STEPS_PER_TIME_SCALE", "FineIAE", "fine_step_iae"]
+__all__ = ["MIN_DELAY_STEPS", "OUTPUTS", "STEPS_PER_TIME_SCALE", "FineIAE", "FineResponse", "absolute_area", "fine_step_iae", "fine_step_response"]
 
 STEPS_PER_TIME_SCALE = 2000
 MIN_DELAY_STEPS = 8
 HORIZON = 40.0  # initial horizon in time scales; doubled until the tail is negligible
 MAX_HORIZON = 1280.0
 TAIL_SHARE = 1e-7
+
+
+OUTPUTS = ("output", "control", "error")
+"""The signals the reference records: the plant output ``y``, the control ``u``, the error ``e = r - y``."""
+
+
+@dataclass(frozen=True)
+class FineResponse:
+    """Samples at ``timepts`` (plant time units) of a unit load step (column 0) and a unit set-point
+    step (column 1), from rest: ``output`` ``y``, ``control`` ``u``, ``error`` ``e = r - y``, each of
+    shape ``(timepts.size, 2)``."""
+
+    timepts: np.ndarray
+    output: np.ndarray
+    control: np.ndarray
+    error: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -126,7 +145,10 @@ def _controller_law(controller: Controller, scale: float):
 
 
 def _loop_matrices(plant: Plant, controller: Controller, scale: float):
-    """Matrices of ``x' = A x + Bv v + Bd d``, ``w = Cw x``, ``e = Ce x + Ev v + Ed d`` (d = [r, l])."""
+    """Matrices of ``x' = A x + Bv v + Bd d``, ``w = Cw x``, ``z = Cz x + Zv v + Zd d`` (d = [r, l]).
+
+    The outputs ``z`` are :data:`OUTPUTS`: the plant output ``y``, the control ``u`` and the error ``e = r - y``.
+    """
     Ap, Bp, Cp = _scaled_plant(plant, scale)
     n_p = Ap.shape[0]
     n_c, controller_delays, law = _controller_law(controller, scale)
@@ -142,16 +164,16 @@ def _loop_matrices(plant: Plant, controller: Controller, scale: float):
         dxc, wc, u = law(xc, v[1:] if plant_delayed else v, r, y)
         dx = np.concatenate([Ap @ xp + Bp * (u + load), np.asarray(dxc, dtype=float).ravel()])
         w = np.asarray(([y_free] if plant_delayed else []) + list(wc), dtype=float).ravel()
-        return dx, w, r - y
+        return dx, w, np.array([y, u, r - y], dtype=float)
 
     size = n + nv + 2
     columns = [equations(np.eye(size)[k]) for k in range(size)]  # linear: columns of the matrices
     M = np.column_stack([c[0] for c in columns]).reshape(n, size)
     W = np.column_stack([c[1] for c in columns]).reshape(nv, size)
-    E = np.array([c[2] for c in columns], dtype=float)
+    Z = np.column_stack([c[2] for c in columns])
     if np.any(W[:, n:]):
         raise ValueError("a delayed signal depends on the inputs or on other delayed signals")
-    return M[:, :n], M[:, n : n + nv], M[:, n + nv :], W[:, :n], E[:n], E[n : n + nv], E[n + nv :], np.array(delays)
+    return M[:, :n], M[:, n : n + nv], M[:, n + nv :], W[:, :n], Z[:, :n], Z[:, n : n + nv], Z[:, n + nv :], np.array(delays)
 
 
 @numba.njit(cache=True)
@@ -188,20 +210,21 @@ def _derivative(A, Bv, forcing, x, v, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _rk4_error(A, Bv, Bd, Cw, Ce, Ev, Ed, delay_steps, d, h, steps):  # pragma: no cover - compiled
-    """The error ``e`` at ``j h``, ``j = 0 .. steps``, from rest, for constant inputs ``d``."""
-    n, nv = A.shape[0], delay_steps.size
+def _rk4_outputs(A, Bv, Bd, Cw, Cz, Zv, Zd, delay_steps, d, h, steps):  # pragma: no cover - compiled
+    """The outputs ``z`` (rows of ``Cz``) at ``j h``, ``j = 0 .. steps``, from rest, for constant inputs ``d``."""
+    n, nv, nz = A.shape[0], delay_steps.size, Cz.shape[0]
     history = np.zeros((steps + 2, nv))
     x = np.zeros(n)
     trial = np.zeros(n)
     k1, k2, k3, k4 = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     forcing = Bd @ d
-    e_const = 0.0
-    for k in range(d.size):
-        e_const += Ed[k] * d[k]
-    error = np.empty(steps + 1)
+    z_const = np.zeros(nz)
+    for o in range(nz):
+        for k in range(d.size):
+            z_const[o] += Zd[o, k] * d[k]
+    outputs = np.empty((steps + 1, nz))
     stage_v = np.zeros((3, nv))
-    error[0] = e_const
+    outputs[0] = z_const
     for j in range(steps):
         for i in range(nv):  # w_i(j h) from the current state
             acc = 0.0
@@ -225,24 +248,77 @@ def _rk4_error(A, Bv, Bd, Cw, Ce, Ev, Ed, delay_steps, d, h, steps):  # pragma: 
         for k in range(n):
             x[k] += (h / 6.0) * (k1[k] + 2.0 * k2[k] + 2.0 * k3[k] + k4[k])
             big |= not abs(x[k]) < 1e12
-        acc = e_const
-        for k in range(n):
-            acc += Ce[k] * x[k]
-        for i in range(nv):
-            acc += Ev[i] * stage_v[2, i]
-        error[j + 1] = acc
+        for o in range(nz):
+            acc = z_const[o]
+            for k in range(n):
+                acc += Cz[o, k] * x[k]
+            for i in range(nv):
+                acc += Zv[o, i] * stage_v[2, i]
+            outputs[j + 1, o] = acc
         if big:
-            error[j + 1 :] = np.inf
+            outputs[j + 1 :] = np.inf
             break
-    return error
+    return outputs
 
 
-def _absolute_area(error: np.ndarray, h: float) -> float:
-    """Trapezoidal ``int |e|``, each interval split where ``e`` changes sign."""
-    a, b = error[:-1], error[1:]
+def absolute_area(values: np.ndarray, step: float) -> np.ndarray:
+    """``int |e| dt`` of runs sampled every ``step`` along axis 0: the trapezoidal rule, each interval
+    split where ``e`` changes sign (exact for piecewise linear ``e``); one area per column.
+
+    >>> float(absolute_area(np.array([1.0, -1.0]), 1.0))  # two triangles of area 1/4
+    0.5
+    >>> absolute_area(np.array([[0.0, 2.0], [1.0, 2.0]]), 0.5).tolist()
+    [0.25, 1.0]
+    """
+    a, b = values[:-1], values[1:]
     crossing = a * b < 0
     areas = np.where(crossing, (a * a + b * b) / (2 * np.where(crossing, np.abs(a) + np.abs(b), 1.0)), 0.5 * (np.abs(a) + np.abs(b)))
-    return float(np.sum(areas) * h)
+    return np.sum(areas, axis=0) * step
+
+
+def _normalized_loop(plant: Plant, controller: Controller) -> tuple[float, tuple[np.ndarray, ...], np.ndarray]:
+    """``(T, matrices, delays / T)`` of the loop in time normalized by ``T = plant.step_time_scale()``."""
+    scale = plant.step_time_scale()
+    *matrices, delays = (np.ascontiguousarray(a, dtype=float) for a in _loop_matrices(plant, controller, scale))
+    return scale, tuple(matrices), delays
+
+
+def fine_step_response(plant: Plant, controller: Controller, t_end: float, step: float) -> FineResponse:
+    """The loop's response to a unit load step and to a unit set-point step, from rest, on a fine grid.
+
+    Parameters
+    ----------
+    plant, controller : Plant, Controller
+        The loop ``y = P (u + l)``, ``u = C(r, y)``; a strictly proper plant, a PID, series PID, FPPI
+        or MSP (the controllers' equations are written out by hand, see the module docstring).
+    t_end : float
+        Horizon (plant time units).
+    step : float
+        RK4 step ``h`` (plant time units); every dead time must span at least ``MIN_DELAY_STEPS``
+        steps.  The error of the method is ``O(h^4)`` in the samples; the trapezoidal IAE of the
+        samples (:func:`absolute_area`) is ``O(h^2)``.
+
+    Returns
+    -------
+    FineResponse
+        ``y``, ``u`` and ``e`` at ``timepts = j h``, ``j = 0 .. round(t_end / h)``; a run that
+        diverges is ``inf`` from the step where a state passes ``1e12``.
+
+    Raises
+    ------
+    ValueError
+        If a dead time spans fewer than ``MIN_DELAY_STEPS`` steps, the plant is not strictly proper,
+        or there is no hand-written law for the controller.
+    """
+    scale, matrices, delays = _normalized_loop(plant, controller)
+    h = step / scale
+    if delays.size and np.min(delays) < MIN_DELAY_STEPS * h * (1 - 1e-12):
+        raise ValueError(f"step must be <= the shortest dead time / {MIN_DELAY_STEPS}, got {step} for "
+                         f"{float(np.min(delays)) * scale}")
+    steps = int(round(t_end / step))
+    runs = [_rk4_outputs(*matrices, delays / h, d, h, steps) for d in (np.array([0.0, 1.0]), np.array([1.0, 0.0]))]
+    y, u, e = (np.column_stack([run[:, k] for run in runs]) for k in range(len(OUTPUTS)))
+    return FineResponse(timepts=np.arange(steps + 1) * step, output=y, control=u, error=e)
 
 
 def fine_step_iae(plant: Plant, controller: Controller, *, steps_per_time_scale: int = STEPS_PER_TIME_SCALE) -> FineIAE:
@@ -252,20 +328,20 @@ def fine_step_iae(plant: Plant, controller: Controller, *, steps_per_time_scale:
     less than ``TAIL_SHARE`` of the IAE (at most ``MAX_HORIZON``).  A loop with a steady offset or
     a diverging loop gets ``inf``.
     """
-    scale = plant.step_time_scale()
-    A, Bv, Bd, Cw, Ce, Ev, Ed, delays = (np.ascontiguousarray(a, dtype=float) for a in _loop_matrices(plant, controller, scale))
+    scale, matrices, delays = _normalized_loop(plant, controller)
     h = 1.0 / steps_per_time_scale
     if delays.size and np.min(delays) < MIN_DELAY_STEPS * h:
         h = float(np.min(delays)) / MIN_DELAY_STEPS
     horizon = HORIZON
+    error_row = OUTPUTS.index("error")
     while True:
         steps = math.ceil(horizon / h)
         values = []
         settled = True
         for d in (np.array([0.0, 1.0]), np.array([1.0, 0.0])):
-            error = _rk4_error(A, Bv, Bd, Cw, Ce, Ev, Ed, delays / h, d, h, steps)
-            total = _absolute_area(error, h)
-            tail = _absolute_area(error[-(steps // 10) :], h)
+            error = _rk4_outputs(*matrices, delays / h, d, h, steps)[:, error_row]
+            total = float(absolute_area(error, h))
+            tail = float(absolute_area(error[-(steps // 10) :], h))
             values.append(total * scale)
             settled &= bool(np.isfinite(total)) and tail <= TAIL_SHARE * max(total, 1e-300)
             if not np.isfinite(total):

@@ -27,8 +27,8 @@ rule's median- and largest-regret plants, and each agent's median-regret plant),
 ``responses_<plant>.png`` and ``nyquist_<plant>.png``.  Per-plant results are appended to
 ``cache.jsonl``, so an interrupted run resumes where it stopped; the key holds a hash of the source
 of ``envs`` and ``baselines``, so results of other code are recomputed, not reused.
-``--workers N`` scores the rules and oracles in ``N`` processes (the oracle dominates: 0.5-3 s per
-plant, up to 20 s on an odd benchmark plant); results do not depend on it.
+``--workers N`` scores the rules and oracles in ``N`` processes (the oracle's search dominates; its
+time per plant is in the README's Performance section); results do not depend on it.
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime evaluate``; bad input is a ValueError (one line, exit status 2)."""
-    from agents.cli import load_json_argument
+    from agents.commands.arguments import load_json_argument
 
     plants = None if args.plants is None else load_json_argument(args.plants, "--plants")
     result = evaluate(

@@ -22,8 +22,6 @@ from agents.sweeps.config import SweepConfig, Trial
 
 __all__ = ["Progress", "evaluation_directory", "run_sweep", "trial_function"]
 
-REPORTS_PER_TRIAL = 10  # progress reports to Tune per trial, besides the final one
-
 
 # ------------------------------------------------------------------------------- the sweep
 def _check_directory(sweep_file: Path, out: Path, resume: bool) -> None:
@@ -111,30 +109,16 @@ def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, A
 # ------------------------------------------------------------------------------- the trials
 def trial_function(config: dict[str, Any]) -> None:
     """One Tune trial: ``deadtime train`` of ``config["trial"]`` into ``config["out"]/runs/NAME``."""
+    from agents.sweeps.reporter import TuneReporter
     from agents.training.train import train
 
     trial = Trial(**{**config["trial"], "overrides": tuple(config["trial"]["overrides"])})
     run_dir = Path(config["out"]) / "runs" / trial.name
     train_config = trial.train_config(run_dir)
     result = train(train_config, resume=True, command=f"deadtime sweep (trial {trial.name})",
-                   callbacks=[_tune_reporter(train_config.total_timesteps)])
+                   callbacks=[TuneReporter(train_config.total_timesteps)])
     tune.report({"timesteps": result.num_timesteps, "best_cost": result.best_cost, "final_cost": result.final_cost,
                  "finished": True})
-
-
-def _tune_reporter(total_timesteps: int) -> Any:
-    """An SB3 callback that reports the step count to Tune ``REPORTS_PER_TRIAL`` times in a run."""
-    from stable_baselines3.common.callbacks import BaseCallback
-
-    every = max(1, total_timesteps // REPORTS_PER_TRIAL)
-
-    class TuneReporter(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.model.num_timesteps % every == 0 and self.model.num_timesteps < total_timesteps:
-                tune.report({"timesteps": self.model.num_timesteps, "finished": False})
-            return True
-
-    return TuneReporter()
 
 
 class Progress(tune.Callback):

@@ -362,7 +362,7 @@ def _existing_run(config: TrainConfig, run_dir: Path, resume: bool) -> Checkpoin
 
 def _start_writing(run_dir: Path, config_text: str, checkpoint: Checkpoint | None) -> None:
     """Create the run directory with its config; on resume, the validation history as of the checkpoint."""
-    from agents.training.callbacks import write_json, write_text
+    from agents.training.files import write_json, write_text
 
     run_dir.mkdir(parents=True, exist_ok=True)
     write_text(run_dir / "config.yaml", config_text)  # on --resume: the same config, but total_timesteps may have grown
@@ -467,7 +467,7 @@ def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str,
                     num_timesteps: int, start_steps: int, train_seconds: float, cpu_seconds: float,
                     resumed: bool) -> None:
     """Record the run; ``cpu_seconds`` is the training process's own (not its subprocess workers')."""
-    from agents.training.callbacks import write_json
+    from agents.training.files import write_json
 
     path = run_dir / "run.json"
     previous = json.loads(path.read_text()) if path.is_file() else {}

@@ -369,7 +369,7 @@ def theta_from_tau(tau: float) -> float:
     Examples
     --------
     >>> round(theta_from_tau(0.33), 2), round(theta_from_tau(0.68), 2)
-    (0.37, 0.75)
+    (0.37, 0.74)
     """
     tau = require_number(tau, "tau")
     if not 0.0 <= tau <= 1.0:

@@ -10,7 +10,7 @@ import pytest
 
 from agents.environments import make_env
 from agents.evaluation.oracle_info import OracleInfo
-from agents.runtime import THREAD_VARIABLES, git_commit, single_thread_defaults, versions
+from agents.runtime import REPO, THREAD_VARIABLES, git_commit, single_thread_defaults, versions
 
 
 def test_single_thread_defaults_keep_the_users_setting(monkeypatch):
@@ -19,6 +19,13 @@ def test_single_thread_defaults_keep_the_users_setting(monkeypatch):
     monkeypatch.setenv("OMP_NUM_THREADS", "3")
     single_thread_defaults()
     assert {name: os.environ[name] for name in THREAD_VARIABLES} == {**dict.fromkeys(THREAD_VARIABLES, "1"), "OMP_NUM_THREADS": "3"}
+
+
+def test_the_makefile_exports_the_same_thread_defaults():
+    """The Makefile's exports are :data:`THREAD_VARIABLES` with the default 1, nothing more, nothing less."""
+    makefile = (REPO / "Makefile").read_text()
+    exported = dict(re.findall(r"^export (\w+) \?= (\S+)$", makefile, flags=re.M))
+    assert exported == dict.fromkeys(THREAD_VARIABLES, "1")
 
 
 def test_provenance_names_the_commit_and_the_versions():

@@ -141,9 +141,26 @@ def test_validate_checks_the_constructors(zoo: Path, override: str, named: str) 
         validate(load_config(zoo, overrides=[override]))
 
 
-def test_validate_accepts_known_keys(zoo: Path) -> None:
-    validate(load_config(zoo, overrides=["hyperparameters.gamma=0.5", "policy_kwargs.activation_fn=tanh"]))
-    validate(load_config(zoo, overrides=["algorithm=SAC", "hyperparameters={buffer_size: 100}"]))
+ACCEPTED = [
+    (["hyperparameters.gamma=0.5", "policy_kwargs.activation_fn=tanh"],
+     lambda model: model.gamma == 0.5 and model.policy.activation_fn.__name__ == "Tanh"),
+    (["algorithm=SAC", "hyperparameters={buffer_size: 100}"],
+     lambda model: type(model).__name__ == "SAC" and model.buffer_size == 100 and model.replay_buffer.buffer_size == 100),
+]
+
+
+@pytest.mark.parametrize(("overrides", "taken"), ACCEPTED, ids=[" ".join(o) for o, _ in ACCEPTED])
+def test_validate_accepts_known_keys_and_the_model_takes_them(zoo: Path, overrides: list[str], taken) -> None:
+    """What ``validate`` accepts, the constructor accepts too, and the value reaches the model."""
+    from agents.training.train import make_vec_env, new_model
+
+    config = load_config(zoo, overrides=overrides)
+    validate(config)  # raises on a refused key
+    venv = make_vec_env(config)
+    try:
+        assert taken(new_model(config, venv))
+    finally:
+        venv.close()
 
 
 def _deadtime_registered() -> bool:

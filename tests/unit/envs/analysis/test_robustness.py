@@ -28,6 +28,7 @@ import pytest
 import scipy.optimize
 import scipy.special
 
+from agents.bench.fine_step import fine_step_response
 from envs.analysis.loop_analysis import analyze, plant_margins
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.simulation.loops import loop_response
@@ -251,15 +252,15 @@ def test_nyquist_counts_the_unstable_roots_of_the_characteristic_polynomial(name
 
 
 @pytest.mark.parametrize("factor", [0.8, 1.25])
-def test_nyquist_verdict_matches_fine_step_growth(fine_step, factor):
+def test_nyquist_verdict_matches_fine_step_growth(factor):
     """PID on an FOPDT with its gain scaled to ``factor`` times the gain margin: the independent RK4
     simulation decays (``factor < 1``) or grows (``factor > 1``), as the Nyquist verdict says."""
     plant, base = Plant.from_time_constants(1.0, [1.0], 0.5), PID(1.0, 1.0, 0.1, 10.0)
     gm = plant_margins(plant, base).gain_margin
     kp = factor * gm * base.kp
     margins = plant_margins(plant, PID(kp, 1.0, 0.1, 10.0))
-    run = fine_step.step_runs(fine_step.LagChain(1.0, (1.0,), 0.5), fine_step.pid(kp, 1.0, 0.1, 10.0), 60.0, 0.005)
-    error = np.abs(run.outputs[:, 2, 1])  # set-point run: e -> 0 iff stable
+    run = fine_step_response(plant, PID(kp, 1.0, 0.1, 10.0), 60.0, 0.005)
+    error = np.abs(run.error[:, 1])  # set-point run: e -> 0 iff stable
     t = run.timepts
     early, late = np.max(error[(t > 10) & (t <= 20)]), np.max(error[t > 50])
     assert margins.stable == (factor < 1)
