@@ -35,8 +35,8 @@ Design:
   accurate at low frequencies), so a stability verdict or a crossover count could differ only for
   a loop on the boundary; ``tests/unit/fast_paths/test_fast_paths.py`` compares both on a few hundred loops.
   :func:`envs.analysis.robustness.assemble_margins` builds the :class:`~envs.analysis.robustness.Margins` of both.
-* Compilation: 11 functions (and 11 small ones inlined into them), 12-15 s of CPU once, cached
-  on disk by numba (then about 0.4 s to load).  Scalar loops instead of numpy functions (``sort``,
+* Compilation: 11 functions (and 11 small ones inlined into them), compiled once and cached on
+  disk by numba (README, "Performance", for the times).  Scalar loops instead of numpy functions (``sort``,
   fancy indexing, ``max``), each of which would add its own compilation; no call of a compiled
   function on a literal argument (which numba would compile once more for that literal).
 """

@@ -35,14 +35,13 @@ from the summed coefficients (its root at the origin is then exact) and
 ``e^{-i x} - 1 = -2 sin(x/2)^2 - 2 i sin(x/2) cos(x/2)`` has no cancellation, so the value is
 accurate to rounding at every frequency.
 
-Coefficients are tuples of floats and the products are formed in Python loops (a few us for the
-few coefficients of a loop; ``numpy.polymul`` builds ``poly1d`` objects and costs about 80 us per
-call at numpy 2.4).  For that reason the PID coefficients are formed here with the arithmetic of
+Coefficients are tuples of floats and the products are formed in Python loops (cheaper for the few
+coefficients of a loop than ``numpy.polymul``, which builds ``poly1d`` objects).  For that reason the PID coefficients are formed here with the arithmetic of
 the controllers' ``transfer_function`` (the tests check that they are equal).
 
 The scoring's hot path takes the loop packed into one array (:func:`loop_packed`), which compiled
-kernels form directly from the plant's coefficients and the controller's parameters (about 8 us
-instead of 25 us for :class:`QuasiRational` and :func:`packed`).  They repeat the arithmetic of
+kernels form directly from the plant's coefficients and the controller's parameters (about three
+times faster than :class:`QuasiRational` and :func:`packed`, measured when they were written).  They repeat the arithmetic of
 the Python functions here operation by operation, in the same order, so the array is the same bit
 for bit; the Python functions stay as the readable reference (and serve :func:`loop_transfer`).
 """
