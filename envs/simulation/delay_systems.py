@@ -476,8 +476,8 @@ class LoopRun:
     stayed below the earlier, smaller limit, hence below this one.  A run that diverged stays
     stopped (a restart with a larger limit would stop later): continue only runs that did not
     diverge.  ``capacity`` is the expected longest horizon (the buffers grow if a longer one comes).
-    (The closed-loop step ran on it before its compiled run, :mod:`envs.simulation._run_kernels`; the tests
-    keep that run as the reference.)
+    (The closed-loop step ran on it before its compiled run, :mod:`envs.simulation._run_kernels`; that run
+    is ``closed_loop_step(..., method="reference")``.)
     """
 
     def __init__(self, discrete: DiscreteDelaySystem, capacity: int = 0) -> None:
