@@ -1,7 +1,7 @@
-"""The registry of analytic PI/PID rules: name -> :class:`RuleSpec` (formulas in :mod:`baselines.rules.pid`).
+"""The table of analytic PI/PID rules: name -> :class:`PIDFormula` (formulas in :mod:`baselines.rules.pid`).
 
 Names are kebab-case, ``<rule>-<pi|pid>``; the Chien-Hrones-Reswick rules carry the objective and
-the overshoot, ``chr-<setpoint|load>-<0|20>-<pi|pid>``.  :meth:`RuleSpec.design` gives the
+the overshoot, ``chr-<setpoint|load>-<0|20>-<pi|pid>``.  :meth:`PIDFormula.design` gives the
 controller for an identified model, computing the ultimate point first for the ultimate-gain rules.
 """
 
@@ -16,7 +16,7 @@ from envs.systems.controllers import PID, SeriesPID
 from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
 from envs.systems.plants import Plant
 
-__all__ = ["RuleSpec", "RULES"]
+__all__ = ["PIDFormula", "RULES"]
 
 ModelKind = Literal["fopdt", "sopdt", "ultimate"]
 
@@ -35,8 +35,10 @@ _CITATIONS = {
 
 
 @dataclass(frozen=True)
-class RuleSpec:
-    """One analytic rule.
+class PIDFormula:
+    """One analytic PI/PID formula of the literature: the entry of :data:`RULES` that names it, says
+    which model it needs and cites it.  The tuning environment's rules are
+    :class:`baselines.rules.registry.Rule`, which wrap these.
 
     Attributes
     ----------
@@ -84,11 +86,11 @@ class RuleSpec:
         return self.function(model)
 
 
-def _spec(name: str, function: Callable, model: ModelKind, integrating: bool, form: str, source: str) -> RuleSpec:
-    return RuleSpec(name, function, model, integrating, form, _CITATIONS[source])
+def _spec(name: str, function: Callable, model: ModelKind, integrating: bool, form: str, source: str) -> PIDFormula:
+    return PIDFormula(name, function, model, integrating, form, _CITATIONS[source])
 
 
-def _chr_specs() -> list[RuleSpec]:
+def _chr_specs() -> list[PIDFormula]:
     specs = []
     for objective in ("setpoint", "load"):
         for overshoot in (0, 20):
@@ -100,7 +102,7 @@ def _chr_specs() -> list[RuleSpec]:
     return specs
 
 
-RULES: dict[str, RuleSpec] = {
+RULES: dict[str, PIDFormula] = {
     spec.name: spec
     for spec in [
         _spec("zn-step-pi", rules.zn_step_pi, "fopdt", True, "ideal", "zn-step"),
@@ -120,4 +122,4 @@ RULES: dict[str, RuleSpec] = {
         _spec("imc-pid", rules.imc_pid, "fopdt", False, "ideal", "imc"),
     ]
 }
-"""Every rule by name; see :class:`RuleSpec`."""
+"""Every rule by name; see :class:`PIDFormula`."""

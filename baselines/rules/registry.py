@@ -40,7 +40,7 @@ from baselines.rules import matched
 from baselines.rules import mu as mu_rules
 from baselines.rules import pid as pid_rules
 from baselines.rules.pid_registry import RULES as PID_RULES
-from baselines.rules.pid_registry import RuleSpec
+from baselines.rules.pid_registry import PIDFormula
 from envs.systems.controllers import Controller
 from envs.design import MIN_RELATIVE_DEAD_TIME, fppi_design, msp_design, pid_design
 from envs.identification.models import (
@@ -288,7 +288,7 @@ def _needs(value: Any, what: str, rule: str) -> Any:
 
 
 # --------------------------------------------------------------------------- PI/PID of the literature
-def _pid_rule(spec: RuleSpec) -> Rule:
+def _pid_rule(spec: PIDFormula) -> Rule:
     def model(inputs: RuleInputs) -> Model:
         if inputs.integrating:
             return inputs.model

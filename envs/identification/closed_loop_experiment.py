@@ -13,6 +13,14 @@ with ``n`` the measurement noise; sample ``k`` is then the last with finite outp
 settles if both steady-state tests pass.  The first such sample ends the run (else the cap) and
 nothing after it is simulated (the noise is drawn in blocks, see :func:`_run_closed_loop`).
 
+How it is computed.  By default (``method="compiled"``) the run is one compiled call per block of
+noise (:func:`envs.simulation._run_kernels._closed_loop_run`).  ``closed_loop_step(...,
+method="reference")`` is the readable run it replaced (:func:`_reference_run_closed_loop`): the loop's
+:class:`~envs.simulation.delay_systems.LoopRun` continued chunk by chunk over growing horizons
+(:func:`~envs.identification.experiment_base.run_until_settled`), the new samples tested by
+:class:`~envs.identification.steady_state.SteadyStateTest`.  The two give the same run and result bit for
+bit, diverging runs included (``tests/unit/fast_paths/test_closed_loop_run.py``).
+
 References
 ----------
 .. [GK] R. Gorez, P. Klan, "Simple models for process control", section 2 and appendix B.
@@ -35,9 +43,11 @@ from envs.identification.experiment_base import (
     check_rng,
     MeasurementNoise,
     as_noise,
+    excursion_index,
     measurement_noise,
     record_fields,
     ExperimentRun,
+    run_until_settled,
     sample_time,
 )
 from envs.identification.models import (
@@ -52,8 +62,8 @@ from envs.identification.models import (
 from envs.simulation.loops import closed_loop_of_block
 from envs.systems.plants import Plant
 from envs.simulation._run_kernels import ABORTED, NO_EVENT, SETTLED, _closed_loop_run
-from envs.simulation.delay_systems import discretize, divergence_limit, loop_arrays
-from envs.identification.steady_state import window_samples
+from envs.simulation.delay_systems import LoopRun, discretize, divergence_limit, loop_arrays
+from envs.identification.steady_state import SteadyStateTest, window_samples
 from envs.validation import require_number
 
 __all__ = ["ClosedLoopStepResult", "closed_loop_step"]
@@ -108,6 +118,8 @@ def closed_loop_step(
     dt: float | None = None,
     excursion_limit: float | None = None,
     max_duration: float | None = None,
+    *,
+    method: str = "compiled",
 ) -> ClosedLoopStepResult:
     """Set-point step in closed loop, run to steady state, identified by the method of moments.
 
@@ -131,6 +143,9 @@ def closed_loop_step(
         Abort when ``|y|`` exceeds it.
     max_duration : float, optional
         Cap on the experiment, default ``MAX_DURATION`` time scales.
+    method : {"compiled", "reference"}
+        ``"compiled"`` (default) runs the loop in compiled calls; ``"reference"`` runs the readable
+        chunked run (see the module docstring), which gives the same result bit for bit, slower.
 
     Returns
     -------
@@ -148,8 +163,9 @@ def closed_loop_step(
     Raises
     ------
     ValueError
-        On invalid arguments, e.g. ``"amplitude must be non-zero, got 0.0"``.
+        On invalid arguments, e.g. ``"amplitude must be non-zero, got 0.0"``, or an unknown ``method``.
     """
+    _check_method(method)
     plant, rng = check_plant(plant), check_rng(rng)
     amplitude = require_number(amplitude, "amplitude", nonzero=True)
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
@@ -159,8 +175,13 @@ def closed_loop_step(
     dt = _loop_sample_time(plant, block, dt)
     noise = measurement_noise(rng, noise_std, cap_steps(scale, dt, max_duration))
     window = window_samples(scale, dt)
-    run = _run_closed_loop(plant, controller, amplitude, noise, dt, window, excursion_limit, block=block)
+    run = _run_closed_loop(plant, controller, amplitude, noise, dt, window, excursion_limit, block=block, method=method)
     return _identify_closed_loop(plant, controller, amplitude, run, window, scale)
+
+
+def _check_method(method: str) -> None:
+    if method not in ("compiled", "reference"):
+        raise ValueError(f"method must be 'compiled' or 'reference', got {method!r}")
 
 
 def _check_controller(plant: Plant, controller: Controller) -> Controller:
@@ -189,6 +210,7 @@ def _run_closed_loop(
     window: int,
     excursion_limit: float | None,
     block=None,
+    method: str = "compiled",
 ) -> _ClosedLoopRun:
     """Simulate the loop sample by sample until steady state, the cap, an excursion or a divergence.
 
@@ -204,10 +226,14 @@ def _run_closed_loop(
     aborts, else at the cap; every test is causal, so that sample and the signals up to it are
     those of simulating and testing any longer run from the start.  The run is compiled
     (:func:`envs.simulation._run_kernels._closed_loop_run`), one call per block of noise drawn
-    (``NOISE_BLOCK_WINDOWS`` windows, doubling), or one call if the noise is given or zero.
+    (``NOISE_BLOCK_WINDOWS`` windows, doubling), or one call if the noise is given or zero;
+    ``method="reference"`` runs :func:`_reference_run_closed_loop` instead.
     """
+    _check_method(method)
     noise = as_noise(noise)
     system = closed_loop_of_block(plant, controller.block() if block is None else block)
+    if method == "reference":
+        return _reference_run_closed_loop(plant, system, amplitude, noise, dt, window, excursion_limit)
     run = _CompiledRun(plant.integrating, discretize(system, dt), amplitude, noise, window, excursion_limit, plant.gain)
     begin, size = 0, (max(NOISE_BLOCK_WINDOWS * window, 64) if noise.drawn_as_needed else noise.size)
     while True:
@@ -217,6 +243,70 @@ def _run_closed_loop(
             return run.result(outcome, end)
         begin, size = until, 2 * size
 
+
+def _reference_run_closed_loop(
+    plant: Plant,
+    system,
+    amplitude: float,
+    noise: MeasurementNoise,
+    dt: float,
+    window: int,
+    excursion_limit: float | None,
+) -> _ClosedLoopRun:
+    """``_run_closed_loop(..., method="reference")``: the closed loop ``system`` as a
+    :class:`~envs.simulation.delay_systems.LoopRun` continued ``CHUNK_WINDOWS`` windows at a time over
+    horizons that double (:func:`~envs.identification.experiment_base.run_until_settled`), each chunk's
+    new samples tested by :class:`~envs.identification.steady_state.SteadyStateTest`.
+
+    The divergence limit of sample ``k`` is ``divergence_limit(K)`` times the largest input up to
+    ``k``: each chunk is advanced in parts, a new part at each sample whose noise is larger than
+    every input before it.
+    """
+    run = LoopRun(discretize(system, dt), 2 * _first_steps(window))
+    output_test, drive_test = SteadyStateTest(window, target=amplitude), SteadyStateTest(window)
+    limit = divergence_limit(plant.gain)
+    done, peak = 0, max(1.0, abs(float(amplitude)))  # the samples tested, the largest input so far
+
+    def trial(steps: int, horizon: int) -> tuple:  # the run is causal: no sample depends on the horizon
+        nonlocal done, peak
+        values = noise.first(steps)
+        inputs = np.column_stack([np.full(steps, float(amplitude)), np.zeros(steps), values])
+        peaks = np.maximum.accumulate(np.concatenate([[peak], np.abs(values[done:])]))[1:]
+        rises = np.flatnonzero(peaks[1:] > peaks[:-1]) + done + 1  # the samples that raise the limit
+        for end in [*rises.tolist(), steps]:
+            sim = run.advance(inputs[:end], limit=limit * peaks[end - 1 - done])
+            if sim.diverged:
+                break
+        peak = peaks[-1]
+        y, u = sim.outputs[:, 0], sim.outputs[:, 1]
+        measured = y + values[: y.size]
+        nonfinite = np.flatnonzero(~np.isfinite(y))
+        finite = int(nonfinite[0]) if nonfinite.size else y.size  # a diverging sample's outputs are finite
+        abort = excursion_index(y[done:finite], excursion_limit)
+        abort = None if abort is None else abort + done
+        if sim.diverged and abort is None:
+            abort = finite - 1
+        drive = _cumulative_integral(sim.timepts[:finite], u[:finite]) if plant.integrating else u[:finite]
+        hits = np.flatnonzero(output_test.extend(measured[:finite]) & drive_test.extend(drive))
+        settle = int(hits[0]) + done if hits.size else None
+        done = finite
+        return sim.timepts, u, measured, y, abort, settle
+
+    result = run_until_settled(trial, _first_steps(window), noise.size, chunk=CHUNK_WINDOWS * window)
+    k = result.end + 1
+    t, u = result.timepts[:k].copy(), result.control[:k].copy()
+    drive = _cumulative_integral(t, u) if plant.integrating else u.copy()
+    signals = t, u, result.output[:k].copy(), result.true_output[:k].copy()
+    return _ClosedLoopRun(*signals, result.end, result.settled, result.aborted, drive)
+
+
+def _first_steps(window: int) -> int:
+    """The first horizon of the reference run, in samples."""
+    return max(16 * window, 64)
+
+
+CHUNK_WINDOWS = 4
+"""Windows per chunk of the reference run (that of the closed-loop step before the compiled run)."""
 
 NOISE_BLOCK_WINDOWS = 8
 """Windows of noise drawn for the first call of the run (then twice as many each call): a run that

@@ -181,20 +181,36 @@ def _channel_weights(s: float, fraction: list[float], dt: float) -> list[list[fl
     ]
 
 
-def discretize(system: DelaySystem, dt: float) -> DiscreteDelaySystem:
+def discretize(system: DelaySystem, dt: float, *, method: str = "fast") -> DiscreteDelaySystem:
     """Exact one-step map for piecewise-linear delayed signals and piecewise-constant inputs.
+
+    Parameters
+    ----------
+    system : DelaySystem
+    dt : float
+        Sample time.
+    method : {"fast", "reference"}
+        ``"fast"`` (default): scalar channel weights, the breaks of the sample interval as a set and
+        one unit block scaled per sub-interval (:func:`_integrals`).  ``"reference"``: the same map
+        written first, with vectorized weights, ``np.unique`` of the breaks and the Van Loan block
+        built per sub-interval (:func:`_reference_discretize`); the two give the same bytes
+        (``tests/unit/envs/simulation/test_simulation.py``).
 
     Raises
     ------
     ValueError
         If ``dt`` is not positive or a delay is shorter than ``dt`` (the recursion is explicit only
-        when every delay covers at least one sample).
+        when every delay covers at least one sample), or ``method`` is unknown.
     """
+    if method not in ("fast", "reference"):
+        raise ValueError(f"method must be 'fast' or 'reference', got {method!r}")
     if not dt > 0 or not np.isfinite(dt):
         raise ValueError(f"dt must be finite and > 0, got {dt!r}")
     delays = np.asarray(system.delays, dtype=float)
     if delays.size and np.min(delays) < dt * (1 - 1e-12):
         raise ValueError(f"every delay must be >= dt={dt:g}; got min delay {np.min(delays):g}")
+    if method == "reference":
+        return _reference_discretize(system, dt)
     whole = np.floor(delays / dt + 1e-9).astype(int)
     fraction = delays - whole * dt
     fraction[fraction < 1e-9 * dt] = 0.0
@@ -214,6 +230,53 @@ def discretize(system: DelaySystem, dt: float) -> DiscreteDelaySystem:
             [[(q - p) / (b - a) for p, q in zip(before, after)] for before, after in zip(weights[m], weights[m + 1])],
             dtype=float,
         ).reshape(nv, 3)
+        P = E @ P
+        Q = E @ Q + psi0 @ system.B1
+        R = (
+            np.einsum("ab,bik->aik", E, R)
+            + np.einsum("ab,bi,ik->aik", psi0, system.B2, ca)
+            + np.einsum("ab,bi,ik->aik", psi1, system.B2, slope)
+        )
+    return DiscreteDelaySystem(system, float(dt), P, Q, R, whole, fraction)
+
+
+def _reference_integrals(A: np.ndarray, span: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_integrals` with the block ``[[A T, I T, 0], [0, 0, I T], [0, 0, 0]]`` built for ``T = span``."""
+    n = A.shape[0]
+    block = np.zeros((3 * n, 3 * n))
+    block[:n, :n] = A * span
+    block[:n, n : 2 * n] = np.eye(n) * span
+    block[n : 2 * n, 2 * n :] = np.eye(n) * span
+    e = scipy.linalg.expm(block)
+    return e[:n, :n], e[:n, n : 2 * n], e[:n, 2 * n :]
+
+
+def _reference_channel_weights(s: float, fraction: np.ndarray, dt: float) -> np.ndarray:
+    """:func:`_channel_weights` as an array ``c[i, k]``, computed for all channels at once."""
+    c = np.zeros((fraction.size, 3))
+    before = s <= fraction
+    c[before, 0] = (fraction[before] - s) / dt
+    c[before, 1] = (dt - fraction[before] + s) / dt
+    after = ~before
+    c[after, 1] = 1.0 - (s - fraction[after]) / dt
+    c[after, 2] = (s - fraction[after]) / dt
+    return c
+
+
+def _reference_discretize(system: DelaySystem, dt: float) -> DiscreteDelaySystem:
+    """``discretize(..., method="reference")``: the map over the sub-intervals of ``[0, dt]`` between
+    the delays' fractional parts, on each the exact propagation for a linear delayed input."""
+    delays = np.asarray(system.delays, dtype=float)
+    whole = np.floor(delays / dt + 1e-9).astype(int)
+    fraction = delays - whole * dt
+    fraction[fraction < 1e-9 * dt] = 0.0
+    n, nv = system.n_states, delays.size
+    breaks = np.unique(np.concatenate([[0.0, dt], fraction[(fraction > 0)]]))
+    P, Q, R = np.eye(n), np.zeros((n, system.n_inputs)), np.zeros((n, nv, 3))
+    for a, b in zip(breaks[:-1], breaks[1:]):
+        E, psi0, psi1 = _reference_integrals(system.A, b - a) if n else (np.eye(0),) * 3
+        ca, cb = _reference_channel_weights(a, fraction, dt), _reference_channel_weights(b, fraction, dt)
+        slope = (cb - ca) / (b - a)
         P = E @ P
         Q = E @ Q + psi0 @ system.B1
         R = (
@@ -313,7 +376,9 @@ def simulate_batch(discretes: Sequence[DiscreteDelaySystem], inputs: np.ndarray)
     ]
 
 
-def delayed_zoh(state_space, delay: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+def delayed_zoh(
+    state_space, delay: float, dt: float, *, method: str = "fast"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Exact ZOH discretization of ``G(s) e^{-L s}`` for a piecewise-constant input.
 
     With ``L = m dt + f`` (``0 <= f < dt``), the delayed input over ``[j dt, (j+1) dt)`` equals
@@ -321,19 +386,30 @@ def delayed_zoh(state_space, delay: float, dt: float) -> tuple[np.ndarray, np.nd
     ``x[j+1] = Phi x[j] + Gamma1 u[j-m-1] + Gamma0 u[j-m]`` with
     ``Gamma0 = int_0^{dt-f} e^{A s} ds B`` and ``Gamma1 = e^{A (dt-f)} int_0^f e^{A s} ds B``
     (the modified z-transform).  Returns ``(Phi, Gamma0, Gamma1, m)``; the output at ``j dt`` is
-    ``C x[j] + D u(j dt - L)``.
+    ``C x[j] + D u(j dt - L)``.  ``method`` is ``"fast"`` (default: one unit block scaled per
+    interval) or ``"reference"`` (the Van Loan block built per interval,
+    :func:`_reference_integrals`); the two give the same bytes.
     """
+    if method not in ("fast", "reference"):
+        raise ValueError(f"method must be 'fast' or 'reference', got {method!r}")
     A, B = state_space.A, state_space.B
     m = int(np.floor(delay / dt + 1e-9))
     f = delay - m * dt
     if f < 1e-9 * dt:
         f = 0.0
-    unit = _unit_block(A)
-    Phi, psi_full, _ = _integrals(A, dt, unit)
+    if method == "reference":
+        integrals = _reference_integrals
+    else:
+        unit = _unit_block(A)
+
+        def integrals(A: np.ndarray, span: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            return _integrals(A, span, unit)
+
+    Phi, psi_full, _ = integrals(A, dt)
     if f == 0.0:
         return Phi, psi_full @ B, np.zeros_like(B), m
-    E_rest, psi_rest, _ = _integrals(A, dt - f, unit)
-    _, psi_f, _ = _integrals(A, f, unit)
+    E_rest, psi_rest, _ = integrals(A, dt - f)
+    _, psi_f, _ = integrals(A, f)
     return Phi, psi_rest @ B, E_rest @ psi_f @ B, m
 
 
@@ -400,8 +476,8 @@ class LoopRun:
     stayed below the earlier, smaller limit, hence below this one.  A run that diverged stays
     stopped (a restart with a larger limit would stop later): continue only runs that did not
     diverge.  ``capacity`` is the expected longest horizon (the buffers grow if a longer one comes).
-    (The closed-loop step ran on it before its compiled run, :mod:`envs.simulation._run_kernels`; the tests
-    keep that run as the reference.)
+    (The closed-loop step ran on it before its compiled run, :mod:`envs.simulation._run_kernels`; that run
+    is ``closed_loop_step(..., method="reference")``.)
     """
 
     def __init__(self, discrete: DiscreteDelaySystem, capacity: int = 0) -> None:

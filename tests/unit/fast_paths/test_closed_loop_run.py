@@ -1,16 +1,16 @@
-"""The compiled closed-loop step run and recursion against the paths they replaced, bit for bit.
+"""The compiled closed-loop step run and recursion against the readable paths, bit for bit.
 
 * :func:`envs.identification.closed_loop_experiment._run_closed_loop` (compiled calls of
-  :func:`envs.simulation._run_kernels._closed_loop_run`) against the chunked run it replaced, written out here
-  (:class:`_ChunkedTrial`: :class:`~envs.simulation.delay_systems.LoopRun` continued chunk by chunk, the new
-  samples tested by :class:`~envs.identification.steady_state.SteadyStateTest`, through
+  :func:`envs.simulation._run_kernels._closed_loop_run`) against ``method="reference"``, the chunked run it
+  replaced (:class:`~envs.simulation.delay_systems.LoopRun` continued chunk by chunk, the new samples tested by
+  :class:`~envs.identification.steady_state.SteadyStateTest`, through
   :func:`~envs.identification.experiment_base.run_until_settled`): the same last sample, outcome and signals up to
   it, on random plants of every family with and without noise, with excursions and small caps,
-  for every run that does not diverge;
+  diverging runs included; and ``closed_loop_step(..., method="reference")`` against the default;
 * a diverging run against :func:`_causal_divergence` (:class:`~envs.simulation.delay_systems.LoopRun` advanced one
   sample at a time under the limit of :func:`~envs.simulation.delay_systems.simulate` for the inputs so far): it
   aborts at the first sample whose state step reaches ``DIVERGENCE_LIMIT`` times the largest input
-  so far, whatever the chunks of the old run, the blocks of noise drawn or the noise after it;
+  so far, whatever the chunks of the reference run, the blocks of noise drawn or the noise after it;
 * the recursion of :func:`envs.simulation.delay_systems.simulate` (:func:`envs.simulation._run_kernels._run_one`) against the
   same recursion written as a Python loop.
 """
@@ -20,73 +20,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envs.identification.closed_loop_experiment import _cumulative_integral, _loop_sample_time, _run_closed_loop
+from envs.identification.closed_loop_experiment import (
+    _cumulative_integral,
+    _loop_sample_time,
+    _run_closed_loop,
+    closed_loop_step,
+)
 from envs.identification.commissioning import commissioning_pi
 from envs.systems.controllers import FPPI, MSP, PID
-from envs.identification.experiment_base import MeasurementNoise, excursion_index, run_until_settled
+from envs.identification.experiment_base import MeasurementNoise, excursion_index
 from envs.systems.families import FAMILIES, sample_plants
 from envs.simulation.loops import closed_loop_of_block, simulation_step
 from envs.systems.plants import Plant
 from envs.simulation.delay_systems import DIVERGENCE_LIMIT, LoopRun, discretize, simulate
-from envs.identification.steady_state import SteadyStateTest, window_samples
-
-
-CHUNK_WINDOWS = 4
-"""Windows per chunk of the chunked run (that of the closed-loop step before the compiled run)."""
-
-
-class _ChunkedTrial:
-    """``trial(steps, horizon)`` of the closed-loop step as it was before the compiled run (its
-    divergence limit is that of the whole horizon: it is the reference of runs that do not diverge)."""
-
-    def __init__(self, plant, system, amplitude, noise, dt, window, excursion_limit, capacity) -> None:
-        self.run = LoopRun(discretize(system, dt), capacity)
-        self.amplitude, self.noise, self.limit, self.integrating = amplitude, noise, excursion_limit, plant.integrating
-        self.output_test = SteadyStateTest(window, target=amplitude)
-        self.drive_test = SteadyStateTest(window)
-        self.measured = np.empty(noise.size)
-        self.drive = np.zeros(noise.size)
-        self.done, self.horizon = 0, 0
-        self.inputs = np.zeros((0, 3))
-        self.divergence_limit = 0.0
-
-    def __call__(self, steps: int, horizon: int) -> tuple:
-        if horizon != self.horizon:  # the inputs and divergence limit of simulating the whole horizon
-            self.horizon = horizon
-            noise = self.noise[:horizon]
-            self.inputs = np.column_stack([np.full(horizon, self.amplitude), np.zeros(horizon), noise])
-            self.divergence_limit = DIVERGENCE_LIMIT * max(1.0, float(np.max(np.abs(self.inputs))))
-        sim = self.run.advance(self.inputs[:steps], limit=self.divergence_limit)
-        y, u = sim.outputs[:, 0], sim.outputs[:, 1]
-        old = self.done
-        finite = int(np.argmax(~np.isfinite(y))) if sim.diverged else steps
-        self.measured[old:steps] = y[old:] + self.inputs[old:steps, 2]
-        measured = self.measured[:steps]
-        abort = excursion_index(y[old:finite], self.limit)
-        abort = None if abort is None else abort + old
-        if sim.diverged and abort is None:
-            abort = max(finite - 1, 0)
-        settle = None
-        if finite > old:
-            if self.integrating:
-                first = max(old, 1)
-                increments = 0.5 * (u[first:finite] + u[first - 1 : finite - 1]) * np.diff(sim.timepts[first - 1 : finite])
-                self.drive[first:finite] = np.cumsum(np.concatenate([[self.drive[first - 1]], increments]))[1:]
-                drive = self.drive[:finite]
-            else:
-                drive = u[:finite]
-            both = self.output_test.extend(measured[:finite]) & self.drive_test.extend(drive)
-            hits = np.flatnonzero(both)
-            settle = int(hits[0]) + old if hits.size else None
-        self.done = finite
-        return sim.timepts, u, measured, y, abort, settle
-
-
-def _chunked_run(plant, controller, amplitude, noise, dt, window, excursion_limit):
-    first_steps = max(16 * window, 64)
-    system = closed_loop_of_block(plant, controller.block())
-    trial = _ChunkedTrial(plant, system, amplitude, noise, dt, window, excursion_limit, 2 * first_steps)
-    return run_until_settled(trial, first_steps, noise.size, chunk=CHUNK_WINDOWS * window)
+from envs.identification.steady_state import window_samples
 
 
 def _assert_same_run(new, old) -> None:
@@ -130,10 +77,10 @@ def _cases():
 
 
 @pytest.mark.parametrize("name, plant, controller, noise_std, limit, cap", _cases(), ids=lambda v: v if isinstance(v, str) else "")
-def test_closed_loop_run_equals_the_chunked_run(name, plant, controller, noise_std, limit, cap):
-    """Bit for bit the chunked run unless the loop diverges; a diverging run aborts at the first
-    sample of :func:`_causal_divergence` (or at an excursion before it).  The same run in one
-    compiled call (noise given) and in blocks (noise drawn as needed)."""
+def test_closed_loop_run_equals_the_reference_run(name, plant, controller, noise_std, limit, cap):
+    """Bit for bit ``method="reference"`` (the chunked run), diverging runs included; a diverging run
+    aborts at the first sample of :func:`_causal_divergence` (or at an excursion before it).  The
+    same run in one compiled call (noise given) and in blocks (noise drawn as needed)."""
     scale = plant.step_time_scale()
     dt = _loop_sample_time(plant, controller.block(), None)
     window = window_samples(scale, dt)
@@ -141,11 +88,12 @@ def test_closed_loop_run_equals_the_chunked_run(name, plant, controller, noise_s
     noise = noise_std * np.random.default_rng(len(name)).standard_normal(steps)
     new = _run_closed_loop(plant, controller, 1.0, noise, dt, window, limit)
     _assert_same_run(_run_closed_loop(plant, controller, 1.0, _DrawnNoise(noise), dt, window, limit), new)
-    old = _chunked_run(plant, controller, 1.0, noise, dt, window, limit)
-    if _diverged(new, limit) or _diverged(old, limit):
+    reference = _run_closed_loop(plant, controller, 1.0, noise, dt, window, limit, method="reference")
+    _assert_same_run(new, reference)
+    assert reference.drive.tobytes() == new.drive.tobytes()
+    _assert_same_run(_run_closed_loop(plant, controller, 1.0, _DrawnNoise(noise), dt, window, limit, method="reference"), new)
+    if _diverged(new, limit):
         _assert_causal_abort(new, plant, controller, 1.0, noise, dt, limit)
-    else:
-        _assert_same_run(new, old)
     # the drive the identification uses: the kernel's sums are those of _cumulative_integral
     drive = _cumulative_integral(new.timepts, new.control) if plant.integrating else new.control
     assert new.drive.tobytes() == drive.tobytes()
@@ -209,16 +157,16 @@ def test_divergence_aborts_at_the_divergence_whatever_the_chunks(name):
     dt = simulation_step(plant, controller, 40)
     noise = 0.01 * np.random.default_rng(2).standard_normal(20000)
     j = _divergence(plant, controller, dt, noise)
-    quirk = j // 3 + 1  # the old run's first chunk of 4 windows ended at j with the cap at j + 1
+    quirk = j // 3 + 1  # the first chunk of 4 windows ends at j with the cap at j + 1 (the run before
+    # the compiled one aborted at sample 0 there: it took a divergence at a chunk's last sample for one at its first)
     for window in (quirk, j // 7 + 1, j + 5):
         for steps, limit in ((j + 1, None), (j + 2, None), (j + 1, 1.5), (j + 2, 1.5), (20000, None)):
             args = (plant, controller, 1.0, noise[:steps], dt, window, limit)
             new = _run_closed_loop(*args)
+            _assert_same_run(new, _run_closed_loop(*args, method="reference"))
             _assert_causal_abort(new, plant, controller, 1.0, noise[:steps], dt, limit)
             assert new.end == (j if limit is None else min(j, excursion_index(new.true_output, limit)))
             assert np.isfinite(new.true_output).all()
-    old = _chunked_run(plant, controller, 1.0, noise[: j + 1], dt, quirk, None)
-    assert old.aborted and old.end == 0  # the quirk the compiled run no longer has
 
 
 @pytest.mark.parametrize("name", LOOPS)
@@ -239,6 +187,7 @@ def test_divergence_limit_is_that_of_the_inputs_so_far(name, spike):
             new = _run_closed_loop(*args, _DrawnNoise(spiky), *rest)
             given = _run_closed_loop(*args, spiky, *rest)  # one call: the same run
             _assert_same_run(new, given)
+            _assert_same_run(new, _run_closed_loop(*args, _DrawnNoise(spiky), *rest, method="reference"))
             if new.aborted:
                 _assert_causal_abort(new, plant, controller, 1.0, spiky, dt, None)
             else:  # a large spike before the divergence raised the limit: no divergence up to the end
@@ -304,3 +253,26 @@ def test_compiled_recursion_matches_the_python_loop(name):
     z = simulate(discrete, inputs).outputs
     reference = _recursion_reference(discrete, inputs)
     assert z.tobytes() == reference.tobytes()
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_closed_loop_step_reference_method_equals_compiled(family):
+    """The public choice: ``closed_loop_step(..., method="reference")`` gives the same result, every
+    signal and identified number bit for bit, with noise drawn from the same seed."""
+    for plant in sample_plants(family, 3, 90):
+        for limit in (None, 1.05):
+            args = dict(noise_std=0.02, excursion_limit=limit)
+            fast = closed_loop_step(plant, np.random.default_rng(4), **args)
+            reference = closed_loop_step(plant, np.random.default_rng(4), **args, method="reference")
+            for field in fast.__dataclass_fields__:
+                a, b = getattr(fast, field), getattr(reference, field)
+                if isinstance(a, np.ndarray):
+                    assert a.tobytes() == b.tobytes(), field
+                else:
+                    assert repr(a) == repr(b), field
+
+
+def test_closed_loop_step_refuses_unknown_method():
+    plant = Plant.from_time_constants(1.0, [1.0], 0.5)
+    with pytest.raises(ValueError, match="method must be 'compiled' or 'reference', got 'chunked'"):
+        closed_loop_step(plant, np.random.default_rng(0), method="chunked")

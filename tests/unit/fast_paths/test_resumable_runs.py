@@ -96,7 +96,8 @@ def test_steady_state_tail_equals_whole_mask(target, first):
 
 
 def _closed_loop_from_rest(plant, controller, amplitude, noise, dt, window, excursion_limit):
-    """The closed-loop run as before: every horizon simulated and tested from the start."""
+    """The closed-loop run restarted: every horizon simulated and tested from the start (the compiled
+    run and ``method="reference"`` both continue theirs)."""
     discrete = discretize(closed_loop(plant, controller), dt)
 
     def trial(steps):
@@ -134,7 +135,9 @@ def test_closed_loop_run_equals_restarted_run(name, noise_std):
     noise = noise_std * np.random.default_rng(5).standard_normal(6000)
     for limit in (None, 1.5):
         args = (plant, controller, 1.0, noise, dt, window, limit)
-        _same_run(_run_closed_loop(*args), _closed_loop_from_rest(*args))
+        restarted = _closed_loop_from_rest(*args)
+        _same_run(_run_closed_loop(*args), restarted)
+        _same_run(_run_closed_loop(*args, method="reference"), restarted)
 
 
 @pytest.mark.parametrize("noise_std", [0.0, 0.02])

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from baselines.rules import pid as rules
-from baselines.rules.pid_registry import RULES, RuleSpec
+from baselines.rules.pid_registry import RULES, PIDFormula
 from envs.analysis.loop_analysis import plant_margins
 from envs.systems.controllers import PID, SeriesPID
 from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
@@ -366,7 +366,7 @@ EXPECTED_NAMES = {
 def test_registry_names_and_fields():
     assert set(RULES) == EXPECTED_NAMES
     for name, spec in RULES.items():
-        assert isinstance(spec, RuleSpec) and spec.name == name
+        assert isinstance(spec, PIDFormula) and spec.name == name
         assert spec.model in ("fopdt", "sopdt", "ultimate") and spec.form in ("ideal", "series")
         assert len(spec.citation) > 10
 

@@ -17,7 +17,6 @@ import warnings
 
 import numpy as np
 import pytest
-import scipy.linalg
 import scipy.special
 
 from agents.bench.fine_step import absolute_area, fine_step_response
@@ -25,7 +24,14 @@ from envs.systems.controllers import FPPI, MSP, PID
 from envs.simulation.loops import closed_loop, closed_loop_response
 from envs.analysis.performance import integrated_absolute_error
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import SystemBuilder, discretize, open_loop_response, simulate, simulate_batch
+from envs.simulation.delay_systems import (
+    SystemBuilder,
+    delayed_zoh,
+    discretize,
+    open_loop_response,
+    simulate,
+    simulate_batch,
+)
 
 
 # ----------------------------------------------------------------------------- analytic responses
@@ -221,6 +227,14 @@ def test_discretize_refuses_bad_steps():
         discretize(system, 0.6)
 
 
+def test_discretize_and_delayed_zoh_refuse_unknown_method():
+    system = _delayed_lag(1.0, 0.5)
+    with pytest.raises(ValueError, match="method must be 'fast' or 'reference', got 'compiled'"):
+        discretize(system, 0.1, method="compiled")
+    with pytest.raises(ValueError, match="method must be 'fast' or 'reference'"):
+        delayed_zoh(Plant.from_time_constants(1.0, [1.0], 0.5).state_space(), 0.5, 0.1, method="exact")
+
+
 def test_batched_simulation_equals_single_runs():
     """simulate_batch pads systems of different sizes; each run must equal its own simulate()."""
     plants = [Plant.from_time_constants(1.0, [1.0], 0.5), Plant.from_time_constants(2.0, [1.0, 0.3, 0.2], 1.1)]
@@ -339,64 +353,6 @@ def test_derivative_filter_faster_than_the_step_converges_in_iae():
 
 
 # ----------------------------------------------------------------------------- the one-step map, bit for bit
-def _integrals_reference(A, span):
-    n = A.shape[0]
-    block = np.zeros((3 * n, 3 * n))
-    block[:n, :n] = A * span
-    block[:n, n : 2 * n] = np.eye(n) * span
-    block[n : 2 * n, 2 * n :] = np.eye(n) * span
-    e = scipy.linalg.expm(block)
-    return e[:n, :n], e[:n, n : 2 * n], e[:n, 2 * n :]
-
-
-def _channel_weights_reference(s, fraction, dt):
-    c = np.zeros((fraction.size, 3))
-    before = s <= fraction
-    c[before, 0] = (fraction[before] - s) / dt
-    c[before, 1] = (dt - fraction[before] + s) / dt
-    after = ~before
-    c[after, 1] = 1.0 - (s - fraction[after]) / dt
-    c[after, 2] = (s - fraction[after]) / dt
-    return c
-
-
-def _discretize_reference(system, dt):
-    """:func:`discretize` as it was written first (vectorized weights, ``np.unique`` of the breaks)."""
-    delays = np.asarray(system.delays, dtype=float)
-    whole = np.floor(delays / dt + 1e-9).astype(int)
-    fraction = delays - whole * dt
-    fraction[fraction < 1e-9 * dt] = 0.0
-    n, nv = system.n_states, delays.size
-    breaks = np.unique(np.concatenate([[0.0, dt], fraction[(fraction > 0)]]))
-    P, Q, R = np.eye(n), np.zeros((n, system.n_inputs)), np.zeros((n, nv, 3))
-    for a, b in zip(breaks[:-1], breaks[1:]):
-        E, psi0, psi1 = _integrals_reference(system.A, b - a) if n else (np.eye(0),) * 3
-        ca, cb = _channel_weights_reference(a, fraction, dt), _channel_weights_reference(b, fraction, dt)
-        slope = (cb - ca) / (b - a)
-        P = E @ P
-        Q = E @ Q + psi0 @ system.B1
-        R = (
-            np.einsum("ab,bik->aik", E, R)
-            + np.einsum("ab,bi,ik->aik", psi0, system.B2, ca)
-            + np.einsum("ab,bi,ik->aik", psi1, system.B2, slope)
-        )
-    return P, Q, R, whole, fraction
-
-
-def _delayed_zoh_reference(state_space, delay, dt):
-    A, B = state_space.A, state_space.B
-    m = int(np.floor(delay / dt + 1e-9))
-    f = delay - m * dt
-    if f < 1e-9 * dt:
-        f = 0.0
-    Phi, psi_full, _ = _integrals_reference(A, dt)
-    if f == 0.0:
-        return Phi, psi_full @ B, np.zeros_like(B), m
-    E_rest, psi_rest, _ = _integrals_reference(A, dt - f)
-    _, psi_f, _ = _integrals_reference(A, f)
-    return Phi, psi_rest @ B, E_rest @ psi_f @ B, m
-
-
 def _same_bytes(a, b) -> bool:
     a, b = np.asarray(a), np.asarray(b)
     return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
@@ -404,13 +360,13 @@ def _same_bytes(a, b) -> bool:
 
 def test_discretize_and_delayed_zoh_equal_the_reference_bit_for_bit():
     """The cheaper glue of :func:`discretize` (scalar weights, the breaks as a set, one unit block
-    scaled per sub-interval) and of :func:`delayed_zoh` computes the same bytes as the first
-    version, on random loops of every family and controller type, at several sample times."""
+    scaled per sub-interval) and of :func:`delayed_zoh` computes the same bytes as
+    ``method="reference"`` (the first version), on random loops of every family and controller
+    type, at several sample times."""
     from envs.identification.commissioning import commissioning_pi
     from envs.systems.controllers import SeriesPID
     from envs.systems.families import FAMILIES, sample_plants
     from envs.simulation.loops import closed_loop_of_block
-    from envs.simulation.delay_systems import delayed_zoh
 
     count = 0
     for f, family in enumerate(FAMILIES):
@@ -430,12 +386,13 @@ def test_discretize_and_delayed_zoh_equal_the_reference_bit_for_bit():
                     if system.delays.size and dt > np.min(system.delays):
                         continue
                     new = discretize(system, dt)
-                    old = _discretize_reference(system, dt)
-                    for a, b in zip((new.Phi, new.Gamma, new.R, new.whole_samples, new.fraction), old):
-                        assert _same_bytes(a, b)
+                    old = discretize(system, dt, method="reference")
+                    for field in ("Phi", "Gamma", "R", "whole_samples", "fraction"):
+                        assert _same_bytes(getattr(new, field), getattr(old, field)), field
+                    assert new.dt == old.dt
                     count += 1
             for dt in (plant.step_time_scale() / 200, plant.delay / 3.0 if plant.delay else 0.1, 0.37):
                 new_zoh = delayed_zoh(plant.state_space(), plant.delay, dt)
-                old_zoh = _delayed_zoh_reference(plant.state_space(), plant.delay, dt)
+                old_zoh = delayed_zoh(plant.state_space(), plant.delay, dt, method="reference")
                 assert all(_same_bytes(a, b) for a, b in zip(new_zoh, old_zoh)) and new_zoh[3] == old_zoh[3]
     assert count > 300
