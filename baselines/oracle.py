@@ -324,7 +324,7 @@ def full_information_oracle(
 # --------------------------------------------------------------------------- exact models
 def _step_area(plant: Plant, until: float) -> float:
     """``int_0^until y dt`` of the exact unit-step response (``y = 0`` before the dead time)."""
-    span = until - plant.delay
+    span = until - plant.dead_time
     if span <= 0:
         return 0.0
     ss = plant.state_space()

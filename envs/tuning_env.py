@@ -174,7 +174,7 @@ class DeadTimeTuningEnv(gym.Env):
 
         Options
         -------
-        plant : Plant, dict, control.TransferFunction or (TransferFunction, delay)
+        plant : Plant, dict, control.TransferFunction or (TransferFunction, dead_time)
             Use this plant instead of drawing one (any form :func:`envs.systems.plants.as_plant` takes).
         """
         super().reset(seed=seed)

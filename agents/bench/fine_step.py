@@ -152,8 +152,8 @@ def _loop_matrices(plant: Plant, controller: Controller, scale: float):
     Ap, Bp, Cp = _scaled_plant(plant, scale)
     n_p = Ap.shape[0]
     n_c, controller_delays, law = _controller_law(controller, scale)
-    plant_delayed = plant.delay > 0
-    delays = ([plant.delay / scale] if plant_delayed else []) + list(controller_delays)
+    plant_delayed = plant.dead_time > 0
+    delays = ([plant.dead_time / scale] if plant_delayed else []) + list(controller_delays)
     n, nv = n_p + n_c, len(delays)
 
     def equations(z: np.ndarray):

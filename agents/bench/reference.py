@@ -63,7 +63,7 @@ def _normalized(plant: Plant, controller: Controller, scale: float) -> tuple[Pla
 
     powers = lambda coefficients: np.asarray(coefficients) * scale ** -np.arange(len(coefficients) - 1, -1, -1.0)
     num, den = powers(plant.num), powers(plant.den)
-    scaled_plant = Plant(tuple(num / den[0]), tuple(den / den[0]), plant.delay / scale)
+    scaled_plant = Plant(tuple(num / den[0]), tuple(den / den[0]), plant.dead_time / scale)
     if isinstance(controller, (PID, SeriesPID)):
         ti = None if controller.ti is None else controller.ti / scale
         return scaled_plant, dataclasses.replace(controller, ti=ti, td=controller.td / scale)
@@ -194,7 +194,7 @@ def _closed_loop(plant: Plant, controller: Controller, pade_order: int):
     """``(loop, plant_system, controller_system)``: the loop has inputs ``r, l`` and output ``y``."""
     import control
 
-    plant_system = control.ss(control.tf(list(plant.num), list(plant.den)) * _delay(plant.delay, pade_order))
+    plant_system = control.ss(control.tf(list(plant.num), list(plant.den)) * _delay(plant.dead_time, pade_order))
     ctrl = _controller(controller, pade_order)
     loop = control.interconnect(
         [

@@ -213,11 +213,11 @@ def simulated_growth(kind: str, tr: float, delta: float, horizon: float = 40.0) 
         raise ValueError(f"delta must be > -1, got {delta!r}")
     if kind == "fppi":
         controller = FPPI(gain=1.0, time_constant=1.0, dead_time=1.0, tr=tr, tf=tr)
-        plant = Plant(num=(1.0,), den=(1.0, 1.0), delay=1.0 + delta)
+        plant = Plant(num=(1.0,), den=(1.0, 1.0), dead_time=1.0 + delta)
     else:
         _kind(kind)
         controller = MSP(gain=1.0, dead_time=1.0, tr=tr)
-        plant = Plant(num=(1.0,), den=(1.0, 0.0), delay=1.0 + delta)
+        plant = Plant(num=(1.0,), den=(1.0, 0.0), dead_time=1.0 + delta)
     dt = min(tr / 10.0, 0.05, 1.0 + delta)
     steps = int(math.ceil(horizon / dt))
     response = closed_loop_response(plant, controller, steps, dt, setpoint=1.0)

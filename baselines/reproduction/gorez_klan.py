@@ -99,7 +99,7 @@ def _models_plot(directory: Path, models: dict) -> Path:
     timepts = np.linspace(0.0, 4.0, 801)
     curves = {}
     for case, (plant, t_a, d_a, sopdt) in models.items():
-        process = open_loop_response(plant.state_space(), plant.delay, np.ones_like(timepts), timepts[1])
+        process = open_loop_response(plant.state_space(), plant.dead_time, np.ones_like(timepts), timepts[1])
         fopdt = np.where(timepts > d_a, 1.0 - np.exp(-(timepts - d_a) / t_a), 0.0)
         curves[case] = {"process": process, "SOPDT model": sopdt.step_response(timepts), "FOPDT model": fopdt}
     return plots.step_responses(directory / "gorez-klan-models.png", timepts, curves, "Gorez-Klan Fig. 4-1 (computed)")

@@ -69,7 +69,7 @@ def _rng() -> np.random.Generator:
 
 def _additional_dynamics(plant: Plant) -> Plant:
     """``P_i(s) e^{-Ls}`` of an integrating ``P_i(s) e^{-Ls}/s``."""
-    return Plant(num=plant.num, den=plant.den[:-1], delay=plant.delay)
+    return Plant(num=plant.num, den=plant.den[:-1], dead_time=plant.dead_time)
 
 
 @lru_cache(maxsize=None)
@@ -185,7 +185,7 @@ def _step_mismatch(plant: Plant, dt: float) -> tuple[np.ndarray, np.ndarray]:
     slowest = 1.0 / np.min(np.abs(poles.real)) if poles.size else 0.0
     horizon = dead_time + 5.0 + 30.0 * slowest  # past the longest pulse of the scans, plus 30 time constants
     timepts = np.arange(0.0, horizon, dt)
-    step = open_loop_response(plant.state_space(), plant.delay, np.ones_like(timepts), dt)
+    step = open_loop_response(plant.state_space(), plant.dead_time, np.ones_like(timepts), dt)
     return timepts, step - gain * np.maximum(timepts - dead_time, 0.0)
 
 

@@ -159,7 +159,7 @@ def _continuous_phase(plant: Plant):
         return total
 
     def raw(w: np.ndarray) -> np.ndarray:
-        return np.angle(lead) + factor_angles(zeros, w) - factor_angles(poles, w) - w * plant.delay
+        return np.angle(lead) + factor_angles(zeros, w) - factor_angles(poles, w) - w * plant.dead_time
 
     start = -0.5 * math.pi if plant.integrating else 0.0
     offset = 2.0 * math.pi * round((raw(np.array([1e-12 / plant.step_time_scale()]))[0] - start) / (2.0 * math.pi))

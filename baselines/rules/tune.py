@@ -96,9 +96,9 @@ class Tuning:
         broken = []
         if max_ms is not None and m.ms > max_ms:
             broken.append(f"Ms = {m.ms:.4g} > {max_ms:g}")
-        delay = 0.0 if self.plant is None else self.plant.delay
-        if delay > 0 and m.delay_margin < min_relative_dm * delay:
-            broken.append(f"delay margin = {m.delay_margin / delay:.4g} L < {min_relative_dm:g} L")
+        dead_time = 0.0 if self.plant is None else self.plant.dead_time
+        if dead_time > 0 and m.delay_margin < min_relative_dm * dead_time:
+            broken.append(f"delay margin = {m.delay_margin / dead_time:.4g} L < {min_relative_dm:g} L")
         if broken:
             return f"{self.rule.name} gives a loop outside the constraints on the plant: {', '.join(broken)}"
         return None
@@ -132,7 +132,7 @@ def tune(rule: str, plant: Any = None, model: Model | dict | None = None) -> Tun
     ----------
     rule : str
         A name of :data:`baselines.rules.registry.RULES`.
-    plant : Plant, dict, control.TransferFunction or (TransferFunction, delay), optional
+    plant : Plant, dict, control.TransferFunction or (TransferFunction, dead_time), optional
         The true plant (any form :func:`envs.systems.plants.as_plant` takes); default: the model.
     model : FOPDTModel, SOPDTModel, IntegratingModel or its dict, optional
         An identified model to use instead of running the experiments.

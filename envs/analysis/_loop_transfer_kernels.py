@@ -72,7 +72,7 @@ def _packed_c(plant, size, delay, numerator, denominator, denominator_2, beta_2,
     width = max(first.size, second.size)
     flat = np.zeros(top.size + 1 + rows * width + rows)  # rows padded with leading zeros
     _put(flat, 0, top)
-    flat[top.size] = delay + 0.0  # plant.delay + alpha, alpha = 0.0
+    flat[top.size] = delay + 0.0  # plant.dead_time + alpha, alpha = 0.0
     start = top.size + 1
     _put(flat, start + width - first.size, first)
     if two_terms:

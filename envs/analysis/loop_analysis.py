@@ -92,7 +92,7 @@ def plant_margins(plant: Plant, controller: Controller) -> Margins:
     """
     integrators = int(plant.integrating) + controller.integrators
     margins = packed_margins(*loop_packed(plant, controller), integrators, plant.step_time_scale())
-    if margins.ms < 1.0 and (plant.delay > 0 or _strictly_proper(plant)):
+    if margins.ms < 1.0 and (plant.dead_time > 0 or _strictly_proper(plant)):
         return replace(margins, ms=1.0, ms_frequency=math.inf)
     return margins
 

@@ -226,7 +226,7 @@ def loop_packed(
         return packed(*_loop_terms(plant, controller))  # raises the TypeError of feedback_transfer
     plant_coefficients = np.array(plant.num + plant.den, dtype=float)
     flat, rows, width, denominator_rows, denominator_width = _packed_loop(
-        plant_coefficients, len(plant.num), float(plant.delay), kind, *args
+        plant_coefficients, len(plant.num), float(plant.dead_time), kind, *args
     )
     return flat, (rows, width, denominator_rows, denominator_width)
 
@@ -235,7 +235,7 @@ def _loop_terms(plant: Plant, controller: Controller) -> tuple[Terms, Terms]:
     """The numerator and denominator terms of ``P C_fb``."""
     c = feedback_transfer(controller)
     return (
-        tuple((_multiply(plant.num, a), plant.delay + alpha) for a, alpha in c.numerator),
+        tuple((_multiply(plant.num, a), plant.dead_time + alpha) for a, alpha in c.numerator),
         tuple((_multiply(plant.den, b), beta) for b, beta in c.denominator),
     )
 

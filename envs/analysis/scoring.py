@@ -153,7 +153,7 @@ def score(
     """
     scale = plant.residence_time
     margins = plant_margins(plant, controller)
-    reference = plant.delay if plant.delay > 0 else scale
+    reference = plant.dead_time if plant.dead_time > 0 else scale
     relative_dm = margins.delay_margin / reference
     violations = _violations(margins, relative_dm, constraints)
     experiment_cost = weights.experiment * experiment_time / scale

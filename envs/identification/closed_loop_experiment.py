@@ -194,9 +194,9 @@ def _check_controller(plant: Plant, controller: Controller) -> Controller:
 
 def _loop_sample_time(plant: Plant, block, dt: float | None) -> float:
     """The sample time, at most every positive delay of the plant and the controller's ``block()``
-    (a negligible plant dead time is simulated as none: :data:`envs.systems.plants.NEGLIGIBLE_DELAY`)."""
+    (a negligible plant dead time is simulated as none: :data:`envs.systems.plants.NEGLIGIBLE_DEAD_TIME`)."""
     dt = sample_time(plant, dt)
-    delays = [plant.simulation_delay] + [float(d) for d in block.delays]
+    delays = [plant.simulation_dead_time] + [float(d) for d in block.delays]
     positive = [d for d in delays if d > 0]
     return min([dt] + positive)
 

@@ -83,7 +83,7 @@ def _pi_loop_on_grid(plant: Plant, omega: np.ndarray, sign: float, reset_rate: f
     the PI chosen from it is the same (its gains are a grid, decided by a bound ``Ms`` is not near).
     """
     num, den = np.asarray(plant.num, dtype=float), np.asarray(plant.den, dtype=float)
-    return _pi_loop_kernel(omega, num, den, float(plant.delay), float(sign), float(reset_rate))
+    return _pi_loop_kernel(omega, num, den, float(plant.dead_time), float(sign), float(reset_rate))
 
 
 @numba.njit(cache=True)

@@ -176,7 +176,7 @@ class FOPDTModel:
 
     def plant(self) -> Plant:
         """The model as a :class:`~envs.systems.plants.Plant`."""
-        return Plant(num=(self.gain,), den=(self.time_constant, 1.0), delay=self.dead_time)
+        return Plant(num=(self.gain,), den=(self.time_constant, 1.0), dead_time=self.dead_time)
 
     def step_response(self, timepts: np.ndarray) -> np.ndarray:
         """Unit-step response ``K (1 - e^{-(t - L)/T})`` for ``t > L`` (Ingimundarson eq. 20)."""

@@ -82,7 +82,7 @@ def _run_to_steady_state(
     (:func:`~envs.identification.steady_state.steady_state_index`), the cap (``inputs.size`` samples) or an
     excursion of the true output.  ``noise`` is drawn as the run grows (or given, one sample per input)."""
     noise = as_noise(noise)
-    response = OpenLoopRun(plant.state_space(), plant.delay, inputs, dt)
+    response = OpenLoopRun(plant.state_space(), plant.dead_time, inputs, dt)
     test = SteadyStateTest(window)
     measured = np.empty(inputs.size)
     done = [0]  # each chunk continues the recursion and tests only its new samples (see run_until_settled)
@@ -341,7 +341,7 @@ def open_loop_ramp(
     dt, scale = sample_time(plant, dt), plant.step_time_scale()
     steps = int(math.ceil(residence_time / dt - 1e-9)) + 1
     noise = measurement_noise(rng, noise_std, steps).first(steps)  # the ramp runs to its end
-    y = open_loop_response(_with_input_integrator(plant.state_space()), plant.delay, np.full(steps, rate), dt)
+    y = open_loop_response(_with_input_integrator(plant.state_space()), plant.dead_time, np.full(steps, rate), dt)
     t = np.arange(steps) * dt
     abort = excursion_index(y, excursion_limit)
     run = ExperimentRun(t, rate * t, y + noise, y, steps - 1 if abort is None else abort, abort is None, abort is not None)

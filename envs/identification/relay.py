@@ -32,7 +32,7 @@ from envs.identification.experiment_base import (
     ExperimentRun,
     sample_time,
 )
-from envs.systems.plants import NEGLIGIBLE_DELAY, Plant
+from envs.systems.plants import NEGLIGIBLE_DEAD_TIME, Plant
 from envs.identification.steady_state import noise_level
 from envs.validation import require_number
 
@@ -118,7 +118,7 @@ def relay_feedback(
         As in :func:`closed_loop_step`.
     dt : float, optional
         Sample time; default ``T/SAMPLES_PER_RESIDENCE_TIME``, at most ``L/20`` (but not below
-        ``NEGLIGIBLE_DELAY T/20``).  The run stops at ``MAX_RUN_SAMPLES`` samples at most.
+        ``NEGLIGIBLE_DEAD_TIME T/20``).  The run stops at ``MAX_RUN_SAMPLES`` samples at most.
     period_tolerance : float
         Relative agreement of the last three periods that counts as periodic; widened by the
         switching jitter expected from the estimated noise.  A swing of less than ten noise
@@ -171,13 +171,13 @@ NOISE_BLOCK = 1024
 
 def _relay_sample_time(plant: Plant, dt: float | None) -> float:
     """Default ``T/SAMPLES_PER_RESIDENCE_TIME``, at most ``L/20``: the limit cycle of a plant
-    with a short dead time has a period of a few ``L``.  Not below ``NEGLIGIBLE_DELAY T/20``: a
+    with a short dead time has a period of a few ``L``.  Not below ``NEGLIGIBLE_DEAD_TIME T/20``: a
     shorter dead time is a sub-sample event (exact), and the run is bounded in samples anyway
     (:func:`~envs.identification.experiment_base.cap_steps`)."""
     if dt is not None:
         return require_number(dt, "dt", positive=True)
     dt = sample_time(plant, None)
-    return min(dt, max(plant.delay, NEGLIGIBLE_DELAY * plant.step_time_scale()) / 20.0) if plant.delay > 0 else dt
+    return min(dt, max(plant.dead_time, NEGLIGIBLE_DEAD_TIME * plant.step_time_scale()) / 20.0) if plant.dead_time > 0 else dt
 
 
 class _RelaySimulation:
@@ -191,17 +191,17 @@ class _RelaySimulation:
         ss = plant.state_space()
         self.A, self.B = ss.A, ss.B[:, 0]
         self.C, self.D = ss.C[0], float(ss.D[0, 0])
-        self.delay, self.dt, self.level, self.hysteresis = plant.delay, dt, level, hysteresis
+        self.dead_time, self.dt, self.level, self.hysteresis = plant.dead_time, dt, level, hysteresis
         self.full_step = self._propagator(dt)
         self._full_step_matrix = np.ascontiguousarray(self.full_step[0])  # for _plain_steps (the same products)
         self.event_tolerance = 1e-12 * dt  # an event this close to the end of a step belongs to the next
         self._forced = (None, None)  # (plant input u, gamma u) of the full step, for the last u
         self.x = np.zeros(self.A.shape[0])
         self.state = 1.0  # relay output sign
-        self.events: list[tuple[float, float]] = [(self.delay, level)]  # plant input changes
+        self.events: list[tuple[float, float]] = [(self.dead_time, level)]  # plant input changes
         self.next_event = 0
         self.plant_input = 0.0
-        if self.delay == 0.0:
+        if self.dead_time == 0.0:
             self.plant_input, self.next_event = level, 1
         initial = self.D * self.plant_input
         self.times, self.true, self.measured, self.relay_output = [0.0], [initial], [initial + initial_noise], [level]
@@ -273,8 +273,8 @@ class _RelaySimulation:
         if switch is not None:
             self.state = -self.state
             self.switches.append(switch)
-            self.events.append((switch + self.delay, self.state * self.level))
-            if switch + self.delay < end - self.event_tolerance:  # dead time shorter than the step
+            self.events.append((switch + self.dead_time, self.state * self.level))
+            if switch + self.dead_time < end - self.event_tolerance:  # dead time shorter than the step
                 self.x, self.plant_input, self.next_event = self._advance(saved[0], start, saved[1], saved[2])
                 true = float(self.C.dot(self.x)) + self.D * self.plant_input
                 measured = true + noise

@@ -67,7 +67,7 @@ def loop_rows(plant: Plant, controller: Controller) -> tuple[np.ndarray, np.ndar
     in by the same kernel: the same numbers, in about a third of the time (the ten matrices of
     ``block()``, their conversions and the fifteen arguments each cost about a microsecond).
     """
-    delay = plant.simulation_delay
+    delay = plant.simulation_dead_time
     if delay > 0:
         ps, f = plant.state_space(), _contiguous
         flat, n_c, n_vc = packed_block(controller)
@@ -80,11 +80,11 @@ def _rows(plant: Plant, cb) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 
     Without a plant dead time the plant output ``y = C_p x_p + D_p (u + l)`` enters the controller
     directly, so the loop can have an algebraic part, solved here; with one, the rows are those of
-    :func:`_delayed_plant_rows`.  A negligible dead time counts as none (:attr:`Plant.simulation_delay`).
+    :func:`_delayed_plant_rows`.  A negligible dead time counts as none (:attr:`Plant.simulation_dead_time`).
     """
     ps = plant.state_space()
-    if plant.simulation_delay > 0:
-        return _delayed_plant_rows(ps, plant.simulation_delay, cb)
+    if plant.simulation_dead_time > 0:
+        return _delayed_plant_rows(ps, plant.simulation_dead_time, cb)
     n_p, n_c = ps.A.shape[0], cb.n_states
     n_x = n_p + n_c
     # Each signal is a row of coefficients over [x_p, x_c, r, l, n, v_c] (see SystemBuilder).
@@ -207,7 +207,7 @@ def simulation_step(
 
     ``T_ar / samples_per_residence_time`` (``T_ar`` of the true plant), reduced if needed so that
     every dead time in the loop spans at least one sample (a negligible plant dead time is none,
-    :data:`envs.systems.plants.NEGLIGIBLE_DELAY`) (the recursion of
+    :data:`envs.systems.plants.NEGLIGIBLE_DEAD_TIME`) (the recursion of
     :func:`envs.simulation.delay_systems.discretize` is explicit then).  ``system`` is the loop's
     :func:`closed_loop`, if already built.
     """

@@ -483,7 +483,7 @@ def sample_plant(family: str, rng: np.random.Generator, config: object = None) -
     Examples
     --------
     >>> plant = sample_plant("fopdt", np.random.default_rng(0))
-    >>> plant.order, 0.05 <= plant.delay / plant.residence_time <= 0.95
+    >>> plant.order, 0.05 <= plant.dead_time / plant.residence_time <= 0.95
     (1, True)
     """
     config = _config_for(family, config)

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-__all__ = ["Plant", "StateSpace", "as_plant", "NEGLIGIBLE_DELAY", "GAIN_RANGE", "TIME_SCALE_RANGE"]
+__all__ = ["Plant", "StateSpace", "as_plant", "NEGLIGIBLE_DEAD_TIME", "GAIN_RANGE", "TIME_SCALE_RANGE"]
 
 GAIN_RANGE = (1e-12, 1e12)
 """The documented range of ``|K|`` (static or velocity gain): everything downstream is gain
@@ -32,9 +32,9 @@ TIME_SCALE_RANGE = (1e-12, 1e12)
 """The documented range of the time scale :meth:`Plant.step_time_scale` (``T_ar``), in the plant's
 own time unit; outside it a plant is refused (``den``)."""
 
-NEGLIGIBLE_DELAY = 1e-4
+NEGLIGIBLE_DEAD_TIME = 1e-4
 """Closed-loop simulations (experiments and IAE) take a dead time below this fraction of
-:meth:`Plant.step_time_scale` as zero (:attr:`Plant.simulation_delay`) instead of sampling finer
+:meth:`Plant.step_time_scale` as zero (:attr:`Plant.simulation_dead_time`) instead of sampling finer
 than it: the normalized IAE changes by about ``L/T_ar`` (< 1e-4, below the method's own error of
 6e-4), while resolving it would need ``T_ar/L`` samples per residence time (issue 12.3: 1e-7 ran
 out of memory).  The frequency-domain analysis always uses the exact dead time."""
@@ -131,9 +131,9 @@ def _controllable_form(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np
     return A, B, C, np.array([[num[0]]])
 
 
-def _taylor_coefficients(num: tuple[float, ...], den: tuple[float, ...], delay: float) -> tuple[float, float]:
+def _taylor_coefficients(num: tuple[float, ...], den: tuple[float, ...], dead_time: float) -> tuple[float, float]:
     """``(p1, p2)`` of :meth:`Plant.taylor_coefficients` for the rational part ``num/den`` (without the
-    integrator) and the dead time ``delay``.
+    integrator) and the dead time ``dead_time``.
 
     Only the three lowest coefficients enter, so they are read as Python floats (the same divisions
     as on arrays, without building them).
@@ -144,7 +144,7 @@ def _taylor_coefficients(num: tuple[float, ...], den: tuple[float, ...], delay: 
     d2 = den[-3] / den[-1] if len(den) > 2 else 0.0
     g1 = n1 - d1  # appendix A: n1 = g1 + d1
     g2 = n2 - d1 * g1 - d2  # n2 = g2 + d1 g1 + d2
-    L = delay
+    L = dead_time
     p1 = g1 - L  # times e^{-Ls} = 1 - L s + L^2 s^2 / 2
     p2 = g2 - L * g1 + L * L / 2
     return float(p1), float(p2)
@@ -201,37 +201,37 @@ class Plant:
     num, den : sequence of float
         Numerator and denominator coefficients of ``G`` in descending powers of ``s``.  Leading
         zeros are dropped; the denominator is scaled to be monic.
-    delay : float
-        The dead time ``L >= 0``.
+    dead_time : float
+        The dead time ``L >= 0`` (the key ``delay`` of the JSON form, :meth:`from_dict`).
 
     Raises
     ------
     ValueError
         If a coefficient is not finite, ``G`` is improper, has a pole in the closed right half
         plane other than a single pole at the origin, has zero (static or velocity) gain, the
-        delay is negative or not finite, or the gain or the time scale is outside
+        dead time is negative or not finite, or the gain or the time scale is outside
         :data:`GAIN_RANGE` or :data:`TIME_SCALE_RANGE`.
 
     Examples
     --------
-    >>> plant = Plant(num=[1.0], den=[10.0, 1.0], delay=5.0)
+    >>> plant = Plant(num=[1.0], den=[10.0, 1.0], dead_time=5.0)
     >>> plant.gain, plant.residence_time
     (1.0, 15.0)
     """
 
     num: tuple[float, ...]
     den: tuple[float, ...]
-    delay: float
+    dead_time: float
 
     def __post_init__(self) -> None:
         num = _as_coefficients(self.num, "num")
         den = _as_coefficients(self.den, "den")
         try:
-            delay = float(self.delay)
+            dead_time = float(self.dead_time)
         except (TypeError, ValueError, OverflowError):
-            raise ValueError(f"delay must be a number, got {self.delay!r}") from None
-        if not np.isfinite(delay) or delay < 0:
-            raise ValueError(f"delay must be finite and >= 0, got {self.delay!r}")
+            raise ValueError(f"dead_time must be a number, got {self.dead_time!r}") from None
+        if not np.isfinite(dead_time) or dead_time < 0:
+            raise ValueError(f"dead_time must be finite and >= 0, got {self.dead_time!r}")
         if len(num) > len(den):
             raise ValueError(
                 f"num has degree {len(num) - 1} > den degree {len(den) - 1}: the plant must be proper"
@@ -241,7 +241,7 @@ class Plant:
         den = tuple(v / scale for v in den)
         object.__setattr__(self, "num", num)
         object.__setattr__(self, "den", den)
-        object.__setattr__(self, "delay", delay)
+        object.__setattr__(self, "dead_time", dead_time)
         self._validate_poles()
         self._validate_range()
 
@@ -265,7 +265,7 @@ class Plant:
             raise ValueError(f"num: the plant's gain {self.gain:.6g} is outside the documented range +-[{low:g}, {high:g}]")
         scale, (low, high) = self.step_time_scale(), TIME_SCALE_RANGE
         if not low <= scale <= high:
-            field = "delay" if self.delay > high else "den"
+            field = "dead_time" if self.dead_time > high else "den"
             raise ValueError(f"{field}: the plant's time scale T_ar = {scale:.6g} is outside the documented range [{low:g}, {high:g}]")
 
     # ----------------------------------------------------------------- constructors
@@ -274,7 +274,7 @@ class Plant:
         cls,
         gain: float,
         time_constants: Sequence[float],
-        delay: float = 0.0,
+        dead_time: float = 0.0,
         *,
         zero_time_constants: Sequence[float] = (),
         integrating: bool = False,
@@ -300,10 +300,10 @@ class Plant:
             den = np.polymul(den, [t, 1.0])
         if integrating:
             den = np.polymul(den, [1.0, 0.0])
-        return cls(num=tuple(num), den=tuple(den), delay=delay)
+        return cls(num=tuple(num), den=tuple(den), dead_time=dead_time)
 
     @classmethod
-    def from_transfer_function(cls, transfer_function: Any, delay: float = 0.0) -> "Plant":
+    def from_transfer_function(cls, transfer_function: Any, dead_time: float = 0.0) -> "Plant":
         """From a SISO continuous-time ``control.TransferFunction`` (or anything with its
         ``num``/``den`` layout) and a dead time."""
         if getattr(transfer_function, "ninputs", 1) != 1 or getattr(transfer_function, "noutputs", 1) != 1:
@@ -315,7 +315,7 @@ class Plant:
             den = np.asarray(transfer_function.den[0][0], dtype=float)
         except (AttributeError, IndexError, TypeError):
             raise ValueError("transfer_function must have num[0][0] and den[0][0] coefficient arrays") from None
-        return cls(num=tuple(num), den=tuple(den), delay=delay)
+        return cls(num=tuple(num), den=tuple(den), dead_time=dead_time)
 
     @classmethod
     def from_dict(cls, data: Any) -> "Plant":
@@ -334,17 +334,20 @@ class Plant:
                 isinstance(v, int | float) and not isinstance(v, bool) for v in value
             ):
                 raise ValueError(f"plant.{key} must be a list of numbers, got {value!r}")
-        delay = data["delay"]
-        if not isinstance(delay, int | float) or isinstance(delay, bool):
-            raise ValueError(f"plant.delay must be a number, got {delay!r}")
+        dead_time = data["delay"]
+        if not isinstance(dead_time, int | float) or isinstance(dead_time, bool):
+            raise ValueError(f"plant.delay must be a number, got {dead_time!r}")
         try:
-            return cls(num=tuple(num), den=tuple(den), delay=delay)
-        except ValueError as error:
-            raise ValueError(f"plant.{error}") from None
+            return cls(num=tuple(num), den=tuple(den), dead_time=dead_time)
+        except ValueError as error:  # named by the JSON key: plant.delay, not plant.dead_time
+            message = str(error)
+            if message.startswith("dead_time"):
+                message = "delay" + message[len("dead_time") :]
+            raise ValueError(f"plant.{message}") from None
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form accepted by :meth:`from_dict`."""
-        return {"num": list(self.num), "den": list(self.den), "delay": self.delay}
+        return {"num": list(self.num), "den": list(self.den), "delay": self.dead_time}
 
     # ----------------------------------------------------------------- properties
     @property
@@ -378,7 +381,7 @@ class Plant:
 
     @cached_property
     def _taylor_coefficients(self) -> tuple[float, float]:
-        return _taylor_coefficients(*self.rational_part, self.delay)
+        return _taylor_coefficients(*self.rational_part, self.dead_time)
 
     @property
     def residence_time(self) -> float:
@@ -390,15 +393,15 @@ class Plant:
         return -self.taylor_coefficients()[0]
 
     @property
-    def simulation_delay(self) -> float:
-        """The dead time of closed-loop simulations: ``L``, or 0 if ``L < NEGLIGIBLE_DELAY T``."""
-        return self.delay if self.delay >= NEGLIGIBLE_DELAY * self.step_time_scale() else 0.0
+    def simulation_dead_time(self) -> float:
+        """The dead time of closed-loop simulations: ``L``, or 0 if ``L < NEGLIGIBLE_DEAD_TIME T``."""
+        return self.dead_time if self.dead_time >= NEGLIGIBLE_DEAD_TIME * self.step_time_scale() else 0.0
 
     # ----------------------------------------------------------------- responses
     def frequency_response(self, omega: np.ndarray | float) -> np.ndarray:
         """Exact ``G(i omega) e^{-i omega L}``."""
         s = 1j * np.asarray(omega, dtype=float)
-        return np.polyval(self.num, s) / np.polyval(self.den, s) * np.exp(-s * self.delay)
+        return np.polyval(self.num, s) / np.polyval(self.den, s) * np.exp(-s * self.dead_time)
 
     def state_space(self) -> StateSpace:
         """A well-scaled realization of ``G`` (the dead time is not included).
@@ -439,7 +442,7 @@ class Plant:
         num, den = self.rational_part
         poles = np.roots(den)
         slowest = 1.0 / np.min(np.abs(poles)) if poles.size else 1.0
-        return float(max(slowest, self.delay, 1e-12))
+        return float(max(slowest, self.dead_time, 1e-12))
 
 
 def as_plant(value: Any, what: str = "plant") -> Plant:
@@ -447,7 +450,7 @@ def as_plant(value: Any, what: str = "plant") -> Plant:
 
     Parameters
     ----------
-    value : Plant, dict, control.TransferFunction or (TransferFunction, delay)
+    value : Plant, dict, control.TransferFunction or (TransferFunction, dead_time)
         A plant; its JSON form ``{"num": [...], "den": [...], "delay": L}``
         (:meth:`Plant.from_dict`); a SISO continuous-time python-control ``TransferFunction``
         (no dead time); or a pair of one and its dead time (:meth:`Plant.from_transfer_function`).

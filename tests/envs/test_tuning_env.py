@@ -199,7 +199,7 @@ def _scaled(plant: Plant, gain: float, time: float) -> Plant:
     """``gain * G(time s) e^{-L time s}``: the same plant in other units."""
     num = gain * np.asarray(plant.num) * time ** np.arange(len(plant.num))[::-1]
     den = np.asarray(plant.den) * time ** np.arange(len(plant.den))[::-1]
-    return Plant(tuple(num), tuple(den), plant.delay * time)
+    return Plant(tuple(num), tuple(den), plant.dead_time * time)
 
 
 @pytest.mark.parametrize("cls", [PIDEnv, FPPIEnv, MSPEnv])

@@ -84,7 +84,7 @@ def time_scaled(plant: Plant, controller, c: float):
         k = np.arange(len(coefficients))[::-1]
         return tuple(np.asarray(coefficients) * c**k)
 
-    scaled_plant = Plant(substitute(plant.num), substitute(plant.den), plant.delay * c)
+    scaled_plant = Plant(substitute(plant.num), substitute(plant.den), plant.dead_time * c)
     if isinstance(controller, (PID, SeriesPID)):
         ti = None if controller.ti is None else controller.ti * c
         scaled = type(controller)(controller.kp, ti, controller.td * c, controller.n)
@@ -96,7 +96,7 @@ def time_scaled(plant: Plant, controller, c: float):
 
 
 def gain_scaled(plant: Plant, controller, g: float):
-    scaled_plant = Plant(tuple(np.asarray(plant.num) * g), plant.den, plant.delay)
+    scaled_plant = Plant(tuple(np.asarray(plant.num) * g), plant.den, plant.dead_time)
     if isinstance(controller, (PID, SeriesPID)):
         scaled = type(controller)(controller.kp / g, controller.ti, controller.td, controller.n)
     elif isinstance(controller, FPPI):

@@ -22,7 +22,7 @@ ENVS = {"pid": PIDEnv(), "fppi": FPPIEnv(), "msp": MSPEnv()}
 def _scaled(plant: Plant, gain: float, time: float) -> Plant:
     num = gain * np.asarray(plant.num) * time ** np.arange(len(plant.num))[::-1]
     den = np.asarray(plant.den) * time ** np.arange(len(plant.den))[::-1]
-    return Plant(tuple(num), tuple(den), plant.delay * time)
+    return Plant(tuple(num), tuple(den), plant.dead_time * time)
 
 
 @settings(max_examples=12, deadline=None, derandomize=True)

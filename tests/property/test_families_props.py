@@ -32,7 +32,7 @@ def test_random_plant_is_valid_and_in_range(family, seed):
     low, high = config.gain
     assert low * (1 - 1e-9) <= abs(plant.gain) <= high * (1 + 1e-9)
     low, high = config.dead_time_fraction
-    assert low - 1e-9 <= plant.delay / residence_time <= high + 1e-9
+    assert low - 1e-9 <= plant.dead_time / residence_time <= high + 1e-9
     num, den = plant.rational_part
     assert np.all(np.roots(den).real < 0)  # stable apart from the integrator
 

@@ -64,7 +64,7 @@ def test_full_information_oracle_is_invariant_to_gain_and_time_scale(plant, stru
     gain, scale = -4.0, 6.0
     num = gain * np.asarray(plant.num) * scale ** np.arange(len(plant.num))[::-1]
     den = np.asarray(plant.den) * scale ** np.arange(len(plant.den))[::-1]
-    scaled = Plant(tuple(num), tuple(den), plant.delay * scale)
+    scaled = Plant(tuple(num), tuple(den), plant.dead_time * scale)
     reference = full_information_oracle(plant, structure, grid=15)
     other = full_information_oracle(scaled, structure, grid=15)
     assert other.relative_parameter == pytest.approx(reference.relative_parameter, rel=1e-6)

@@ -3,7 +3,7 @@
 
 Each row gives a result (exit 0, one JSON object) or one line on stderr with exit 2 naming the field,
 never a traceback, and returns within seconds: every simulated run is bounded by
-``envs.simulation.delay_systems.MAX_RUN_SAMPLES`` and a dead time below ``NEGLIGIBLE_DELAY T_ar`` is simulated as
+``envs.simulation.delay_systems.MAX_RUN_SAMPLES`` and a dead time below ``NEGLIGIBLE_DEAD_TIME T_ar`` is simulated as
 none.  The time bound (20 s per row, a run takes about 0.1 s) only detects hangs.  In-process through
 ``agents.cli.main``, as tests/unit/agents/test_cli_analyze.py does.
 """

@@ -132,7 +132,7 @@ def _assert_causal_abort(new, plant, controller, amplitude, noise, dt, limit) ->
 
 LOOPS = {
     "unstable-pid": (Plant.from_time_constants(2.0, [1.0], 1.0), PID(5.0, 0.5)),
-    "unstable-fppi": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5), FPPI(1.0, 2.5, 1.0, 0.3, 0.3)),
+    "unstable-fppi": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], dead_time=0.5), FPPI(1.0, 2.5, 1.0, 0.3, 0.3)),
     "unstable-msp": (Plant.from_time_constants(1.0, [1.0], 2.0, integrating=True), MSP(0.3, 3.0, 0.3)),
 }
 

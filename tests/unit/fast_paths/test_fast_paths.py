@@ -109,9 +109,9 @@ def _reference_margins(loop, integrators: int, time_scale: float) -> dict[str, f
 MARGIN_LOOPS = {
     "series-pid-fopdt": (Plant.from_time_constants(1.0, [1.0], 0.4), SeriesPID(2.0, 1.0, 0.2, 10.0)),
     "pid-lag-chain": (Plant.from_time_constants(-2.0, [1.0, 0.5, 0.25, 0.125], 1.0), PID(-0.4, 1.5, 0.3, 10.0)),
-    "fppi-nmp": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5), FPPI(1.0, 2.5, 1.0, 0.8, 0.8)),
+    "fppi-nmp": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], dead_time=0.5), FPPI(1.0, 2.5, 1.0, 0.8, 0.8)),
     "msp-integrating": (Plant.from_time_constants(1.0, [1.0], 2.0, integrating=True), MSP(1.0, 3.0, 2.0)),
-    "resonant-pid": (Plant(num=[9.0], den=[1.0, 3.0, 11.0, 9.0], delay=0.3), SeriesPID(0.5, 1.0, 0.1, 10.0)),
+    "resonant-pid": (Plant(num=[9.0], den=[1.0, 3.0, 11.0, 9.0], dead_time=0.3), SeriesPID(0.5, 1.0, 0.1, 10.0)),
 }
 
 
@@ -231,7 +231,7 @@ def test_first_violation_without_any():
 # ----------------------------------------------------------------------------- open-loop recursion
 @pytest.mark.parametrize("delay", [0.0, 0.3, 0.35, 1.0])
 def test_compiled_open_loop_recursion_matches_the_python_loop(delay):
-    plant = Plant(num=[-0.5, 1.0], den=[1.0, 2.2, 1.7, 0.5], delay=delay)
+    plant = Plant(num=[-0.5, 1.0], den=[1.0, 2.2, 1.7, 0.5], dead_time=delay)
     ss = plant.state_space()
     dt = 0.1
     u = np.where(np.arange(300) < 120, 1.5, -0.25)

@@ -37,7 +37,7 @@ LOOPS = {
     "pi-fopdt": (Plant.from_time_constants(1.0, [1.0], 0.7), PID(0.8, 1.5)),
     "pid-no-dead-time": (Plant.from_time_constants(1.0, [1.0, 0.2], 0.0), PID(2.0, 1.0, 0.2, 10.0)),
     "series-pid-fast": (Plant.from_time_constants(-1.0, [0.15], 0.4), SeriesPID(-3.0, 0.2, 0.14, 10.0)),
-    "fppi-two-delays": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5), FPPI(1.0, 2.5, 1.0, 0.8, 0.8)),
+    "fppi-two-delays": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], dead_time=0.5), FPPI(1.0, 2.5, 1.0, 0.8, 0.8)),
     "fppi-tiny-time-constants": (Plant.from_time_constants(0.22, [0.02, 0.01], 0.1), FPPI(0.22, 0.0225, 0.1036, 0.0112, 0.0112)),
     "fppi-whole-delay": (Plant.from_time_constants(1.0, [1.0], 1.0), FPPI(1.0, 1.0, 1.0, 0.5, 0.5)),
     "msp": (Plant.from_time_constants(1.0, [1.0], 2.0, integrating=True), MSP(1.0, 3.0, 2.0)),

@@ -35,7 +35,7 @@ def _reference_rational_block(num, den) -> DelaySystem:
 def _reference_closed_loop(plant: Plant, cb: DelaySystem) -> DelaySystem:
     ps = plant.state_space()
     n_p, n_c = ps.A.shape[0], cb.n_states
-    plant_delayed = plant.delay > 0
+    plant_delayed = plant.dead_time > 0
     n_vp = 1 if plant_delayed else 0
     n_vc = cb.delays.size
     b = SystemBuilder(n_states=n_p + n_c, n_inputs=3, n_delays=n_vp + n_vc)
@@ -63,7 +63,7 @@ def _reference_closed_loop(plant: Plant, cb: DelaySystem) -> DelaySystem:
     if plant_delayed:
         delayed.append(plant_free + d_p * plant_input)
     delayed += list(controller_rows(y + noise, cb.C2, cb.D21, cb.D22))
-    delays = ([plant.delay] if plant_delayed else []) + list(cb.delays)
+    delays = ([plant.dead_time] if plant_delayed else []) + list(cb.delays)
     return b.build(derivatives, [y, u, r - y], delayed, delays)
 
 
@@ -77,12 +77,12 @@ def _same(actual: DelaySystem, expected: DelaySystem) -> None:
 PLANTS = {
     "fopdt": Plant.from_time_constants(1.7, [3.0], 1.4),
     "sopdt-negative": Plant.from_time_constants(-0.4, [2.0, 0.7], 0.3),
-    "nmp-third-order": Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5),
-    "biproper": Plant(num=[0.5, 1.0], den=[2.0, 1.0], delay=0.7),
+    "nmp-third-order": Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], dead_time=0.5),
+    "biproper": Plant(num=[0.5, 1.0], den=[2.0, 1.0], dead_time=0.7),
     "integrating": Plant.from_time_constants(1.3, [0.4], 1.0, integrating=True),
     "static-gain": Plant([2.0], [1.0], 0.5),
     "no-dead-time": Plant.from_time_constants(1.0, [1.0, 0.2], 0.0),
-    "biproper-no-dead-time": Plant(num=[0.5, 1.0], den=[1.0, 2.0], delay=0.0),
+    "biproper-no-dead-time": Plant(num=[0.5, 1.0], den=[1.0, 2.0], dead_time=0.0),
 }
 CONTROLLERS = {
     "pi": PID(0.8, 1.5),

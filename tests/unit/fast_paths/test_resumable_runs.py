@@ -49,7 +49,7 @@ from envs.identification.steady_state import (
 
 LOOPS = {
     "pid-fopdt": (Plant.from_time_constants(1.0, [1.0], 0.7), PID(0.8, 1.5)),
-    "fppi-nmp": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5), FPPI(1.0, 2.5, 1.0, 0.8, 0.8)),
+    "fppi-nmp": (Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], dead_time=0.5), FPPI(1.0, 2.5, 1.0, 0.8, 0.8)),
     "msp-integrating": (Plant.from_time_constants(1.0, [1.0], 2.0, integrating=True), MSP(1.0, 3.0, 2.0)),
     "unstable-pid": (Plant.from_time_constants(2.0, [1.0], 1.0), PID(5.0, 0.5)),
 }
@@ -80,11 +80,11 @@ def test_loop_run_continued_equals_simulation_from_rest(name):
 
 
 def test_open_loop_run_continued_equals_response_from_rest():
-    plant = Plant(num=[-0.5, 1.0], den=[1.0, 2.2, 1.7, 0.5], delay=0.37)
+    plant = Plant(num=[-0.5, 1.0], den=[1.0, 2.2, 1.7, 0.5], dead_time=0.37)
     inputs = np.where(np.arange(2000) < 30, 2.0, 0.0)
-    run = OpenLoopRun(plant.state_space(), plant.delay, inputs, 0.013)
+    run = OpenLoopRun(plant.state_space(), plant.dead_time, inputs, 0.013)
     for steps in (5, 64, 65, 900, 2000):
-        _equal(run.response(steps), open_loop_response(plant.state_space(), plant.delay, inputs[:steps], 0.013))
+        _equal(run.response(steps), open_loop_response(plant.state_space(), plant.dead_time, inputs[:steps], 0.013))
 
 
 @pytest.mark.parametrize("target", [None, 1.0])
@@ -143,13 +143,13 @@ def test_closed_loop_run_equals_restarted_run(name, noise_std):
 @pytest.mark.parametrize("noise_std", [0.0, 0.02])
 @pytest.mark.parametrize("start", [0, 300])
 def test_open_loop_run_equals_restarted_run(noise_std, start):
-    plant = Plant(num=[1.0], den=[2.0, 3.0, 1.0], delay=0.4)
+    plant = Plant(num=[1.0], den=[2.0, 3.0, 1.0], dead_time=0.4)
     dt, window = 0.01, 120
     inputs = np.where(np.arange(8000) < 40, 1.5, 0.0) + 0.5
     noise = noise_std * np.random.default_rng(6).standard_normal(inputs.size)
 
     def trial(steps):
-        y = open_loop_response(plant.state_space(), plant.delay, inputs[:steps], dt)
+        y = open_loop_response(plant.state_space(), plant.dead_time, inputs[:steps], dt)
         t = np.arange(steps) * dt
         measured = y + noise[:steps]
         hits = np.flatnonzero(steady_state_mask(t, measured, window)[start:])

@@ -176,7 +176,7 @@ def test_ultimate_point_integrating_and_sign():
     "plant",
     [
         Plant.from_time_constants(1.0, [1.0, 1.0, 1.0], 0.5, zero_time_constants=[-2.0]),  # RHP zero
-        Plant(num=(1.0,), den=(1.0, 0.4, 1.0), delay=0.3),  # underdamped pair
+        Plant(num=(1.0,), den=(1.0, 0.4, 1.0), dead_time=0.3),  # underdamped pair
         Plant.from_time_constants(3.0, [2.0], 1.0, zero_time_constants=[0.5], integrating=True),
     ],
 )

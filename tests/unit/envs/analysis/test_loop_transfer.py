@@ -33,7 +33,7 @@ from envs.systems.plants import Plant
 PLANTS = {
     "fopdt": Plant.from_time_constants(1.5, [2.0], 0.7),
     "lag-chain": Plant.from_time_constants(-0.8, [1.0, 0.5, 0.25, 0.125], 0.3),
-    "nmp-zero": Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], delay=0.5),
+    "nmp-zero": Plant(num=[-1.0, 1.0], den=[1.0, 3.0, 3.0, 1.0], dead_time=0.5),
     "no-delay": Plant.from_time_constants(2.0, [1.0, 0.2]),
     "integrating": Plant.from_time_constants(0.5, [0.4], 1.2, integrating=True),
     "pure-delay": Plant([1.0], [1.0], 1.0),
@@ -120,7 +120,7 @@ def test_fppi_integrator_is_exact_without_model_dead_time():
 def test_plant_dead_time_goes_to_every_numerator_term():
     plant, controller = PLANTS["fopdt"], CONTROLLERS["msp"]
     transfer = loop_transfer(plant, controller)
-    assert [d for _, d in transfer.numerator] == [plant.delay]
+    assert [d for _, d in transfer.numerator] == [plant.dead_time]
     assert sorted(d for _, d in transfer.denominator) == [0.0, controller.dead_time]
 
 

@@ -44,7 +44,7 @@ def exact_moments(plant: Plant) -> tuple[float, float]:
 def shaped(num, den, gain: float, delay: float, integrating: bool) -> Plant:
     """``gain num/den e^{-delay s}`` (times ``1/s`` if integrating); ``num/den`` has unit gain."""
     den = np.polymul(den, [1.0, 0.0]) if integrating else np.asarray(den, float)
-    return Plant(num=tuple(gain * np.asarray(num, float)), den=tuple(den), delay=delay)
+    return Plant(num=tuple(gain * np.asarray(num, float)), den=tuple(den), dead_time=delay)
 
 
 # --------------------------------------------------------------------------- commissioning PI
@@ -171,7 +171,7 @@ def test_closed_loop_step_noise_free_is_exact(plant):
 
 
 INTEGRATING_PLANTS = [
-    pytest.param(Plant(num=[2.0], den=[1.0, 0.0], delay=3.0), id="pure-integrator"),
+    pytest.param(Plant(num=[2.0], den=[1.0, 0.0], dead_time=3.0), id="pure-integrator"),
     pytest.param(lags(1.0, [1.0], 5.0, integrating=True), id="ingimundarson-int-P1"),
     pytest.param(lags(-0.1, [1.0] * 3, 5.0, integrating=True, zero_time_constants=[-1.0]), id="nmp-negative"),
 ]
@@ -332,9 +332,9 @@ TABLE_1 = {
     2: (lags(1.0, [1.0] * 3, 5.0), 2.0, 6.2, 0.27),
     3: (lags(1.0, [1.0] * 5, 5.0, zero_time_constants=[-1.0]), 3.0, 9.1, 1.06),
     4: (lags(1.0, [1.0] * 3, 5.0, zero_time_constants=[-2.0]), 1.7, 8.4, 1.18),
-    5: (Plant(num=[9.0], den=np.polymul([1, 1], [1, 2, 9]), delay=5.0), 0.8, 5.4, 0.17),
-    6: (Plant(num=[0.55, 0.1], den=np.polymul([1, 1], [1, 0.1]), delay=5.0), 7.6, 2.6, 1.32),
-    7: (Plant(num=[64.0], den=np.poly([-1, -2, -4, -8]), delay=5.0), 1.3, 5.7, 0.17),
+    5: (Plant(num=[9.0], den=np.polymul([1, 1], [1, 2, 9]), dead_time=5.0), 0.8, 5.4, 0.17),
+    6: (Plant(num=[0.55, 0.1], den=np.polymul([1, 1], [1, 0.1]), dead_time=5.0), 7.6, 2.6, 1.32),
+    7: (Plant(num=[64.0], den=np.poly([-1, -2, -4, -8]), dead_time=5.0), 1.3, 5.7, 0.17),
 }
 
 
@@ -404,7 +404,7 @@ def test_open_loop_ramp_refuses_zero_rate():
 
 # --------------------------------------------------------------------------- experiment 4
 def test_open_loop_pulse_on_a_two_parameter_plant():
-    plant = Plant(num=[0.5], den=[1.0, 0.0], delay=4.0)
+    plant = Plant(num=[0.5], den=[1.0, 0.0], dead_time=4.0)
     exact = open_loop_pulse(plant, rng(), height=2.0, duration=3.0, gain=0.5, dead_time=4.0)
     assert exact.settled
     assert exact.area == pytest.approx(0.0, abs=1e-9)
@@ -451,7 +451,7 @@ def phase_crossover(plant: Plant) -> tuple[float, float]:
 def test_relay_on_an_integrator_with_dead_time_is_exact():
     """K e^{-Ls}/s: the period is 4 L (the true T_u); the output a triangle of amplitude K d L, so
     the describing function gives 4/(pi K L) while K_u = pi/(2 K L); the first harmonic is exact."""
-    plant = Plant(num=[2.0], den=[1.0, 0.0], delay=3.0)
+    plant = Plant(num=[2.0], den=[1.0, 0.0], dead_time=3.0)
     result = relay_feedback(plant, rng(), amplitude=0.5)
     assert result.converged
     assert result.ultimate_period == pytest.approx(12.0, rel=1e-9)

@@ -319,7 +319,7 @@ def test_model_step_response_is_the_plants(model):
     plant = model.plant()
     dt = 0.01
     t = np.arange(3000) * dt
-    simulated = open_loop_response(plant.state_space(), plant.delay, np.ones(t.size), dt)
+    simulated = open_loop_response(plant.state_space(), plant.dead_time, np.ones(t.size), dt)
     assert np.allclose(model.step_response(t), simulated, atol=1e-9 * max(1.0, np.max(np.abs(simulated))))
     assert plant.gain == pytest.approx(model.gain)
 

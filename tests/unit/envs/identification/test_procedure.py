@@ -49,7 +49,7 @@ def _reference_pulse_area(plant, height: float, duration: float) -> float:
     t = np.linspace(0.0, horizon, 240001)
     u = np.where(t < duration, height, 0.0)
     _, y, _ = scipy.signal.lsim((plant.num, plant.den), u, t)
-    y = np.interp(t - plant.delay, t, y, left=0.0)
+    y = np.interp(t - plant.dead_time, t, y, left=0.0)
     ramp = lambda s: gain * np.maximum(s - dead_time, 0.0)  # noqa: E731 - unit-step response of the model
     model = height * (ramp(t) - ramp(t - duration))
     return float(np.trapezoid(np.abs(y - model), t)) / (height * duration)

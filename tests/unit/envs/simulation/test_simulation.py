@@ -113,7 +113,7 @@ STEP_ROWS = {
 
 def _step_response(plant: Plant, dt: float, horizon: float) -> tuple[np.ndarray, np.ndarray]:
     steps = int(round(horizon / dt)) + 1
-    y = open_loop_response(plant.state_space(), plant.delay, np.ones(steps), dt)
+    y = open_loop_response(plant.state_space(), plant.dead_time, np.ones(steps), dt)
     return np.arange(steps) * dt, y
 
 
@@ -123,7 +123,7 @@ def test_step_response_equals_analytic(name):
     samples plus a fraction handled by the modified z-transform): deviation <= 1e-9."""
     plant, analytic, dt = STEP_ROWS[name]
     t, y = _step_response(plant, dt, horizon=20 * max(plant.step_time_scale(), 1.0))
-    shifted = t - plant.delay
+    shifted = t - plant.dead_time
     expected = np.where(shifted >= 0, analytic(np.maximum(shifted, 0.0)), 0.0)
     scale = max(1.0, float(np.max(np.abs(expected))))
     assert np.max(np.abs(y - expected)) <= 1e-9 * scale
@@ -133,13 +133,13 @@ def test_step_response_equals_analytic(name):
 def test_output_lags_input_by_exactly_the_dead_time(name):
     """Zero at every sample before ``L`` (and at ``L`` for a strictly proper G); non-zero right after."""
     plant, _, dt = STEP_ROWS[name]
-    t, y = _step_response(plant, dt, horizon=plant.delay + 5 * dt)
-    before = t < plant.delay - 1e-12
+    t, y = _step_response(plant, dt, horizon=plant.dead_time + 5 * dt)
+    before = t < plant.dead_time - 1e-12
     assert np.all(y[before] == 0.0)
     strictly_proper = len(plant.num) < len(plant.den)
     if strictly_proper:
-        assert np.all(y[t <= plant.delay + 1e-12] == 0.0)
-    first_after = np.flatnonzero(t > plant.delay + 1e-12)[0]
+        assert np.all(y[t <= plant.dead_time + 1e-12] == 0.0)
+    first_after = np.flatnonzero(t > plant.dead_time + 1e-12)[0]
     assert y[first_after] != 0.0
 
 
@@ -372,7 +372,7 @@ def test_discretize_and_delayed_zoh_equal_the_reference_bit_for_bit():
     for f, family in enumerate(FAMILIES):
         for i, plant in enumerate(sample_plants(family, 15, 70 + f)):
             pi = commissioning_pi(plant)
-            model_delay = max(plant.delay, 0.2 * plant.step_time_scale())
+            model_delay = max(plant.dead_time, 0.2 * plant.step_time_scale())
             ti = pi.ti or 3.0 * plant.step_time_scale()
             controllers = [pi, SeriesPID(pi.kp, ti, 0.1 * ti, 8.0)]
             if plant.integrating:
@@ -391,8 +391,8 @@ def test_discretize_and_delayed_zoh_equal_the_reference_bit_for_bit():
                         assert _same_bytes(getattr(new, field), getattr(old, field)), field
                     assert new.dt == old.dt
                     count += 1
-            for dt in (plant.step_time_scale() / 200, plant.delay / 3.0 if plant.delay else 0.1, 0.37):
-                new_zoh = delayed_zoh(plant.state_space(), plant.delay, dt)
-                old_zoh = delayed_zoh(plant.state_space(), plant.delay, dt, method="reference")
+            for dt in (plant.step_time_scale() / 200, plant.dead_time / 3.0 if plant.dead_time else 0.1, 0.37):
+                new_zoh = delayed_zoh(plant.state_space(), plant.dead_time, dt)
+                old_zoh = delayed_zoh(plant.state_space(), plant.dead_time, dt, method="reference")
                 assert all(_same_bytes(a, b) for a, b in zip(new_zoh, old_zoh)) and new_zoh[3] == old_zoh[3]
     assert count > 300

@@ -149,7 +149,7 @@ def test_closed_loop_frequency_response_equals_sensitivity_functions(name):
     plant, controller = LOOPS[name]
     omega = OMEGA / plant.step_time_scale()
     s = 1j * omega
-    p = np.polyval(plant.num, s) / np.polyval(plant.den, s) * np.exp(-plant.delay * s)
+    p = np.polyval(plant.num, s) / np.polyval(plant.den, s) * np.exp(-plant.dead_time * s)
     loop = loop_response(plant, controller, omega)
     _close(loop, p * diagram_responses(controller, omega)[1])
     c_ff = controller.reference_response(omega)

@@ -69,7 +69,7 @@ def test_random_plants_in_documented_ranges(family):
     plants = sample_plants(family, N, seed=1)
     gains = np.array([p.gain for p in plants])
     residence = np.array([p.residence_time for p in plants])
-    fraction = np.array([p.delay for p in plants]) / residence
+    fraction = np.array([p.dead_time for p in plants]) / residence
     assert all(p.integrating == (family == "integrating") for p in plants)
     assert np.all((config.gain[0] * (1 - 1e-9) <= np.abs(gains)) & (np.abs(gains) <= config.gain[1] * (1 + 1e-9)))
     assert (gains > 0).any() and (gains < 0).any()
@@ -84,7 +84,7 @@ def test_fopdt_normalized_dead_time():
     for plant in sample_plants("fopdt", N, seed=2):
         assert plant.order == 1 and plant.num[:-1] == ()
         time_constant = plant.den[0] / plant.den[1]  # den = (1, 1/T)
-        tau = plant.delay / (plant.delay + time_constant)
+        tau = plant.dead_time / (plant.dead_time + time_constant)
         assert 0.05 - 1e-12 <= tau <= 0.95 + 1e-12
 
 
@@ -112,7 +112,7 @@ def test_config_ranges_are_honoured():
     for plant in sample_plants("fopdt", 10, seed=0, config=config):
         assert plant.gain == pytest.approx(-2.0)
         assert plant.residence_time == pytest.approx(3.0)
-        assert plant.delay == pytest.approx(1.5)
+        assert plant.dead_time == pytest.approx(1.5)
 
 
 def test_config_selects_shapes():
@@ -167,7 +167,7 @@ def test_benchmark_names_and_kinds():
 def test_gorez_klan_fopdt_moments(name, time_constant, dead_time):
     plant = benchmark_plants("stable")[name]
     assert plant.residence_time == pytest.approx(1.0, rel=1e-12)  # T_ar = 1 for both (section 4)
-    assert plant.delay == 0.0 and plant.gain == pytest.approx(1.0)
+    assert plant.dead_time == 0.0 and plant.gain == pytest.approx(1.0)
     assert moment_fopdt(plant) == pytest.approx((time_constant, dead_time), abs=0.005)  # table: 2 decimals
 
 
@@ -186,7 +186,7 @@ def test_gorez_klan_p1_time_constants():
 )
 def test_ingimundarson_stable_residence_times(index, residence_time):
     plant = benchmark_plants("stable")[f"ingimundarson-stable-P{index}"]
-    assert plant.delay == 5.0 and plant.gain == pytest.approx(1.0)
+    assert plant.dead_time == 5.0 and plant.gain == pytest.approx(1.0)
     assert plant.residence_time == pytest.approx(residence_time, rel=1e-12)
 
 
@@ -200,7 +200,7 @@ def test_ingimundarson_stable_residence_times(index, residence_time):
 )
 def test_ingimundarson_integrating_dead_times(index, dead_time, paper):
     plant = benchmark_plants("integrating")[f"ingimundarson-integrating-P{index}"]
-    assert plant.delay == 5.0 and plant.integrating
+    assert plant.dead_time == 5.0 and plant.integrating
     assert plant.residence_time == pytest.approx(dead_time, rel=1e-12)
     assert round(plant.residence_time, 1) == paper or index == 7
 

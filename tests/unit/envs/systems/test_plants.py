@@ -29,16 +29,16 @@ BAD_PLANTS = {
     "three-integrators": (([1.0], [1.0, 2.0, 0.0, 0.0, 0.0], 0.0), r"^den\b.*integrator"),
     "nan-num": (([math.nan], [1.0, 1.0], 1.0), r"^num\b.*finite"),
     "inf-den": (([1.0], [math.inf, 1.0], 1.0), r"^den\b.*finite"),
-    "nan-delay": (([1.0], [1.0, 1.0], math.nan), r"^delay\b"),
-    "inf-delay": (([1.0], [1.0, 1.0], math.inf), r"^delay\b"),
-    "negative-delay": (([1.0], [1.0, 1.0], -0.5), r"^delay\b.*>= 0"),
+    "nan-dead-time": (([1.0], [1.0, 1.0], math.nan), r"^dead_time\b"),
+    "inf-dead-time": (([1.0], [1.0, 1.0], math.inf), r"^dead_time\b"),
+    "negative-dead-time": (([1.0], [1.0, 1.0], -0.5), r"^dead_time\b.*>= 0"),
     "zero-gain-all-zero": (([0.0, 0.0], [1.0, 1.0], 1.0), r"^num\b"),
     "zero-gain-zero-at-origin": (([1.0, 0.0], [1.0, 1.0], 1.0), r"^num\b.*zero"),
     "zero-velocity-gain": (([1.0, 0.0], [1.0, 1.0, 0.0], 1.0), r"^num\b.*zero"),
     "empty-den": (([1.0], [], 1.0), r"^den\b"),
     "all-zero-den": (([1.0], [0.0, 0.0], 1.0), r"^den\b"),
     "non-numeric-num": ((["a"], [1.0, 1.0], 1.0), r"^num\b"),
-    "non-numeric-delay": (([1.0], [1.0, 1.0], "soon"), r"^delay\b"),
+    "non-numeric-dead-time": (([1.0], [1.0, 1.0], "soon"), r"^dead_time\b"),
 }
 
 
@@ -84,7 +84,7 @@ def test_plant_from_dict_refuses_invalid_json_naming_the_field(name):
         ({"gain": 1.0, "time_constants": [0.0]}, r"^time_constants\b"),
         ({"gain": 1.0, "time_constants": [math.inf]}, r"^time_constants\b"),
         ({"gain": 1.0, "time_constants": [1.0], "zero_time_constants": [math.nan]}, r"^zero_time_constants\b"),
-        ({"gain": 1.0, "time_constants": [1.0], "delay": -1.0}, r"^delay\b"),
+        ({"gain": 1.0, "time_constants": [1.0], "dead_time": -1.0}, r"^dead_time\b"),
         ({"gain": 1.0, "time_constants": [1.0], "zero_time_constants": [1.0, 2.0]}, r"^num\b.*proper"),
     ],
 )
@@ -94,8 +94,8 @@ def test_from_time_constants_refuses_invalid_data(kwargs, pattern):
 
 
 def test_coefficients_are_normalized():
-    plant = Plant(num=[0.0, 4.0], den=[0.0, 2.0, 1.0], delay=3)
-    assert plant.num == (2.0,) and plant.den == (1.0, 0.5) and plant.delay == 3.0
+    plant = Plant(num=[0.0, 4.0], den=[0.0, 2.0, 1.0], dead_time=3)
+    assert plant.num == (2.0,) and plant.den == (1.0, 0.5) and plant.dead_time == 3.0
     assert plant.gain == 4.0
 
 
@@ -133,7 +133,7 @@ def test_residence_time_and_taylor_coefficients(name):
     if plant.integrating:
         den = den[:-1]
     series = _series(num, den)  # G(s) without the integrator
-    with_delay = np.convolve(series, [1.0, -plant.delay, plant.delay**2 / 2])[:3] / series[0]
+    with_delay = np.convolve(series, [1.0, -plant.dead_time, plant.dead_time**2 / 2])[:3] / series[0]
     p1, p2 = plant.taylor_coefficients()
     assert plant.gain == pytest.approx(series[0], rel=1e-12)
     assert p1 == pytest.approx(with_delay[1], rel=1e-12, abs=1e-12)
@@ -157,7 +157,7 @@ def test_frequency_response_and_realization(name):
     omega = np.logspace(-3, 2, 80)
     s = 1j * omega
     rational = np.polyval(plant.num, s) / np.polyval(plant.den, s)
-    np.testing.assert_allclose(plant.frequency_response(omega), rational * np.exp(-s * plant.delay), rtol=1e-12)
+    np.testing.assert_allclose(plant.frequency_response(omega), rational * np.exp(-s * plant.dead_time), rtol=1e-12)
     ss = plant.state_space()
     n = ss.A.shape[0]
     realized = np.array([(ss.C @ np.linalg.solve(x * np.eye(n) - ss.A, ss.B) + ss.D)[0, 0] for x in s])
@@ -178,7 +178,7 @@ def test_factored_constructor_matches_coefficients():
 
 def test_from_transfer_function_and_dict_round_trip():
     tf = control.tf([1.0, 2.0], [1.0, 3.0, 2.0, 0.0])
-    plant = Plant.from_transfer_function(tf, delay=0.7)
+    plant = Plant.from_transfer_function(tf, dead_time=0.7)
     assert plant == Plant([1.0, 2.0], [1.0, 3.0, 2.0, 0.0], 0.7)
     assert Plant.from_dict(plant.to_dict()) == plant
     with pytest.raises(ValueError, match="continuous"):
