@@ -1,6 +1,6 @@
 """The compiled kernels of :mod:`envs.identification.models`: checks and trapezoid terms.
 
-The validation of the signals (finite, increasing times) and the terms of the trapezoidal rule
+The terms of the trapezoidal rule
 (``numpy.trapezoid(y, t)`` is ``(diff(t) * (y[1:] + y[:-1]) / 2.0).sum()``) formed without numpy's
 temporaries; numpy's own ``sum`` adds the terms (its pairwise summation) in
 :mod:`envs.identification.models`, so the results are numpy.trapezoid's bits (the unit tests
@@ -15,27 +15,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-_LARGEST = float(np.finfo(float).max)  # |x| <= _LARGEST: x is finite (NaN compares False)
-
-
-@numba.njit(cache=True)
-def _increasing_and_finite(t):  # pragma: no cover - compiled
-    """``np.isfinite(t).all() and not (t[1:] <= t[:-1]).any()`` (without early exits, which vectorize)."""
-    ok = True
-    for i in range(t.size):
-        ok &= abs(t[i]) <= _LARGEST
-    for i in range(1, t.size):
-        ok &= t[i] > t[i - 1]
-    return ok
-
-
-@numba.njit(cache=True)
-def _all_finite(v):  # pragma: no cover - compiled
-    """``np.isfinite(v).all()``."""
-    ok = True
-    for i in range(v.size):
-        ok &= abs(v[i]) <= _LARGEST
-    return ok
 
 
 @numba.njit(cache=True)

@@ -42,9 +42,7 @@ from typing import Any
 import numpy as np
 
 from envs.identification._models_kernels import (
-    _all_finite,
     _distance_terms,
-    _increasing_and_finite,
     _moment_terms,
     _pulse_distance_terms,
     _trapezoid_terms,
@@ -90,12 +88,6 @@ _THETA_STEP = 2.0 * float(np.finfo(float).eps)  # convergence of theta_from_tau:
 # --------------------------------------------------------------------------- validation
 def _signals(timepts: Any, **signals: Any) -> tuple[np.ndarray, ...]:
     """Validate a time grid and signals sampled on it."""
-    if _plain(timepts) and timepts.size >= 2 and all(_plain(v) and v.size == timepts.size for v in signals.values()):
-        # The experiments' own signals: the same arrays (contiguous, as ravel() makes them), each checked by
-        # one compiled pass.
-        arrays = (np.ascontiguousarray(timepts), *(np.ascontiguousarray(v) for v in signals.values()))
-        if _increasing_and_finite(arrays[0]) and all(_all_finite(v) for v in arrays[1:]):
-            return arrays
     t = np.asarray(timepts, dtype=float).ravel()
     if t.size < 2:
         raise ValueError(f"timepts must hold at least 2 samples, got {t.size}")
@@ -110,11 +102,6 @@ def _signals(timepts: Any, **signals: Any) -> tuple[np.ndarray, ...]:
             raise ValueError(f"{name} must be finite")
         out.append(v)
     return tuple(out)
-
-
-def _plain(values: Any) -> bool:
-    """A 1-D float64 array (which :func:`_signals` only makes contiguous)."""
-    return type(values) is np.ndarray and values.ndim == 1 and values.dtype == np.float64
 
 
 # --------------------------------------------------------------------------- trapezoidal rule
