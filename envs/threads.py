@@ -32,19 +32,16 @@ Function = TypeVar("Function", bound=Callable[..., Any])
 _lock = threading.Lock()
 _depth = 0
 _limit: Any = None  # the active threadpoolctl limit, while _depth > 0
-_controller: Any = None  # threadpoolctl.ThreadpoolController, created at first use
-_needed: bool | None = None  # False once we know every BLAS library runs one thread
 
 
+@functools.cache
 def _blas_controller() -> Any:
-    """The controller of the BLAS libraries loaded now, or None where all already run one thread."""
-    global _controller, _needed
-    if _needed is None:
-        from threadpoolctl import ThreadpoolController
+    """The controller of the BLAS libraries (as loaded at the first call), or None where all of them
+    already run one thread."""
+    from threadpoolctl import ThreadpoolController
 
-        _controller = ThreadpoolController().select(user_api="blas")
-        _needed = any(library.num_threads > 1 for library in _controller.lib_controllers)
-    return _controller if _needed else None
+    controller = ThreadpoolController().select(user_api="blas")
+    return controller if any(library.num_threads > 1 for library in controller.lib_controllers) else None
 
 
 def _enter() -> None:

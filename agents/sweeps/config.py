@@ -35,7 +35,7 @@ import yaml
 
 from agents.training.config import TrainConfig, load_config
 
-__all__ = ["Evaluation", "Failure", "SweepConfig", "Trial", "TrialGroup", "load_sweep"]
+__all__ = ["Evaluation", "Failure", "SweepConfig", "Trial", "TrialGroup", "evaluation_directory", "load_sweep"]
 
 
 def _env_short(env_id: str) -> str:
@@ -56,6 +56,14 @@ class Trial:
     def name(self) -> str:
         """``label-ENV-sSEED``, e.g. ``sac-PID-v0-s3``: the trial's name and run directory."""
         return f"{self.label}-{_env_short(self.env_id)}-s{self.seed}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values (Ray Tune's trial config, JSON); :meth:`from_dict` reads them back."""
+        return {**dataclasses.asdict(self), "overrides": list(self.overrides)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Trial:
+        return cls(**{**data, "overrides": tuple(data["overrides"])})
 
     def train_config(self, run_dir: Path) -> TrainConfig:
         """The config ``deadtime train`` would resolve, with the seed and the run directory set."""
@@ -109,6 +117,11 @@ class SweepConfig:
 
     def envs(self) -> list[str]:
         return sorted({env for group in self.groups for env in group.envs})
+
+
+def evaluation_directory(out: Path, env_id: str, name: str) -> Path:
+    """``DIR/eval/ENV/NAME``: where the evaluation of a trial (or of the ``baselines``) is written."""
+    return out / "eval" / _env_short(env_id) / name
 
 
 # ------------------------------------------------------------------------------------ reading

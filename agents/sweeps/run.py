@@ -10,7 +10,6 @@ import os
 import pickle
 import sys
 import time
-from dataclasses import asdict
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -18,9 +17,10 @@ from typing import Any
 from ray import tune
 
 from agents.runtime import THREAD_VARIABLES, git_commit, versions
-from agents.sweeps.config import SweepConfig, Trial
+from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
+from agents.training.files import write_json, write_text
 
-__all__ = ["Progress", "evaluation_directory", "run_sweep", "trial_function"]
+__all__ = ["Progress", "run_sweep", "trial_function"]
 
 
 # ------------------------------------------------------------------------------- the sweep
@@ -80,7 +80,7 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
     _check_directory(sweep_file, out, resume)
     _connect(ray, address)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "sweep.yaml").write_text(sweep_file.read_text())
+    write_text(out / "sweep.yaml", sweep_file.read_text())
     results = _train_all(sweep, out, resume)
     failed = {name: error for name, error in results.items() if error is not None}
     for name, error in failed.items():
@@ -102,7 +102,7 @@ def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, A
     sessions.append({"finished": datetime.now(UTC).isoformat(timespec="seconds"), "resumed": resume,
                      "wall_time_s": round(seconds, 1), "cpus": ray.cluster_resources().get("CPU"),
                      "commit": git_commit(), "versions": versions()})
-    path.write_text(json.dumps(sessions, indent=2) + "\n")
+    write_json(path, sessions)
     return sessions
 
 
@@ -112,7 +112,7 @@ def trial_function(config: dict[str, Any]) -> None:
     from agents.sweeps.reporter import TuneReporter
     from agents.training.train import train
 
-    trial = Trial(**{**config["trial"], "overrides": tuple(config["trial"]["overrides"])})
+    trial = Trial.from_dict(config["trial"])
     run_dir = Path(config["out"]) / "runs" / trial.name
     train_config = trial.train_config(run_dir)
     result = train(train_config, resume=True, command=f"deadtime sweep (trial {trial.name})",
@@ -166,14 +166,14 @@ def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | N
             failure_config=tune.FailureConfig(max_failures=sweep.failure.max_failures),
             callbacks=[Progress(len(trials))],
         )  # fmt: skip
-        space = {"trial": tune.grid_search([_trial_dict(t) for t in trials]), "out": str(out)}
+        space = {"trial": tune.grid_search([t.to_dict() for t in trials]), "out": str(out)}
         tuner = tune.Tuner(_trainable(), param_space=space, run_config=run_config)
     os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's classic reporter, which verbose=0 silences
     grid = tuner.fit()
     outcome: dict[str, str | None] = {}
     for result in grid:
         trial = result.config["trial"]
-        name = Trial(**{**trial, "overrides": tuple(trial["overrides"])}).name
+        name = Trial.from_dict(trial).name
         finished = result.error is None and (result.metrics or {}).get("finished")
         outcome[name] = None if finished else _error_line(result.error)
     missing = [t.name for t in trials if t.name not in outcome]
@@ -217,12 +217,6 @@ def _restored(storage: Path) -> Any:
         return None
 
 
-def _trial_dict(trial: Trial) -> dict[str, Any]:
-    data = asdict(trial)
-    data["overrides"] = list(trial.overrides)
-    return data
-
-
 def _error_line(error: BaseException | None) -> str:
     if error is None:
         return "did not finish"
@@ -232,11 +226,6 @@ def _error_line(error: BaseException | None) -> str:
 
 
 # ---------------------------------------------------------------------------- evaluation
-def evaluation_directory(out: Path, env_id: str, name: str) -> Path:
-    """``DIR/eval/ENV/NAME``: where the evaluation of a trial (or of the baselines) is written."""
-    return out / "eval" / env_id.split("/")[-1] / name
-
-
 def _evaluate_task(env_id: str, policies: str, n: int, seed: int, resamples: int, directory: str) -> str:
     from agents.evaluation.evaluate import evaluate
 

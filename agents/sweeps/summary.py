@@ -31,7 +31,8 @@ from typing import Any
 import numpy as np
 
 from agents.evaluation.seed_statistics import SeedStatistics, seed_statistics
-from agents.sweeps.config import SweepConfig, Trial
+from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
+from agents.training.files import write_json, write_text
 
 __all__ = ["write_summary"]
 
@@ -67,8 +68,6 @@ def _row(name: str, kind: str, stats: SeedStatistics) -> dict[str, Any]:
 
 def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The environment's entry of ``summary.json``, and the normalized scores of the agents and best rule."""
-    from agents.sweeps.run import evaluation_directory
-
     baselines = _per_plant(evaluation_directory(out, env_id, "baselines"))
     if "oracle" not in baselines:
         raise ValueError(f"sweep {sweep.name}: evaluation.policies must include 'oracle' (the normalized score needs it)")
@@ -233,8 +232,8 @@ def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: di
                "sessions": list(sessions), "wall_time_s": round(sum(s["wall_time_s"] for s in sessions), 1)}
     summary = _json_ready(summary)
     curves = learning_curves(trials, out)
-    (out / "summary.json").write_text(json.dumps({**summary, "learning_curves": curves}, indent=2) + "\n")
-    (out / "summary.md").write_text(_markdown(summary))
+    write_json(out / "summary.json", {**summary, "learning_curves": curves})
+    write_text(out / "summary.md", _markdown(summary))
     _csv(summary, out / "summary.csv")
     _plots(summary, curves, [profile for _, profile in entries], out)
     return summary

@@ -211,9 +211,7 @@ def discretize(system: DelaySystem, dt: float, *, method: str = "fast") -> Discr
         raise ValueError(f"every delay must be >= dt={dt:g}; got min delay {np.min(delays):g}")
     if method == "reference":
         return _reference_discretize(system, dt)
-    whole = np.floor(delays / dt + 1e-9).astype(int)
-    fraction = delays - whole * dt
-    fraction[fraction < 1e-9 * dt] = 0.0
+    whole, fraction = _split_delays(delays, dt)
     n, nv = system.n_states, delays.size
     fractions = fraction.tolist()
     breaks = sorted({0.0, float(dt), *(f for f in fractions if f > 0)})  # the values of np.unique
@@ -230,14 +228,31 @@ def discretize(system: DelaySystem, dt: float, *, method: str = "fast") -> Discr
             [[(q - p) / (b - a) for p, q in zip(before, after)] for before, after in zip(weights[m], weights[m + 1])],
             dtype=float,
         ).reshape(nv, 3)
-        P = E @ P
-        Q = E @ Q + psi0 @ system.B1
-        R = (
-            np.einsum("ab,bik->aik", E, R)
-            + np.einsum("ab,bi,ik->aik", psi0, system.B2, ca)
-            + np.einsum("ab,bi,ik->aik", psi1, system.B2, slope)
-        )
+        P, Q, R = _propagate(system, P, Q, R, (E, psi0, psi1), ca, slope)
     return DiscreteDelaySystem(system, float(dt), P, Q, R, whole, fraction)
+
+
+def _split_delays(delays: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each delay as whole samples plus a fractional part in ``[0, dt)`` (below ``1e-9 dt``: 0)."""
+    whole = np.floor(delays / dt + 1e-9).astype(int)
+    fraction = delays - whole * dt
+    fraction[fraction < 1e-9 * dt] = 0.0
+    return whole, fraction
+
+
+def _propagate(system: DelaySystem, P: np.ndarray, Q: np.ndarray, R: np.ndarray, integrals: tuple,
+               ca: np.ndarray, slope: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The one-step map ``(P, Q, R)`` carried over one sub-interval: ``integrals = (E, psi0, psi1)``
+    of ``A`` over it, the delayed inputs linear with weights ``ca`` at its start and ``slope``."""
+    E, psi0, psi1 = integrals
+    P = E @ P
+    Q = E @ Q + psi0 @ system.B1
+    R = (
+        np.einsum("ab,bik->aik", E, R)
+        + np.einsum("ab,bi,ik->aik", psi0, system.B2, ca)
+        + np.einsum("ab,bi,ik->aik", psi1, system.B2, slope)
+    )
+    return P, Q, R
 
 
 def _reference_integrals(A: np.ndarray, span: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -267,9 +282,7 @@ def _reference_discretize(system: DelaySystem, dt: float) -> DiscreteDelaySystem
     """``discretize(..., method="reference")``: the map over the sub-intervals of ``[0, dt]`` between
     the delays' fractional parts, on each the exact propagation for a linear delayed input."""
     delays = np.asarray(system.delays, dtype=float)
-    whole = np.floor(delays / dt + 1e-9).astype(int)
-    fraction = delays - whole * dt
-    fraction[fraction < 1e-9 * dt] = 0.0
+    whole, fraction = _split_delays(delays, dt)
     n, nv = system.n_states, delays.size
     breaks = np.unique(np.concatenate([[0.0, dt], fraction[(fraction > 0)]]))
     P, Q, R = np.eye(n), np.zeros((n, system.n_inputs)), np.zeros((n, nv, 3))
@@ -277,13 +290,7 @@ def _reference_discretize(system: DelaySystem, dt: float) -> DiscreteDelaySystem
         E, psi0, psi1 = _reference_integrals(system.A, b - a) if n else (np.eye(0),) * 3
         ca, cb = _reference_channel_weights(a, fraction, dt), _reference_channel_weights(b, fraction, dt)
         slope = (cb - ca) / (b - a)
-        P = E @ P
-        Q = E @ Q + psi0 @ system.B1
-        R = (
-            np.einsum("ab,bik->aik", E, R)
-            + np.einsum("ab,bi,ik->aik", psi0, system.B2, ca)
-            + np.einsum("ab,bi,ik->aik", psi1, system.B2, slope)
-        )
+        P, Q, R = _propagate(system, P, Q, R, (E, psi0, psi1), ca, slope)
     return DiscreteDelaySystem(system, float(dt), P, Q, R, whole, fraction)
 
 
