@@ -13,3 +13,10 @@ from gymnasium.envs.registration import register
 register(id="DeadTime/PID-v0", entry_point="envs.tuning_env:PIDEnv")
 register(id="DeadTime/FPPI-v0", entry_point="envs.tuning_env:FPPIEnv")
 register(id="DeadTime/MSP-v0", entry_point="envs.tuning_env:MSPEnv")
+
+# v1: the action is a residual around the structure's base rule, and the observation has the design
+# features (envs.base_design); the plants, experiments and cost are v0's.
+_V1 = {"action": "residual", "design_features": True}
+register(id="DeadTime/PID-v1", entry_point="envs.tuning_env:PIDEnv", kwargs=_V1)
+register(id="DeadTime/FPPI-v1", entry_point="envs.tuning_env:FPPIEnv", kwargs=_V1)
+register(id="DeadTime/MSP-v1", entry_point="envs.tuning_env:MSPEnv", kwargs=_V1)

@@ -16,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from envs.base_design import ACTIONS, DESIGN_FEATURES, base_parameter, design_features, residual_action, residual_parameter
 from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.episode import (
     Evidence,
@@ -112,9 +113,17 @@ class DeadTimeTuningEnv(gym.Env):
         budget: int = 4,
         excursion_limit: float = 5.0,
         render_mode: str | None = None,
+        action: str = "parameter",
+        design_features: bool = False,
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
+        if action not in ACTIONS:
+            raise ValueError(f"action must be one of {', '.join(ACTIONS)}, got {action!r}")
+        if not isinstance(design_features, bool):
+            raise ValueError(f"design_features must be true or false, got {design_features!r}")
+        self.action_coordinates = action
+        self.design_features = design_features
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.mode = experiments
@@ -136,7 +145,7 @@ class DeadTimeTuningEnv(gym.Env):
         self.parameter_range = PARAMETER_RANGES[self.structure]
         evidence = Evidence.empty(self.integrating)
         self.experiment_names = evidence.experiments
-        self.feature_names = feature_names(evidence)
+        self.feature_names = feature_names(evidence) + (DESIGN_FEATURES if design_features else ())
         size = 1 if self.mode == "fixed" else len(self.experiment_names) + 3
         self.action_space = spaces.Box(-1.0, 1.0, shape=(size,), dtype=np.float32)
         bound = OBSERVATION_BOUND
@@ -144,6 +153,7 @@ class DeadTimeTuningEnv(gym.Env):
         self.plant: Plant | None = None
         self.identification: Identification | None = None
         self.evidence: Evidence | None = None
+        self._base: float | None = None
         self._done = True
 
     # ------------------------------------------------------------------ configuration
@@ -152,17 +162,31 @@ class DeadTimeTuningEnv(gym.Env):
         """``Ms <= 2`` and a delay margin of at least 0.2 times the true dead time (SPEC "Score")."""
         return Constraints()
 
+    def base_parameter(self) -> float:
+        """The residual action's base: the relative parameter of the structure's base rule for this
+        episode's identification (:func:`envs.base_design.base_parameter`)."""
+        if self.identification is None:
+            raise RuntimeError("the base rule needs the identification: in agent mode it exists once the design is committed")
+        if self._base is None:
+            self._base = base_parameter(self.structure, self.identification)
+        return self._base
+
     def parameter_from_action(self, action: float) -> float:
-        """The relative parameter (``mu``, ``T_r/T_n`` or ``T_r/L_n``) of an action in [-1, 1], log scale."""
-        low, high = (math.log(v) for v in self.parameter_range)
+        """The relative parameter (``mu``, ``T_r/T_n`` or ``T_r/L_n``) of an action in [-1, 1]: log scale
+        over the range (``action="parameter"``), or the residual around :meth:`base_parameter`."""
         if isinstance(action, float):  # a number (as step() passes it): numpy.clip's value without its call
             a = min(max(float(action), -1.0), 1.0)
         else:
             a = float(np.clip(action, -1.0, 1.0))
+        if self.action_coordinates == "residual":
+            return residual_parameter(self.structure, self.base_parameter(), a)
+        low, high = (math.log(v) for v in self.parameter_range)
         return math.exp(low + 0.5 * (a + 1.0) * (high - low))
 
     def action_from_parameter(self, parameter: float) -> float:
         """Inverse of :meth:`parameter_from_action` (clipped to [-1, 1])."""
+        if self.action_coordinates == "residual":
+            return residual_action(self.base_parameter(), parameter)
         low, high = (math.log(v) for v in self.parameter_range)
         parameter = require_number(parameter, "parameter", positive=True)
         return float(np.clip(2.0 * (math.log(parameter) - low) / (high - low) - 1.0, -1.0, 1.0))
@@ -217,6 +241,7 @@ class DeadTimeTuningEnv(gym.Env):
         if plant.integrating != self.integrating:
             raise ValueError(f"family {self.family!r} drew a plant of the wrong kind for {type(self).__name__}")
         self.plant = plant
+        self._base = None
         if self.mode == "fixed":
             self.identification = identify(plant, self.np_random, self.noise_std)
             self.evidence = evidence_from_identification(self.identification, self.noise_std)
@@ -352,6 +377,9 @@ class DeadTimeTuningEnv(gym.Env):
     def _observation_and_features(self) -> tuple[np.ndarray, dict[str, float]]:
         """The observation (features clipped to the bounds, float32) and the features by name."""
         values = features(self.evidence, self.budget)
+        if self.design_features:
+            extra = design_features(self.structure, self.identification)  # zero in agent mode until the commit
+            values = np.concatenate([values, list(extra.values())])
         observation = np.clip(values, -OBSERVATION_BOUND, OBSERVATION_BOUND).astype(np.float32)
         return observation, dict(zip(self.feature_names, values.tolist()))
 
@@ -412,6 +440,8 @@ _SHARED_DOC = """
     | `budget`          | `4`                         | experiments per episode (agent mode)                      |
     | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
     | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
+    | `action`          | `"parameter"` (v1: `"residual"`) | the design parameter's coordinate: `"parameter"`, log scale over the range; `"residual"`, ``p = p_0 10^(1.5 a)`` around the base rule's ``p_0`` (:mod:`envs.base_design`) |
+    | `design_features` | `False` (v1: `True`)        | append ``log10 p_0`` and the base design's ``Ms`` and delay margin on the other identified model (:mod:`envs.base_design`) |
 
     ## Info
     At reset: ``plant`` (dict), ``features``.  On the final step: ``cost``, ``feasible``, ``score``
@@ -423,6 +453,10 @@ _SHARED_DOC = """
     * v0: initial version.  (Issue 14 moved the ``oracle=True`` argument out, to the wrapper
       ``OracleInfo``, so that ``envs`` imports nothing from ``baselines``; dynamics, rewards and
       observations unchanged.)
+    * v1 (issue 16): ``action="residual"`` and ``design_features=True``: the action is a bounded
+      log-correction of the structure's base rule (``gorez-klan-mu-2``, ``fppi-eq34``, ``msp-eq50``;
+      action 0 is the rule), and the observation ends with three design features.  Plants,
+      experiments, dynamics and cost are v0's.
 """
 
 

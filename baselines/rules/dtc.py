@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 
+from envs.base_design import fppi_time_constant  # eq. 28 and 29, shared with the residual action's base
 from envs.systems.controllers import FPPI, MSP
 from envs.validation import require_number
 
@@ -51,40 +52,6 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- FPPI (stable plants)
-def fppi_time_constant(time_constant: float, mismatch_time: float) -> float:
-    """``T_r = max(sqrt(T_f_bar T_n), T_f_bar)`` (Ingimundarson eq. 28 and 29).
-
-    Parameters
-    ----------
-    time_constant : float
-        ``T_n`` of the FOPDT model, ``> 0``.
-    mismatch_time : float
-        ``T_f_bar = int |y - y_n| dt / K_n`` (eq. 22), possibly increased by an assumed dead-time
-        error (eq. 34), ``> 0``.
-
-    Returns
-    -------
-    float
-        The smallest ``T_r`` allowed by the design rules ``gamma kappa <= 1`` and ``gamma <= 1``
-        (eq. 27, with ``gamma = T_f_bar/T_r`` and ``kappa = T_n/T_r``, Fig. 6).
-
-    Raises
-    ------
-    ValueError
-        If an argument is not a positive finite number.
-
-    Examples
-    --------
-    Table 1, process 1 (``T_n = 10.4``, ``T_f_bar = 0.27``):
-
-    >>> round(fppi_time_constant(10.4, 0.27), 2)
-    1.68
-    """
-    time_constant = require_number(time_constant, "time_constant", positive=True)
-    mismatch_time = require_number(mismatch_time, "mismatch_time", positive=True)
-    return max(math.sqrt(mismatch_time * time_constant), mismatch_time)
-
-
 def fppi_kappa_eq34(time_constant: float, mismatch_time: float, dead_time_error: float = 0.0) -> float:
     """``kappa = T_n/T_r`` with ``T_r`` from eq. 28/29 on ``T_f_bar + Delta L`` (eq. 34).
 

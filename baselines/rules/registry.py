@@ -42,6 +42,7 @@ from baselines.rules import pid as pid_rules
 from baselines.rules.pid_registry import RULES as PID_RULES
 from baselines.rules.pid_registry import PIDFormula
 from envs.systems.controllers import Controller
+from envs.base_design import FPPI_DEAD_TIME_ERROR, MSP_RELATIVE_DEAD_TIME_ERROR  # the constants of fppi-eq34 and msp-eq50
 from envs.design import MIN_RELATIVE_DEAD_TIME, fppi_design, msp_design, pid_design
 from envs.identification.models import (
     FOPDTModel,
@@ -70,11 +71,6 @@ __all__ = [
 ControllerKind = Literal["pid", "pid-series", "fppi", "msp"]
 PlantKind = Literal["stable", "integrating", "both"]
 
-FPPI_DEAD_TIME_ERROR = 0.1
-"""``Delta L/L_n`` assumed by ``fppi-eq34`` (Ingimundarson section 4.2 leaves it to the user)."""
-
-MSP_RELATIVE_DEAD_TIME_ERROR = 0.2
-"""``delta_L`` of ``msp-eq50`` (Ingimundarson eq. 50; 0.2 gives ``T_r = L_n/2``)."""
 
 
 @dataclass(frozen=True)

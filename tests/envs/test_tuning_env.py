@@ -21,7 +21,7 @@ from envs.analysis.scoring import Constraints, score
 from envs.tuning_env import FPPIEnv, MSPEnv, PIDEnv
 
 REPO = Path(__file__).resolve().parents[2]
-IDS = ["DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0"]
+IDS = ["DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0", "DeadTime/PID-v1", "DeadTime/FPPI-v1", "DeadTime/MSP-v1"]
 MODES = ["fixed", "agent"]
 
 
@@ -173,6 +173,8 @@ def test_info_carries_every_figure():
     ({"budget": 0}, "budget must be an integer >= 1"),
     ({"noise_std": math.nan}, "noise_std"),
     ({"render_mode": "human"}, "render_mode must be None or 'rgb_array'"),
+    ({"action": "ms"}, "action must be one of parameter, residual, got .ms."),
+    ({"design_features": "yes"}, "design_features must be true or false"),
 ])  # fmt: skip
 def test_bad_arguments_are_named(kwargs, message):
     with pytest.raises(ValueError, match=message):

@@ -1,0 +1,196 @@
+"""The base rule of the residual action, and the design features of the observation (issue 16).
+
+The ``-v1`` environments (``action="residual"``, ``design_features=True``) start the agent at a
+rule of the papers and show it what the identified models say about that rule's design.
+
+Residual action
+---------------
+The action ``a`` in ``[-1, 1]`` is a log-correction of the base rule's relative parameter ``p_0``:
+
+    ``p = p_0 10^(a D)``,  ``D =`` :data:`RESIDUAL_DECADES`,
+
+clipped to :data:`envs.design.PARAMETER_RANGES`, so that ``a = 0`` is the rule.  The base rules,
+each the structure's own rule of its paper (:func:`base_parameter`):
+
+=========  ==============================================================  =======================
+structure  ``p_0``                                                         rule of ``baselines``
+=========  ==============================================================  =======================
+``pid``    ``mu = 2`` (Gorez-Klan section 3 table: the boundary between    ``gorez-klan-mu-2``
+           "fast responses" ``1.3 < mu < 2`` and "over-damped" ``2 < mu``)
+``fppi``   ``T_r/T_n`` of eq. 28/29 on ``T_f_bar + Delta L`` (eq. 34),     ``fppi-eq34``
+           ``Delta L =`` :data:`FPPI_DEAD_TIME_ERROR` ``L_n``
+``msp``    ``T_r/L_n = 2 delta_L/(1 - delta_L)`` (eq. 50),                  ``msp-eq50``
+           ``delta_L =`` :data:`MSP_RELATIVE_DEAD_TIME_ERROR`
+=========  ==============================================================  =======================
+
+(Ingimundarson's eq. 28-29, 34 and 50; ``tests/unit/envs/test_base_design.py`` holds ``p_0`` equal
+to the rule's relative parameter.)  Measured on 200 training plants of each ``-v0`` id (seeds
+100000-100199, the oracle of ``baselines.oracle``): ``log10(oracle/p_0)`` has mean +0.07, sd 0.35,
+5-95% [-0.12, +0.82] (PID); -0.66, 0.40, [-1.24, -0.07] (FPPI); -0.75, 0.33, [-1.22, -0.22] (MSP).
+:data:`RESIDUAL_DECADES` = 1.5 covers those ranges with a margin; the ``-v0`` action spans 3 to
+4 decades.
+
+Design features
+---------------
+Three numbers, appended to the observation (:data:`DESIGN_FEATURES`):
+
+* ``log_base_parameter``: ``log10 p_0``;
+* ``check_ms``, ``check_delay_margin``: ``Ms`` (clipped to ``[1, 5]``; 5 if unstable) and delay
+  margin over the identified ``T_ar`` (clipped to ``[0, 5]``; 0 if unstable) of the base design's
+  loop closed around the identification's *other* model (:func:`check_model`): the PID, designed on
+  the SOPDT model, around the FOPDT model; the FPPI, designed on the FOPDT model, around the SOPDT
+  model; the MSP, designed on the two-parameter model, around the integrator with the lag ``T_n``
+  of the closed-loop step (``K_n e^{-(L_n - T_n) s}/(s (T_n s + 1))``, the same ``T_ar``).  The
+  design's own model loop is fixed by ``p_0`` (Gorez-Klan eq. 3-12; the MSP's model loop depends on
+  ``T_r/L_n`` only), so only a second model tells the agent how the design reacts to model error.
+"""
+
+from __future__ import annotations
+
+import math
+
+from envs.analysis.loop_analysis import plant_margins
+from envs.design import PARAMETER_RANGES, design, relative_scale
+from envs.identification.models import IntegratingModel
+from envs.identification.procedure import Identification
+from envs.validation import require_number
+
+__all__ = [
+    "ACTIONS",
+    "DESIGN_FEATURES",
+    "FPPI_DEAD_TIME_ERROR",
+    "MSP_RELATIVE_DEAD_TIME_ERROR",
+    "PID_BASE_MU",
+    "RESIDUAL_DECADES",
+    "base_parameter",
+    "check_model",
+    "design_features",
+    "fppi_time_constant",
+    "residual_parameter",
+    "residual_action",
+]
+
+ACTIONS = ("parameter", "residual")
+"""The action coordinates of the environments: the relative parameter over its range (``-v0``), or
+the residual around the base rule (``-v1``)."""
+
+RESIDUAL_DECADES = 1.5
+"""Decades of correction either side of the base rule at ``a = -1`` and ``a = +1``."""
+
+PID_BASE_MU = 2.0
+"""``mu`` of the PID's base rule (Gorez-Klan section 3 table)."""
+
+FPPI_DEAD_TIME_ERROR = 0.1
+"""``Delta L/L_n`` assumed by eq. 34 (``fppi-eq34``; Ingimundarson section 4.2 leaves it to the user)."""
+
+MSP_RELATIVE_DEAD_TIME_ERROR = 0.2
+"""``delta_L`` of eq. 50 (``msp-eq50``; 0.2 gives ``T_r = L_n/2``)."""
+
+DESIGN_FEATURES: tuple[str, ...] = ("log_base_parameter", "check_ms", "check_delay_margin")
+"""Names of :func:`design_features`, in order."""
+
+FIGURE_CLIP = 5.0
+
+
+def fppi_time_constant(time_constant: float, mismatch_time: float) -> float:
+    """``T_r = max(sqrt(T_f_bar T_n), T_f_bar)`` (Ingimundarson eq. 28 and 29).
+
+    Parameters
+    ----------
+    time_constant : float
+        ``T_n`` of the FOPDT model, ``> 0``.
+    mismatch_time : float
+        ``T_f_bar = int |y - y_n| dt / K_n`` (eq. 22), possibly increased by an assumed dead-time
+        error (eq. 34), ``> 0``.
+
+    Returns
+    -------
+    float
+        The smallest ``T_r`` allowed by the design rules ``gamma kappa <= 1`` and ``gamma <= 1``
+        (eq. 27, with ``gamma = T_f_bar/T_r`` and ``kappa = T_n/T_r``, Fig. 6).
+
+    Raises
+    ------
+    ValueError
+        If an argument is not a positive finite number.
+
+    Examples
+    --------
+    Table 1, process 1 (``T_n = 10.4``, ``T_f_bar = 0.27``):
+
+    >>> round(fppi_time_constant(10.4, 0.27), 2)
+    1.68
+    """
+    time_constant = require_number(time_constant, "time_constant", positive=True)
+    mismatch_time = require_number(mismatch_time, "mismatch_time", positive=True)
+    return max(math.sqrt(mismatch_time * time_constant), mismatch_time)
+
+
+def _clip_to_range(structure: str, relative: float) -> float:
+    low, high = PARAMETER_RANGES[structure]
+    return min(max(relative, low), high)
+
+
+def base_parameter(structure: str, identification: Identification) -> float:
+    """``p_0``, the base rule's relative parameter (module docstring), clipped to the structure's range.
+
+    The FPPI's eq. 34 needs ``T_n > 0`` and ``T_f_bar + Delta L > 0``; where the identification
+    gives neither (a model without dead time or mismatch), ``p_0`` is the range's aggressive end,
+    where ``fppi-eq34`` refuses the plant.
+    """
+    if structure == "pid":
+        return PID_BASE_MU
+    if structure == "msp":
+        delta = MSP_RELATIVE_DEAD_TIME_ERROR
+        return 2.0 * delta / (1.0 - delta)
+    fopdt = identification.fopdt
+    bound = identification.mismatch_time + FPPI_DEAD_TIME_ERROR * fopdt.dead_time
+    if not (fopdt.time_constant > 0 and bound > 0):
+        return PARAMETER_RANGES["fppi"][0]
+    return _clip_to_range("fppi", fppi_time_constant(fopdt.time_constant, bound) / fopdt.time_constant)
+
+
+def residual_parameter(structure: str, base: float, action: float) -> float:
+    """``p_0 10^(a D)`` for ``a`` clipped to ``[-1, 1]``, clipped to the structure's range."""
+    a = min(max(float(action), -1.0), 1.0)
+    return _clip_to_range(structure, base * 10.0 ** (a * RESIDUAL_DECADES))
+
+
+def residual_action(base: float, parameter: float) -> float:
+    """The inverse of :func:`residual_parameter` (clipped to ``[-1, 1]``)."""
+    parameter = require_number(parameter, "parameter", positive=True)
+    return min(max(math.log10(parameter / base) / RESIDUAL_DECADES, -1.0), 1.0)
+
+
+def check_model(structure: str, identification: Identification):
+    """The model the base design is checked on (module docstring), or None where it is unknown."""
+    i = identification
+    if structure == "pid":
+        return i.fopdt
+    if structure == "fppi":
+        return i.sopdt
+    model = i.integrating_model
+    lag = i.closed_loop.apparent_time_constant
+    if math.isfinite(lag) and 0.0 < lag < model.dead_time:
+        return IntegratingModel(model.gain, model.dead_time - lag, lag)
+    return model
+
+
+def design_features(structure: str, identification: Identification | None) -> dict[str, float]:
+    """:data:`DESIGN_FEATURES` of the identification (all 0 without one)."""
+    if identification is None:
+        return dict.fromkeys(DESIGN_FEATURES, 0.0)
+    base = base_parameter(structure, identification)
+    model = {"pid": identification.sopdt, "fppi": identification.fopdt, "msp": identification.integrating_model}[structure]
+    checked = check_model(structure, identification)
+    out = {"log_base_parameter": math.log10(base), "check_ms": 0.0, "check_delay_margin": 0.0}
+    if checked is None:
+        return out
+    margins = plant_margins(checked.plant(), design(structure, model, base * relative_scale(structure, model)))
+    if not margins.stable:
+        return {**out, "check_ms": FIGURE_CLIP}
+    ms = float(margins.ms) if math.isfinite(margins.ms) else FIGURE_CLIP
+    margin = float(margins.delay_margin) / identification.residence_time
+    out["check_ms"] = min(max(ms, 1.0), FIGURE_CLIP)
+    out["check_delay_margin"] = min(max(margin, 0.0), FIGURE_CLIP) if math.isfinite(margin) else FIGURE_CLIP
+    return out

@@ -1,0 +1,100 @@
+"""The residual action's base rule and the design features (envs.base_design, the -v1 ids)."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import envs  # noqa: F401  (registers the ids)
+from agents.evaluation.run import _relative_parameter
+from baselines.rules.registry import RuleInputs, get_rule
+from envs.analysis.robustness import loop_margins
+from envs.simulation.loops import loop_response
+from envs.base_design import (
+    DESIGN_FEATURES,
+    RESIDUAL_DECADES,
+    base_parameter,
+    check_model,
+    design_features,
+    residual_action,
+    residual_parameter,
+)
+from envs.design import PARAMETER_RANGES, design, relative_scale
+
+BASE_RULES = {"pid": "gorez-klan-mu-2", "fppi": "fppi-eq34", "msp": "msp-eq50"}
+V1 = {"pid": "DeadTime/PID-v1", "fppi": "DeadTime/FPPI-v1", "msp": "DeadTime/MSP-v1"}
+
+
+@pytest.mark.parametrize("structure", list(V1))
+def test_base_parameter_is_the_base_rule_and_action_zero_plays_it(structure):
+    """p_0 equals the rule's relative parameter (baselines), and action 0 scores the rule's controller."""
+    env = gym.make(V1[structure]).unwrapped
+    for seed in range(12):
+        env.reset(seed=seed)
+        inputs = RuleInputs.from_identification(env.identification)
+        rule = get_rule(BASE_RULES[structure])
+        assert base_parameter(structure, env.identification) == pytest.approx(_relative_parameter(rule, inputs), rel=1e-12)
+        info = env.step(np.zeros(1, dtype=np.float32))[4]
+        assert info["cost"] == pytest.approx(float(env.score_controller(rule(inputs)).cost), rel=1e-12)
+
+
+@pytest.mark.parametrize("structure", list(V1))
+def test_residual_maps_decades_either_side_and_inverts(structure):
+    base = {"pid": 2.0, "fppi": 0.3, "msp": 0.5}[structure]
+    low, high = PARAMETER_RANGES[structure]
+    for a in np.linspace(-1.0, 1.0, 21):
+        p = residual_parameter(structure, base, a)
+        unclipped = base * 10.0 ** (a * RESIDUAL_DECADES)
+        assert p == pytest.approx(min(max(unclipped, low), high), rel=1e-14)
+        if low < unclipped < high:
+            assert residual_action(base, p) == pytest.approx(a, abs=1e-12)
+    assert residual_parameter(structure, base, 5.0) == residual_parameter(structure, base, 1.0)
+
+
+@pytest.mark.parametrize("structure", list(V1))
+def test_design_features_agree_with_the_reference_margins(structure):
+    """check_ms and check_delay_margin: the compiled margins against the python reference (loop_margins)."""
+    env = gym.make(V1[structure]).unwrapped
+    for seed in range(6):
+        obs, info = env.reset(seed=seed)
+        found = env.identification
+        model = {"pid": found.sopdt, "fppi": found.fopdt, "msp": found.integrating_model}[structure]
+        base = base_parameter(structure, found)
+        controller = design(structure, model, base * relative_scale(structure, model))
+        plant = check_model(structure, found).plant()
+        reference = loop_margins(lambda w: loop_response(plant, controller, w), integrators=int(plant.integrating) + controller.integrators,
+                                 time_scale=plant.step_time_scale())
+        named = info["features"]
+        assert list(named)[-3:] == list(DESIGN_FEATURES)
+        assert named["log_base_parameter"] == pytest.approx(math.log10(base), rel=1e-12)
+        if reference.stable:
+            assert named["check_ms"] == pytest.approx(min(max(reference.ms, 1.0), 5.0), rel=1e-3)
+            dm = reference.delay_margin / found.residence_time
+            assert named["check_delay_margin"] == pytest.approx(min(dm, 5.0), rel=1e-3)
+
+
+@pytest.mark.parametrize("structure", list(V1))
+def test_v1_sees_the_v0_episode(structure):
+    """Same seed: v1's observation starts with v0's, and v0's action on the same parameter costs the same."""
+    v0, v1 = gym.make(V1[structure].replace("v1", "v0")).unwrapped, gym.make(V1[structure]).unwrapped
+    for seed in range(4):
+        o0, _ = v0.reset(seed=seed)
+        o1, _ = v1.reset(seed=seed)
+        assert np.array_equal(o0, o1[: len(o0)])
+        a1 = 0.3
+        parameter = v1.parameter_from_action(a1)
+        c1 = v1.step(np.array([a1], dtype=np.float32))[4]["cost"]
+        c0 = v0.step(np.array([v0.action_from_parameter(parameter)], dtype=np.float32))[4]["cost"]
+        assert c0 == pytest.approx(c1, rel=1e-6)
+
+
+def test_design_features_are_zero_without_an_identification():
+    assert design_features("pid", None) == dict.fromkeys(DESIGN_FEATURES, 0.0)
+    env = gym.make("DeadTime/PID-v1", experiments="agent").unwrapped
+    _, info = env.reset(seed=0)
+    assert [info["features"][k] for k in DESIGN_FEATURES] == [0.0, 0.0, 0.0]
+    with pytest.raises(RuntimeError, match="the base rule needs the identification"):
+        env.base_parameter()
