@@ -30,6 +30,17 @@ to the rule's relative parameter.)  Measured on 200 training plants of each ``-v
 :data:`RESIDUAL_DECADES` = 1.5 covers those ranges with a margin; the ``-v0`` action spans 3 to
 4 decades.
 
+Robustness action
+-----------------
+With ``action="robustness"`` the action chooses a robustness target of the loop on the identified
+model, and the design solves for the parameter (:func:`robustness_parameter`, the root find of
+:mod:`envs.analysis.matching`, as the matched rules ``gorez-klan-msX``, ``fppi-msX``, ``msp-dmX`` of
+``baselines``): ``Ms`` on a log scale over :data:`ROBUSTNESS_TARGETS` for the PID and the FPPI
+(their loops checked on the SOPDT model), the delay margin in ``L_n`` for the MSP (on the
+two-parameter model; its ``Ms`` is not monotone in ``T_r``).  ``a = +1`` is the most robust target.
+A target the parameter range cannot meet gives the range's least aggressive end; one met even at
+its aggressive end gives that end.
+
 Design features
 ---------------
 Three numbers, appended to the observation (:data:`DESIGN_FEATURES`):
@@ -50,6 +61,7 @@ from __future__ import annotations
 import math
 
 from envs.analysis.loop_analysis import plant_margins
+from envs.analysis.matching import match_parameter
 from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.identification.models import IntegratingModel
 from envs.identification.procedure import Identification
@@ -68,11 +80,23 @@ __all__ = [
     "fppi_time_constant",
     "residual_parameter",
     "residual_action",
+    "robustness_parameter",
+    "robustness_target",
 ]
 
-ACTIONS = ("parameter", "residual")
-"""The action coordinates of the environments: the relative parameter over its range (``-v0``), or
-the residual around the base rule (``-v1``)."""
+ACTIONS = ("parameter", "residual", "robustness")
+"""The action coordinates of the environments: the relative parameter over its range (``-v0``), the
+residual around the base rule (``-v1``), or the robustness target on the model."""
+
+ROBUSTNESS_TARGETS: dict[str, tuple[str, float, float]] = {
+    "pid": ("ms", 2.4, 1.2),
+    "fppi": ("ms", 2.4, 1.2),
+    "msp": ("delay_margin", 0.1, 1.5),
+}
+"""``(figure, target at a = -1, target at a = +1)`` of the robustness action (log scale between).
+``Ms`` from 1.2 (the matched rules' most robust is 1.4) to 2.4 (beyond the constraint's 2, since
+the model's ``Ms`` is not the plant's); the delay margin from 0.1 to 1.5 ``L_n`` (the MSP's
+approaches about 2 ``L_n`` as ``T_r`` grows)."""
 
 RESIDUAL_DECADES = 1.5
 """Decades of correction either side of the base rule at ``a = -1`` and ``a = +1``."""
@@ -160,6 +184,30 @@ def residual_action(base: float, parameter: float) -> float:
     """The inverse of :func:`residual_parameter` (clipped to ``[-1, 1]``)."""
     parameter = require_number(parameter, "parameter", positive=True)
     return min(max(math.log10(parameter / base) / RESIDUAL_DECADES, -1.0), 1.0)
+
+
+def robustness_target(structure: str, action: float) -> float:
+    """The target of the robustness action ``a`` (clipped to ``[-1, 1]``): ``Ms``, or delay margin in ``L_n``."""
+    _, aggressive, robust = ROBUSTNESS_TARGETS[structure]
+    a = min(max(float(action), -1.0), 1.0)
+    return aggressive * (robust / aggressive) ** ((a + 1.0) / 2.0)
+
+
+def robustness_parameter(structure: str, identification: Identification, action: float) -> float:
+    """The relative parameter whose loop on the identified model meets :func:`robustness_target`."""
+    figure = ROBUSTNESS_TARGETS[structure][0]
+    model = {"pid": identification.sopdt, "fppi": identification.fopdt, "msp": identification.integrating_model}[structure]
+    loop_model = identification.integrating_model if structure == "msp" else identification.sopdt
+    scale = relative_scale(structure, model)
+    low, high = PARAMETER_RANGES[structure]
+    try:
+        found = match_parameter(
+            lambda p: design(structure, model, p), loop_model.plant(), figure, robustness_target(structure, action),
+            (low * scale, high * scale), scale=model.dead_time if figure == "delay_margin" else 1.0,
+        )
+    except ValueError:  # missed even at the least aggressive end: the most robust design there is
+        return high
+    return _clip_to_range(structure, found.parameter / scale)
 
 
 def check_model(structure: str, identification: Identification):

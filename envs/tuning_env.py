@@ -16,7 +16,15 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from envs.base_design import ACTIONS, DESIGN_FEATURES, base_parameter, design_features, residual_action, residual_parameter
+from envs.base_design import (
+    ACTIONS,
+    DESIGN_FEATURES,
+    base_parameter,
+    design_features,
+    residual_action,
+    residual_parameter,
+    robustness_parameter,
+)
 from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.episode import (
     Evidence,
@@ -165,11 +173,14 @@ class DeadTimeTuningEnv(gym.Env):
     def base_parameter(self) -> float:
         """The residual action's base: the relative parameter of the structure's base rule for this
         episode's identification (:func:`envs.base_design.base_parameter`)."""
-        if self.identification is None:
-            raise RuntimeError("the base rule needs the identification: in agent mode it exists once the design is committed")
         if self._base is None:
-            self._base = base_parameter(self.structure, self.identification)
+            self._base = base_parameter(self.structure, self._identified())
         return self._base
+
+    def _identified(self) -> Identification:
+        if self.identification is None:
+            raise RuntimeError("the action's coordinates need the identification: in agent mode it exists once the design is committed")
+        return self.identification
 
     def parameter_from_action(self, action: float) -> float:
         """The relative parameter (``mu``, ``T_r/T_n`` or ``T_r/L_n``) of an action in [-1, 1]: log scale
@@ -180,11 +191,15 @@ class DeadTimeTuningEnv(gym.Env):
             a = float(np.clip(action, -1.0, 1.0))
         if self.action_coordinates == "residual":
             return residual_parameter(self.structure, self.base_parameter(), a)
+        if self.action_coordinates == "robustness":
+            return robustness_parameter(self.structure, self._identified(), a)
         low, high = (math.log(v) for v in self.parameter_range)
         return math.exp(low + 0.5 * (a + 1.0) * (high - low))
 
     def action_from_parameter(self, parameter: float) -> float:
-        """Inverse of :meth:`parameter_from_action` (clipped to [-1, 1])."""
+        """Inverse of :meth:`parameter_from_action` (clipped to [-1, 1]); not defined for the robustness action."""
+        if self.action_coordinates == "robustness":
+            raise ValueError("action_from_parameter: the robustness action has no closed-form inverse (the model's figure need not be monotone)")
         if self.action_coordinates == "residual":
             return residual_action(self.base_parameter(), parameter)
         low, high = (math.log(v) for v in self.parameter_range)
@@ -440,7 +455,7 @@ _SHARED_DOC = """
     | `budget`          | `4`                         | experiments per episode (agent mode)                      |
     | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
     | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
-    | `action`          | `"parameter"` (v1: `"residual"`) | the design parameter's coordinate: `"parameter"`, log scale over the range; `"residual"`, ``p = p_0 10^(1.5 a)`` around the base rule's ``p_0`` (:mod:`envs.base_design`) |
+    | `action`          | `"parameter"` (v1: `"residual"`) | the design parameter's coordinate: `"parameter"`, log scale over the range; `"residual"`, ``p = p_0 10^(1.5 a)`` around the base rule's ``p_0``; `"robustness"`, the ``Ms`` (delay margin for the MSP) of the loop on the model (:mod:`envs.base_design`) |
     | `design_features` | `False` (v1: `True`)        | append ``log10 p_0`` and the base design's ``Ms`` and delay margin on the other identified model (:mod:`envs.base_design`) |
 
     ## Info

@@ -173,7 +173,7 @@ def test_info_carries_every_figure():
     ({"budget": 0}, "budget must be an integer >= 1"),
     ({"noise_std": math.nan}, "noise_std"),
     ({"render_mode": "human"}, "render_mode must be None or 'rgb_array'"),
-    ({"action": "ms"}, "action must be one of parameter, residual, got .ms."),
+    ({"action": "ms"}, "action must be one of parameter, residual, robustness, got .ms."),
     ({"design_features": "yes"}, "design_features must be true or false"),
 ])  # fmt: skip
 def test_bad_arguments_are_named(kwargs, message):

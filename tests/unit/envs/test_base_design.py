@@ -96,5 +96,52 @@ def test_design_features_are_zero_without_an_identification():
     env = gym.make("DeadTime/PID-v1", experiments="agent").unwrapped
     _, info = env.reset(seed=0)
     assert [info["features"][k] for k in DESIGN_FEATURES] == [0.0, 0.0, 0.0]
-    with pytest.raises(RuntimeError, match="the base rule needs the identification"):
+    with pytest.raises(RuntimeError, match="the action.s coordinates need the identification"):
         env.base_parameter()
+
+
+def _action_for(structure: str, target: float) -> float:
+    from envs.base_design import ROBUSTNESS_TARGETS
+
+    _, aggressive, robust = ROBUSTNESS_TARGETS[structure]
+    return 2.0 * math.log(target / aggressive) / math.log(robust / aggressive) - 1.0
+
+
+@pytest.mark.parametrize("structure, rule, target", [("pid", "gorez-klan-ms1.6", 1.6), ("msp", "msp-dm0.5", 0.5)])
+def test_robustness_action_is_the_matched_rule(structure, rule, target):
+    """The robustness action at a rule's target gives the matched rule's parameter (same root find, same bracket)."""
+    env = gym.make(V1[structure], action="robustness").unwrapped
+    a = _action_for(structure, target)
+    for seed in range(5):
+        env.reset(seed=seed)
+        inputs = RuleInputs.from_identification(env.identification)
+        assert env.parameter_from_action(a) == pytest.approx(_relative_parameter(get_rule(rule), inputs), rel=1e-9)
+
+
+def test_robustness_action_meets_its_target_on_the_model():
+    """FPPI (its bracket is the action's range, not fppi-msX's): Ms on the SOPDT model loop = target to 1e-3,
+    unless the parameter is at an end of the range; a more robust target never gives a more aggressive design."""
+    from envs.analysis.matching import loop_figure
+
+    env = gym.make("DeadTime/FPPI-v1", action="robustness").unwrapped
+    low, high = PARAMETER_RANGES["fppi"]
+    for seed in range(5):
+        env.reset(seed=seed)
+        found = env.identification
+        parameters = []
+        for target in (2.0, 1.6, 1.3):
+            p = env.parameter_from_action(_action_for("fppi", target))
+            parameters.append(p)
+            if low < p < high:
+                controller = design("fppi", found.fopdt, p * found.fopdt.time_constant)
+                assert loop_figure(found.sopdt.plant(), controller, "ms") == pytest.approx(target, abs=1e-3)
+        assert parameters == sorted(parameters)
+    with pytest.raises(ValueError, match="the robustness action has no closed-form inverse"):
+        env.action_from_parameter(1.0)
+
+
+@pytest.mark.parametrize("structure", list(V1))
+def test_env_checkers_pass_with_the_robustness_action(structure):
+    from gymnasium.utils.env_checker import check_env
+
+    check_env(gym.make(V1[structure], action="robustness").unwrapped, skip_render_check=True)
