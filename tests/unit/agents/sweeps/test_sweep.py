@@ -188,3 +188,10 @@ failure: {{max_failures: 1}}
     assert summary["failed"] == {"bad-PID-v0-s0": "ValueError: env_kwargs: refused by DeadTime/PID-v0: noise_std must be >= 0, got -1.0"}
     assert [p["name"] for p in summary["envs"][0]["policies"] if p["kind"] == "agent"] == ["good"]
     assert "trial bad-PID-v0-s0 failed: ValueError: env_kwargs: refused" in done.stderr
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "sweeps").glob("*.yaml")), ids=lambda p: p.name)
+def test_every_committed_sweep_file_is_valid(path: Path) -> None:
+    """The studies behind the README load and validate (each training config resolved, with its seeds)."""
+    sweep = load_sweep(path)
+    assert sweep.trials()
