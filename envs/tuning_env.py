@@ -201,7 +201,7 @@ class DeadTimeTuningEnv(gym.Env):
         if self.action_coordinates == "robustness":
             raise ValueError("action_from_parameter: the robustness action has no closed-form inverse (the model's figure need not be monotone)")
         if self.action_coordinates == "residual":
-            return residual_action(self.base_parameter(), parameter)
+            return residual_action(self.structure, self.base_parameter(), parameter)
         low, high = (math.log(v) for v in self.parameter_range)
         parameter = require_number(parameter, "parameter", positive=True)
         return float(np.clip(2.0 * (math.log(parameter) - low) / (high - low) - 1.0, -1.0, 1.0))
@@ -455,7 +455,7 @@ _SHARED_DOC = """
     | `budget`          | `4`                         | experiments per episode (agent mode)                      |
     | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
     | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
-    | `action`          | `"parameter"` (v1: `"residual"`) | the design parameter's coordinate: `"parameter"`, log scale over the range; `"residual"`, ``p = p_0 10^(1.5 a)`` around the base rule's ``p_0``; `"robustness"`, the ``Ms`` (delay margin for the MSP) of the loop on the model (:mod:`envs.base_design`) |
+    | `action`          | `"parameter"` (v1: `"residual"`) | the design parameter's coordinate: `"parameter"`, log scale over the range; `"residual"`, log-linear from the range's ends to the base rule's ``p_0`` at 0; `"robustness"`, the ``Ms`` (delay margin for the MSP) of the loop on the model (:mod:`envs.base_design`) |
     | `design_features` | `False` (v1: `True`)        | append ``log10 p_0`` and the base design's ``Ms`` and delay margin on the other identified model (:mod:`envs.base_design`) |
 
     ## Info

@@ -15,7 +15,6 @@ from envs.analysis.robustness import loop_margins
 from envs.simulation.loops import loop_response
 from envs.base_design import (
     DESIGN_FEATURES,
-    RESIDUAL_DECADES,
     base_parameter,
     check_model,
     design_features,
@@ -42,15 +41,17 @@ def test_base_parameter_is_the_base_rule_and_action_zero_plays_it(structure):
 
 
 @pytest.mark.parametrize("structure", list(V1))
-def test_residual_maps_decades_either_side_and_inverts(structure):
-    base = {"pid": 2.0, "fppi": 0.3, "msp": 0.5}[structure]
+@pytest.mark.parametrize("base_at", [0.1, 0.5, 0.9])
+def test_residual_reaches_the_range_ends_and_inverts(structure, base_at):
     low, high = PARAMETER_RANGES[structure]
-    for a in np.linspace(-1.0, 1.0, 21):
-        p = residual_parameter(structure, base, a)
-        unclipped = base * 10.0 ** (a * RESIDUAL_DECADES)
-        assert p == pytest.approx(min(max(unclipped, low), high), rel=1e-14)
-        if low < unclipped < high:
-            assert residual_action(base, p) == pytest.approx(a, abs=1e-12)
+    base = low * (high / low) ** base_at
+    assert residual_parameter(structure, base, 0.0) == pytest.approx(base, rel=1e-14)
+    assert residual_parameter(structure, base, -1.0) == pytest.approx(low, rel=1e-12)
+    assert residual_parameter(structure, base, 1.0) == pytest.approx(high, rel=1e-12)
+    parameters = [residual_parameter(structure, base, a) for a in np.linspace(-1.0, 1.0, 41)]
+    assert parameters == sorted(parameters)
+    for a, p in zip(np.linspace(-1.0, 1.0, 41), parameters):
+        assert residual_action(structure, base, p) == pytest.approx(a, abs=1e-12)
     assert residual_parameter(structure, base, 5.0) == residual_parameter(structure, base, 1.0)
 
 
