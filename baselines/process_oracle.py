@@ -61,16 +61,15 @@ def process_oracle(
     Raises
     ------
     ValueError
-        For a structure other than ``"pid"`` (the procedure identifies self-regulating processes
-        only, and the FPPI has no discrete law on a process here) or a grid below 3.
+        For a structure other than ``"pid"`` and ``"fppi"`` (the procedure identifies
+        self-regulating processes only; the MSP is for integrating ones) or a grid below 3.
     """
-    if structure != "pid":
-        raise ValueError(f"structure must be 'pid' on a process (the FPPI has no discrete law here, the MSP is for "
-                         f"integrating plants), got {structure!r}")
+    if structure not in ("pid", "fppi"):
+        raise ValueError(f"structure must be 'pid' or 'fppi' on a self-regulating process, got {structure!r}")
     if int(grid) != grid or grid < 3:
         raise ValueError(f"grid must be an integer >= 3, got {grid!r}")
     identification = found.identification
-    model = identification.sopdt
+    model = identification.sopdt if structure == "pid" else identification.fopdt
     unit = relative_scale(structure, model)
 
     def cost_of(relative: float) -> ProcessScore:

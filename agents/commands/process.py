@@ -37,8 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime process``."""
     parser.add_argument("--process", required=True, help="'tclab' (the TCLab emulator) or module:factory (a user's process)")
     parser.add_argument("--policies", default=DEFAULT_POLICIES,
-                        help=f"comma-separated: rule names, all-rules, oracle, agent paths or NAME=PATH (default {DEFAULT_POLICIES}); "
-                        "the commissioning controller is always the first row")
+                        help=f"comma-separated: rule names, all-rules (every rule for self-regulating plants), oracle (the PID's mu "
+                        f"searched on the process), oracle-fppi (the FPPI's T_r), agent paths or NAME=PATH (default "
+                        f"{DEFAULT_POLICIES}); the commissioning controller is always the first row")
     parser.add_argument("--controller", help="the loop's existing controller, JSON {\"type\": \"pid\"|\"pid-series\", \"kp\", "
                         "\"ti\", ...} in the process's units (default: designed from a first open-loop step)")
     parser.add_argument("--operating-input", type=float, help="the input of the operating point (default: the process's)")
@@ -109,7 +110,11 @@ def run(args: argparse.Namespace) -> int:
     from envs.threads import single_threaded
 
     started = time.perf_counter()
-    specs = parse_policies(args.policies, "pid")
+    items = [item.strip() for item in args.policies.split(",")]
+    fppi_oracle = "oracle-fppi" in items
+    others = ",".join(item for item in items if item != "oracle-fppi")
+    # every rule for self-regulating plants: the PID rules, the mu rules and the FPPI's T_r rules
+    specs = parse_policies(others, "fppi") if others or not fppi_oracle else []
     controller = _controller(args.controller)
     process = make_process(args.process)
     try:
@@ -120,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
         load_step = process.load_step if args.load_step is None else args.load_step
         protocol = RunProtocol.from_identification(found, load_step, seed=args.seed)
         identified = time.perf_counter() - started
-        results = single_threaded(evaluate_policies)(process, found, protocol, specs)
+        results = single_threaded(evaluate_policies)(process, found, protocol, specs, fppi_oracle)
     finally:
         if hasattr(process, "close"):
             process.close()

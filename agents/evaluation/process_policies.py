@@ -7,9 +7,9 @@ judges on the identified model:
 * ``commissioning``: the loop's existing controller (given or designed from the first step);
 * a rule: ``rule(RuleInputs.from_identification(identification))``, as ``deadtime evaluate`` and
   ``deadtime tune`` design it (:mod:`baselines.rules.registry`);
-* ``oracle``: :func:`baselines.process_oracle.process_oracle`, the structure's parameter searched
-  with process runs;
-* an agent trained in a fixed-mode environment (``DeadTime/PID-v0``): its observation is built from
+* ``oracle``: :func:`baselines.process_oracle.process_oracle`, the PID's ``mu`` searched with process
+  runs (``oracle-fppi``: the FPPI's ``T_r``);
+* an agent trained in a fixed-mode environment (``DeadTime/PID-v0`` or ``FPPI-v0``): its observation is built from
   the process's experiments exactly as the environment builds it at ``reset``
   (:func:`agent_observation`: :func:`envs.episode.evidence_from_identification`, then
   :func:`envs.episode.features` over the environment's budget, clipped to its observation bounds,
@@ -84,14 +84,14 @@ def _rule(process, found, protocol, name: str) -> ProcessPolicyResult:
         return ProcessPolicyResult(name, "rule", error=str(error))
 
 
-def _oracle(process, found, protocol, structure: str) -> ProcessPolicyResult:
+def _oracle(process, found, protocol, structure: str, name: str) -> ProcessPolicyResult:
     from baselines.process_oracle import process_oracle
 
     try:
         result = process_oracle(process, found, protocol, structure)
     except ValueError as error:
-        return ProcessPolicyResult("oracle", "oracle", error=str(error))
-    return ProcessPolicyResult("oracle", "oracle", result.controller, result.relative_parameter, result.score)
+        return ProcessPolicyResult(name, "oracle", error=str(error))
+    return ProcessPolicyResult(name, "oracle", result.controller, result.relative_parameter, result.score)
 
 
 def _agent(process, found, protocol, spec: Any) -> ProcessPolicyResult:
@@ -105,13 +105,13 @@ def _agent(process, found, protocol, spec: Any) -> ProcessPolicyResult:
     if env.mode != "fixed":
         return ProcessPolicyResult(name, "agent", error=f"the agent plays {env_id} in agent mode (it chooses its experiments); "
                                    "on a process the fixed procedure runs, so only fixed-mode agents apply")
-    if env.structure != "pid":
-        return ProcessPolicyResult(name, "agent", error=f"the agent designs the {env.structure.upper()} of {env_id}, which has "
-                                   "no discrete law on a process here (only the PID of DeadTime/PID-v0)")
+    if env.structure == "msp":
+        return ProcessPolicyResult(name, "agent", error=f"the agent designs the modified Smith predictor of {env_id}, for "
+                                   "integrating plants; the procedure here identifies self-regulating processes")
     observation = agent_observation(found, env.budget)
     action, _ = policy.predict(observation, deterministic=True)
     relative = env.parameter_from_action(float(np.asarray(action, dtype=np.float64).reshape(-1)[-1]))
-    model = found.identification.sopdt
+    model = found.identification.sopdt if env.structure == "pid" else found.identification.fopdt
     controller = design(env.structure, model, relative * relative_scale(env.structure, model))
     try:
         return ProcessPolicyResult(name, "agent", controller, relative, _score(process, controller, found, protocol))
@@ -120,10 +120,11 @@ def _agent(process, found, protocol, spec: Any) -> ProcessPolicyResult:
 
 
 def evaluate_policies(
-    process: Process, found: ProcessIdentification, protocol: RunProtocol, specs: list, structure: str = "pid"
+    process: Process, found: ProcessIdentification, protocol: RunProtocol, specs: list, fppi_oracle: bool = False
 ) -> list[ProcessPolicyResult]:
     """The commissioning controller, then each policy of ``specs``
-    (:func:`agents.evaluation.policies.parse_policies`), on ``process``."""
+    (:func:`agents.evaluation.policies.parse_policies`; ``oracle`` searches the PID's ``mu``), then with
+    ``fppi_oracle`` the FPPI's ``T_r`` searched likewise (``oracle-fppi``), on ``process``."""
     commissioning = found.commissioning.controller
     results = [ProcessPolicyResult("commissioning", "commissioning", commissioning, None,
                                    _score(process, commissioning, found, protocol))]
@@ -131,10 +132,12 @@ def evaluate_policies(
         if spec.kind == "rule":
             results.append(_rule(process, found, protocol, spec.name))
         elif spec.kind == "oracle":
-            results.append(_oracle(process, found, protocol, structure))
+            results.append(_oracle(process, found, protocol, "pid", "oracle"))
         elif spec.kind == "oracle-full":
             results.append(ProcessPolicyResult("oracle-full", "oracle", error="oracle-full designs from the exact "
                                                "model of the plant, which a process does not have"))
         else:
             results.append(_agent(process, found, protocol, spec))
+    if fppi_oracle:
+        results.append(_oracle(process, found, protocol, "fppi", "oracle-fppi"))
     return results

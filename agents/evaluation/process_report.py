@@ -102,10 +102,14 @@ def _controller_text(controller: dict | None) -> str:
     if controller is None:
         return "-"
     kind = controller["type"]
+    if kind == "fppi":
+        return f"fppi: tr {_number(controller['tr'])}, tf {_number(controller['tf'])}"
+    if kind not in ("pid", "pid-series"):
+        return kind
     parts = [f"kp {_number(controller['kp'])}", f"ti {_number(controller['ti'])}"]
     if controller.get("td"):
         parts.append(f"td {_number(controller['td'])}")
-    return f"{kind}: " + ", ".join(parts) if kind in ("pid", "pid-series") else kind
+    return f"{kind}: " + ", ".join(parts)
 
 
 def markdown_table(rows: list[dict[str, Any]], units: Any) -> str:

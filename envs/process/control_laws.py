@@ -44,10 +44,10 @@ from __future__ import annotations
 
 import math
 
-from envs.systems.controllers import PID, Controller, SeriesPID
+from envs.systems.controllers import FPPI, PID, Controller, SeriesPID
 from envs.validation import require_number
 
-__all__ = ["DiscretePID", "discrete_law"]
+__all__ = ["DiscretePID", "DiscreteFPPI", "discrete_law"]
 
 
 class DiscretePID:
@@ -89,8 +89,9 @@ class DiscretePID:
         self.integral = float(bias)
         self.filtered = 0.0
 
-    def update(self, error: float) -> tuple[float, float]:
-        """One execution on the error ``r - y`` of this sample: ``(computed, applied)`` outputs."""
+    def update(self, setpoint: float, measurement: float) -> tuple[float, float]:
+        """One execution on this sample's set point and measurement: ``(computed, applied)`` outputs."""
+        error = setpoint - measurement
         previous = self.filtered
         filtered = self.smoothing * previous + (1.0 - self.smoothing) * error
         self.filtered = filtered
@@ -107,16 +108,74 @@ class DiscretePID:
         return computed, applied
 
 
-def discrete_law(controller: Controller, sample_time: float, limits: tuple[float, float]) -> DiscretePID:
-    """The discrete law of ``controller`` on a process (PID and series PID).
+class DiscreteFPPI:
+    """Hagglund's FPPI (:class:`~envs.systems.controllers.FPPI`, Ingimundarson section 4, eq. 13-16)
+    as a discrete law with limits.
+
+    At each sample: the correction ``c = F (y - m(t - L_n))`` through the filter ``1/(T_f s + 1)``
+    (Marlin eq. 12.9, initialized to its first value, eq. 12.10), the error ``e = r - m - c``, the PI
+    ``v = K e + I`` (``K = T_n/(K_n T_r)``, ``T_i = T_n``, eq. 14-15) with the integral and its external
+    feedback as :class:`DiscretePID`'s, the output ``u = clip(v)``; then the model
+    ``T_n m' = K_n (u - u_0) - m`` advanced over the sample exactly for the held input actually applied
+    (so the predictor sees the saturation), and ``m(t - L_n)`` read from the model's past samples,
+    linearly interpolated for a dead time between samples.
+    """
+
+    def __init__(self, controller: FPPI, sample_time: float, limits: tuple[float, float]) -> None:
+        if not isinstance(controller, FPPI):
+            raise ValueError(f"controller must be an FPPI, got {type(controller).__name__}")
+        self.controller = controller
+        self.dt = require_number(sample_time, "sample_time", positive=True)
+        self.low, self.high = float(limits[0]), float(limits[1])
+        self.kc, self.gain = controller.proportional_gain, controller.gain
+        self.reset_rate = self.dt / controller.time_constant
+        self.tracking = min(self.reset_rate, 1.0)
+        self.model_decay = math.exp(-self.dt / controller.time_constant)  # the model's exact ZOH step
+        self.smoothing = math.exp(-self.dt / controller.tf) if controller.tf > 0 else 0.0
+        delay = controller.dead_time / self.dt
+        self.whole = int(math.floor(delay + 1e-9))
+        self.fraction = max(delay - self.whole, 0.0)
+        self.start(0.0)
+
+    def start(self, bias: float) -> None:
+        """At rest at the operating point: the integral at ``bias``, the model at rest (its past at 0),
+        the filter to be set by the first correction."""
+        self.bias = self.integral = float(bias)
+        self.model = 0.0
+        self.history = [0.0] * (self.whole + 2)  # m at the samples k - whole - 1 .. k
+        self.correction: float | None = None
+
+    def update(self, setpoint: float, measurement: float) -> tuple[float, float]:
+        """One execution on this sample's set point and measurement: ``(computed, applied)`` outputs."""
+        past = self.history
+        delayed = (1.0 - self.fraction) * past[-1 - self.whole] + self.fraction * past[-2 - self.whole]
+        raw = measurement - delayed  # y - m(t - L_n)
+        if self.correction is None:
+            self.correction = raw
+        else:
+            self.correction = self.smoothing * self.correction + (1.0 - self.smoothing) * raw
+        error = setpoint - self.model - self.correction  # r - m - c
+        computed = self.kc * error + self.integral
+        applied = min(max(computed, self.low), self.high)
+        self.integral += self.kc * self.reset_rate * error + self.tracking * (applied - computed)
+        self.model = self.model_decay * self.model + (1.0 - self.model_decay) * self.gain * (applied - self.bias)
+        past.append(self.model)
+        del past[0]
+        return computed, applied
+
+
+def discrete_law(controller: Controller, sample_time: float, limits: tuple[float, float]) -> DiscretePID | DiscreteFPPI:
+    """The discrete law of ``controller`` on a process (PID, series PID, FPPI).
 
     Raises
     ------
     ValueError
-        For a controller without one here (the FPPI and the MSP, whose predictors are continuous
-        designs around a model with a dead time), naming its type.
+        For a controller without one here (the MSP, a predictor for integrating plants), naming its
+        type.
     """
     if isinstance(controller, PID | SeriesPID):
         return DiscretePID(controller, sample_time, limits)
+    if isinstance(controller, FPPI):
+        return DiscreteFPPI(controller, sample_time, limits)
     kind = controller.to_dict()["type"] if hasattr(controller, "to_dict") else type(controller).__name__
-    raise ValueError(f"controller type {kind!r} has no discrete law on a process (only 'pid' and 'pid-series')")
+    raise ValueError(f"controller type {kind!r} has no discrete law on a process (only 'pid', 'pid-series' and 'fppi')")

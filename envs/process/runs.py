@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from envs.identification.relay import relay_periodic
-from envs.process.control_laws import DiscretePID
+from envs.process.control_laws import DiscreteFPPI, DiscretePID
 from envs.process.protocol import Process
 from envs.simulation._run_kernels import CONFIDENCE, STEADY_STATE_TOLERANCE
 
@@ -126,7 +126,7 @@ def hold(
 
 def closed_loop(
     process: Process,
-    law: DiscretePID,
+    law: DiscretePID | DiscreteFPPI,
     steps: int,
     *,
     setpoint: float,
@@ -142,7 +142,7 @@ def closed_loop(
         y, stopped = _measure(process, k, dt)
         if stopped:
             return samples.record(dt, False, stopped)
-        computed, applied = law.update(setpoint - y)
+        computed, applied = law.update(setpoint, y)
         samples.add(applied, computed, y, setpoint, load)
         process.apply(applied, load)
         if until is not None and until(samples.output, controls):

@@ -45,9 +45,19 @@ def test_the_process_oracle_is_ahead_of_a_grid_and_of_the_mu_rules(setting):
             assert result.score.cost <= process_score(process, rule(inputs), found, protocol).cost, name
 
 
+def test_the_fppi_oracle_is_ahead_of_the_fppi_rules(setting):
+    process, found, protocol = setting
+    result = process_oracle(process, found, protocol, "fppi")
+    assert result.controller.to_dict()["type"] == "fppi" and result.relative_parameter == result.parameter / found.identification.fopdt.time_constant
+    inputs = RuleInputs.from_identification(found.identification)
+    for name, rule in RULES.items():
+        if rule.controller == "fppi":
+            assert result.score.cost <= process_score(process, rule(inputs), found, protocol).cost, name
+
+
 def test_the_process_oracle_refuses_what_it_cannot_search(setting):
     process, found, protocol = setting
-    with pytest.raises(ValueError, match="structure must be 'pid' on a process"):
+    with pytest.raises(ValueError, match="structure must be 'pid' or 'fppi'"):
         process_oracle(process, found, protocol, "msp")
     with pytest.raises(ValueError, match="grid must be an integer >= 3"):
         process_oracle(process, found, protocol, grid=2)

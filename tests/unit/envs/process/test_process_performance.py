@@ -5,9 +5,10 @@ Must show 3: on a :class:`PlantProcess` the set-point and load IAE of the proces
 exactly) for the same plant and controller.  The process path runs the controller as a discrete
 law, its output held over each sample: an extra delay of about half a sample (and the derivative's
 sample mean), so the difference is first order in the sample time.  Measured on the four loops
-below (``Ms`` 1.48 to 1.98): at ``T_ar/200`` 0.30% to 1.02%, at ``T_ar/500`` 0.11% to 0.41%; the
-test samples at ``T_ar/500`` with the 1% tolerance, and checks the first order (the deviation
-shrinks by 2 to 3.5 times from ``T_ar/200`` to ``T_ar/500``, 2.5 for a first-order error).
+below (PIDs, ``Ms`` 1.48 to 1.98, and FPPIs, whose predictor's dead time is interpolated between
+samples): at ``T_ar/200`` 0.02% to 1.02%, at ``T_ar/500`` 0.002% to 0.41%; the test samples at
+``T_ar/500`` with the 1% tolerance, and checks that the deviation shrinks at least as a first-order
+error from ``T_ar/200`` to ``T_ar/500`` (by more than 2 times; 2.5 for first order).
 
 A process whose measurement becomes NaN in the middle of a test stops that test there; the
 performance says which test and when, and its IAE is NaN.
@@ -22,7 +23,7 @@ import pytest
 from envs.analysis.loop_analysis import analyze
 from envs.process.performance import RunProtocol, closed_loop_performance
 from envs.process.plant_process import PlantProcess
-from envs.systems.controllers import PID, SeriesPID
+from envs.systems.controllers import FPPI, PID, SeriesPID
 from envs.systems.plants import Plant
 
 LOOPS = {
@@ -30,6 +31,9 @@ LOOPS = {
     "fopdt-pi": (Plant.from_time_constants(2.0, [10.0], 5.0), PID(kp=0.5, ti=10.0)),
     "lag-chain-series": (Plant.from_time_constants(1.0, [4.0, 2.0, 1.0], 2.5), SeriesPID(kp=0.8, ti=4.0, td=2.0, n=10)),
     "negative-gain": (Plant.from_time_constants(-3.0, [1.0, 1.0, 1.0, 1.0], 0.3), PID(kp=-0.3, ti=2.5, td=0.6, n=8)),
+    "fopdt-fppi": (Plant.from_time_constants(1.0, [10.0], 5.0), FPPI(1.0, 10.0, 5.0, 4.0, 4.0)),
+    "fopdt-ppi-model-error": (Plant.from_time_constants(1.0, [10.0], 5.0), FPPI(1.1, 9.0, 5.7, 3.0, 0.0)),
+    "lag-chain-fppi": (Plant.from_time_constants(2.0, [4.0, 2.0, 1.0], 2.5), FPPI(2.0, 5.5, 4.0, 3.0, 3.0)),
 }
 
 
@@ -50,8 +54,8 @@ def test_the_plant_process_reproduces_analyze_within_one_percent(name):
     assert all(abs(d) < 0.01 for d in fine), fine
     coarse = _deviations(plant, controller, 200)
     for small, large in zip(fine, coarse):
-        if abs(large) > 1e-5:  # a PI's load IAE is K/K_i exactly in both: nothing to converge
-            assert 2.0 < large / small < 3.5, (small, large)
+        if abs(large) > 1e-4:  # a PI's load IAE is K/K_i exactly in both: nothing to converge
+            assert large / small > 2.0, (small, large)
 
 
 class _NaNAfter(PlantProcess):

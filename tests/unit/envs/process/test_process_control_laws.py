@@ -10,7 +10,9 @@
   12.15: the computed output to the limit plus the proportional action), and the output leaves the
   limit as soon as the error reverses; a law without it (tracking off) stays at the limit for
   hundreds of samples.
-* A controller without a discrete law (the FPPI) is refused by name.
+* The FPPI: held at a limit, its integral goes to the limit and its model follows the input
+  actually applied.  (Its agreement with the continuous loop is in ``test_process_performance.py``.)
+* A controller without a discrete law (the MSP) is refused by name.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 import pytest
 
 from envs.process.control_laws import DiscretePID, discrete_law
-from envs.systems.controllers import FPPI, PID, SeriesPID
+from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 
 DT = 0.05
 
@@ -42,7 +44,7 @@ def test_the_law_holds_the_continuous_response_averaged_over_each_sample(form):
     law = DiscretePID(controller, DT, (-math.inf, math.inf))
     law.start(0.0)
     t = np.arange(200) * DT
-    outputs = np.array([law.update(1.0)[1] for _ in t])
+    outputs = np.array([law.update(1.0, 0.0)[1] for _ in t])
     if form == "ideal":  # K_c (1 + t/T_i + (T_d/T_f) e^{-t/T_f})
         expected = kc * (1.0 + t / ti + _mean(lambda s: td / tf * np.exp(-s / tf), t))
     elif form == "series":  # K_c (p + int_0^t p/T_i), p = 1 + ((T_d - T_f)/T_f) e^{-t/T_f}
@@ -62,10 +64,10 @@ def test_external_feedback_keeps_the_integral_at_the_limit(controller):
             law.tracking = 0.0
         law.start(50.0)
         for _ in range(2000):  # 100 s with the output pinned at 100 %
-            computed, applied = law.update(20.0)
+            computed, applied = law.update(20.0, 0.0)
             assert applied == 100.0
         integral = law.integral
-        return [law.update(-1.0)[1] for _ in range(400)], integral
+        return [law.update(-1.0, 0.0)[1] for _ in range(400)], integral
 
     released, integral = run(tracking=True)
     assert integral == pytest.approx(100.0, abs=0.01)  # at the limit (eq. 12.15), to e^{-10} of its start after 10 T_i
@@ -81,11 +83,21 @@ def test_unsaturated_the_tracking_changes_nothing():
     errors = np.sin(np.arange(500) * 0.07)
     for law in laws:
         law.start(0.0)
-    first = [laws[0].update(e) for e in errors]
-    second = [laws[1].update(e) for e in errors]
+    first = [laws[0].update(e, 0.0) for e in errors]
+    second = [laws[1].update(e, 0.0) for e in errors]
     assert first == second
 
 
+def test_the_fppi_does_not_wind_up_and_its_model_sees_the_limit():
+    law = discrete_law(FPPI(1.0, 10.0, 2.0, 5.0, 5.0), DT, (0.0, 100.0))
+    law.start(50.0)
+    for _ in range(4000):  # the set point 200 above a measurement that never moves: pinned at 100 %
+        assert law.update(200.0, 0.0)[1] == 100.0
+    assert law.integral == pytest.approx(100.0, abs=0.01)
+    assert law.model == pytest.approx(1.0 * (100.0 - 50.0), rel=1e-6)  # the model driven by the applied input
+    assert law.update(-50.0, 0.0)[1] < 100.0  # off the limit as soon as the error reverses
+
+
 def test_a_controller_without_a_discrete_law_is_refused():
-    with pytest.raises(ValueError, match="controller type 'fppi' has no discrete law on a process"):
-        discrete_law(FPPI(1.0, 10.0, 2.0, 5.0, 5.0), DT, (0.0, 1.0))
+    with pytest.raises(ValueError, match="controller type 'msp' has no discrete law on a process"):
+        discrete_law(MSP(1.0, 2.0, 5.0), DT, (0.0, 1.0))
