@@ -66,10 +66,6 @@ def agent_observation(found: ProcessIdentification, budget: int) -> np.ndarray:
     return np.clip(values, -OBSERVATION_BOUND, OBSERVATION_BOUND).astype(np.float32)
 
 
-def _score(process, controller, found, protocol) -> ProcessScore:
-    return process_score(process, controller, found, protocol)
-
-
 def _rule(process, found, protocol, name: str) -> ProcessPolicyResult:
     from agents.evaluation.run import _relative_parameter
     from baselines.rules.registry import RuleInputs, get_rule
@@ -79,7 +75,7 @@ def _rule(process, found, protocol, name: str) -> ProcessPolicyResult:
         inputs = RuleInputs.from_identification(found.identification)
         controller = rule(inputs)
         parameter = _relative_parameter(rule, inputs)
-        return ProcessPolicyResult(name, "rule", controller, parameter, _score(process, controller, found, protocol))
+        return ProcessPolicyResult(name, "rule", controller, parameter, process_score(process, controller, found, protocol))
     except ValueError as error:
         return ProcessPolicyResult(name, "rule", error=str(error))
 
@@ -114,7 +110,7 @@ def _agent(process, found, protocol, spec: Any) -> ProcessPolicyResult:
     model = found.identification.sopdt if env.structure == "pid" else found.identification.fopdt
     controller = design(env.structure, model, relative * relative_scale(env.structure, model))
     try:
-        return ProcessPolicyResult(name, "agent", controller, relative, _score(process, controller, found, protocol))
+        return ProcessPolicyResult(name, "agent", controller, relative, process_score(process, controller, found, protocol))
     except ValueError as error:
         return ProcessPolicyResult(name, "agent", controller, relative, error=str(error))
 
@@ -127,7 +123,7 @@ def evaluate_policies(
     ``fppi_oracle`` the FPPI's ``T_r`` searched likewise (``oracle-fppi``), on ``process``."""
     commissioning = found.commissioning.controller
     results = [ProcessPolicyResult("commissioning", "commissioning", commissioning, None,
-                                   _score(process, commissioning, found, protocol))]
+                                   process_score(process, commissioning, found, protocol))]
     for spec in specs:
         if spec.kind == "rule":
             results.append(_rule(process, found, protocol, spec.name))

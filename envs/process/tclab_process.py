@@ -123,7 +123,8 @@ class TCLabProcess:
         """``T1`` in degC (quantized, noisy), at the present sample, the noise from this process's
         own generator (see the module docstring)."""
         lab = self._started()
-        module = sys.modules[type(lab).__module__]
+        measurement = getattr(type(lab), "measurement", None)  # the module of the code that draws the noise
+        module = sys.modules.get(getattr(measurement, "__module__", ""), None)
         drawn_from = getattr(module, "random", None)
         if drawn_from is not random:  # not the emulator of tclab 1.0.0: read it as it is
             return float(lab.T1)
