@@ -34,6 +34,9 @@ with ``d = T_D (e_f[k] - e_f[k-1])/dt`` the backward difference (eq. 11.4) of th
 (``T_D = T_d``, or ``T_d - T_f`` in the series form), and the applied output ``u = clip(v)``.  Without
 integral action (``ti=None``) ``I`` stays at the bias.
 
+:class:`DiscreteFPPI` runs Hagglund's FPPI the same way: its PI with the same integral and external
+feedback, its model fed the input actually applied, the model's dead time read from its past samples.
+
 References
 ----------
 .. [MA] T. Marlin, "Process Control", section 11.4 (eq. 11.4-11.8, the digital PID), section 12.3

@@ -22,7 +22,7 @@ import numpy as np
 
 from envs.process.protocol import Units
 from envs.simulation.delay_systems import delayed_zoh
-from envs.systems.plants import Plant, as_plant
+from envs.systems.plants import as_plant
 from envs.validation import require_number
 
 __all__ = ["PlantProcess", "SAMPLES_PER_RESIDENCE_TIME"]

@@ -11,7 +11,7 @@ one input (the manipulated variable) and one measurement, in engineering units, 
     process.apply(u, load)             # u and the load held for one sample time
 
 A process that cannot be reset (hardware) starts from where it is; the procedure always settles
-it at the operating point first (:mod:`envs.process.runs`).  Nothing here imports gymnasium or
+it at the operating point first (:mod:`envs.process.procedure`).  Nothing here imports gymnasium or
 torch: a process and everything run on it are numerics.
 
 :func:`check_process` validates an object against the protocol (every attribute present, numbers
