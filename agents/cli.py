@@ -5,7 +5,7 @@ Every subcommand is a module with ``add_arguments(parser)``, declaring its optio
 numerics, torch, stable-baselines3) inside ``run``, so that parsing loads none of them and
 ``deadtime analyze`` never loads torch.  Each module lives in the package that owns its concept:
 ``train``, ``evaluate``, ``bench`` and ``sweep`` in :mod:`agents.training`, :mod:`agents.evaluation`,
-:mod:`agents.bench` and :mod:`agents.sweeps`; ``analyze``, ``tune`` and ``reproduce``, which front
+:mod:`agents.bench` and :mod:`agents.sweeps`; ``analyze``, ``tune``, ``reproduce`` and ``process``, which front
 functions of ``envs`` and ``baselines`` (packages that know nothing of the command line), in
 :mod:`agents.commands`.
 
@@ -52,6 +52,11 @@ COMMANDS: dict[str, Command] = {
     "evaluate": _described("agents.evaluation.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
     "bench": _described("agents.bench.bench", "measure the speed and accuracy of the scoring and the environments"),
     "sweep": _described("agents.sweeps.sweep", "train many seeds and configs on Ray Tune, evaluate them, and summarize"),
+    "process": Command(
+        "agents.commands.process", "the procedure, the rules, the oracle and agents on a real process (the TCLab)",
+        "Identify a sampled process (the TCLab emulator, or module:factory for your own) around its operating point, "
+        "then test the commissioning controller, the rules, the process oracle and agents on the process itself; "
+        "robustness on the identified model."),
 }
 """The subcommands in the order ``deadtime --help`` lists them."""
 

@@ -97,6 +97,7 @@ __all__ = [
     "exact_models",
     "design",
     "relative_scale",
+    "search_parameter",
 ]
 
 
@@ -193,10 +194,15 @@ def _binding(best: float, probes: list[tuple[float, Score]], bounds: tuple[float
 
 
 # --------------------------------------------------------------------------- search
-def _search(
+def search_parameter(
     cost_of: Callable[[float], Score], bounds: tuple[float, float], grid: int
 ) -> tuple[float, Score, list[tuple[float, Score]], int]:
-    """Grid, bounded Brent around the best grid point, then the two binding probes (log parameter)."""
+    """Grid, bounded Brent around the best grid point, then the two binding probes (log parameter).
+
+    ``cost_of(p)`` scores the relative parameter ``p`` (anything with ``cost``); ``bounds`` are the
+    logs of the range.  Returns the best log parameter, its score, the probes and the number of
+    parameters scored.  The oracle here and the process oracle (:mod:`baselines.process_oracle`)
+    search with it."""
     cache: dict[float, Score] = {}
 
     def evaluate(x: float) -> Score:
@@ -244,7 +250,7 @@ def _oracle(
         return score(plant, controller, experiment_time=experiment_time, constraints=constraints, weights=weights)
 
     bounds = (math.log(low), math.log(high))
-    best, at_best, probes, evaluations = _search(cost_of, bounds, int(grid))
+    best, at_best, probes, evaluations = search_parameter(cost_of, bounds, int(grid))
     relative = math.exp(best)
     return OracleResult(
         structure=structure,

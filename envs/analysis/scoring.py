@@ -42,7 +42,7 @@ from envs.analysis.robustness import Margins
 from envs.threads import single_threaded
 from envs.validation import require_number
 
-__all__ = ["Constraints", "CostWeights", "Score", "score", "FEASIBLE_CAP", "UNSTABLE_GRADE"]
+__all__ = ["Constraints", "CostWeights", "Score", "score", "constraint_violations", "FEASIBLE_CAP", "UNSTABLE_GRADE"]
 
 FEASIBLE_CAP = 20.0
 UNSTABLE_GRADE = 5.0
@@ -120,8 +120,10 @@ class Score:
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
 
 
-def _violations(margins: Margins, relative_delay_margin: float, constraints: Constraints) -> dict[str, float]:
-    """Relative violation of each active constraint (only those that are violated)."""
+def constraint_violations(margins: Margins, relative_delay_margin: float, constraints: Constraints) -> dict[str, float]:
+    """Relative violation of each active constraint (only those that are violated); ``{"stability":
+    UNSTABLE_GRADE}`` for an unstable loop.  ``relative_delay_margin`` is the delay margin over the
+    dead time it is judged against."""
     if not margins.stable:
         return {"stability": UNSTABLE_GRADE}
     c, found = constraints, {}
@@ -155,7 +157,7 @@ def score(
     margins = plant_margins(plant, controller)
     reference = plant.dead_time if plant.dead_time > 0 else scale
     relative_dm = margins.delay_margin / reference
-    violations = _violations(margins, relative_dm, constraints)
+    violations = constraint_violations(margins, relative_dm, constraints)
     experiment_cost = weights.experiment * experiment_time / scale
     if violations:
         undefined = math.inf if not margins.stable else math.nan

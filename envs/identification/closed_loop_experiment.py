@@ -66,7 +66,7 @@ from envs.simulation.delay_systems import LoopRun, discretize, divergence_limit,
 from envs.identification.steady_state import SteadyStateTest, window_samples
 from envs.validation import require_number
 
-__all__ = ["ClosedLoopStepResult", "closed_loop_step"]
+__all__ = ["ClosedLoopStepResult", "closed_loop_step", "identify_closed_loop_step"]
 
 
 @dataclass(frozen=True)
@@ -389,16 +389,47 @@ class _RunBuffers:
 def _identify_closed_loop(
     plant: Plant, controller: Controller, amplitude: float, run: _ClosedLoopRun, window: int, scale: float
 ) -> ClosedLoopStepResult:
-    record = record_fields(run, scale)
-    common = dict(**record, amplitude=amplitude, controller=controller, settled=run.settled)
+    # run.drive: u, or for an integrating plant its integral (the sums of _cumulative_integral)
+    return identify_closed_loop_step(
+        record_fields(run, scale), run.drive, amplitude, controller, run.settled, window, plant.integrating
+    )
+
+
+def identify_closed_loop_step(
+    record: dict, drive: np.ndarray, amplitude: float, controller: Controller, settled: bool, window: int, integrating: bool
+) -> ClosedLoopStepResult:
+    """The result of a closed-loop set-point step from its sampled record (experiment 1's arithmetic).
+
+    Parameters
+    ----------
+    record : dict
+        The :class:`~envs.identification.experiment_base.ExperimentResult` fields (``timepts``,
+        ``control``, ``output``, ``true_output``, ``duration``, ``relative_duration``, ``aborted``)
+        in deviation variables: the loop at rest at 0 before the step of the set point to
+        ``amplitude`` at ``timepts[0]``, the record ending at its steady state.
+    drive : ndarray
+        ``u``, or for an integrating plant its integral ``u_i = int u dt`` (section 2.1).
+    amplitude, controller, settled
+        The set-point step, the loop's controller and whether the run settled.
+    window : int
+        Samples of the last window, whose mean of ``drive`` is ``u_f``.
+    integrating : bool
+        Whether the plant integrates.
+
+    ``K = r/u_f`` (Gorez-Klan eq. 2-4), ``T_ar`` and ``T_a`` by :func:`closed_loop_moments`
+    (Ingimundarson eq. 10, Gorez-Klan appendix B), ``tau``, ``theta`` and the models (eq. 2-7 ..
+    2-10); NaN and None where the record cannot give them (aborted, shorter than a window, no drive).
+    The simulated experiment (:func:`closed_loop_step`) and a sampled process
+    (:mod:`envs.process.procedure`) identify with this same arithmetic.
+    """
+    common = dict(**record, amplitude=amplitude, controller=controller, settled=settled)
     t, y = record["timepts"], record["output"]
-    drive = run.drive  # u, or for an integrating plant its integral (the sums of _cumulative_integral)
     final_drive = float(np.mean(drive[-window:]))
-    if run.aborted or t.size < window or final_drive == 0.0:
-        return ClosedLoopStepResult(**common, **_moment_models(float("nan"), float("nan"), float("nan"), plant.integrating))
+    if record["aborted"] or t.size < window or final_drive == 0.0:
+        return ClosedLoopStepResult(**common, **_moment_models(float("nan"), float("nan"), float("nan"), integrating))
     moments = closed_loop_moments(t, drive, y, final_drive, amplitude)
     gain = amplitude / final_drive
-    return ClosedLoopStepResult(**common, **_moment_models(gain, moments.residence_time, moments.apparent_time_constant, plant.integrating))
+    return ClosedLoopStepResult(**common, **_moment_models(gain, moments.residence_time, moments.apparent_time_constant, integrating))
 
 
 def _moment_models(gain: float, residence_time: float, apparent: float, integrating: bool) -> dict:

@@ -64,6 +64,7 @@ __all__ = [
     "open_loop_step",
     "open_loop_ramp",
     "open_loop_pulse",
+    "identify_open_loop_step",
 ]
 
 
@@ -243,9 +244,23 @@ def open_loop_step(
     window = window_samples(residence_time, dt)
     start = math.ceil(snap_to_integer(2.0 * residence_time / dt))
     run = _run_to_steady_state(plant, np.full(steps, height), noise, dt, window, start, excursion_limit)
-    record = record_fields(run, scale)
-    return OpenLoopStepResult(**record, height=height, settled=run.settled,
-                              **_step_identification(record, height, residence_time, gain, window, run.settled))
+    return identify_open_loop_step(record_fields(run, scale), height, residence_time, gain, window, run.settled)
+
+
+def identify_open_loop_step(
+    record: dict, height: float, residence_time: float, gain: float, window: int, settled: bool
+) -> OpenLoopStepResult:
+    """The result of an open-loop step from its sampled record (experiment 2's arithmetic).
+
+    ``record`` holds the :class:`~envs.identification.experiment_base.ExperimentResult` fields in
+    deviation variables (at rest at 0 before the step of ``height`` at ``timepts[0]``); ``residence_time``
+    and ``gain`` are ``T_ar`` and ``K_n`` of experiment 1, ``window`` the samples of one ``T_ar`` and
+    ``settled`` whether the record ends at its steady state.  ``T_n`` by eq. 11, ``L_n``, then (if
+    settled) ``T_f_bar`` by eq. 22 and the reaction curves, as :func:`open_loop_step`; a sampled
+    process (:mod:`envs.process.procedure`) identifies with this same arithmetic.
+    """
+    return OpenLoopStepResult(**record, height=height, settled=settled,
+                              **_step_identification(record, height, residence_time, gain, window, settled))
 
 
 def _step_identification(record: dict, height: float, residence_time: float, gain: float, window: int, settled: bool) -> dict:

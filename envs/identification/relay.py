@@ -36,7 +36,7 @@ from envs.systems.plants import NEGLIGIBLE_DEAD_TIME, Plant
 from envs.identification.steady_state import noise_level
 from envs.validation import require_number
 
-__all__ = ["RelayResult", "relay_feedback"]
+__all__ = ["RelayResult", "relay_feedback", "relay_estimates", "relay_periodic"]
 
 
 @dataclass(frozen=True)
@@ -305,24 +305,34 @@ class _RelaySimulation:
 
     def periodic(self, tolerance: float) -> bool:
         """The last three periods (each between switches of the same direction) agree."""
-        if len(self.switches) < 7:  # three periods after the first half period
-            return False
-        s = np.asarray(self.switches[-5:])
-        last = s[2:] - s[:-2]
-        return bool(np.ptp(last) <= self._tolerance(tolerance, s[0]) * np.mean(last))
+        return relay_periodic(self.switches, self.times, self.measured, tolerance)
 
-    def _tolerance(self, tolerance: float, since: float) -> float:
-        """``tolerance`` plus three times the relative period jitter expected from the noise:
-        a switching instant moves by ``sigma/|y'|``, and ``|y'| ~ 2 pi a/T`` for an oscillation of
-        amplitude ``a`` and period ``T``."""
-        first = bisect.bisect_left(self.times, since)  # numpy.searchsorted of the list, without converting it
-        y = np.asarray(self.measured[first:])
-        noise, spread = noise_level(y), 0.5 * np.ptp(y) if y.size else 0.0
-        if noise == 0.0:
-            return tolerance
-        if spread <= 10.0 * noise:  # chattering on noise (too little hysteresis): not a limit cycle
-            return 0.0
-        return tolerance + 3.0 * math.sqrt(2.0) * noise / (2.0 * math.pi * spread)
+
+def relay_periodic(switches: list[float], times: list[float], measured: list[float], tolerance: float) -> bool:
+    """Whether the last three periods of a relay's switching instants (each period between switches
+    of the same direction) agree to ``tolerance``, widened by the period jitter the noise of the
+    ``measured`` output since the first of them explains (:func:`_period_tolerance`); needs seven
+    switches (three periods after the first half period).  The simulated relay and a sampled
+    process's (:mod:`envs.process.runs`) use this same test."""
+    if len(switches) < 7:
+        return False
+    s = np.asarray(switches[-5:])
+    last = s[2:] - s[:-2]
+    return bool(np.ptp(last) <= _period_tolerance(times, measured, tolerance, s[0]) * np.mean(last))
+
+
+def _period_tolerance(times: list[float], measured: list[float], tolerance: float, since: float) -> float:
+    """``tolerance`` plus three times the relative period jitter expected from the noise:
+    a switching instant moves by ``sigma/|y'|``, and ``|y'| ~ 2 pi a/T`` for an oscillation of
+    amplitude ``a`` and period ``T``."""
+    first = bisect.bisect_left(times, since)  # numpy.searchsorted of the list, without converting it
+    y = np.asarray(measured[first:])
+    noise, spread = noise_level(y), 0.5 * np.ptp(y) if y.size else 0.0
+    if noise == 0.0:
+        return tolerance
+    if spread <= 10.0 * noise:  # chattering on noise (too little hysteresis): not a limit cycle
+        return 0.0
+    return tolerance + 3.0 * math.sqrt(2.0) * noise / (2.0 * math.pi * spread)
 
 
 @numba.njit(cache=True)
@@ -363,11 +373,13 @@ def _relay_result(
     record = record_fields(run, scale)
     switches = np.asarray(relay.switches)
     return RelayResult(**record, amplitude=amplitude, hysteresis=hysteresis, converged=converged,
-                       switching_times=switches, **_relay_estimates(t, record["output"], switches, amplitude))
+                       switching_times=switches, **relay_estimates(t, record["output"], switches, amplitude))
 
 
-def _relay_estimates(t: np.ndarray, y: np.ndarray, switches: np.ndarray, amplitude: float) -> dict:
-    """Period, peak and first-harmonic amplitudes over the last two full periods."""
+def relay_estimates(t: np.ndarray, y: np.ndarray, switches: np.ndarray, amplitude: float) -> dict:
+    """Period, peak and first-harmonic amplitudes over the last two full periods: the identified
+    fields of :class:`RelayResult` from a record (``t``, the measured output ``y`` about the relay's
+    set point, the switching instants, the relay amplitude ``d``)."""
     nan = float("nan")
     if switches.size < 5:
         return dict(ultimate_period=nan, peak_amplitude=nan, ultimate_gain=nan, harmonic_amplitude=nan, harmonic_ultimate_gain=nan)

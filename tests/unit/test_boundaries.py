@@ -39,9 +39,13 @@ CORE = [
     "envs.analysis._robustness_kernels",
     "envs.analysis._iae_kernels",
     "envs.analysis.scoring",
+    "envs.process.procedure",
+    "envs.process.scoring",
+    "envs.process.tclab_process",
     "baselines.rules.registry",
     "baselines.rules.tune",
     "baselines.oracle",
+    "baselines.process_oracle",
 ]
 HEAVY = ("torch", "stable_baselines3", "gymnasium")
 

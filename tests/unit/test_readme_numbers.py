@@ -60,3 +60,19 @@ def _tables(text: str) -> list[str]:
     """The Markdown tables of ``text``: runs of consecutive lines that start with ``|``."""
     return ["\n".join(lines) for is_table, lines in itertools.groupby(text.splitlines(), lambda line: line.startswith("|"))
             if is_table]
+
+
+def test_the_tclab_model_is_what_the_procedure_identifies():
+    """Section "A real process: the TCLab": the identified heater-1 loop (seed 0), as printed."""
+    from envs.process.procedure import identify_process
+    from envs.process.tclab_process import TCLabProcess
+
+    found = identify_process(TCLabProcess(), seed=0)
+    i, relay, point = found.identification, found.relay, found.operating_point
+    section = README[README.index("## A real process"):README.index("## Results")].replace("\n", " ")
+    for printed in ("38.77 degC", f"`K_n = {i.gain:.3f} degC/%`", f"`T_ar = {i.residence_time:.0f} s`",
+                    f"`tau = {i.closed_loop.normalized_dead_time:.3f}`", f"`T_n = {i.fopdt.time_constant:.0f} s`",
+                    f"`L_n = {i.fopdt.dead_time:.1f} s`", f"`D_2 = {i.sopdt.dead_time:.1f} s`",
+                    f"`K_u = {relay.ultimate_gain:.0f} %/degC`", f"`T_u = {relay.ultimate_period:.1f} s`"):
+        assert printed in section, printed
+    assert f"{point.output:.2f}" == "38.77"
