@@ -19,15 +19,16 @@ from gymnasium import spaces
 from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.episode import (
     Evidence,
-    evidence_from_identification,
     feature_names,
     features,
     identification,
     run_experiment,
+    start_fixed,
 )
+from envs.episode_options import EpisodeOptions
 from envs.systems.families import FAMILIES, sample_plant
 from envs.systems.plants import Plant, as_plant
-from envs.identification.procedure import Identification, identify
+from envs.identification.procedure import Identification
 from envs.threads import single_threaded
 from envs.analysis.scoring import Constraints, CostWeights, Score, score
 from envs.validation import require_number
@@ -112,6 +113,7 @@ class DeadTimeTuningEnv(gym.Env):
         budget: int = 4,
         excursion_limit: float = 5.0,
         render_mode: str | None = None,
+        identification: str = "seeds",
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
@@ -131,10 +133,11 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
         self.budget = int(budget)
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
+        self.options = EpisodeOptions.for_structure(self.structure, identification=identification)
         self.render_mode = render_mode
         self._controller = None
         self.parameter_range = PARAMETER_RANGES[self.structure]
-        evidence = Evidence.empty(self.integrating)
+        evidence = Evidence.empty(self.integrating, self.options)
         self.experiment_names = evidence.experiments
         self.feature_names = feature_names(evidence)
         size = 1 if self.mode == "fixed" else len(self.experiment_names) + 3
@@ -218,11 +221,10 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"family {self.family!r} drew a plant of the wrong kind for {type(self).__name__}")
         self.plant = plant
         if self.mode == "fixed":
-            self.identification = identify(plant, self.np_random, self.noise_std)
-            self.evidence = evidence_from_identification(self.identification, self.noise_std)
+            self.identification, self.evidence = start_fixed(plant, self.np_random, self.noise_std, self.options)
         else:
             self.identification = None
-            self.evidence = Evidence.empty(self.integrating)
+            self.evidence = Evidence.empty(self.integrating, self.options)
 
     @single_threaded
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
@@ -362,8 +364,9 @@ _SHARED_DOC = """
     scale over ``[p_min, p_max]``: ``p = p_min (p_max/p_min)^((a + 1)/2)``.
 
     ``experiments="agent"``: ``Box(-1, 1, (n + 3,), float32)`` with ``n`` the experiment types
-    (stable plants: closed-loop step, open-loop step, open-loop ramp, relay; integrating plants:
-    closed-loop step, pulse, relay; see :mod:`envs.episode`):
+    (stable plants: closed-loop step, open-loop step, open-loop ramp, relay, and with
+    ``identification="least-squares"`` a PRBS; integrating plants: closed-loop step, pulse, relay;
+    see :mod:`envs.episode`):
 
     | index     | meaning                                                                      |
     |-----------|------------------------------------------------------------------------------|
@@ -378,8 +381,9 @@ _SHARED_DOC = """
     ``Box(-5, 5, (10 + n + 1,), float32)``, every entry dimensionless (identified ``T_ar`` and
     ``K_n`` as units): the ten identified features of :data:`envs.episode.FEATURES` (``tau``,
     ``theta``, ``L_n/T_ar``, ``log10(T_f_bar/T_n)``, ``log10(A/(K_n L_n))``, noise-to-amplitude
-    ratio, relay gain and period, ramp ``T_n/T_ar``, experiment time), 0 where not measured; then
-    the number of runs of each experiment type over the budget, and the total runs over the budget.
+    ratio, relay gain and period, ramp ``T_n/T_ar``, experiment time), 0 where not measured (with
+    ``identification="least-squares"``, three more: :data:`envs.episode.LEAST_SQUARES_FEATURES`);
+    then the number of runs of each experiment type over the budget, and the total runs over the budget.
 
     ## Rewards
     ``r = -cost`` on the step that commits the design, 0 on experiment steps, where
@@ -412,6 +416,7 @@ _SHARED_DOC = """
     | `budget`          | `4`                         | experiments per episode (agent mode)                      |
     | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
     | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
+    | `identification`  | `"seeds"`                   | `"least-squares"`: the design reads the least-squares fit (Marlin 6.4) of the open-loop step, PRBS and relay records (:mod:`envs.episode_options`); PID and FPPI only |
 
     ## Info
     At reset: ``plant`` (dict), ``features``.  On the final step: ``cost``, ``feasible``, ``score``
