@@ -119,6 +119,8 @@ def open_loop_prbs(
     dt: float | None = None,
     excursion_limit: float | None = None,
     order: int = 1,
+    *,
+    disturbances=None,
 ) -> OpenLoopPRBSResult:
     """One period of the PRBS of levels ``+-h`` and clock ``T_ar/3``, fitted by least squares.
 
@@ -132,7 +134,7 @@ def open_loop_prbs(
         Level ``h`` (non-zero); ``1/K_n`` moves the output by about ``+-1``.
     residence_time : float
         ``T_ar`` from the closed-loop step: the clock is ``T_ar/3``, the dead times searched ``0 .. T_ar``.
-    noise_std, dt, excursion_limit
+    noise_std, dt, excursion_limit, disturbances
         As in :func:`~envs.identification.closed_loop_experiment.closed_loop_step`.
     order : {1, 2}
         Of the least-squares model (FOPDT or SOPDT).
@@ -147,7 +149,7 @@ def open_loop_prbs(
     per_clock = max(int(math.ceil(snap_to_integer(PRBS_CLOCK * residence_time / dt))), 1)
     inputs = height * np.repeat(prbs_levels(), per_clock)
     steps = inputs.size
-    noise = measurement_noise(rng, noise_std, steps).first(steps)
+    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt).first(steps)
     y = open_loop_response(plant.state_space(), plant.dead_time, inputs, dt)
     abort = excursion_index(y, excursion_limit)
     end = steps - 1 if abort is None else abort

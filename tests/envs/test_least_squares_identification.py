@@ -117,3 +117,18 @@ def test_pid_reads_an_sopdt_fit():
 def test_refused(env_id, kwargs, message):
     with pytest.raises(ValueError, match=message):
         gym.make(env_id, **kwargs)
+
+
+@pytest.mark.parametrize("order", [("prbs", "open-loop-step"), ("open-loop-step", "prbs")], ids=["step-last", "prbs-last"])
+def test_agent_chooses_the_identification_by_its_latest_experiment(order):
+    """Agent mode: the design reads the model of the latest experiment that gives one, the PRBS's by
+    least squares or the step's by the seeds' area method (eq. 11)."""
+    env = gym.make("DeadTime/FPPI-v0", experiments="agent", **LS)
+    plant = Plant.from_time_constants(1.7, (6.0, 2.0), 3.0)
+    actions = [_choose(env, "closed-loop-step"), *(_choose(env, kind) for kind in order), _choose(env, None)]
+    _, _, info = _play(env, 1, actions, plant)
+    evidence = env.unwrapped.evidence
+    if order[-1] == "prbs":
+        assert info["model"] == evidence.fit.fit.model.to_dict()
+    else:
+        assert evidence.fit is None and info["model"] == evidence.results["open-loop-step"].model.to_dict()
