@@ -235,6 +235,7 @@ def _oracle(
     weights: CostWeights,
     grid: int,
     parameter_range: tuple[float, float] | None,
+    experiment_deviation: float = 0.0,
 ) -> OracleResult:
     _check_structure(structure)
     if int(grid) != grid or grid < 3:
@@ -247,7 +248,8 @@ def _oracle(
 
     def cost_of(relative: float) -> Score:
         controller = design(structure, model, relative * unit)
-        return score(plant, controller, experiment_time=experiment_time, constraints=constraints, weights=weights)
+        return score(plant, controller, experiment_time=experiment_time, experiment_deviation=experiment_deviation,
+                     constraints=constraints, weights=weights)
 
     bounds = (math.log(low), math.log(high))
     best, at_best, probes, evaluations = search_parameter(cost_of, bounds, int(grid))
@@ -285,8 +287,8 @@ def oracle(
         The true plant.
     identification : Identification
         The seeds' procedure on ``plant`` (:func:`envs.identification.procedure.identify`): the PID uses its SOPDT
-        model, the FPPI its FOPDT model, the MSP its two-parameter model; its experiment time is
-        charged, as for the rules.
+        model, the FPPI its FOPDT model, the MSP its two-parameter model; its experiment time and
+        deviation are charged, as for the rules.
     structure : {"pid", "fppi", "msp"}
     constraints, weights
         As for :func:`envs.analysis.scoring.score`.
@@ -307,7 +309,8 @@ def oracle(
     """
     _check_structure(structure)
     model = _model_for(structure, identification.sopdt, identification.fopdt, identification.integrating_model)
-    return _oracle(plant, structure, model, identification.experiment_time, constraints, weights, grid, parameter_range)
+    return _oracle(plant, structure, model, identification.experiment_time, constraints, weights, grid, parameter_range,
+                   identification.experiment_deviation)
 
 
 @single_threaded

@@ -43,16 +43,23 @@ from envs.identification.open_loop_experiments import (
     open_loop_step,
 )
 from envs.systems.plants import Plant
-from envs.identification.procedure import PULSE_LENGTH, Identification
+from envs.identification.least_squares import LeastSquaresFit
+from envs.identification.models import FOPDTModel, SOPDTModel, mismatch_time
+from envs.identification.prbs_experiment import fit_record, open_loop_prbs
+from envs.identification.procedure import PULSE_LENGTH, Identification, experiment_deviation, identify
 from envs.identification.relay import RelayResult, relay_feedback
+from envs.episode_options import DEFAULT_OPTIONS, EpisodeOptions
 
 __all__ = [
     "STABLE_EXPERIMENTS",
     "INTEGRATING_EXPERIMENTS",
+    "LEAST_SQUARES_EXPERIMENTS",
     "FEATURES",
+    "LEAST_SQUARES_FEATURES",
     "RELAY_HYSTERESIS",
     "Evidence",
     "evidence_from_identification",
+    "start_fixed",
     "run_experiment",
     "features",
     "feature_names",
@@ -61,7 +68,16 @@ __all__ = [
 
 STABLE_EXPERIMENTS: tuple[str, ...] = ("closed-loop-step", "open-loop-step", "open-loop-ramp", "relay")
 INTEGRATING_EXPERIMENTS: tuple[str, ...] = ("closed-loop-step", "pulse", "relay")
+LEAST_SQUARES_EXPERIMENTS: tuple[str, ...] = (*STABLE_EXPERIMENTS, "prbs")
+"""The experiment types with ``identification="least-squares"`` (self-regulating plants only)."""
+_SEEDS_MODEL_EXPERIMENTS = {1: ("open-loop-step", "open-loop-ramp"), 2: ("closed-loop-step",)}
+"""With ``identification="least-squares"`` in agent mode, the design reads the model of the latest
+experiment that gives one: a PRBS (least squares), or these (the seeds' formulas; by the order of
+the design's model: the FPPI's FOPDT model, the PID's SOPDT model)."""
 RELAY_HYSTERESIS = 3.0  # in units of noise_std
+DISTURBED_ATTEMPTS = 3
+"""With disturbances, the closed-loop steps a commit (or the fixed mode's start) runs at most until one
+identifies a usable model (a drift or a load can spoil one; each is charged)."""
 LOG_CLIP = 5.0  # log10 features are clipped to [-LOG_CLIP, LOG_CLIP]
 
 FEATURES: tuple[str, ...] = (
@@ -96,6 +112,32 @@ name                     value                                                  
 A feature whose experiment has not run (or failed) is 0; the counts that follow tell which ran.
 """
 
+LEAST_SQUARES_FEATURES: tuple[str, ...] = ("ls_time_constant", "ls_dead_time", "log_ls_residual")
+"""With ``identification="least-squares"``, three features follow :data:`FEATURES`: of the latest
+least-squares fit (:mod:`envs.identification.least_squares`) that gave a model, its time constant
+(``T_1 + T_2`` for the SOPDT model) and its dead time over the identified ``T_ar`` (clipped to
+[0, 5]), and ``log10`` of the standard deviation of its simulation error over the experiment's
+amplitude ``a`` ([-5, 5]); 0 before such a fit."""
+
+
+@dataclass(frozen=True)
+class RecordFit:
+    """A least-squares fit of one experiment's record.
+
+    Attributes
+    ----------
+    experiment : str
+        The experiment type whose record was fitted.
+    fit : LeastSquaresFit
+        The fit, whose ``model`` is not None.
+    amplitude : float
+        The experiment's amplitude ``a`` (intended change of the output).
+    """
+
+    experiment: str
+    fit: LeastSquaresFit
+    amplitude: float
+
 
 @dataclass(frozen=True)
 class Evidence:
@@ -116,6 +158,17 @@ class Evidence:
         Number of experiments stopped at the excursion limit.
     noise_ratio : float
         ``noise_std/a`` of the latest closed-loop step (nan before one).
+    options : EpisodeOptions
+        The episode's identification settings (:mod:`envs.episode_options`; default: the v0
+        environments').
+    fit : RecordFit or None
+        With ``options.identification == "least-squares"``: the least-squares fit the design reads
+        (fixed mode: of the seeds' open-loop step; agent mode: of the latest PRBS, unless an
+        experiment whose model the seeds' formulas give ran after it).
+    experiment_deviation : float
+        ``int |y| dt`` of the true output over every experiment run (aborted ones included), the
+        production they disturbed (:func:`envs.identification.procedure.experiment_deviation`);
+        tracked only with ``options.production`` (else 0).
     """
 
     experiments: tuple[str, ...]
@@ -124,11 +177,16 @@ class Evidence:
     experiment_time: float = 0.0
     aborted: int = 0
     noise_ratio: float = math.nan
+    options: EpisodeOptions = DEFAULT_OPTIONS
+    fit: RecordFit | None = None
+    experiment_deviation: float = 0.0
 
     @classmethod
-    def empty(cls, integrating: bool) -> Evidence:
+    def empty(cls, integrating: bool, options: EpisodeOptions = DEFAULT_OPTIONS) -> Evidence:
         experiments = INTEGRATING_EXPERIMENTS if integrating else STABLE_EXPERIMENTS
-        return cls(experiments, (0,) * len(experiments), {})
+        if options.least_squares and not integrating:
+            experiments = LEAST_SQUARES_EXPERIMENTS
+        return cls(experiments, (0,) * len(experiments), {}, options=options)
 
     @property
     def closed_loop(self) -> ClosedLoopStepResult | None:
@@ -139,15 +197,90 @@ class Evidence:
         return int(sum(self.counts))
 
 
-def evidence_from_identification(identification: Identification, noise_std: float) -> Evidence:
-    """The evidence of the seeds' procedure (:func:`envs.identification.procedure.identify`, amplitude 1)."""
-    evidence = Evidence.empty(identification.integrating)
+def evidence_from_identification(
+    identification: Identification, noise_std: float, options: EpisodeOptions = DEFAULT_OPTIONS, amplitude: float = 1.0
+) -> Evidence:
+    """The evidence of the seeds' procedure (:func:`envs.identification.procedure.identify`, at ``amplitude``)."""
+    evidence = Evidence.empty(identification.integrating, options)
     second = "pulse" if identification.integrating else "open-loop-step"
     counts = tuple(int(name in ("closed-loop-step", second)) for name in evidence.experiments)
     results = {"closed-loop-step": identification.closed_loop, second: identification.open_loop}
     return replace(
-        evidence, counts=counts, results=results, experiment_time=identification.experiment_time, noise_ratio=noise_std
-    )
+        evidence, counts=counts, results=results, experiment_time=identification.experiment_time,
+        noise_ratio=noise_std / amplitude, experiment_deviation=identification.experiment_deviation,
+    )  # fmt: skip
+
+
+def start_fixed(
+    plant: Plant, rng: np.random.Generator, noise_std: float, options: EpisodeOptions = DEFAULT_OPTIONS
+) -> tuple[Identification, Evidence]:
+    """The fixed mode's start: the seeds' procedure (:func:`~envs.identification.procedure.identify`, at the
+    options' amplitude, with their disturbances) and its evidence; with ``identification="least-squares"``,
+    its open-loop step's record fitted too and read by the design (:func:`identification`)."""
+    amplitude = options.seed_amplitude
+    if options.disturbances.active or amplitude != 1.0 or options.production:
+        attempts = DISTURBED_ATTEMPTS if options.disturbances.active else 1
+        found = identify(plant, rng, noise_std, amplitude=amplitude, disturbances=options.disturbances, attempts=attempts,
+                         deviation=options.production)
+    else:
+        found = identify(plant, rng, noise_std)  # the v0 call
+    evidence = evidence_from_identification(found, noise_std, options, amplitude)
+    if not options.least_squares:
+        return found, evidence
+    evidence = _with_fit(evidence, "open-loop-step", found.open_loop, amplitude)
+    return _least_squares_identification(found, evidence), evidence
+
+
+def _latest_model(evidence: Evidence, kind: str, result, amplitude: float) -> Evidence:
+    """Agent mode with least squares: the evidence after ``kind`` ran, the latest model experiment
+    deciding the design's model (a PRBS sets the fit, an experiment of the seeds' formulas clears it)."""
+    if kind == "prbs":
+        return _with_fit(evidence, kind, result, amplitude)
+    if kind in _SEEDS_MODEL_EXPERIMENTS[evidence.options.order]:
+        return replace(evidence, fit=None)
+    return evidence
+
+
+def _with_fit(evidence: Evidence, kind: str, result, amplitude: float) -> Evidence:
+    """The evidence with the least-squares fit of ``result``'s record (a PRBS's own fit, or the
+    record fitted here), if it gives a model; else unchanged.
+
+    An SOPDT fit without a model of two real lags (complex poles, a pole at or below 0: typical of
+    a first-order record) falls back to the FOPDT fit, read as the SOPDT model with ``T_2 = 0``
+    (Gorez-Klan eq. 2-2), as :meth:`baselines.rules.registry.RuleInputs.from_model` reads it.
+    """
+    if result.aborted:
+        return evidence
+    scale, order = evidence.closed_loop.residence_time, evidence.options.order
+    fit = result.fit if kind == "prbs" else fit_record(result, scale, order)
+    if order == 2 and (fit is None or fit.model is None):
+        fit = fit_record(result, scale, 1)
+    if fit is None or fit.model is None:
+        return evidence
+    return replace(evidence, fit=RecordFit(kind, fit, amplitude))
+
+
+def _design_model(found: RecordFit, order: int):
+    """The fit's model in the design's form: FOPDT (order 1), SOPDT (order 2; an FOPDT fit with ``T_2 = 0``)."""
+    model = found.fit.model
+    if order == 2 and isinstance(model, FOPDTModel):
+        return SOPDTModel(gain=model.gain, time_constants=(model.time_constant, 0.0), dead_time=model.dead_time)
+    return model
+
+
+def _least_squares_identification(found: Identification, evidence: Evidence) -> Identification:
+    """``found`` with the least-squares model in place of the seeds' (FOPDT or SOPDT, by its order),
+    and ``T_f_bar`` (eq. 22) of the open-loop step measured against it; unchanged without a fit."""
+    if evidence.fit is None:
+        return found
+    model = _design_model(evidence.fit, evidence.options.order)
+    if evidence.options.order == 2:
+        return replace(found, sopdt=model)
+    step: OpenLoopStepResult | None = evidence.results.get("open-loop-step")
+    mismatch = math.nan
+    if step is not None and step.settled:
+        mismatch = mismatch_time(step.timepts, step.output / step.height, model)
+    return replace(found, fopdt=model, mismatch_time=mismatch)
 
 
 def _usable(result: ClosedLoopStepResult) -> bool:
@@ -156,25 +289,32 @@ def _usable(result: ClosedLoopStepResult) -> bool:
 
 
 def _run(kind: str, plant: Plant, rng: np.random.Generator, amplitude: float, evidence: Evidence, noise_std: float, limit: float):
+    # Each experiment gets the episode's disturbances only when there are any, so that the v0
+    # calls stay exactly what they were.
+    extra = {"disturbances": evidence.options.disturbances} if evidence.options.disturbances.active else {}
     if kind == "closed-loop-step":
-        return closed_loop_step(plant, rng, amplitude=amplitude, noise_std=noise_std, excursion_limit=limit)
+        return closed_loop_step(plant, rng, amplitude=amplitude, noise_std=noise_std, excursion_limit=limit, **extra)
     first = evidence.closed_loop
     gain, scale = first.gain, first.residence_time
     height = amplitude / gain  # the output rises by about ``amplitude``, whatever the sign of the gain
     if kind == "open-loop-step":
-        return open_loop_step(plant, rng, height, scale, gain, noise_std=noise_std, excursion_limit=limit)
+        return open_loop_step(plant, rng, height, scale, gain, noise_std=noise_std, excursion_limit=limit, **extra)
     if kind == "open-loop-ramp":
-        return open_loop_ramp(plant, rng, height / scale, scale, gain, noise_std=noise_std, excursion_limit=limit)
+        return open_loop_ramp(plant, rng, height / scale, scale, gain, noise_std=noise_std, excursion_limit=limit, **extra)
+    if kind == "prbs":
+        order = evidence.options.order
+        return open_loop_prbs(plant, rng, height, scale, noise_std=noise_std, excursion_limit=limit, order=order, **extra)
     if kind == "pulse":
         model = first.integrating_model
         duration = PULSE_LENGTH * model.dead_time
         return open_loop_pulse(
             plant, rng, height / duration, duration, model.gain, model.dead_time,
-            noise_std=noise_std, excursion_limit=limit,
+            noise_std=noise_std, excursion_limit=limit, **extra,
         )  # fmt: skip
     return relay_feedback(
-        plant, rng, abs(height), hysteresis=RELAY_HYSTERESIS * noise_std, noise_std=noise_std, excursion_limit=limit
-    )
+        plant, rng, abs(height), hysteresis=RELAY_HYSTERESIS * noise_std, noise_std=noise_std, excursion_limit=limit,
+        **extra,
+    )  # fmt: skip
 
 
 def run_experiment(
@@ -206,13 +346,18 @@ def run_experiment(
     counts = tuple(c + (name == kind) for name, c in zip(evidence.experiments, evidence.counts))
     usable = not result.aborted and (kind != "closed-loop-step" or _usable(result))
     changes: dict = {"counts": counts, "experiment_time": evidence.experiment_time + result.duration}
+    if evidence.options.production:
+        changes["experiment_deviation"] = evidence.experiment_deviation + experiment_deviation(result)
     if usable:
         changes["results"] = {**evidence.results, kind: result}
         if kind == "closed-loop-step":
             changes["noise_ratio"] = noise_std / amplitude
     else:
         changes["aborted"] = evidence.aborted + 1
-    return replace(evidence, **changes)
+    evidence = replace(evidence, **changes)
+    if usable and evidence.options.least_squares:
+        evidence = _latest_model(evidence, kind, result, amplitude)
+    return evidence
 
 
 def _log(value: float) -> float:
@@ -234,8 +379,26 @@ def _finite(value: float) -> float:
     return 0.0 if math.isnan(value) else math.copysign(sys.float_info.max, value)
 
 
+def _names(evidence: Evidence) -> tuple[str, ...]:
+    """:data:`FEATURES`, and :data:`LEAST_SQUARES_FEATURES` with the least-squares identification."""
+    return (*FEATURES, *LEAST_SQUARES_FEATURES) if evidence.options.least_squares else FEATURES
+
+
+def _fit_features(evidence: Evidence, scale: float) -> dict[str, float]:
+    found = evidence.fit
+    if found is None:
+        return {}
+    model = found.fit.model
+    lag = sum(model.time_constants) if hasattr(model, "time_constants") else model.time_constant
+    return {
+        "ls_time_constant": _clip(lag / scale, 0.0, LOG_CLIP),
+        "ls_dead_time": _clip(model.dead_time / scale, 0.0, LOG_CLIP),
+        "log_ls_residual": _log(found.fit.noise_std / found.amplitude),
+    }
+
+
 def _identified(evidence: Evidence) -> dict[str, float]:
-    out = dict.fromkeys(FEATURES, 0.0)
+    out = dict.fromkeys(_names(evidence), 0.0)
     first = evidence.closed_loop
     if first is None:
         return out
@@ -256,11 +419,13 @@ def _identified(evidence: Evidence) -> dict[str, float]:
     if relay is not None and relay.converged:
         out["log_relay_gain"] = _log(relay.ultimate_gain * abs(first.gain))
         out["relay_period"] = _clip(relay.ultimate_period / scale, 0.0, LOG_CLIP)
+    out.update(_fit_features(evidence, scale))
     return {k: _finite(v) for k, v in out.items()}
 
 
 def features(evidence: Evidence, budget: int) -> np.ndarray:
-    """The observation: :data:`FEATURES`, then each type's count over ``budget``, then runs over ``budget``."""
+    """The observation: :data:`FEATURES` (and :data:`LEAST_SQUARES_FEATURES` with the least-squares
+    identification), then each type's count over ``budget``, then runs over ``budget``."""
     identified = _identified(evidence)
     counts = [c / budget for c in evidence.counts]
     return np.array([*identified.values(), *counts, evidence.runs / budget], dtype=np.float64)
@@ -268,28 +433,37 @@ def features(evidence: Evidence, budget: int) -> np.ndarray:
 
 def feature_names(evidence: Evidence) -> tuple[str, ...]:
     """Names of the entries of :func:`features`."""
-    return (*FEATURES, *(f"count_{name}" for name in evidence.experiments), "budget_used")
+    return (*_names(evidence), *(f"count_{name}" for name in evidence.experiments), "budget_used")
 
 
 def identification(evidence: Evidence, structure: str, plant: Plant, rng: np.random.Generator, noise_std: float) -> Identification:
     """The identified data the design reads, completing the seeds' procedure where it is missing.
 
     The PID and the MSP need the closed-loop step; the FPPI also needs ``T_n``, from the open-loop
-    step or else the ramp.  A missing experiment is run (amplitude 1, charged like any other).
-    Returns the evidence actually used too, as ``(identification, evidence)``.
+    step or else the ramp.  A missing experiment is run (amplitude 1, or the amplitude limit if
+    smaller; charged like any other).
+    Returns the evidence actually used too, as ``(identification, evidence)``.  With disturbances,
+    up to :data:`DISTURBED_ATTEMPTS` closed-loop steps are run until one is usable.  With
+    ``identification="least-squares"`` the latest least-squares fit's model replaces the FOPDT (FPPI)
+    or SOPDT (PID) model, and the FPPI needs no other open-loop experiment when there is one.
 
     Raises
     ------
     ValueError
         If no closed-loop step identifies a usable gain and residence time.
     """
-    if evidence.closed_loop is None:
-        evidence = run_experiment(evidence, "closed-loop-step", plant, rng, 1.0, noise_std, math.inf)
+    amplitude = evidence.options.seed_amplitude
+    attempts = DISTURBED_ATTEMPTS if evidence.options.disturbances.active else 1
+    for _ in range(attempts):
+        if evidence.closed_loop is not None:
+            break
+        evidence = run_experiment(evidence, "closed-loop-step", plant, rng, amplitude, noise_std, math.inf)
     if evidence.closed_loop is None:
         raise ValueError("the closed-loop step identified no usable gain and residence time")
     step, ramp = evidence.results.get("open-loop-step"), evidence.results.get("open-loop-ramp")
-    if structure == "fppi" and (step is None or step.model is None) and (ramp is None or ramp.model is None):
-        evidence = run_experiment(evidence, "open-loop-step", plant, rng, 1.0, noise_std, math.inf)
+    fitted = evidence.fit is not None
+    if structure == "fppi" and not fitted and (step is None or step.model is None) and (ramp is None or ramp.model is None):
+        evidence = run_experiment(evidence, "open-loop-step", plant, rng, amplitude, noise_std, math.inf)
         step = evidence.results.get("open-loop-step")
     first = evidence.closed_loop
     fopdt = step.model if step is not None and step.model is not None else (ramp.model if ramp is not None else None)
@@ -306,5 +480,8 @@ def identification(evidence: Evidence, structure: str, plant: Plant, rng: np.ran
         experiment_time=evidence.experiment_time,
         closed_loop=first,
         open_loop=step if step is not None else pulse,
+        experiment_deviation=evidence.experiment_deviation,
     )
+    if evidence.options.least_squares:
+        found = _least_squares_identification(found, evidence)
     return found, evidence

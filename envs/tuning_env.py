@@ -28,15 +28,16 @@ from envs.base_design import (
 from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.episode import (
     Evidence,
-    evidence_from_identification,
     feature_names,
     features,
     identification,
     run_experiment,
+    start_fixed,
 )
+from envs.episode_options import EpisodeOptions
 from envs.systems.families import FAMILIES, sample_plant
 from envs.systems.plants import Plant, as_plant
-from envs.identification.procedure import Identification, identify
+from envs.identification.procedure import Identification
 from envs.threads import single_threaded
 from envs.analysis.scoring import Constraints, CostWeights, Score, score
 from envs.validation import require_number
@@ -123,6 +124,9 @@ class DeadTimeTuningEnv(gym.Env):
         render_mode: str | None = None,
         action: str = "parameter",
         design_features: bool = False,
+        identification: str = "seeds",
+        amplitude_limit: float | None = None,
+        disturbances: dict | None = None,
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
@@ -148,10 +152,14 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
         self.budget = int(budget)
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
+        self.options = EpisodeOptions.for_structure(
+            self.structure, identification=identification, amplitude_limit=amplitude_limit, disturbances=disturbances,
+            production=self.weights.production > 0,
+        )  # fmt: skip
         self.render_mode = render_mode
         self._controller = None
         self.parameter_range = PARAMETER_RANGES[self.structure]
-        evidence = Evidence.empty(self.integrating)
+        evidence = Evidence.empty(self.integrating, self.options)
         self.experiment_names = evidence.experiments
         self.feature_names = feature_names(evidence) + (DESIGN_FEATURES if design_features else ())
         size = 1 if self.mode == "fixed" else len(self.experiment_names) + 3
@@ -258,11 +266,10 @@ class DeadTimeTuningEnv(gym.Env):
         self.plant = plant
         self._base = None
         if self.mode == "fixed":
-            self.identification = identify(plant, self.np_random, self.noise_std)
-            self.evidence = evidence_from_identification(self.identification, self.noise_std)
+            self.identification, self.evidence = start_fixed(plant, self.np_random, self.noise_std, self.options)
         else:
             self.identification = None
-            self.evidence = Evidence.empty(self.integrating)
+            self.evidence = Evidence.empty(self.integrating, self.options)
 
     @single_threaded
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
@@ -283,7 +290,7 @@ class DeadTimeTuningEnv(gym.Env):
 
     def _experiment(self, kind: str, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         low, high = (math.log10(v) for v in AMPLITUDE_RANGE)
-        amplitude = 10.0 ** (low + 0.5 * (amplitude_action + 1.0) * (high - low))
+        amplitude = self.options.limited(10.0 ** (low + 0.5 * (amplitude_action + 1.0) * (high - low)))
         self.evidence = run_experiment(
             self.evidence, kind, self.plant, self.np_random, amplitude, self.noise_std, self.excursion_limit
         )
@@ -323,7 +330,7 @@ class DeadTimeTuningEnv(gym.Env):
             raise RuntimeError("score_controller() needs an episode; call reset() first")
         return score(
             self.plant, controller, experiment_time=self.evidence.experiment_time,
-            constraints=self.constraints, weights=self.weights,
+            experiment_deviation=self.evidence.experiment_deviation, constraints=self.constraints, weights=self.weights,
         )  # fmt: skip
 
     def _final_info(self, result: Score, relative: float, controller, named: dict[str, float]) -> dict:
@@ -337,7 +344,14 @@ class DeadTimeTuningEnv(gym.Env):
             "parameter": relative,
             "experiment_time": self.evidence.experiment_time / self.plant.residence_time,
             "features": named,
+            **self._production_info(),
         }
+
+    def _production_info(self) -> dict:
+        """``experiment_deviation`` (``D_exp`` in true ``T_ar``) when production has a price (v0 info otherwise)."""
+        if not self.weights.production:
+            return {}
+        return {"experiment_deviation": self.evidence.experiment_deviation / self.plant.residence_time}
 
     # ------------------------------------------------------------------ rendering
     def render(self) -> np.ndarray | None:
@@ -405,8 +419,9 @@ _SHARED_DOC = """
     scale over ``[p_min, p_max]``: ``p = p_min (p_max/p_min)^((a + 1)/2)``.
 
     ``experiments="agent"``: ``Box(-1, 1, (n + 3,), float32)`` with ``n`` the experiment types
-    (stable plants: closed-loop step, open-loop step, open-loop ramp, relay; integrating plants:
-    closed-loop step, pulse, relay; see :mod:`envs.episode`):
+    (stable plants: closed-loop step, open-loop step, open-loop ramp, relay, and with
+    ``identification="least-squares"`` a PRBS; integrating plants: closed-loop step, pulse, relay;
+    see :mod:`envs.episode`):
 
     | index     | meaning                                                                      |
     |-----------|------------------------------------------------------------------------------|
@@ -421,13 +436,15 @@ _SHARED_DOC = """
     ``Box(-5, 5, (10 + n + 1,), float32)``, every entry dimensionless (identified ``T_ar`` and
     ``K_n`` as units): the ten identified features of :data:`envs.episode.FEATURES` (``tau``,
     ``theta``, ``L_n/T_ar``, ``log10(T_f_bar/T_n)``, ``log10(A/(K_n L_n))``, noise-to-amplitude
-    ratio, relay gain and period, ramp ``T_n/T_ar``, experiment time), 0 where not measured; then
-    the number of runs of each experiment type over the budget, and the total runs over the budget.
+    ratio, relay gain and period, ramp ``T_n/T_ar``, experiment time), 0 where not measured (with
+    ``identification="least-squares"``, three more: :data:`envs.episode.LEAST_SQUARES_FEATURES`);
+    then the number of runs of each experiment type over the budget, and the total runs over the budget.
 
     ## Rewards
     ``r = -cost`` on the step that commits the design, 0 on experiment steps, where
-    (:mod:`envs.analysis.scoring`) ``cost = w_load IAE_load/(|K| T_ar) + w_sp IAE_sp/T_ar + w_exp t_exp/T_ar``
-    on the TRUE plant (``K``, ``T_ar`` true; integrating plants: ``IAE_load/(|K_v| T_ar^2)``),
+    (:mod:`envs.analysis.scoring`) ``cost = w_load IAE_load/(|K| T_ar) + w_sp IAE_sp/T_ar + w_exp t_exp/T_ar
+    + w_prod D_exp/T_ar`` (``D_exp = int |y| dt`` of the true output over the experiments; ``w_prod = 0``
+    by default) on the TRUE plant (``K``, ``T_ar`` true; integrating plants: ``IAE_load/(|K_v| T_ar^2)``),
     capped at 20 when the loop meets the constraints, and ``21 + grade`` when it does not (unstable:
     grade 5; else the sum of the relative violations).  The cost is the one of ``deadtime analyze``
     and :func:`envs.analysis.scoring.score` for the same plant and controller.
@@ -451,17 +468,21 @@ _SHARED_DOC = """
     | `family_config`   | `None`                      | the family's config dataclass (its parameter ranges)      |
     | `noise_std`       | `0.01`                      | measurement noise, relative to a unit output change       |
     | `constraints`     | see class                   | :class:`envs.analysis.scoring.Constraints` or a dict of its fields |
-    | `weights`         | `CostWeights()` (1, 1, 0.01) | :class:`envs.analysis.scoring.CostWeights` or a dict              |
+    | `weights`         | `CostWeights()` (1, 1, 0.01, 0) | :class:`envs.analysis.scoring.CostWeights` or a dict: `load`, `setpoint`, `experiment` (per `T_ar` of experiment), `production` (per unit of `D_exp/T_ar`) |
     | `budget`          | `4`                         | experiments per episode (agent mode)                      |
     | `excursion_limit` | `5.0`                       | output limit that stops an experiment (agent mode)        |
     | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
     | `action`          | `"parameter"` (v1: `"residual"`) | the design parameter's coordinate: `"parameter"`, log scale over the range; `"residual"`, log-linear from the range's ends to the base rule's ``p_0`` at 0; `"robustness"`, the ``Ms`` (delay margin for the MSP) of the loop on the model (:mod:`envs.base_design`) |
     | `design_features` | `False` (v1: `True`)        | append ``log10 p_0`` and the base design's ``Ms`` and delay margin on the other identified model (:mod:`envs.base_design`) |
+    | `identification`  | `"seeds"`                   | `"least-squares"` (PID, FPPI): fixed mode designs from the least-squares fit (Marlin 6.4) of the seeds' open-loop step; agent mode adds a PRBS fitted by least squares, and the latest model experiment decides (:mod:`envs.episode_options`) |
+    | `amplitude_limit` | `None` (none)               | largest experiment amplitude (output units, > 0): agent amplitudes are cut to it, the seeds' experiments run at `min(1, limit)` |
+    | `disturbances`    | `None` (none)               | `{kind: level}` beyond the white noise, kinds `"drift"` (random walk, `level` per `sqrt(T_ar)`) and `"load"` (unmeasured input step during the experiment, `level` of output) (:mod:`envs.identification.disturbances`) |
 
     ## Info
     At reset: ``plant`` (dict), ``features``.  On the final step: ``cost``, ``feasible``, ``score``
     (every figure of :class:`envs.analysis.scoring.Score`), ``plant``, ``model`` (identified), ``controller``,
-    ``parameter`` (relative), ``experiment_time`` (in true ``T_ar``), ``features``.  The wrapper
+    ``parameter`` (relative), ``experiment_time`` (in true ``T_ar``), ``features``; with a
+    ``production`` weight also ``experiment_deviation`` (``D_exp`` in true ``T_ar``).  The wrapper
     ``agents.evaluation.oracle_info.OracleInfo`` adds ``oracle_cost`` and ``oracle_parameter``.
 
     ## Version History

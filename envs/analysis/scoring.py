@@ -8,10 +8,16 @@ static gain (velocity gain ``K_v`` for integrating plants) and ``T_ar`` the true
 * ``J_load = IAE_load/(|K| T_ar)`` (stable) or ``IAE_load/(|K_v| T_ar^2)`` (integrating): a unit
   load step at the plant input moves the output by ``K`` per unit (``K_v t`` when integrating);
 * ``J_setpoint = IAE_setpoint/T_ar``;
-* ``J_experiment = experiment_time/T_ar``.
+* ``J_experiment = experiment_time/T_ar``;
+* ``J_production = D_exp/T_ar`` with ``D_exp = int |y - y_0| dt`` of the true output about its
+  operating point over the experiments (output units; the experiments' amplitudes are relative to a
+  unit change of the output, as the set-point step of ``J_setpoint``): the production the
+  experiments disturb (issue 17.1).
 
 Both IAE terms are invariant to the plant's gain and time scale.  The feasible cost is
-``c = w_load J_load + w_setpoint J_setpoint + w_experiment J_experiment``, capped at
+``c = w_load J_load + w_setpoint J_setpoint + w_experiment J_experiment + w_production J_production``
+(the last two are the cost of the experiments, ``Score.experiment_cost``; ``w_production`` is 0 by
+default, and the term is then left out), capped at
 ``FEASIBLE_CAP`` (a design that bad is useless anyway; the cap keeps the ordering below strict).
 A design that violates a constraint costs ``FEASIBLE_CAP + 1 + grade``: strictly worse than every
 feasible design and graded by how far it violates.  The grade sums the relative violations
@@ -75,11 +81,17 @@ class Constraints:
 
 @dataclass(frozen=True)
 class CostWeights:
-    """Weights of the dimensionless cost terms (see the module docstring)."""
+    """Weights of the dimensionless cost terms (see the module docstring); each >= 0.
+
+    ``experiment`` is the price of one ``T_ar`` of experiment time, ``production`` that of one unit
+    of ``D_exp/T_ar`` (a unit output deviation held for one ``T_ar``: a ``production`` of 1 prices a
+    disturbed ``T_ar`` like the set-point IAE of a loop that takes one ``T_ar`` to respond).
+    """
 
     load: float = 1.0
     setpoint: float = 1.0
     experiment: float = 0.01
+    production: float = 0.0
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
@@ -144,10 +156,14 @@ def score(
     controller: Controller,
     *,
     experiment_time: float = 0.0,
+    experiment_deviation: float = 0.0,
     constraints: Constraints = Constraints(),
     weights: CostWeights = CostWeights(),
 ) -> Score:
     """The cost of ``controller`` on the true ``plant`` (see the module docstring).
+
+    ``experiment_time`` and ``experiment_deviation`` (``D_exp``) are those of the experiments that
+    identified the design's model; ``experiment_cost`` prices both.
 
     An infeasible design is not simulated (its cost does not depend on the IAE); its IAE is
     reported as ``inf`` if the loop is unstable and ``nan`` otherwise.  A capped feasible design
@@ -159,6 +175,8 @@ def score(
     relative_dm = margins.delay_margin / reference
     violations = constraint_violations(margins, relative_dm, constraints)
     experiment_cost = weights.experiment * experiment_time / scale
+    if weights.production != 0.0:  # without a price of production the v0 cost, bit for bit
+        experiment_cost += weights.production * experiment_deviation / scale
     if violations:
         undefined = math.inf if not margins.stable else math.nan
         return Score(

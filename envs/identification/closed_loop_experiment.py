@@ -120,6 +120,7 @@ def closed_loop_step(
     max_duration: float | None = None,
     *,
     method: str = "compiled",
+    disturbances=None,
 ) -> ClosedLoopStepResult:
     """Set-point step in closed loop, run to steady state, identified by the method of moments.
 
@@ -146,6 +147,8 @@ def closed_loop_step(
     method : {"compiled", "reference"}
         ``"compiled"`` (default) runs the loop in compiled calls; ``"reference"`` runs the readable
         chunked run (see the module docstring), which gives the same result bit for bit, slower.
+    disturbances : Disturbances, optional
+        Drift and load beyond the white noise (:mod:`envs.identification.disturbances`).
 
     Returns
     -------
@@ -173,7 +176,7 @@ def closed_loop_step(
     scale = plant.step_time_scale()
     block = controller.block()  # built once: its delays set dt, then it closes the loop
     dt = _loop_sample_time(plant, block, dt)
-    noise = measurement_noise(rng, noise_std, cap_steps(scale, dt, max_duration))
+    noise = measurement_noise(rng, noise_std, cap_steps(scale, dt, max_duration), disturbances, plant, dt)
     window = window_samples(scale, dt)
     run = _run_closed_loop(plant, controller, amplitude, noise, dt, window, excursion_limit, block=block, method=method)
     return _identify_closed_loop(plant, controller, amplitude, run, window, scale)

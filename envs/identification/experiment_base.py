@@ -72,14 +72,25 @@ def sample_time(plant: Plant, dt: float | None) -> float:
     return require_number(dt, "dt", positive=True)
 
 
-def measurement_noise(rng: np.random.Generator, noise_std: float, steps: int) -> MeasurementNoise:
+def measurement_noise(
+    rng: np.random.Generator, noise_std: float, steps: int, disturbances=None, plant: Plant | None = None,
+    dt: float | None = None,
+) -> MeasurementNoise:  # fmt: skip
     """The noise of one experiment of at most ``steps`` samples, from a child stream seeded by ``rng``.
 
     Draws the child's seed (four 32-bit integers) from ``rng``, and nothing else, whatever
-    ``noise_std`` and however long the experiment runs (see the module docstring).
+    ``noise_std`` and however long the experiment runs (see the module docstring).  With active
+    ``disturbances`` (:class:`envs.identification.disturbances.Disturbances`; they need the ``plant``
+    and ``dt``), the noise is white plus the disturbances, drawn from streams spawned from the same
+    seed (:class:`envs.identification.disturbances.DisturbedNoise`): the white part is unchanged.
     """
     seed = rng.integers(0, 2**32, size=4, dtype=np.uint64)
-    return MeasurementNoise(noise_std, steps, np.random.Generator(np.random.PCG64(seed)))
+    white = MeasurementNoise(noise_std, steps, np.random.Generator(np.random.PCG64(seed)))
+    if disturbances is None or not disturbances.active:
+        return white
+    from envs.identification.disturbances import DisturbedNoise
+
+    return DisturbedNoise(white, seed, disturbances, plant, dt, plant.step_time_scale())
 
 
 class MeasurementNoise:

@@ -202,6 +202,8 @@ def open_loop_step(
     dt: float | None = None,
     excursion_limit: float | None = None,
     max_duration: float | None = None,
+    *,
+    disturbances=None,
 ) -> OpenLoopStepResult:
     """Open-loop step of height ``h``: ``T_n`` (eq. 11), then on to steady state for ``T_f_bar``.
 
@@ -215,7 +217,7 @@ def open_loop_step(
         Step height ``h`` (non-zero).
     residence_time, gain : float
         ``T_ar`` and ``K_n`` from experiment 1 (:func:`closed_loop_step`).
-    noise_std, dt, excursion_limit, max_duration
+    noise_std, dt, excursion_limit, max_duration, disturbances
         As in :func:`closed_loop_step`.
 
     Returns
@@ -240,7 +242,7 @@ def open_loop_step(
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     dt, scale = sample_time(plant, dt), plant.step_time_scale()
     steps = cap_steps(scale, dt, max_duration, minimum=2.0 * residence_time)
-    noise = measurement_noise(rng, noise_std, steps)
+    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt)
     window = window_samples(residence_time, dt)
     start = math.ceil(snap_to_integer(2.0 * residence_time / dt))
     run = _run_to_steady_state(plant, np.full(steps, height), noise, dt, window, start, excursion_limit)
@@ -332,6 +334,8 @@ def open_loop_ramp(
     noise_std: float = 0.0,
     dt: float | None = None,
     excursion_limit: float | None = None,
+    *,
+    disturbances=None,
 ) -> OpenLoopRampResult:
     """Open-loop ramp of rate ``h`` for ``T_ar``: ``T_n`` by Ingimundarson eq. 12.
 
@@ -355,7 +359,7 @@ def open_loop_ramp(
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     dt, scale = sample_time(plant, dt), plant.step_time_scale()
     steps = int(math.ceil(residence_time / dt - 1e-9)) + 1
-    noise = measurement_noise(rng, noise_std, steps).first(steps)  # the ramp runs to its end
+    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt).first(steps)  # the ramp runs to its end
     y = open_loop_response(_with_input_integrator(plant.state_space()), plant.dead_time, np.full(steps, rate), dt)
     t = np.arange(steps) * dt
     abort = excursion_index(y, excursion_limit)
@@ -426,6 +430,8 @@ def open_loop_pulse(
     dt: float | None = None,
     excursion_limit: float | None = None,
     max_duration: float | None = None,
+    *,
+    disturbances=None,
 ) -> OpenLoopPulseResult:
     """Pulse of height ``h_p`` and duration ``tau_p`` into an integrating plant; ``A`` of eq. 46.
 
@@ -437,7 +443,7 @@ def open_loop_pulse(
         ``h_p`` (non-zero) and ``tau_p`` (> 0).
     gain, dead_time : float
         ``K_n`` (velocity gain) and ``L_n`` of the two-parameter model, from experiment 1.
-    noise_std, dt, excursion_limit, max_duration
+    noise_std, dt, excursion_limit, max_duration, disturbances
         As in :func:`closed_loop_step`; ``dt`` is shrunk so that ``tau_p`` is a whole number of samples.
 
     Notes
@@ -458,7 +464,7 @@ def open_loop_pulse(
     pulse_samples = max(int(round(duration / sample_time(plant, dt))), 1)
     dt = duration / pulse_samples
     steps = cap_steps(scale, dt, max_duration, minimum=3.0 * (duration + model.dead_time))
-    noise = measurement_noise(rng, noise_std, steps)
+    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt)
     inputs = np.zeros(steps)  # np.where(np.arange(steps) < pulse_samples, height, 0.0), without the index array
     inputs[:pulse_samples] = height
     window = window_samples(max(model.dead_time, duration), dt)

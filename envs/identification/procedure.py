@@ -18,7 +18,7 @@ too).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
 from envs.identification.open_loop_experiments import OpenLoopPulseResult, OpenLoopStepResult, open_loop_pulse, open_loop_step
 from envs.systems.plants import Plant
 
-__all__ = ["Identification", "identify", "PULSE_LENGTH"]
+__all__ = ["Identification", "identify", "experiment_deviation", "usable_closed_loop", "PULSE_LENGTH"]
 
 PULSE_LENGTH = 1.0 / 3.0  # tau_p / L_n
 
@@ -58,6 +58,10 @@ class Identification:
         Total duration of the experiments, in the plant's time units.
     closed_loop, open_loop : experiment results
         The raw experiments (signals included).
+    experiment_deviation : float
+        ``D_exp = int |y| dt`` of the true output over the experiments (output units times time
+        units): the production the experiments disturb (:func:`experiment_deviation`); 0 unless
+        asked for (``identify(..., deviation=True)``).
     """
 
     integrating: bool
@@ -71,6 +75,7 @@ class Identification:
     experiment_time: float
     closed_loop: ClosedLoopStepResult
     open_loop: OpenLoopStepResult | OpenLoopPulseResult
+    experiment_deviation: float = 0.0
 
     @property
     def relative_experiment_time(self) -> float:
@@ -78,25 +83,66 @@ class Identification:
         return self.experiment_time / self.residence_time
 
 
-def identify(plant: Plant, rng: np.random.Generator, noise_std: float = 0.0) -> Identification:
+def experiment_deviation(result) -> float:
+    """``int |y - y_0| dt`` of an experiment's true output ``y`` about its operating point ``y_0 = 0``
+    (trapezoidal rule on its samples): the deviation of production that the experiment causes."""
+    y, t = np.abs(result.true_output), result.timepts
+    if y.size < 2:
+        return 0.0
+    step = float(t[1] - t[0])
+    if abs(float(t[-1] - t[0]) - step * (t.size - 1)) <= 1e-9 * float(t[-1] - t[0]):  # the experiments' uniform grid
+        return step * (float(y.sum()) - 0.5 * float(y[0] + y[-1]))  # the trapezoids, without their temporaries
+    return float(np.trapezoid(y, t))
+
+
+def identify(
+    plant: Plant, rng: np.random.Generator, noise_std: float = 0.0, *, amplitude: float = 1.0, disturbances=None,
+    attempts: int = 1, deviation: bool = False,
+) -> Identification:  # fmt: skip
     """Run the seeds' procedure on the true ``plant`` (see the module docstring).
+
+    ``amplitude`` scales both experiments (a rise ``a`` of the output instead of 1); ``disturbances``
+    (:class:`envs.identification.disturbances.Disturbances`) adds drift or load to their measurements;
+    ``attempts`` closed-loop steps at most are run until one identifies a usable model (a drift or a
+    load can spoil one), each charged (time and deviation); ``deviation``: compute
+    ``experiment_deviation`` (else 0; the cost reads it only when production has a price).
 
     Raises
     ------
     ValueError
-        If the closed-loop experiment fails to identify a usable gain and residence time
-        (e.g. it was aborted).
+        If no closed-loop experiment identifies a usable gain and residence time (e.g. it was
+        aborted).
     """
-    first = closed_loop_step(plant, rng, amplitude=1.0, noise_std=noise_std)
-    if not (np.isfinite(first.gain) and first.gain != 0 and np.isfinite(first.residence_time) and first.residence_time > 0):
+    spent = lost = 0.0
+    for attempt in range(attempts):
+        first = closed_loop_step(plant, rng, amplitude=amplitude, noise_std=noise_std, disturbances=disturbances)
+        if usable_closed_loop(first):
+            break
+        spent, lost = spent + first.duration, lost + (experiment_deviation(first) if deviation else 0.0)
+    else:
         raise ValueError(f"the closed-loop step identified no usable model (gain {first.gain}, T_ar {first.residence_time})")
-    height = 1.0 / first.gain  # a unit rise of the output, whatever the sign of the gain
+    found = _second_experiment(plant, rng, noise_std, amplitude, disturbances, first)
+    if deviation:
+        found = replace(found, experiment_deviation=experiment_deviation(first) + experiment_deviation(found.open_loop) + lost)
+    if attempt == 0:
+        return found
+    return replace(found, experiment_time=found.experiment_time + spent)
+
+
+def usable_closed_loop(first: ClosedLoopStepResult) -> bool:
+    """Whether a closed-loop step identified a finite non-zero gain and a positive residence time."""
+    return bool(np.isfinite(first.gain) and first.gain != 0 and np.isfinite(first.residence_time) and first.residence_time > 0)
+
+
+def _second_experiment(plant: Plant, rng, noise_std: float, amplitude: float, disturbances, first) -> Identification:
+    height = amplitude / first.gain  # a rise of the output by the amplitude, whatever the sign of the gain
     if plant.integrating:
         model = first.integrating_model
         duration = PULSE_LENGTH * model.dead_time
         second = open_loop_pulse(
-            plant, rng, height / duration, duration, model.gain, model.dead_time, noise_std=noise_std
-        )  # the pulse raises the output by about 1: K_n h_p tau_p = 1
+            plant, rng, height / duration, duration, model.gain, model.dead_time, noise_std=noise_std,
+            disturbances=disturbances,
+        )  # the pulse raises the output by about the amplitude: K_n h_p tau_p = a
         return Identification(
             integrating=True,
             gain=model.gain,
@@ -110,7 +156,8 @@ def identify(plant: Plant, rng: np.random.Generator, noise_std: float = 0.0) -> 
             closed_loop=first,
             open_loop=second,
         )
-    second = open_loop_step(plant, rng, height, first.residence_time, first.gain, noise_std=noise_std)
+    second = open_loop_step(plant, rng, height, first.residence_time, first.gain, noise_std=noise_std,
+                            disturbances=disturbances)
     return Identification(
         integrating=False,
         gain=first.gain,

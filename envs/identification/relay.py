@@ -84,6 +84,8 @@ def relay_feedback(
     excursion_limit: float | None = None,
     max_duration: float | None = None,
     period_tolerance: float = 1e-3,
+    *,
+    disturbances=None,
 ) -> RelayResult:
     """Relay feedback around the plant until the oscillation is periodic: ``T_u`` and ``K_u``.
 
@@ -114,7 +116,7 @@ def relay_feedback(
         Relay amplitude ``d`` (> 0).
     hysteresis : float
         ``epsilon >= 0``, in output units.
-    noise_std, excursion_limit, max_duration
+    noise_std, excursion_limit, max_duration, disturbances
         As in :func:`closed_loop_step`.
     dt : float, optional
         Sample time; default ``T/SAMPLES_PER_RESIDENCE_TIME``, at most ``L/20`` (but not below
@@ -137,7 +139,7 @@ def relay_feedback(
     period_tolerance = require_number(period_tolerance, "period_tolerance", positive=True)
     dt, scale = _relay_sample_time(plant, dt), plant.step_time_scale()
     steps = cap_steps(scale, dt, max_duration)
-    noise = measurement_noise(rng, noise_std, steps)
+    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt)
     values = noise.first(NOISE_BLOCK).tolist()
     sign = 1.0 if plant.gain > 0 else -1.0
     relay = _RelaySimulation(plant, dt, amplitude * sign, hysteresis, values[0])

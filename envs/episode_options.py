@@ -1,0 +1,112 @@
+"""The optional settings of an episode's experiments, beyond those of the ``-v0`` environments.
+
+:class:`EpisodeOptions` holds the environment arguments that change how an episode identifies its
+plant; its defaults are exactly the ``-v0`` behaviour, so an environment made without them is
+unchanged bit for bit (``tests/regression``).  The :class:`~envs.episode.Evidence` of an episode
+carries its options, so that :func:`envs.episode.run_experiment`, :func:`envs.episode.features` and
+:func:`envs.episode.identification` read them from it.
+
+Each bad value raises one ``ValueError`` that names the environment argument.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from envs.identification.disturbances import Disturbances
+from envs.validation import require_number
+
+__all__ = ["IDENTIFICATIONS", "EpisodeOptions", "DEFAULT_OPTIONS"]
+
+IDENTIFICATIONS: tuple[str, ...] = ("seeds", "least-squares")
+"""``identification`` values: the seeds' formulas (moments, areas), or the least-squares fit of
+Marlin section 6.4 (:mod:`envs.identification.least_squares`) of the open-loop records."""
+
+_ORDERS = {"pid": 2, "fppi": 1}  # the least-squares model each structure's design reads: SOPDT, FOPDT
+
+
+@dataclass(frozen=True)
+class EpisodeOptions:
+    """Identification settings of an episode.
+
+    Attributes
+    ----------
+    identification : {"seeds", "least-squares"}
+        ``"least-squares"``: records are fitted by
+        :func:`~envs.identification.least_squares.least_squares_fit` (instrumental variables, dead
+        times up to the identified ``T_ar``): in fixed mode the seeds' open-loop step, whose fit the
+        design reads; in agent mode the new experiment ``"prbs"``, and the design reads the model of
+        the latest experiment that gives one (a PRBS by least squares, or the seeds' experiments by
+        their formulas), so that the agent chooses the identification; three features are added
+        (:data:`envs.episode.LEAST_SQUARES_FEATURES`).
+    order : {1, 2}
+        Order of the least-squares model: 1 (FOPDT, the FPPI's model) or 2 (SOPDT, the PID's).
+    amplitude_limit : float
+        The largest amplitude ``a`` an experiment may ask for (output units, > 0; default ``inf``):
+        agent-mode amplitudes above it are cut to it, and the seeds' procedure and the experiments
+        a commit completes run at ``min(1, amplitude_limit)``.
+    disturbances : Disturbances
+        Drift and load in every experiment beyond the white noise (default none;
+        :mod:`envs.identification.disturbances`).
+    production : bool
+        Whether the experiments' deviation ``D_exp`` is tracked (production has a price; the
+        ``production`` weight of :class:`envs.analysis.scoring.CostWeights` is not 0).
+    """
+
+    identification: str = "seeds"
+    order: int = 1
+    amplitude_limit: float = math.inf
+    disturbances: Disturbances = field(default_factory=Disturbances)
+    production: bool = False
+
+    def __post_init__(self) -> None:
+        if self.identification not in IDENTIFICATIONS:
+            raise ValueError(f"identification must be one of {', '.join(IDENTIFICATIONS)}, got {self.identification!r}")
+        if self.order not in (1, 2) or isinstance(self.order, bool):
+            raise ValueError(f"order must be 1 or 2, got {self.order!r}")
+
+    @property
+    def least_squares(self) -> bool:
+        return self.identification == "least-squares"
+
+    @property
+    def seed_amplitude(self) -> float:
+        """The amplitude of the seeds' experiments: 1, or the amplitude limit if smaller."""
+        return min(1.0, self.amplitude_limit)
+
+    def limited(self, amplitude: float) -> float:
+        """``amplitude`` cut to the amplitude limit."""
+        return min(amplitude, self.amplitude_limit)
+
+    @classmethod
+    def for_structure(
+        cls, structure: str, *, identification: str = "seeds", amplitude_limit: float | None = None,
+        disturbances=None, production: bool = False,
+    ) -> EpisodeOptions:  # fmt: skip
+        """The options of an environment of ``structure`` (``"pid"``, ``"fppi"`` or ``"msp"``), from its
+        arguments (``amplitude_limit=None`` is no limit; ``disturbances`` a mapping ``{kind: level}``).
+
+        Raises
+        ------
+        ValueError
+            For a bad value, naming the argument; ``identification="least-squares"`` or a ``load``
+            disturbance for the MSP (its plants integrate: the fits are FOPDT and SOPDT models, and a
+            lasting load makes the integral of the input grow without end).
+        """
+        if identification not in IDENTIFICATIONS:
+            raise ValueError(f"identification must be one of {', '.join(IDENTIFICATIONS)}, got {identification!r}")
+        if identification == "least-squares" and structure not in _ORDERS:
+            raise ValueError("identification='least-squares' needs self-regulating plants (FOPDT and SOPDT fits); "
+                             f"the {structure.upper()} environment's plants integrate")
+        limit = math.inf if amplitude_limit is None else require_number(amplitude_limit, "amplitude_limit", positive=True)
+        found = Disturbances.from_argument(disturbances, "disturbances")
+        if found.load > 0 and structure not in _ORDERS:
+            raise ValueError("disturbances['load'] needs self-regulating plants: under a lasting load the integral of "
+                             f"the input of the {structure.upper()} environment's integrating plants grows without end, "
+                             "and the closed-loop step identifies no model")
+        return cls(identification=identification, order=_ORDERS.get(structure, 1), amplitude_limit=limit,
+                   disturbances=found, production=bool(production))
+
+
+DEFAULT_OPTIONS = EpisodeOptions()
