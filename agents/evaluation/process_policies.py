@@ -67,14 +67,13 @@ def agent_observation(found: ProcessIdentification, budget: int) -> np.ndarray:
 
 
 def _rule(process, found, protocol, name: str) -> ProcessPolicyResult:
-    from agents.evaluation.run import _relative_parameter
     from baselines.rules.registry import RuleInputs, get_rule
 
     rule = get_rule(name)
     try:
         inputs = RuleInputs.from_identification(found.identification)
         controller = rule(inputs)
-        parameter = _relative_parameter(rule, inputs)
+        parameter = rule.relative_parameter(inputs)
         return ProcessPolicyResult(name, "rule", controller, parameter, process_score(process, controller, found, protocol))
     except ValueError as error:
         return ProcessPolicyResult(name, "rule", error=str(error))

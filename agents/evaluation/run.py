@@ -184,21 +184,6 @@ def _finite(x: Any) -> float | None:
     return float(x) if x is not None and math.isfinite(float(x)) else None
 
 
-_STRUCTURE_OF = {"pid-series": "pid", "fppi": "fppi", "msp": "msp"}
-
-
-def _relative_parameter(rule: Any, inputs: Any) -> float | None:
-    """A ``mu``/``T_r`` rule's parameter made dimensionless as the agent's and the oracle's:
-    ``mu``, ``T_r/T_n`` (FOPDT model) or ``T_r/L_n`` (two-parameter model); None for the full PI/PID rules."""
-    from envs.design import relative_scale
-
-    if rule.parameter is None:
-        return None
-    structure = _STRUCTURE_OF[rule.controller]
-    model = {"pid": inputs.sopdt, "fppi": inputs.fopdt, "msp": inputs.integrating_model}[structure]
-    return rule.parameter(inputs) / relative_scale(structure, model)
-
-
 def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
     from baselines.rules.registry import RuleInputs, get_rule
 
@@ -206,7 +191,7 @@ def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
     try:
         inputs = RuleInputs.from_identification(env.unwrapped.identification)
         controller = rule(inputs)
-        parameter = _relative_parameter(rule, inputs)
+        parameter = rule.relative_parameter(inputs)
         score = env.unwrapped.score_controller(controller)
     except ValueError as error:
         return PolicyResult.failed(error, experiment_time)

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (registers the ids)
-from agents.evaluation.run import _relative_parameter
 from baselines.rules.registry import RuleInputs, get_rule
 from envs.analysis.robustness import loop_margins
 from envs.simulation.loops import loop_response
@@ -35,7 +34,7 @@ def test_base_parameter_is_the_base_rule_and_action_zero_plays_it(structure):
         env.reset(seed=seed)
         inputs = RuleInputs.from_identification(env.identification)
         rule = get_rule(BASE_RULES[structure])
-        assert base_parameter(structure, env.identification) == pytest.approx(_relative_parameter(rule, inputs), rel=1e-12)
+        assert base_parameter(structure, env.identification) == pytest.approx(rule.relative_parameter(inputs), rel=1e-12)
         info = env.step(np.zeros(1, dtype=np.float32))[4]
         assert info["cost"] == pytest.approx(float(env.score_controller(rule(inputs)).cost), rel=1e-12)
 
@@ -116,7 +115,7 @@ def test_robustness_action_is_the_matched_rule(structure, rule, target):
     for seed in range(5):
         env.reset(seed=seed)
         inputs = RuleInputs.from_identification(env.identification)
-        assert env.parameter_from_action(a) == pytest.approx(_relative_parameter(get_rule(rule), inputs), rel=1e-9)
+        assert env.parameter_from_action(a) == pytest.approx(get_rule(rule).relative_parameter(inputs), rel=1e-9)
 
 
 def test_robustness_action_meets_its_target_on_the_model():

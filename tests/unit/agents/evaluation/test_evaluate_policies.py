@@ -72,13 +72,12 @@ def test_bad_policies_are_named(text, message):
 
 def test_rule_parameters_are_dimensionless_like_the_oracles():
     """``mu`` as is; ``T_r`` over ``T_n`` (FPPI) or ``L_n`` (MSP); none for the full PI/PID rules."""
-    from agents.evaluation.run import _relative_parameter
     from baselines.rules.registry import RuleInputs, get_rule
     from envs.identification.models import FOPDTModel, IntegratingModel
 
     stable = RuleInputs.from_model(FOPDTModel(gain=2.0, time_constant=4.0, dead_time=1.0))
-    assert _relative_parameter(get_rule("gorez-klan-mu-2"), stable) == pytest.approx(get_rule("gorez-klan-mu-2").parameter(stable))
-    assert _relative_parameter(get_rule("ppi-kappa1"), stable) == pytest.approx(1.0)  # T_r = T_n
-    assert _relative_parameter(get_rule("simc-pi"), stable) is None
+    assert get_rule("gorez-klan-mu-2").relative_parameter(stable) == pytest.approx(get_rule("gorez-klan-mu-2").parameter(stable))
+    assert get_rule("ppi-kappa1").relative_parameter(stable) == pytest.approx(1.0)  # T_r = T_n
+    assert get_rule("simc-pi").relative_parameter(stable) is None
     integrating = RuleInputs.from_model(IntegratingModel(gain=0.5, dead_time=3.0))
-    assert _relative_parameter(get_rule("msp-eq50"), integrating) == pytest.approx(0.5)  # T_r/L_n = 2*0.2/0.8
+    assert get_rule("msp-eq50").relative_parameter(integrating) == pytest.approx(0.5)  # T_r/L_n = 2*0.2/0.8
