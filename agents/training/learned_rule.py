@@ -78,10 +78,12 @@ def check_environment(config: LearnedRuleConfig) -> Any:
 
     env = _refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
     shape = tuple(getattr(env.action_space, "shape", None) or ())
-    if shape != (1,) or not hasattr(env.unwrapped, "action_from_parameter"):
+    mappings = all(hasattr(env.unwrapped, name) for name in ("action_from_parameter", "parameter_from_action"))
+    if shape != (1,) or not mappings:
         env.close()
-        raise ValueError(f"env_kwargs: the learned rule needs a one-component action with action_from_parameter (fixed "
-                         f"mode); {config.env_id} with env_kwargs {dict(config.env_kwargs)} has an action of shape {shape}")
+        raise ValueError(f"env_kwargs: the learned rule needs a one-component action (fixed mode) and the environment's "
+                         f"action_from_parameter and parameter_from_action; {config.env_id} with env_kwargs "
+                         f"{dict(config.env_kwargs)} has an action of shape {shape}")
     return env
 
 
@@ -120,7 +122,7 @@ def _cached_chunk(path: Path, seeds: list[int]) -> list[dict[str, Any]]:
     if not path.is_file():
         return []
     try:
-        records = json.loads(path.read_text())
+        records = json.loads(path.read_text())[: len(seeds)]
         if [record["seed"] for record in records] == seeds[: len(records)]:
             return records
     except (ValueError, KeyError, TypeError):
@@ -141,7 +143,7 @@ def training_data(env: Any, config: LearnedRuleConfig, run_dir: Path) -> tuple[l
             indices = range(first, min(first + CHUNK, config.training_plants))
             seeds = [training_seed(config.seed, k) for k in indices]
             path = _chunk_path(run_dir, first)
-            chunk = _cached_chunk(path, seeds)[: len(seeds)]
+            chunk = _cached_chunk(path, seeds)
             bar.update(len(chunk))
             if len(chunk) < len(seeds):
                 for k, seed in list(zip(indices, seeds))[len(chunk):]:
@@ -153,6 +155,15 @@ def training_data(env: Any, config: LearnedRuleConfig, run_dir: Path) -> tuple[l
     return records, labelled
 
 
+def _labels_kept(config: LearnedRuleConfig, run_dir: Path) -> int:
+    """How many training plants' labels the run directory holds (for the line after an interruption)."""
+    kept = 0
+    for first in range(0, config.training_plants, CHUNK):
+        seeds = [training_seed(config.seed, k) for k in range(first, min(first + CHUNK, config.training_plants))]
+        kept += len(_cached_chunk(_chunk_path(run_dir, first), seeds))
+    return kept
+
+
 # ----------------------------------------------------------------------------------- the fit
 def _directions(records: list[dict[str, Any]]) -> float:
     found = {record["direction"] for record in records}
@@ -160,6 +171,20 @@ def _directions(records: list[dict[str, Any]]) -> float:
         raise ValueError("the environment's conservative direction of the action (from parameter_from_action) changes "
                          "between episodes; the learned rule's margin needs one direction")
     return float(found.pop())
+
+
+class _Remembered:
+    """A fitted regression that remembers its predictions by input, so that the margins of one model
+    kind share them on the validation plants (the trees' prediction of one row costs milliseconds)."""
+
+    def __init__(self, model: Any) -> None:
+        self.model, self.seen = model, {}
+
+    def predict(self, rows: np.ndarray) -> np.ndarray:
+        key = (rows.shape, rows.tobytes())
+        if key not in self.seen:
+            self.seen[key] = self.model.predict(rows)
+        return self.seen[key]
 
 
 def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], run_dir: Path) -> tuple[Any, Any, Any]:
@@ -171,8 +196,8 @@ def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], 
     actions = np.array([record["action"] for record in records])
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
     direction = _directions(records)
-    rules = [LearnedRule(kind, fit_regression(kind, observations, actions, config.seed), 0.0, direction, low, high,
-                         observations.shape[1]) for kind in config.models]
+    rules = [LearnedRule(kind, _Remembered(fit_regression(kind, observations, actions, config.seed)), 0.0, direction, low,
+                         high, observations.shape[1]) for kind in config.models]
     plants = validation_plants(env, config.validation_plants)
     if plants is not None:
         write_json(run_dir / "validation_plants.json",
@@ -185,7 +210,8 @@ def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], 
         return result.mean_cost
 
     selection = select(rules, config.margins, validation_cost)
-    return selection, results[(selection.rule.kind, selection.rule.margin)], plants
+    chosen = dataclasses.replace(selection.rule, model=selection.rule.model.model)
+    return dataclasses.replace(selection, rule=chosen), results[(chosen.kind, chosen.margin)], plants
 
 
 def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None = None) -> Any:
@@ -217,15 +243,16 @@ def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None 
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         write_text(run_dir / "config.yaml", text)
-        started = time.perf_counter()
+        started, cpu_started = time.perf_counter(), time.process_time()
         records, labelled = training_data(env, config, run_dir)
-        labels_done = time.perf_counter()
+        labels_done, cpu_labels_done = time.perf_counter(), time.process_time()
         selection, validation, _ = _select(env, config, records, run_dir)
     finally:
         env.close()
-    seconds = {"labels": labels_done - started, "fit_and_selection": time.perf_counter() - labels_done}
+    seconds = {"labels": labels_done - started, "fit_and_selection": time.perf_counter() - labels_done,
+               "labels_cpu": cpu_labels_done - cpu_started, "fit_and_selection_cpu": time.process_time() - cpu_labels_done}
     _write_outputs(config, run_dir, selection, validation, provenance, seconds, labelled)
-    total = sum(seconds.values())
+    total = seconds["labels"] + seconds["fit_and_selection"]
     return TrainResult(run_dir=run_dir, num_timesteps=config.training_plants, session_steps=labelled, train_seconds=total,
                        steps_per_second=labelled / total if labelled else float("nan"),
                        best_cost=validation.mean_cost, final_cost=validation.mean_cost)
@@ -293,7 +320,7 @@ def run(config: LearnedRuleConfig, *, resume: bool, command: str) -> int:
         result = fit(config, resume=resume, command=command)
     except KeyboardInterrupt:
         run_dir = run_directory(config)
-        kept = len(list((run_dir / "dataset").glob("training-*.json"))) * CHUNK
+        kept = _labels_kept(config, run_dir)
         print(f"\ninterrupted; {kept} labelled training plants are kept in {run_dir / 'dataset'}; continue with: "
               f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
         return 130

@@ -234,3 +234,36 @@ def test_a_damaged_model_file_is_named(fitted: dict, tmp_path: Path, capsys) -> 
     lines = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(lines) == 1, lines
     assert f"{run_dir / 'learned_rule.pkl'} is damaged or missing" in lines[0]
+
+
+@pytest.mark.slow
+def test_ctrl_c_keeps_the_labels_written_and_resume_labels_only_the_rest(tmp_path: Path) -> None:
+    """A fit interrupted by SIGINT while labelling exits 130 with one line saying how many labels are
+    kept and how to continue; the continued fit labels only the others."""
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    run_dir = tmp_path / "run"
+    environment = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    command = [sys.executable, "-m", "agents.cli", "train", "--config", str(CONFIG), "--env", ENV, "--out", str(run_dir),
+               "training_plants=400", "validation_plants=2", "margins=[0.1]", "models=[ridge-quadratic]", "progress_bar=false"]
+    process = subprocess.Popen(command, cwd=ROOT, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while not (run_dir / "dataset" / "training-000000.json").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=300)
+    assert process.returncode == 130, err[-2000:]
+    found = re.search(r"interrupted; (\d+) labelled training plants are kept in .*; continue with: deadtime train --out "
+                      rf"{re.escape(str(run_dir))} --resume", err)
+    assert found, err[-2000:]
+    kept = int(found.group(1))
+    assert 50 <= kept < 400
+    done = subprocess.run([sys.executable, "-m", "agents.cli", "train", "--out", str(run_dir), "--resume"], cwd=ROOT,
+                          env=environment, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert f"400 training plants ({400 - kept} labelled by the oracle in this session" in done.stdout
