@@ -47,12 +47,15 @@ import sys
 import time
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from agents.training.files import write_json, write_text
 from agents.training.learned_rule_config import MAX_TRAINING_PLANTS, LearnedRuleConfig
+
+if TYPE_CHECKING:
+    from agents.training.train import TrainResult
 
 __all__ = ["CHUNK", "TRAINING_SEED", "check_environment", "fit", "run", "training_seed"]
 
@@ -214,7 +217,7 @@ def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], 
     return dataclasses.replace(selection, rule=chosen), results[(chosen.kind, chosen.margin)], plants
 
 
-def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None = None) -> Any:
+def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None = None) -> TrainResult:
     """Fit the learned rule of ``config`` in its run directory (module docstring); a
     :class:`agents.training.train.TrainResult` whose steps are the training plants and whose costs are
     the chosen rule's mean validation cost.
@@ -258,7 +261,7 @@ def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None 
                        best_cost=validation.mean_cost, final_cost=validation.mean_cost)
 
 
-def _existing_run(config: LearnedRuleConfig, run_dir: Path, resume: bool) -> Any:
+def _existing_run(config: LearnedRuleConfig, run_dir: Path, resume: bool) -> TrainResult | None:
     """Check (reading only) that the run directory fits; the finished result if it holds this very fit."""
     from agents.training.config import load_config
     from agents.training.train import TrainResult

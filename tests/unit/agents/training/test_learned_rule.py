@@ -267,3 +267,53 @@ def test_ctrl_c_keeps_the_labels_written_and_resume_labels_only_the_rest(tmp_pat
                           env=environment, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert f"400 training plants ({400 - kept} labelled by the oracle in this session" in done.stdout
+
+
+def _flipped_env(**kwargs):
+    """A stand-in for a new environment version: FPPI-v0 with the action coordinate reversed (the
+    parameter falls as the action grows) and one more observation entry."""
+    from gymnasium import spaces
+
+    from envs.tuning_env import FPPIEnv
+
+    class Flipped(FPPIEnv):
+        def __init__(self, **kwargs) -> None:
+            super().__init__(**kwargs)
+            self.observation_space = spaces.Box(-5.0, 5.0, (self.observation_space.shape[0] + 1,), np.float32)
+
+        def parameter_from_action(self, action: float) -> float:
+            return super().parameter_from_action(-float(action))
+
+        def action_from_parameter(self, parameter: float) -> float:
+            return -super().action_from_parameter(parameter)
+
+        def _observation_and_features(self):
+            observation, named = super()._observation_and_features()
+            return np.append(observation, np.float32(0.5)), named
+
+    return Flipped(**kwargs)
+
+
+def test_another_action_coordinate_and_observation_are_learned_generically(tmp_path: Path, capsys) -> None:
+    """Only the environment's interface is used: a reversed action gets its margin the other way."""
+    import gymnasium
+
+    from agents.training.learned_rule_policy import load_learned_rule
+
+    gymnasium.register(id="Test/FlippedFPPI-v0", entry_point=_flipped_env)
+    try:
+        run_dir = tmp_path / "run"
+        code = main(["train", "--config", str(CONFIG), "--env", "Test/FlippedFPPI-v0", "--out", str(run_dir), *SMALL,
+                     "training_plants=10", "models=[ridge-quadratic]"])
+        assert code == 0, capsys.readouterr().err
+        size = gymnasium.make(ENV).observation_space.shape[0] + 1
+        manifest = json.loads((run_dir / "learned_rule.json").read_text())
+        assert (manifest["direction"], manifest["observation_size"]) == (-1.0, size)
+        records = _records(run_dir)
+        assert all(r["direction"] == -1.0 and len(r["observation"]) == size and r["observation"][-1] == 0.5 for r in records)
+        policy = load_learned_rule(run_dir)
+        observations = np.array([r["observation"] for r in records])
+        shifted = np.clip(policy.rule.regression(observations) - manifest["margin"], -1, 1).astype(np.float32)
+        np.testing.assert_array_equal(policy.predict(observations)[0][:, 0], shifted)
+    finally:
+        del gymnasium.registry["Test/FlippedFPPI-v0"]
