@@ -28,7 +28,9 @@ Model kinds
 ``quantile-boosting``
     The same trees on the pinball loss of the :data:`QUANTILE` quantile (Koenker and Bassett,
     Econometrica 46, 1978): an estimate of the action below which the oracle's lies on that share
-    of the plants like this one, i.e. a conservative fit before any margin.
+    of the plants like this one, i.e. a conservative fit before any margin, more conservative where
+    the oracle's action is harder to predict.  On the three fixed-mode environments it needs a
+    smaller margin and costs less than ``boosting`` with its best margin.
 """
 
 from __future__ import annotations
@@ -44,8 +46,12 @@ __all__ = ["MODEL_KINDS", "QUANTILE", "LearnedRule", "Selection", "fit_regressio
 MODEL_KINDS: tuple[str, ...] = ("ridge-quadratic", "boosting", "quantile-boosting")
 """The regressions of :func:`fit_regression` (module docstring, "Model kinds")."""
 
-QUANTILE = 0.75
-"""The quantile of the oracle's action that ``quantile-boosting`` estimates."""
+QUANTILE = 0.9
+"""The quantile of the oracle's action that ``quantile-boosting`` estimates.  Chosen among 0.75, 0.85,
+0.9, 0.95 and 0.98 by the mean cost at the best margin, on the validation plants and by 5-fold
+cross-validation on 1000 training plants, in each of ``PID-v0``, ``FPPI-v0`` and ``MSP-v0``
+(seed 0): 0.9 and 0.95 were best or within 0.1 of the best everywhere, 0.75 and 0.98 worse; 0.9
+is the less extreme estimate of the two."""
 
 RIDGE_PENALTIES = np.logspace(-4, 3, 15)
 """The ridge penalties among which leave-one-out cross-validation chooses."""

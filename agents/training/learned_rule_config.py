@@ -63,9 +63,9 @@ class LearnedRuleConfig:
     seed: int = 0
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
     training_plants: int = 1000
-    validation_plants: int = 200
+    validation_plants: int = 500
     margins: tuple[float, ...] = DEFAULT_MARGINS
-    models: tuple[str, ...] = ("ridge-quadratic", "boosting", "quantile-boosting")
+    models: tuple[str, ...] = ("boosting", "quantile-boosting")
     output_dir: str | None = None
     progress_bar: bool = True
 

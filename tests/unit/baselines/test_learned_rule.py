@@ -3,10 +3,12 @@ direction, clipping, the choice of model and margin, bad input."""
 
 from __future__ import annotations
 
+from statistics import NormalDist
+
 import numpy as np
 import pytest
 
-from baselines.learned_rule import MODEL_KINDS, LearnedRule, fit_regression, select
+from baselines.learned_rule import MODEL_KINDS, QUANTILE, LearnedRule, fit_regression, select
 
 
 def _data(n: int = 400, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -22,8 +24,9 @@ def test_each_kind_learns_a_smooth_map(kind: str) -> None:
     fresh, truth = _data(200, seed=1)
     model = fit_regression(kind, observations, actions)
     error = model.predict(fresh) - truth
-    # the noise has sd 0.05; the quantile fit sits above the mean by about 0.67 sd
-    bias = 0.034 if kind == "quantile-boosting" else 0.0
+    # the noise has sd 0.05; the quantile fit sits above the mean by z(QUANTILE) sd (0.064 for 0.9).
+    # Measured on four draws of these data: mean errors within 0.013 of that, sd of the errors 0.05-0.075.
+    bias = NormalDist().inv_cdf(QUANTILE) * 0.05 if kind == "quantile-boosting" else 0.0
     assert abs(float(np.mean(error)) - bias) < 0.03
     assert float(np.sqrt(np.mean((error - error.mean()) ** 2))) < 0.1
 
