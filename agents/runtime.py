@@ -28,7 +28,7 @@ __all__ = ["PACKAGES", "REPO", "THREAD_VARIABLES", "git", "git_commit", "single_
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 """The environment variables of the thread pools of OpenBLAS, OpenMP, MKL and numba."""
 
-PACKAGES = ("numpy", "scipy", "numba", "control", "gymnasium", "stable-baselines3", "torch", "deadtime-gym")
+PACKAGES = ("numpy", "scipy", "numba", "control", "gymnasium", "stable-baselines3", "torch", "scikit-learn", "deadtime-gym")
 """The distributions whose versions a run records."""
 
 REPO = Path(__file__).resolve().parents[1]

@@ -121,8 +121,9 @@ def _given_plants(given: Any, structure: str) -> list[Any]:
     return plants
 
 
-def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) -> dict[str, tuple[Any, Any, str]]:
-    """Each agent with the environment it plays and its cache identity.
+def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) -> tuple[dict[str, tuple[Any, Any, str]], dict[str, str]]:
+    """Each agent (or learned rule) with the environment it plays and its cache identity; and the
+    role of each in the tables.
 
     The agent's environment takes the agent's own keyword arguments (``experiments``, budget: its
     interface) but the evaluation's scoring (``scoring``: constraints, weights, noise), so that every
@@ -130,9 +131,10 @@ def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) 
     """
     import os
 
-    from agents.evaluation.policies import load_agent
+    from agents.evaluation.policies import ROLES, load_agent
 
     agents: dict[str, tuple[Any, Any, str]] = {}
+    roles: dict[str, str] = {}
     for spec in specs:
         name, policy = load_agent(spec)
         if name in taken or name in agents:
@@ -145,7 +147,8 @@ def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) 
         stamp = os.path.getmtime(path) if os.path.exists(path) else 0.0
         identity = f"agent|{os.path.abspath(path)}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
         agents[name] = (policy, make_env(env_id, kwargs), identity)
-    return agents
+        roles[name] = ROLES[spec.kind]
+    return agents, roles
 
 
 BENCHMARK_SEED_OFFSET = 1_000_000
@@ -196,7 +199,7 @@ def evaluate(
     """
     import numpy as np
 
-    from agents.evaluation.policies import own_rules, parse_policies
+    from agents.evaluation.policies import TRAINED, own_rules, parse_policies
 
     if isinstance(n, bool) or int(n) != n or n <= 0:
         raise ValueError(f"--n must be a positive integer, got {n!r}")
@@ -217,7 +220,7 @@ def evaluate(
     scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **env_kwargs}
     if hasattr(unwrapped, "noise_std"):
         scoring["noise_std"] = unwrapped.noise_std
-    agents = _agents([s for s in specs if s.kind == "agent"], env_id, scoring, {*rules, "oracle", "oracle-full"})
+    agents, agent_roles = _agents([s for s in specs if s.kind in TRAINED], env_id, scoring, {*rules, "oracle", "oracle-full"})
     given = None if plants is None else _given_plants(plants, structure)
     count = f"{n} test plants" if given is None else f"{len(given)} given plants"
     print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
@@ -228,9 +231,9 @@ def evaluate(
     results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, plants, seed, rules, agents, out, full, workers)
     means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
     best_rule = min(own, key=lambda name: (means[name], name))
-    shown = [s.name for s in specs if s.kind != "agent"] + list(agents)
+    shown = [s.name for s in specs if s.kind not in TRAINED] + list(agents)
     shown += [name for name in ("oracle", best_rule) if name not in shown]
-    roles = _roles(shown, list(agents), best_rule, listed_rules)
+    roles = _roles(shown, agent_roles, best_rule, listed_rules)
     subsets = _subset_statistics(plants, results, shown, best_rule, resamples, seed)
     elapsed = time.perf_counter() - started
     extra = {
@@ -305,10 +308,11 @@ def _score_plants(
     return results, rows, mismatch
 
 
-def _roles(shown: list[str], agents: list[str], best_rule: str, listed_rules: list[str]) -> dict[str, str]:
-    """The role of each row of the tables (see :mod:`agents.evaluation.report`)."""
+def _roles(shown: list[str], agents: dict[str, str], best_rule: str, listed_rules: list[str]) -> dict[str, str]:
+    """The role of each row of the tables (see :mod:`agents.evaluation.report`); ``agents`` holds the
+    role of each agent and learned rule."""
     roles = {name: "rule" for name in shown}
-    roles.update({name: "agent" for name in agents})
+    roles.update(agents)
     roles.update({name: name for name in ("oracle", "oracle-full") if name in shown})
     roles[best_rule] = "best rule" if best_rule in listed_rules else "best rule (reference)"
     return roles

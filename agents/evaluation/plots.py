@@ -48,7 +48,7 @@ def cost_distribution_plot(costs: dict[str, np.ndarray], roles: dict[str, str], 
     jitter = np.random.default_rng(0)  # fixed: the figure is reproducible
     for k, values in enumerate(data, start=1):
         ax.scatter(k + jitter.uniform(-0.15, 0.15, values.size), values, s=6, color="0.3", alpha=0.6, zorder=3)
-    colors = {"oracle": "tab:green", "oracle-full": "tab:olive", "agent": "tab:blue"}
+    colors = {"oracle": "tab:green", "oracle-full": "tab:olive", "agent": "tab:blue", "learned rule": "tab:purple"}
     for patch, name in zip(box["boxes"], names):
         role = roles.get(name, "rule")
         patch.set_facecolor(colors.get(role, "tab:orange" if role.startswith("best rule") else "0.85"))

@@ -13,7 +13,11 @@ A policy is one of
 * ``oracle``: :func:`baselines.oracle.oracle` on the identified data of the episode;
 * ``oracle-full``: :func:`baselines.oracle.full_information_oracle` (exact model, no experiment);
 * a path to a saved agent, loaded by ``agents.training.policies.load_policy``, or ``NAME=PATH`` to name it
-  in the tables (default: the loaded policy's ``name``).
+  in the tables (default: the loaded policy's ``name``);
+* a path to a learned rule (``PATH`` or ``NAME=PATH``: the run directory of a ``learned-rule`` fit, or
+  its ``learned_rule.json``; :mod:`agents.training.learned_rule`), recognized by its files and loaded
+  by ``agents.training.learned_rule_policy.load_learned_rule``.  It plays like an agent (one action
+  from the observation) and has the role ``learned rule`` in the tables.
 """
 
 from __future__ import annotations
@@ -22,7 +26,8 @@ import os
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["STRUCTURE_CONTROLLER", "PolicySpec", "applicable_rules", "load_agent", "own_rules", "parse_policies"]
+__all__ = ["ROLES", "STRUCTURE_CONTROLLER", "TRAINED", "PolicySpec", "applicable_rules", "load_agent", "own_rules",
+           "parse_policies"]
 
 STRUCTURE_CONTROLLER = {"pid": "pid-series", "fppi": "fppi", "msp": "msp"}
 """The controller type of each environment structure's design (the rules of its own structure)."""
@@ -30,9 +35,17 @@ STRUCTURE_CONTROLLER = {"pid": "pid-series", "fppi": "fppi", "msp": "msp"}
 _PLANT_KINDS = {"pid": ("stable", "both"), "fppi": ("stable", "both"), "msp": ("integrating", "both")}
 
 
+TRAINED = ("agent", "learned-rule")
+"""The kinds of policy loaded from a path and played from the observation."""
+
+ROLES = {"agent": "agent", "learned-rule": "learned rule"}
+"""The role in the tables of each kind of :data:`TRAINED`."""
+
+
 @dataclass(frozen=True)
 class PolicySpec:
-    """One policy to evaluate: ``kind`` is ``"rule"``, ``"oracle"``, ``"oracle-full"`` or ``"agent"``."""
+    """One policy to evaluate: ``kind`` is ``"rule"``, ``"oracle"``, ``"oracle-full"``, ``"agent"`` or
+    ``"learned-rule"``."""
 
     name: str
     kind: str
@@ -88,7 +101,10 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
             name, _, path = item.rpartition("=")
             if not path:
                 raise ValueError(f"policy {item!r} names no agent path after '='")
-            specs.append(PolicySpec(name, "agent", path))  # name "" -> the policy's own name
+            from agents.training.learned_rule_policy import is_learned_rule
+
+            kind = "learned-rule" if is_learned_rule(path) else "agent"
+            specs.append(PolicySpec(name, kind, path))  # name "" -> the policy's own name
         else:
             get_rule(item)  # raises: unknown rule, naming it
     unique: dict[tuple[str, str | None], PolicySpec] = {}
@@ -98,13 +114,19 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
 
 
 def load_agent(spec: PolicySpec) -> tuple[str, Any]:
-    """``(name, policy)`` of an agent spec, through ``agents.training.policies.load_policy``.
+    """``(name, policy)`` of an agent spec, through ``agents.training.policies.load_policy``, or of a
+    learned rule, through ``agents.training.learned_rule_policy.load_learned_rule``.
 
     Raises
     ------
     ValueError
         If the agent cannot be loaded (the message names the path).
     """
+    if spec.kind == "learned-rule":
+        from agents.training.learned_rule_policy import load_learned_rule
+
+        policy = load_learned_rule(spec.path)
+        return spec.name or policy.name, policy
     try:
         from agents.training.policies import load_policy, resolve_model_path
     except ImportError as error:

@@ -108,15 +108,20 @@ def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, A
 
 # ------------------------------------------------------------------------------- the trials
 def trial_function(config: dict[str, Any]) -> None:
-    """One Tune trial: ``deadtime train`` of ``config["trial"]`` into ``config["out"]/runs/NAME``."""
-    from agents.sweeps.reporter import TuneReporter
+    """One Tune trial: ``deadtime train`` of ``config["trial"]`` into ``config["out"]/runs/NAME`` (an agent
+    trained, or a learned rule fitted)."""
+    from agents.training.learned_rule_config import LEARNED_RULE
     from agents.training.train import train
 
     trial = Trial.from_dict(config["trial"])
     run_dir = Path(config["out"]) / "runs" / trial.name
     train_config = trial.train_config(run_dir)
-    result = train(train_config, resume=True, command=f"deadtime sweep (trial {trial.name})",
-                   callbacks=[TuneReporter(train_config.total_timesteps)])
+    callbacks = []
+    if train_config.algorithm != LEARNED_RULE:  # a learned-rule fit reports when it ends only
+        from agents.sweeps.reporter import TuneReporter
+
+        callbacks = [TuneReporter(train_config.total_timesteps)]
+    result = train(train_config, resume=True, command=f"deadtime sweep (trial {trial.name})", callbacks=callbacks)
     tune.report({"timesteps": result.num_timesteps, "best_cost": result.best_cost, "final_cost": result.final_cost,
                  "finished": True})
 

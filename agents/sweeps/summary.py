@@ -1,6 +1,7 @@
 """The summary of a sweep: ``DIR/summary.{md,csv,json}``, learning curves and performance profiles.
 
-Per environment, every agent group (a training config over its seeds) is compared with the rules
+Per environment, every agent group (a training config over its seeds; a group of ``learned-rule``
+fits is one of learned rules: kind ``learned-rule``, role ``learned rule``) is compared with the rules
 and the oracle on the same held-out plants and episode seeds, from the ``per_plant.csv`` files of
 the evaluations (:mod:`agents.sweeps.run`).  The figures are those of :mod:`agents.evaluation.seed_statistics`
 (Agarwal et al. 2021): mean and IQM over (seed, plant) with two-way bootstrap 95% intervals (seeds
@@ -30,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.evaluation.policies import ROLES, TRAINED
 from agents.evaluation.seed_statistics import SeedStatistics, seed_statistics
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
 from agents.training.files import write_json, write_text
@@ -57,13 +59,24 @@ def _vector(costs: dict[tuple, float], plants: list[tuple], where: str) -> np.nd
     return np.array([costs[p] for p in plants])
 
 
+def _trained_kind(directory: Path) -> str:
+    """``agent``, or ``learned-rule`` where the trial's evaluation played a learned rule (its role)."""
+    try:
+        policies = json.loads((directory / "results.json").read_text())["policies"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return "agent"
+    role = next((p.get("role") for p in policies if p.get("name") == "agent"), None)
+    return next((kind for kind, text in ROLES.items() if text == role), "agent")
+
+
 def _row(name: str, kind: str, stats: SeedStatistics) -> dict[str, Any]:
     """A policy's row; a rule or the oracle is one cost per plant (``seeds`` None, plants resampled only)."""
-    return {"name": name, "kind": kind, "seeds": stats.seeds if kind == "agent" else None, "mean_cost": stats.mean_cost, "iqm_cost": stats.iqm_cost,
+    trained = kind in TRAINED
+    return {"name": name, "kind": kind, "seeds": stats.seeds if trained else None, "mean_cost": stats.mean_cost, "iqm_cost": stats.iqm_cost,
             "ci95": stats.ci95, "violation_rate": stats.violation_rate, "normalized_iqm": stats.normalized_iqm,
             "optimality_gap": stats.optimality_gap, "prob_improvement": stats.prob_improvement,
             "diff_to_best_rule": stats.diff_to_best_rule,
-            "per_seed_mean_cost": stats.per_seed_mean_cost if kind == "agent" else None}
+            "per_seed_mean_cost": stats.per_seed_mean_cost if trained else None}
 
 
 def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -89,12 +102,12 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
         group = [t for t in trials if t.env_id == env_id and t.label == label]
         matrix = np.array([_vector(_per_plant(evaluation_directory(out, env_id, t.name))["agent"], plants, t.name)
                            for t in group])
-        rows.append(_row(label, "agent", statistics(matrix)))
+        rows.append(_row(label, _trained_kind(evaluation_directory(out, env_id, group[0].name)), statistics(matrix)))
         normalized[label] = (oracle / matrix).ravel()
     normalized[best_rule] = oracle / rules[best_rule]
     rows += [_row(name, "rule", statistics(cost[None, :])) for name, cost in rules.items()]
     rows.append(_row("oracle", "oracle", statistics(oracle[None, :])))
-    rows.sort(key=lambda row: (row["kind"] != "agent", row["mean_cost"]))
+    rows.sort(key=lambda row: (row["kind"] not in TRAINED, row["mean_cost"]))
     entry = {"env": env_id, "plants": len(plants), "best_rule": best_rule, "best_structure_rule": own_rule, "policies": rows}
     return entry, normalized
 
@@ -154,7 +167,7 @@ def _markdown(summary: dict[str, Any]) -> str:
             diff = row["diff_to_best_rule"]
             diff_text = f"{diff[0]:.3g}" + ("" if diff[1] is None else f" [{diff[1]:.3g}, {diff[2]:.3g}]")
             probability = row["prob_improvement"].get(best)
-            role = {"agent": "agent", "oracle": "oracle"}.get(row["kind"]) or " and ".join(
+            role = {**ROLES, "oracle": "oracle"}.get(row["kind"]) or " and ".join(
                 label for label, name in (("best rule", best), ("best rule of the structure", own)) if row["name"] == name)
             lines.append(
                 f"| {row['name']} | {role} | {row['seeds'] or '-'} | {row['mean_cost']:.3g}{_interval(row, 'mean_cost')} "

@@ -4,12 +4,12 @@ The callbacks are module-level classes (:class:`Validator`, :class:`Checkpointer
 :func:`make_callbacks` builds the set of a run.  This module imports stable-baselines3 (and so
 torch): ``deadtime train`` imports it inside ``run``, never while the command line is parsed.
 
-Validation (:func:`validate_policy`) runs one deterministic episode per plant of the validation set
-``envs.systems.plant_sets.plant_set(family, "validation", n)`` (never a test set), resetting with
-``options={"plant": p}`` and the seed ``VALIDATION_SEED + k`` (3_000_000 + k) for plant ``k``.  Training
-environments use the seeds ``seed + i`` of a config's small integer seed, so the two never meet.
-Environments without plant sets (any non-``DeadTime`` id) are validated on ``n`` episodes reset with
-those seeds alone.
+Validation (:func:`agents.training.validation.validate_policy`, re-exported here) runs one
+deterministic episode per plant of the validation set ``envs.systems.plant_sets.plant_set(family,
+"validation", n)`` (never a test set), resetting with ``options={"plant": p}`` and the seed
+``VALIDATION_SEED + k`` (3_000_000 + k) for plant ``k``.  Training environments use the seeds
+``seed + i`` of a config's small integer seed, so the two never meet.  Environments without plant
+sets (any non-``DeadTime`` id) are validated on ``n`` episodes reset with those seeds alone.
 
 Checkpoints (:mod:`agents.training.checkpoints`) are written at the start of a rollout, after the previous
 rollout was trained on, every ``checkpoint_freq`` steps, and at the next rollout start after a
@@ -19,8 +19,7 @@ SIGINT/SIGTERM (:class:`agents.training.interrupts.StopRequest`), after which tr
 from __future__ import annotations
 
 import pickle
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +28,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.training.checkpoints import restore_action_noise, save_checkpoint
 from agents.training.files import atomic_write, write_json, write_text
+from agents.training.validation import VALIDATION_SEED, ValidationResult, validate_policy, validation_plants
 
 __all__ = [
     "VALIDATION_SEED",
@@ -45,10 +45,6 @@ __all__ = [
     "write_text",
 ]
 
-# Reset seed of validation plant k is VALIDATION_SEED + k: disjoint from the training environments
-# (seed + i) and from deadtime evaluate's (seed + i, seed + 1_000_000 + j).
-VALIDATION_SEED = 3_000_000
-
 
 def save_model(model: Any, path: str | Path, vecnormalize: Any = None) -> Path:
     """Save ``model`` to ``path`` (a ``.zip``) atomically, and the ``VecNormalize`` statistics beside it.
@@ -61,75 +57,6 @@ def save_model(model: Any, path: str | Path, vecnormalize: Any = None) -> Path:
         atomic_write(path.with_suffix(".vecnormalize.pkl"), lambda handle: pickle.dump(vecnormalize, handle))
     atomic_write(path, model.save)
     return path
-
-
-# ----------------------------------------------------------------------------------- validation
-@dataclass(frozen=True)
-class ValidationResult:
-    """Deterministic-policy costs on the validation episodes."""
-
-    num_timesteps: int
-    mean_cost: float
-    median_cost: float
-    violation_rate: float | None
-    costs: tuple[float, ...]
-
-    def to_dict(self) -> dict[str, Any]:
-        data = asdict(self)
-        data["costs"] = list(self.costs)
-        return data
-
-
-def validation_plants(env: Any, n: int, family: str | None = None) -> list[Any] | None:
-    """The validation plants of a ``DeadTime`` environment (None for other environments).
-
-    ``family`` defaults to the environment's own (``env.unwrapped.family`` if it has one, else
-    ``integrating`` for the MSP structure and ``stable`` otherwise).
-    """
-    unwrapped = env.unwrapped
-    if not hasattr(unwrapped, "structure"):
-        return None
-    from envs.systems.plant_sets import plant_set
-
-    if family is None:
-        family = getattr(unwrapped, "family", None)
-    if family is None:
-        family = "integrating" if unwrapped.structure == "msp" else "stable"
-    return list(plant_set(family, "validation", n))
-
-
-def validate_policy(
-    predict: Callable[[np.ndarray], np.ndarray],
-    env: Any,
-    n_episodes: int,
-    plants: Sequence[Any] | None = None,
-    num_timesteps: int = 0,
-) -> ValidationResult:
-    """Run one episode per validation plant (or per seed) with deterministic actions.
-
-    The cost of an episode is ``info["cost"]`` of its last step when the environment reports one,
-    else minus the episode's return.
-    """
-    costs, feasible = [], []
-    for k in range(n_episodes if plants is None else len(plants)):
-        options = None if plants is None else {"plant": plants[k]}
-        observation, info = env.reset(seed=VALIDATION_SEED + k, options=options)
-        total, done = 0.0, False
-        while not done:
-            observation, reward, terminated, truncated, info = env.step(predict(observation))
-            total += float(reward)
-            done = terminated or truncated
-        costs.append(float(info["cost"]) if "cost" in info else -total)
-        if "feasible" in info:
-            feasible.append(bool(info["feasible"]))
-    values = np.asarray(costs)
-    return ValidationResult(
-        num_timesteps=int(num_timesteps),
-        mean_cost=float(values.mean()),
-        median_cost=float(np.median(values)),
-        violation_rate=None if not feasible else 1.0 - float(np.mean(feasible)),
-        costs=tuple(costs),
-    )
 
 
 # ----------------------------------------------------------------------------------- callbacks

@@ -142,7 +142,7 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         if not isinstance(self.algorithm, str) or self.algorithm.upper() not in ALGORITHMS:
-            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}")
+            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)} (or learned-rule), got {self.algorithm!r}")
         object.__setattr__(self, "algorithm", self.algorithm.upper())
         for name in ("env_id", "policy", "device"):
             value = getattr(self, name)
@@ -248,16 +248,18 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     return path, value
 
 
-def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
-    """Apply ``key=value`` overrides to a config mapping; unknown top-level keys are errors naming them."""
-    known = [f.name for f in dataclasses.fields(TrainConfig)]
+def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str], schema: type = TrainConfig) -> dict[str, Any]:
+    """Apply ``key=value`` overrides to a config mapping; unknown top-level keys (of the dataclass
+    ``schema``) are errors naming them."""
+    known = [f.name for f in dataclasses.fields(schema)]
+    mappings = [name for name in MAPPING_FIELDS if name in known]
     result = dict(data)
     for text in overrides:
         path, value = parse_override(text)
         if path[0] not in known:
             raise ValueError(f"unknown config key {path[0]!r} in override {text!r} (known keys: {', '.join(known)})")
-        if len(path) > 1 and path[0] not in MAPPING_FIELDS:
-            raise ValueError(f"override {text!r}: {path[0]!r} is not a mapping (dotted keys reach into {', '.join(MAPPING_FIELDS)})")
+        if len(path) > 1 and path[0] not in mappings:
+            raise ValueError(f"override {text!r}: {path[0]!r} is not a mapping (dotted keys reach into {', '.join(mappings)})")
         nested: Any = value
         for key in reversed(path[1:]):
             nested = {key: nested}
@@ -270,6 +272,9 @@ def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[s
 
 def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence[str] = ()) -> TrainConfig:
     """Resolve a training config from a YAML file, an environment id and ``key=value`` overrides.
+
+    A config whose resolved ``algorithm`` is ``learned-rule`` is returned as an
+    :class:`agents.training.learned_rule_config.LearnedRuleConfig` (its own keys, checked the same way).
 
     Parameters
     ----------
@@ -315,10 +320,18 @@ def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence
         resolved["env_id"] = chosen
         if "algorithm" not in resolved and path.stem.upper() in ALGORITHMS:
             resolved["algorithm"] = path.stem.upper()
-    resolved = apply_overrides(resolved, overrides)
+    schema = _schema(_override_value(overrides, "algorithm") or resolved.get("algorithm"))
+    resolved = apply_overrides(resolved, overrides, schema)
     if env_id is not None:
         resolved["env_id"] = env_id
-    return TrainConfig.from_dict(resolved, where=str(path))
+    return schema.from_dict(resolved, where=str(path))
+
+
+def _schema(algorithm: Any) -> type:
+    """:class:`TrainConfig`, or for ``algorithm: learned-rule`` the learned rule's config."""
+    from agents.training.learned_rule_config import LEARNED_RULE, LearnedRuleConfig
+
+    return LearnedRuleConfig if isinstance(algorithm, str) and algorithm.lower() == LEARNED_RULE else TrainConfig
 
 
 def _override_value(overrides: Sequence[str], key: str) -> Any:
@@ -346,11 +359,23 @@ def validate(config: TrainConfig) -> None:
     ``env_kwargs`` are checked by the environment itself when ``deadtime train`` builds it, before
     anything is written.
 
+    A learned-rule config (:class:`agents.training.learned_rule_config.LearnedRuleConfig`) has no
+    stable-baselines3 keys: its ``env_kwargs`` are checked, and the environment is made to check that
+    its action has one component (:func:`agents.training.learned_rule.check_environment`).
+
     Raises
     ------
     ValueError
         Naming the first unknown key or invalid value.
     """
+    from agents.training.learned_rule_config import LearnedRuleConfig
+
+    if isinstance(config, LearnedRuleConfig):
+        from agents.training.learned_rule import check_environment
+
+        _validate_env_kwargs(config)
+        check_environment(config).close()
+        return
     import stable_baselines3
 
     algorithm = getattr(stable_baselines3, config.algorithm)

@@ -11,6 +11,10 @@ them again with the timings.  The run directory then holds ``tensorboard/`` (Ten
 validation cost), and at the end ``model.zip`` (the final agent); ``VecNormalize`` statistics, if
 used, sit beside each model as ``<stem>.vecnormalize.pkl``.
 
+A config with ``algorithm: learned-rule`` (``configs/learned_rule.yaml``) fits the learned rule
+instead (:mod:`agents.training.learned_rule`: the oracle on training plants, a regression, a safety
+margin chosen on the validation plants), into the same kind of run directory.
+
 ``--resume`` continues an interrupted run from its newest intact checkpoint
 (:mod:`agents.training.checkpoints`: model, replay buffer, normalization statistics, the environments, every
 random state, the validation history and schedule) exactly as the uninterrupted run: same
@@ -51,6 +55,7 @@ import yaml
 from agents.environments import make_env
 from agents.runtime import git_commit, versions
 from agents.training.config import TrainConfig, load_config, validate
+from agents.training.learned_rule_config import LearnedRuleConfig
 
 if TYPE_CHECKING:
     from agents.training.checkpoints import Checkpoint
@@ -90,6 +95,10 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         config = dataclasses.replace(config, output_dir=args.out)
     command = shlex.join(_command_from(args))
+    if isinstance(config, LearnedRuleConfig):
+        from agents.training import learned_rule
+
+        return learned_rule.run(config, resume=args.resume, command=command)
     try:
         result = train(config, resume=args.resume, command=command)
     except KeyboardInterrupt:
@@ -245,7 +254,8 @@ def train(
     command: str | None = None,
     callbacks: Sequence[Any] = (),
 ) -> TrainResult:
-    """Train an agent as the config says, in :func:`run_directory` ``(config)``.
+    """Train an agent as the config says, in :func:`run_directory` ``(config)``; a learned-rule
+    config is fitted instead (:func:`agents.training.learned_rule.fit`).
 
     Everything that can refuse the config (its values, the environments, the model) is built before
     anything is written; a first SIGINT or SIGTERM ends the run at the next rollout boundary with a
@@ -269,6 +279,12 @@ def train(
         ``resume`` is True with a config that differs from the run's, or a file of the run is damaged
         (:class:`agents.training.checkpoints.DamagedFileError`, naming it).
     """
+    if isinstance(config, LearnedRuleConfig):
+        from agents.training.learned_rule import fit
+
+        if callbacks:
+            raise ValueError("a learned-rule fit takes no stable-baselines3 callbacks")
+        return fit(config, resume=resume, command=command)
     from agents.training.callbacks import make_callbacks, save_model
     from agents.training.checkpoints import restore_state
     from agents.training.interrupts import StopRequest

@@ -195,3 +195,31 @@ def test_every_committed_sweep_file_is_valid(path: Path) -> None:
     """The studies behind the README load and validate (each training config resolved, with its seeds)."""
     sweep = load_sweep(path)
     assert sweep.trials()
+
+
+@pytest.mark.slow
+def test_a_sweep_of_learned_rules_fits_one_per_seed_and_summarizes_them_as_learned_rules(tmp_path: Path) -> None:
+    """``configs/learned_rule.yaml`` as a trial group: each seed fits its own rule on its own training
+    plants, the evaluations play them, and the summary's role says what they are."""
+    path = _sweep_file(tmp_path, f"""
+trials:
+  - label: learned
+    config: {REPO / 'configs' / 'learned_rule.yaml'}
+    overrides: [training_plants=12, validation_plants=3, "margins=[0.0, 0.2]", "models=[ridge-quadratic]",
+                progress_bar=false]
+    envs: [DeadTime/FPPI-v0]
+    seeds: [0, 1]
+evaluation: {{policies: [fppi-eq34, oracle], n: 2, resamples: 100}}
+""")
+    done = subprocess.run([sys.executable, "-m", "agents.cli", "sweep", "--config", str(path), "--out", str(tmp_path / "out"),
+                           "--json"], cwd=REPO, env=_environment(), capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    summary = json.loads(done.stdout)
+    assert summary["failed"] == {}
+    learned = next(p for p in summary["envs"][0]["policies"] if p["name"] == "learned")
+    assert (learned["kind"], learned["seeds"], len(learned["per_seed_mean_cost"])) == ("learned-rule", 2, 2)
+    assert "| learned | learned rule | 2 |" in (tmp_path / "out" / "summary.md").read_text()
+    plants = [{json.dumps(record["plant"], sort_keys=True)
+               for chunk in sorted((tmp_path / "out" / "runs" / f"learned-FPPI-v0-s{seed}" / "dataset").glob("*.json"))
+               for record in json.loads(chunk.read_text())} for seed in (0, 1)]
+    assert len(plants[0]) == len(plants[1]) == 12 and not plants[0] & plants[1]

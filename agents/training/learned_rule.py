@@ -1,0 +1,335 @@
+"""``deadtime train`` with ``algorithm: learned-rule``: fit the learned rule (issue 16.2).
+
+::
+
+    deadtime train --config configs/learned_rule.yaml --env DeadTime/FPPI-v0 [--out DIR] [--resume] [key=value ...]
+
+The learned rule (:mod:`baselines.learned_rule`) is a regression from the observation to the
+oracle's action, with a safety margin.  A fit, in the run directory:
+
+1. **Training plants** (``training_plants``): plant ``k`` is drawn by the environment's own
+   generator, ``env.reset(seed=TRAINING_SEED + seed * MAX_TRAINING_PLANTS + k)`` (so each config
+   ``seed`` draws other plants, and plant ``k`` does not depend on how many are drawn).  An integer
+   seed makes a ``numpy.random.default_rng`` stream, which never gives the fixed validation or test
+   sets (:mod:`envs.systems.plant_sets`).  Each is labelled by the oracle of its identified model
+   (:func:`agents.evaluation.oracle_info.oracle_info`): its relative parameter, mapped into the
+   environment's action by the environment's own ``action_from_parameter``.  The labels are cached in
+   ``dataset/training-<first>.json``, :data:`CHUNK` plants a file, each written atomically when
+   complete: an interrupted fit resumes (``--resume``) from the files written, so at most one file
+   of oracle searches is lost.
+2. **Regressions**: each model kind of ``models`` is fitted to all training plants.
+3. **Model and margin** on the validation plants (``validation_plants`` of the fixed validation
+   set, played as ``deadtime train`` validates an agent: :mod:`agents.training.validation`): every
+   kind with every margin of ``margins``; the lowest mean cost wins (:func:`baselines.learned_rule.select`).
+   The plants played are recorded in ``validation_plants.json``.  No test plant is ever drawn.
+4. ``learned_rule.pkl`` and its manifest ``learned_rule.json``
+   (:mod:`agents.training.learned_rule_policy`), ``evaluations.json`` (the chosen rule's validation,
+   as an agent run's), ``run.json`` and ``config.yaml``.  ``deadtime evaluate --policies
+   learned=DIR`` plays it.
+
+Only the environment's interface is used (``observation_space``, ``action_space``,
+``action_from_parameter``, ``parameter_from_action``) and the oracle, so any environment id with a
+one-component action works; an action of more components (agent mode) is refused in one line.  The
+conservative side of the action (larger ``mu`` or ``T_r``) is read from ``parameter_from_action``
+in every training episode and must not change.
+
+``--resume`` continues from the cached labels; ``training_plants`` (more plants: the first ones are
+the same), ``validation_plants``, ``margins``, ``models``, ``output_dir`` and ``progress_bar`` may
+differ from the saved config (the model is then fitted again), the environment and the seed may not.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import shlex
+import sys
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from agents.training.files import write_json, write_text
+from agents.training.learned_rule_config import MAX_TRAINING_PLANTS, LearnedRuleConfig
+
+if TYPE_CHECKING:
+    from agents.training.train import TrainResult
+
+__all__ = ["CHUNK", "TRAINING_SEED", "check_environment", "fit", "run", "training_seed"]
+
+TRAINING_SEED = 10_000_000
+"""Reset seed of training plant ``k`` of config seed ``s``: ``TRAINING_SEED + s * MAX_TRAINING_PLANTS + k``
+(apart from the validation episodes' ``3_000_000 + k`` and ``deadtime evaluate``'s ``seed + i``)."""
+
+CHUNK = 50
+"""Training plants per cached file of labels."""
+
+_RESUMABLE_CHANGES = {"training_plants", "validation_plants", "margins", "models", "output_dir", "progress_bar"}
+
+
+def training_seed(seed: int, index: int) -> int:
+    """The reset seed of training plant ``index`` of config seed ``seed``."""
+    return TRAINING_SEED + seed * MAX_TRAINING_PLANTS + index
+
+
+def check_environment(config: LearnedRuleConfig) -> Any:
+    """The environment of ``config``, made; refused in one line if its action has more than one component."""
+    from agents.environments import make_env
+    from agents.training.train import _refused_as
+
+    env = _refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
+    shape = tuple(getattr(env.action_space, "shape", None) or ())
+    mappings = all(hasattr(env.unwrapped, name) for name in ("action_from_parameter", "parameter_from_action"))
+    if shape != (1,) or not mappings:
+        env.close()
+        raise ValueError(f"env_kwargs: the learned rule needs a one-component action (fixed mode) and the environment's "
+                         f"action_from_parameter and parameter_from_action; {config.env_id} with env_kwargs "
+                         f"{dict(config.env_kwargs)} has an action of shape {shape}")
+    return env
+
+
+def run_directory(config: LearnedRuleConfig) -> Path:
+    """The run directory of a config."""
+    return Path(config.output_dir or Path("runs") / config.run_name)
+
+
+# ----------------------------------------------------------------------------------- labels
+def _direction(unwrapped: Any, low: float, high: float) -> float:
+    """``+1`` if the parameter grows with the action in this episode, else ``-1``."""
+    return 1.0 if unwrapped.parameter_from_action(high) > unwrapped.parameter_from_action(low) else -1.0
+
+
+def _label(env: Any, seed: int, index: int) -> dict[str, Any]:
+    """One training plant drawn by the environment and its oracle's action."""
+    from agents.evaluation.oracle_info import oracle_info
+
+    observation, _ = env.reset(seed=seed)
+    unwrapped = env.unwrapped
+    found = oracle_info(unwrapped)
+    action = np.asarray(unwrapped.action_from_parameter(found["oracle_parameter"]), dtype=float).reshape(-1)
+    low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
+    return {"index": index, "seed": seed, "plant": unwrapped.plant.to_dict(),
+            "observation": np.asarray(observation, dtype=float).tolist(), "oracle_parameter": found["oracle_parameter"],
+            "oracle_cost": found["oracle_cost"], "action": float(action[0]), "direction": _direction(unwrapped, low, high)}
+
+
+def _chunk_path(run_dir: Path, first: int) -> Path:
+    return run_dir / "dataset" / f"training-{first:06d}.json"
+
+
+def _cached_chunk(path: Path, seeds: list[int]) -> list[dict[str, Any]]:
+    """The cached records of a file, if they are the first of ``seeds`` (a damaged file, or one of
+    other plants, is said so and labelled again)."""
+    if not path.is_file():
+        return []
+    try:
+        records = json.loads(path.read_text())[: len(seeds)]
+        if [record["seed"] for record in records] == seeds[: len(records)]:
+            return records
+    except (ValueError, KeyError, TypeError):
+        pass
+    print(f"deadtime train: {path} is damaged or holds other plants; labelling its plants again", file=sys.stderr)
+    return []
+
+
+def training_data(env: Any, config: LearnedRuleConfig, run_dir: Path) -> tuple[list[dict[str, Any]], int]:
+    """The labelled training plants (from the cache where there), and how many were labelled now."""
+    from tqdm import tqdm
+
+    records: list[dict[str, Any]] = []
+    labelled = 0
+    with tqdm(total=config.training_plants, desc="oracle on training plants", unit="plant", file=sys.stderr,
+              disable=not config.progress_bar) as bar:
+        for first in range(0, config.training_plants, CHUNK):
+            indices = range(first, min(first + CHUNK, config.training_plants))
+            seeds = [training_seed(config.seed, k) for k in indices]
+            path = _chunk_path(run_dir, first)
+            chunk = _cached_chunk(path, seeds)
+            bar.update(len(chunk))
+            if len(chunk) < len(seeds):
+                for k, seed in list(zip(indices, seeds))[len(chunk):]:
+                    chunk.append(_label(env, seed, k))
+                    labelled += 1
+                    bar.update()
+                write_json(path, chunk)
+            records += chunk
+    return records, labelled
+
+
+def _labels_kept(config: LearnedRuleConfig, run_dir: Path) -> int:
+    """How many training plants' labels the run directory holds (for the line after an interruption)."""
+    kept = 0
+    for first in range(0, config.training_plants, CHUNK):
+        seeds = [training_seed(config.seed, k) for k in range(first, min(first + CHUNK, config.training_plants))]
+        kept += len(_cached_chunk(_chunk_path(run_dir, first), seeds))
+    return kept
+
+
+# ----------------------------------------------------------------------------------- the fit
+def _directions(records: list[dict[str, Any]]) -> float:
+    found = {record["direction"] for record in records}
+    if len(found) != 1:
+        raise ValueError("the environment's conservative direction of the action (from parameter_from_action) changes "
+                         "between episodes; the learned rule's margin needs one direction")
+    return float(found.pop())
+
+
+class _Remembered:
+    """A fitted regression that remembers its predictions by input, so that the margins of one model
+    kind share them on the validation plants (the trees' prediction of one row costs milliseconds)."""
+
+    def __init__(self, model: Any) -> None:
+        self.model, self.seen = model, {}
+
+    def predict(self, rows: np.ndarray) -> np.ndarray:
+        key = (rows.shape, rows.tobytes())
+        if key not in self.seen:
+            self.seen[key] = self.model.predict(rows)
+        return self.seen[key]
+
+
+def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], run_dir: Path) -> tuple[Any, Any, Any]:
+    """Fit every model kind, then choose kind and margin on the validation plants: ``(selection, validation, plants)``."""
+    from agents.training.validation import VALIDATION_SEED, validate_policy, validation_plants
+    from baselines.learned_rule import LearnedRule, fit_regression, select
+
+    observations = np.array([record["observation"] for record in records])
+    actions = np.array([record["action"] for record in records])
+    low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
+    direction = _directions(records)
+    rules = [LearnedRule(kind, _Remembered(fit_regression(kind, observations, actions, config.seed)), 0.0, direction, low,
+                         high, observations.shape[1]) for kind in config.models]
+    plants = validation_plants(env, config.validation_plants)
+    if plants is not None:
+        write_json(run_dir / "validation_plants.json",
+                   [{"seed": VALIDATION_SEED + k, "plant": plant.to_dict()} for k, plant in enumerate(plants)])
+    results: dict[tuple[str, float], Any] = {}
+
+    def validation_cost(rule: Any) -> float:
+        result = validate_policy(rule.predict, env, config.validation_plants, plants, len(records))
+        results[(rule.kind, rule.margin)] = result
+        return result.mean_cost
+
+    selection = select(rules, config.margins, validation_cost)
+    chosen = dataclasses.replace(selection.rule, model=selection.rule.model.model)
+    return dataclasses.replace(selection, rule=chosen), results[(chosen.kind, chosen.margin)], plants
+
+
+def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None = None) -> TrainResult:
+    """Fit the learned rule of ``config`` in its run directory (module docstring); a
+    :class:`agents.training.train.TrainResult` whose steps are the training plants and whose costs are
+    the chosen rule's mean validation cost.
+
+    Raises
+    ------
+    ValueError
+        If the config is refused (naming the key), the run directory holds another run and
+        ``resume`` is False, or ``resume`` is True with another environment or seed.
+    """
+    from agents.runtime import git_commit, versions
+    from agents.training.config import validate
+    from agents.training.train import TrainResult, _config_yaml
+
+    validate(config)
+    run_dir = run_directory(config)
+    finished = _existing_run(config, run_dir, resume)
+    if finished is not None:
+        print(f"{run_dir} already holds this learned rule (fit finished)")
+        return finished
+    provenance = {"command": command or "(python API)", "commit": git_commit(), "versions": versions(),
+                  "started": datetime.now(UTC).isoformat(timespec="seconds")}
+    text = _config_yaml(config, provenance)
+    print(text, end="")
+    env = check_environment(config)
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        write_text(run_dir / "config.yaml", text)
+        started, cpu_started = time.perf_counter(), time.process_time()
+        records, labelled = training_data(env, config, run_dir)
+        labels_done, cpu_labels_done = time.perf_counter(), time.process_time()
+        selection, validation, _ = _select(env, config, records, run_dir)
+    finally:
+        env.close()
+    seconds = {"labels": labels_done - started, "fit_and_selection": time.perf_counter() - labels_done,
+               "labels_cpu": cpu_labels_done - cpu_started, "fit_and_selection_cpu": time.process_time() - cpu_labels_done}
+    _write_outputs(config, run_dir, selection, validation, provenance, seconds, labelled)
+    total = seconds["labels"] + seconds["fit_and_selection"]
+    return TrainResult(run_dir=run_dir, num_timesteps=config.training_plants, session_steps=labelled, train_seconds=total,
+                       steps_per_second=labelled / total if labelled else float("nan"),
+                       best_cost=validation.mean_cost, final_cost=validation.mean_cost)
+
+
+def _existing_run(config: LearnedRuleConfig, run_dir: Path, resume: bool) -> TrainResult | None:
+    """Check (reading only) that the run directory fits; the finished result if it holds this very fit."""
+    from agents.training.config import load_config
+    from agents.training.train import TrainResult
+
+    saved = run_dir / "config.yaml"
+    if not resume:
+        if saved.exists() or (run_dir / "dataset").exists():
+            raise ValueError(f"{run_dir} already holds a run; pass --resume to continue it, or choose another --out")
+        return None
+    if not saved.is_file():
+        return None
+    previous = load_config(saved)
+    changed = [f.name for f in dataclasses.fields(LearnedRuleConfig)
+               if f.name not in _RESUMABLE_CHANGES and getattr(previous, f.name, None) != getattr(config, f.name)]
+    if not isinstance(previous, LearnedRuleConfig) or changed:
+        raise ValueError(f"cannot resume {run_dir}: the config differs from the saved one in {', '.join(changed) or 'algorithm'}")
+    try:
+        record = json.loads((run_dir / "run.json").read_text())
+        evaluations = json.loads((run_dir / "evaluations.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if record.get("status") != "finished" or record.get("config") != {**config.to_dict(), "output_dir": None, "progress_bar": None}:
+        return None
+    cost = float(evaluations[-1]["mean_cost"])
+    return TrainResult(run_dir=run_dir, num_timesteps=config.training_plants, session_steps=0, train_seconds=0.0,
+                       steps_per_second=float("nan"), best_cost=cost, final_cost=cost)
+
+
+def _write_outputs(config: LearnedRuleConfig, run_dir: Path, selection: Any, validation: Any,
+                   provenance: dict[str, Any], seconds: dict[str, float], labelled: int) -> None:
+    """The model and its manifest, ``evaluations.json`` and ``run.json`` (written last: it marks the fit finished)."""
+    from agents.training.learned_rule_policy import save_learned_rule
+
+    rule = selection.rule
+    chosen = {key: value for key, value in validation.to_dict().items() if key != "costs"}
+    save_learned_rule(run_dir, rule, {
+        "env_id": config.env_id, "env_kwargs": dict(config.env_kwargs), "seed": config.seed, "kind": rule.kind,
+        "margin": rule.margin, "direction": rule.direction, "action_bounds": [rule.low, rule.high],
+        "observation_size": rule.observation_size, "training_plants": config.training_plants,
+        "validation_plants": config.validation_plants, "commit": provenance["commit"],
+        "validation": {"margins": list(selection.margins), "mean_cost": {k: list(v) for k, v in selection.costs.items()},
+                       "chosen": chosen},
+    })
+    write_json(run_dir / "evaluations.json", [chosen])
+    write_json(run_dir / "run.json", {
+        "algorithm": config.algorithm, "env_id": config.env_id, "seed": config.seed, "status": "finished",
+        "num_timesteps": config.training_plants, "config": {**config.to_dict(), "output_dir": None, "progress_bar": None},
+        "command": provenance["command"], "commit": provenance["commit"], "versions": provenance["versions"],
+        "started": provenance["started"], "plants_labelled": labelled,
+        "seconds": {key: round(value, 3) for key, value in seconds.items()},
+        "finished_at": datetime.now(UTC).isoformat(timespec="seconds"),
+    })
+
+
+# ----------------------------------------------------------------------------------- command line
+def run(config: LearnedRuleConfig, *, resume: bool, command: str) -> int:
+    """``deadtime train`` of a learned-rule config: fit, report where the rule is (exit 130 on Ctrl-C)."""
+    try:
+        result = fit(config, resume=resume, command=command)
+    except KeyboardInterrupt:
+        run_dir = run_directory(config)
+        kept = _labels_kept(config, run_dir)
+        print(f"\ninterrupted; {kept} labelled training plants are kept in {run_dir / 'dataset'}; continue with: "
+              f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
+        return 130
+    rule = json.loads((result.run_dir / "learned_rule.json").read_text())
+    print(f"{result.num_timesteps} training plants ({result.session_steps} labelled by the oracle in this session, "
+          f"{result.train_seconds:.1f} s); chosen {rule['kind']} with margin {rule['margin']:g}: "
+          f"validation mean cost {result.best_cost:.6g}")
+    print(f"learned rule: {result.run_dir / 'learned_rule.json'} (deadtime evaluate --policies learned={result.run_dir})")
+    return 0

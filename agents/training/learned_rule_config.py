@@ -1,0 +1,134 @@
+"""The config of a learned-rule fit: ``algorithm: learned-rule`` (``configs/learned_rule.yaml``).
+
+Read by :func:`agents.training.config.load_config` like the configs of stable-baselines3 agents (the
+same zoo-style file, precedence and ``key=value`` overrides); a file whose resolved ``algorithm`` is
+``learned-rule`` gives a :class:`LearnedRuleConfig`, which ``deadtime train`` fits with
+:mod:`agents.training.learned_rule` instead of training an agent.  An unknown key, or a value of the
+wrong type or range, is a ``ValueError`` that names the key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from agents.training.config import _frozen, _number, _plain, _require
+
+__all__ = ["LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS"]
+
+LEARNED_RULE = "learned-rule"
+"""The ``algorithm`` value of a learned-rule config."""
+
+MAX_TRAINING_PLANTS = 1_000_000
+"""The most training plants of one fit (the stride of the training seeds, :mod:`agents.training.learned_rule`)."""
+
+DEFAULT_MARGINS = tuple(round(0.025 * i, 3) for i in range(21))
+"""0 to 0.5 action units in steps of 0.025."""
+
+
+@dataclass(frozen=True)
+class LearnedRuleConfig:
+    """Everything a learned-rule fit depends on.
+
+    Attributes
+    ----------
+    algorithm : str
+        ``learned-rule``.
+    env_id : str
+        A registered Gymnasium id whose action has one component (a fixed-mode ``DeadTime`` id).
+    seed : int
+        Selects the training plants (:mod:`agents.training.learned_rule`): each seed draws others.
+    env_kwargs : mapping
+        Keyword arguments of ``gymnasium.make``.
+    training_plants : int
+        Plants drawn by the environment's generator, each labelled by the oracle (10 to
+        :data:`MAX_TRAINING_PLANTS`).
+    validation_plants : int
+        Plants of the fixed validation set on which the model kind and the margin are chosen.
+    margins : sequence of float
+        The safety margins to try (action units, >= 0, distinct).
+    models : sequence of str
+        The model kinds to try (:data:`baselines.learned_rule.MODEL_KINDS`, distinct).
+    output_dir : str or None
+        Run directory; default ``runs/learned-rule-<env name>-s<seed>``.
+    progress_bar : bool
+        Show a tqdm progress bar over the training plants.
+    """
+
+    algorithm: str
+    env_id: str
+    seed: int = 0
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    training_plants: int = 1000
+    validation_plants: int = 500
+    margins: tuple[float, ...] = DEFAULT_MARGINS
+    models: tuple[str, ...] = ("boosting", "quantile-boosting")
+    output_dir: str | None = None
+    progress_bar: bool = True
+
+    def __post_init__(self) -> None:
+        _require(isinstance(self.algorithm, str) and self.algorithm.lower() == LEARNED_RULE, "algorithm", repr(LEARNED_RULE),
+                 self.algorithm)
+        object.__setattr__(self, "algorithm", LEARNED_RULE)
+        _require(isinstance(self.env_id, str) and bool(self.env_id), "env_id", "a non-empty string", self.env_id)
+        for name, low, high in (("seed", 0, math.inf), ("training_plants", 10, MAX_TRAINING_PLANTS),
+                                ("validation_plants", 1, math.inf)):
+            value = _number(getattr(self, name))
+            if isinstance(value, float) and value.is_integer():
+                value = int(value)
+                object.__setattr__(self, name, value)
+            what = f"an integer >= {low}" + ("" if high == math.inf else f" and <= {high}")
+            _require(isinstance(value, int) and not isinstance(value, bool) and low <= value <= high, name, what, value)
+        _require(isinstance(self.env_kwargs, Mapping) and all(isinstance(k, str) for k in self.env_kwargs),
+                 "env_kwargs", "a mapping with string keys", self.env_kwargs)
+        object.__setattr__(self, "env_kwargs", _frozen(self.env_kwargs))
+        object.__setattr__(self, "margins", _margins(self.margins))
+        object.__setattr__(self, "models", _models(self.models))
+        _require(self.output_dir is None or (isinstance(self.output_dir, str) and bool(self.output_dir)), "output_dir",
+                 "a non-empty string or null", self.output_dir)
+        _require(isinstance(self.progress_bar, bool), "progress_bar", "true or false", self.progress_bar)
+
+    @property
+    def run_name(self) -> str:
+        """``learned-rule-<env name>-s<seed>``, e.g. ``learned-rule-PID-v0-s0``."""
+        return f"{LEARNED_RULE}-{self.env_id.rsplit('/', 1)[-1]}-s{self.seed}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values (for YAML and JSON), in field order."""
+        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], where: str = "config") -> LearnedRuleConfig:
+        """Build from a mapping of field names; unknown or missing keys are errors naming them."""
+        known = [f.name for f in dataclasses.fields(cls)]
+        for key in data:
+            if key not in known:
+                raise ValueError(f"unknown config key {key!r} in {where} (known keys of a {LEARNED_RULE} config: "
+                                 f"{', '.join(known)})")
+        missing = [name for name in ("algorithm", "env_id") if name not in data]
+        if missing:
+            raise ValueError(f"{where} is missing the required key(s) {', '.join(missing)}")
+        return cls(**data)
+
+
+def _margins(value: Any) -> tuple[float, ...]:
+    items = value if isinstance(value, list | tuple) else None
+    _require(bool(items), "margins", "a non-empty list of numbers >= 0", value)
+    margins = tuple(_number(item) for item in items)
+    _require(all(isinstance(m, int | float) and not isinstance(m, bool) and math.isfinite(m) and m >= 0 for m in margins),
+             "margins", "a non-empty list of numbers >= 0", value)
+    _require(len(set(margins)) == len(margins), "margins", "a list without repeats", value)
+    return tuple(float(m) for m in margins)
+
+
+def _models(value: Any) -> tuple[str, ...]:
+    from baselines.learned_rule import MODEL_KINDS
+
+    items = [value] if isinstance(value, str) else value
+    what = f"a non-empty list of model kinds ({', '.join(MODEL_KINDS)})"
+    _require(isinstance(items, list | tuple) and bool(items) and all(item in MODEL_KINDS for item in items), "models", what, value)
+    _require(len(set(items)) == len(items), "models", "a list without repeats", value)
+    return tuple(items)

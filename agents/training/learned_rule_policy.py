@@ -1,0 +1,147 @@
+"""A fitted learned rule on disk, and played as a policy: ``load_learned_rule(path).predict(observation)``.
+
+A learned-rule fit (:mod:`agents.training.learned_rule`) writes into its run directory
+
+* ``learned_rule.pkl``: the :class:`baselines.learned_rule.LearnedRule` (the fitted scikit-learn
+  regression, its margin, direction and action bounds), pickled;
+* ``learned_rule.json``: its manifest, written after the model, so that its presence marks a
+  finished fit: the environment id and keyword arguments, the model kind and margin, the size and
+  SHA-256 of the model file, the package versions, and the validation costs that chose the rule.
+
+:func:`load_learned_rule` takes the run directory, the manifest or the model file.  A model file
+whose size or checksum differs from its manifest's (damaged, or replaced), an unreadable manifest,
+or a scikit-learn other than the one that fitted it (a pickled regression is only guaranteed to
+load, and predict the same, in the version that wrote it) is refused in one line naming the file.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.training.files import atomic_write, file_digest, write_json
+
+__all__ = ["MANIFEST", "MODEL_FILE", "LearnedRulePolicy", "is_learned_rule", "load_learned_rule", "save_learned_rule"]
+
+MODEL_FILE = "learned_rule.pkl"
+MANIFEST = "learned_rule.json"
+FORMAT = 1
+
+
+@dataclass(frozen=True)
+class LearnedRulePolicy:
+    """A fitted learned rule, played like a trained agent by ``deadtime evaluate``.
+
+    Attributes
+    ----------
+    name : str
+        The run directory's name.
+    path : Path
+        The model file.
+    rule : baselines.learned_rule.LearnedRule
+    env_id : str
+        The environment the rule was fitted on.
+    env_kwargs : dict
+        Its keyword arguments.
+    manifest : dict
+        The manifest as read.
+    """
+
+    name: str
+    path: Path
+    rule: Any = field(repr=False)
+    env_id: str
+    env_kwargs: Mapping[str, Any]
+    manifest: Mapping[str, Any] = field(repr=False)
+
+    def predict(self, observation: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
+        """``(action, None)`` for one observation (or a batch, first axis), as stable-baselines3's ``predict``."""
+        return self.rule.predict(observation), None
+
+
+def save_learned_rule(run_dir: Path, rule: Any, manifest: Mapping[str, Any]) -> Path:
+    """Write ``learned_rule.pkl`` then its manifest (``manifest`` plus the file's size and checksum),
+    both atomically; returns the manifest's path."""
+    from agents.runtime import versions
+
+    model = atomic_write(run_dir / MODEL_FILE, lambda handle: pickle.dump(rule, handle, protocol=pickle.HIGHEST_PROTOCOL))
+    record = {"format": FORMAT, "file": MODEL_FILE, "size": model.stat().st_size, "sha256": file_digest(model),
+              "versions": versions(), **manifest}
+    return write_json(run_dir / MANIFEST, record)
+
+
+def is_learned_rule(path: str | Path) -> bool:
+    """Whether ``path`` names a learned rule: its manifest or model file, or a run directory that holds
+    one or whose ``config.yaml`` is a learned-rule config (a fit that has not finished)."""
+    path = Path(path)
+    if path.name in (MANIFEST, MODEL_FILE):
+        return True
+    if not path.is_dir():
+        return False
+    if (path / MANIFEST).is_file():
+        return True
+    try:
+        import yaml
+
+        config = yaml.safe_load((path / "config.yaml").read_text())
+    except (OSError, ValueError, yaml.YAMLError):
+        return False
+    return isinstance(config, dict) and str(config.get("algorithm", "")).lower() == "learned-rule"
+
+
+def _manifest_path(path: Path) -> Path:
+    if path.is_dir():
+        return path / MANIFEST
+    return path.with_name(MANIFEST) if path.name == MODEL_FILE else path
+
+
+def load_learned_rule(path: str | Path) -> LearnedRulePolicy:
+    """The learned rule of a run directory, manifest or model file.
+
+    Raises
+    ------
+    ValueError
+        Naming the file: no manifest (the fit has not finished), an unreadable manifest, a model
+        file that differs from the manifest's size or checksum, a scikit-learn version other than the
+        fitting one, or a model file that holds no learned rule.
+    """
+    from baselines.learned_rule import LearnedRule
+
+    manifest_path = _manifest_path(Path(path))
+    if not manifest_path.is_file():
+        raise ValueError(f"{manifest_path} is missing: no finished learned-rule fit at {path} "
+                         "(finish it with deadtime train --out DIR --resume)")
+    try:
+        manifest = json.loads(manifest_path.read_text())
+        model_path = manifest_path.with_name(manifest["file"])
+        expected = (int(manifest["size"]), str(manifest["sha256"]))
+        env_id, env_kwargs = str(manifest["env_id"]), dict(manifest["env_kwargs"])
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise ValueError(f"{manifest_path} is damaged: not a learned-rule manifest ({error.__class__.__name__}: {error})") from None
+    if not model_path.is_file() or (model_path.stat().st_size, file_digest(model_path)) != expected:
+        raise ValueError(f"{model_path} is damaged or missing: its size or SHA-256 differs from {manifest_path.name}'s")
+    _check_version(manifest, model_path)
+    try:
+        with model_path.open("rb") as handle:
+            rule = pickle.load(handle)  # noqa: S301  (the run's own file, checksummed by its manifest)
+    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, ValueError, TypeError) as error:
+        raise ValueError(f"{model_path} cannot be read ({error.__class__.__name__}: {error})") from None
+    if not isinstance(rule, LearnedRule):
+        raise ValueError(f"{model_path} holds a {type(rule).__name__}, not a learned rule")
+    return LearnedRulePolicy(manifest_path.parent.name, model_path, rule, env_id, env_kwargs, manifest)
+
+
+def _check_version(manifest: Mapping[str, Any], model_path: Path) -> None:
+    from importlib import metadata
+
+    fitted = (manifest.get("versions") or {}).get("scikit-learn")
+    installed = metadata.version("scikit-learn")
+    if fitted != installed:
+        raise ValueError(f"{model_path} was fitted with scikit-learn {fitted}, this is {installed}: "
+                         "fit it again (deadtime train with its config.yaml)")

@@ -1,0 +1,230 @@
+"""The learned rule: a regression from the observation to the oracle's action, with a safety margin.
+
+A supervised baseline (issue 16.2): on training plants, the oracle (:func:`baselines.oracle.oracle`)
+gives the best design parameter of each identified plant; a regression learns it from the
+observation an agent sees, in the agent's own action coordinate.  The oracle's parameter sits on the
+edge of the feasible set (often on the ``Ms <= 2`` cliff), so a regression that is right on average
+violates the constraints on about half of the plants; the rule therefore adds a constant *margin*
+to the predicted action, towards the conservative side (larger ``mu`` or ``T_r``), chosen with the
+regression on validation plants to minimize their mean cost (:func:`select`).  If the learned
+rule matches the agents, reinforcement learning was not needed.
+
+This module is the numerics only (numpy and scikit-learn): the regressions (:data:`MODEL_KINDS`,
+:func:`fit_regression`), the rule (:class:`LearnedRule`) and the choice of model and margin given
+a validation cost (:func:`select`).  Playing the environment to build the data and to score a rule
+is ``agents.training.learned_rule``'s.
+
+Model kinds
+-----------
+``ridge-quadratic``
+    Ridge regression on the standardized observation and its pairwise products and squares
+    (Hoerl and Kennard, Technometrics 12, 1970; Hastie, Tibshirani and Friedman, *The Elements of
+    Statistical Learning*, 2nd ed., 2009, section 3.4.1), the penalty chosen by leave-one-out
+    cross-validation on the training plants (``RidgeCV``).
+``boosting``
+    Gradient-boosted regression trees on the squared error (Friedman, Ann. Statist. 29, 2001;
+    scikit-learn's histogram-based ``HistGradientBoostingRegressor``), a fixed number of trees
+    (no early stopping, so no random split of the training plants).
+``quantile-boosting``
+    The same trees on the pinball loss of the :data:`QUANTILE` quantile (Koenker and Bassett,
+    Econometrica 46, 1978): an estimate of the action below which the oracle's lies on that share
+    of the plants like this one, i.e. a conservative fit before any margin, more conservative where
+    the oracle's action is harder to predict.  On the three fixed-mode environments it needs a
+    smaller margin and costs less than ``boosting`` with its best margin.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["MODEL_KINDS", "QUANTILE", "LearnedRule", "Selection", "fit_regression", "select"]
+
+MODEL_KINDS: tuple[str, ...] = ("ridge-quadratic", "boosting", "quantile-boosting")
+"""The regressions of :func:`fit_regression` (module docstring, "Model kinds")."""
+
+QUANTILE = 0.9
+"""The quantile of the oracle's action that ``quantile-boosting`` estimates.  Chosen among 0.75, 0.85,
+0.9, 0.95 and 0.98 by the mean cost at the best margin, on the validation plants and by 5-fold
+cross-validation on 1000 training plants, in each of ``PID-v0``, ``FPPI-v0`` and ``MSP-v0``
+(seed 0): 0.9 and 0.95 were best or within 0.1 of the best everywhere, 0.75 and 0.98 worse; 0.9
+is the less extreme estimate of the two."""
+
+RIDGE_PENALTIES = np.logspace(-4, 3, 15)
+"""The ridge penalties among which leave-one-out cross-validation chooses."""
+
+BOOSTING = {"max_iter": 200, "learning_rate": 0.05, "max_leaf_nodes": 15, "min_samples_leaf": 20,
+            "l2_regularization": 1.0, "early_stopping": False}
+"""The trees of ``boosting`` and ``quantile-boosting`` (scikit-learn's defaults but a smaller learning
+rate and larger leaves, for about a thousand noisy training plants)."""
+
+
+def _regressor(kind: str, seed: int) -> Any:
+    from sklearn.ensemble import HistGradientBoostingRegressor
+    from sklearn.linear_model import RidgeCV
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+
+    if kind == "ridge-quadratic":
+        return make_pipeline(StandardScaler(), PolynomialFeatures(2, include_bias=False), StandardScaler(),
+                             RidgeCV(alphas=RIDGE_PENALTIES))
+    if kind == "boosting":
+        return HistGradientBoostingRegressor(loss="squared_error", random_state=seed, **BOOSTING)
+    if kind == "quantile-boosting":
+        return HistGradientBoostingRegressor(loss="quantile", quantile=QUANTILE, random_state=seed, **BOOSTING)
+    raise ValueError(f"model kind must be one of {', '.join(MODEL_KINDS)}, got {kind!r}")
+
+
+def fit_regression(kind: str, observations: np.ndarray, actions: np.ndarray, seed: int = 0) -> Any:
+    """A fitted scikit-learn regressor of ``kind`` from ``observations`` to ``actions``.
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`MODEL_KINDS`.
+    observations : ndarray, shape (n, d)
+        The observations of the training plants.
+    actions : ndarray, shape (n,)
+        The oracle's action on each (its parameter in the environment's action coordinate).
+    seed : int
+        ``random_state`` of the trees (they draw nothing at random without early stopping or
+        subsampling; set for definiteness).
+
+    Raises
+    ------
+    ValueError
+        For an unknown kind, arrays of mismatched or wrong shape, fewer than 2 plants, or a
+        non-finite value.
+    """
+    observations = np.asarray(observations, dtype=float)
+    actions = np.asarray(actions, dtype=float)
+    if observations.ndim != 2 or actions.shape != (observations.shape[0],):
+        raise ValueError(f"observations must be (n, d) and actions (n,), got {observations.shape} and {actions.shape}")
+    if observations.shape[0] < 2:
+        raise ValueError(f"a regression needs at least 2 training plants, got {observations.shape[0]}")
+    if not (np.all(np.isfinite(observations)) and np.all(np.isfinite(actions))):
+        raise ValueError("observations and actions must be finite")
+    from threadpoolctl import threadpool_limits
+
+    model = _regressor(kind, seed)
+    with threadpool_limits(1):
+        model.fit(observations, actions)
+    return model
+
+
+@dataclass(frozen=True)
+class LearnedRule:
+    """A fitted regression with its safety margin: ``action = clip(f(observation) + direction * margin)``.
+
+    Attributes
+    ----------
+    kind : str
+        The model kind (:data:`MODEL_KINDS`).
+    model : scikit-learn regressor
+        ``f``, fitted by :func:`fit_regression`.
+    margin : float
+        The shift (>= 0, action units) towards the conservative side.
+    direction : {1.0, -1.0}
+        The sign of the action change that makes the design more conservative (larger ``mu`` or
+        ``T_r``): ``+1`` where the parameter grows with the action.
+    low, high : float
+        The bounds of the action, to which the shifted prediction is clipped.
+    observation_size : int
+        The length of the observation vector.
+    """
+
+    kind: str
+    model: Any = field(repr=False)
+    margin: float
+    direction: float
+    low: float
+    high: float
+    observation_size: int
+
+    def __post_init__(self) -> None:
+        if self.direction not in (1.0, -1.0):
+            raise ValueError(f"direction must be 1 or -1, got {self.direction!r}")
+        if not (np.isfinite(self.margin) and self.margin >= 0):
+            raise ValueError(f"margin must be a finite number >= 0, got {self.margin!r}")
+        if not self.low < self.high:
+            raise ValueError(f"the action bounds must be increasing, got ({self.low!r}, {self.high!r})")
+
+    def regression(self, observations: np.ndarray) -> np.ndarray:
+        """``f`` on a batch of observations ``(n, d)``: the unshifted actions ``(n,)`` (each row's
+        prediction is its own: the number of threads does not change it)."""
+        return np.asarray(self.model.predict(np.asarray(observations, dtype=float)), dtype=float)
+
+    def predict(self, observation: np.ndarray) -> np.ndarray:
+        """The action (float32) for one observation ``(d,)`` -> ``(1,)``, or a batch ``(n, d)`` -> ``(n, 1)``.
+
+        Raises
+        ------
+        ValueError
+            If the observation's length is not :attr:`observation_size`, or it is not finite.
+        """
+        observation = np.asarray(observation, dtype=float)
+        batch = observation.reshape(-1, observation.shape[-1]) if observation.ndim else observation.reshape(1, 1)
+        if observation.ndim not in (1, 2) or batch.shape[1] != self.observation_size:
+            raise ValueError(f"observation must have {self.observation_size} entries, got shape {observation.shape}")
+        if not np.all(np.isfinite(batch)):
+            raise ValueError("observation must be finite")
+        actions = np.clip(self.regression(batch) + self.direction * self.margin, self.low, self.high)
+        actions = actions.astype(np.float32).reshape(-1, 1)
+        return actions[0] if observation.ndim == 1 else actions
+
+    def with_margin(self, margin: float) -> LearnedRule:
+        """The same regression with another margin."""
+        return LearnedRule(self.kind, self.model, float(margin), self.direction, self.low, self.high, self.observation_size)
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The chosen rule and the validation costs it was chosen by.
+
+    ``costs[kind][i]`` is the mean validation cost of ``kind`` with ``margins[i]``.
+    """
+
+    rule: LearnedRule
+    margins: tuple[float, ...]
+    costs: Mapping[str, tuple[float, ...]]
+
+
+def select(
+    rules: Sequence[LearnedRule], margins: Sequence[float], validation_cost: Callable[[LearnedRule], float]
+) -> Selection:
+    """The rule and margin of the lowest validation cost.
+
+    Every rule of ``rules`` (one per model kind, any margin) is tried with every margin; ties go to
+    the larger margin (the safer rule), then to the earlier kind.  Only ``validation_cost`` sees
+    plants: the choice is made on whatever plants it plays, which must be validation plants.
+
+    Parameters
+    ----------
+    rules : sequence of LearnedRule
+        The fitted candidates, distinct kinds.
+    margins : sequence of float
+        The margins to try (>= 0).
+    validation_cost : callable
+        The mean cost of a rule on the validation plants.
+
+    Raises
+    ------
+    ValueError
+        For no rule or no margin, a repeated kind, or a negative margin.
+    """
+    kinds = [rule.kind for rule in rules]
+    if not rules or not len(margins):
+        raise ValueError("select needs at least one rule and one margin")
+    if len(set(kinds)) != len(kinds):
+        raise ValueError(f"the rules' kinds must be distinct, got {kinds}")
+    margins = tuple(float(m) for m in margins)
+    if any(not (np.isfinite(m) and m >= 0) for m in margins):
+        raise ValueError(f"margins must be finite numbers >= 0, got {list(margins)}")
+    costs = {rule.kind: tuple(float(validation_cost(rule.with_margin(m))) for m in margins) for rule in rules}
+    candidates = [(costs[rule.kind][i], -margin, position, i)
+                  for position, rule in enumerate(rules) for i, margin in enumerate(margins)]
+    _, _, position, i = min(candidates)
+    return Selection(rules[position].with_margin(margins[i]), margins, costs)
