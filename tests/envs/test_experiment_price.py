@@ -22,26 +22,13 @@ IDS = ["DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0"]
 DEFAULTS = {"weights": {"production": 0.0}, "amplitude_limit": None, "disturbances": {}}
 
 
-def _play(env: gym.Env, seed: int, actions: list[np.ndarray], plant=None):
-    options = None if plant is None else {"plant": plant}
-    observations = [env.reset(seed=seed, options=options)[0]]
-    rewards, k = [], 0
-    while True:
-        observation, reward, terminated, truncated, info = env.step(actions[min(k, len(actions) - 1)])
-        observations.append(observation)
-        rewards.append(reward)
-        k += 1
-        if terminated or truncated:
-            return observations, rewards, info
-
-
 @pytest.mark.parametrize("env_id", IDS)
 @pytest.mark.parametrize("mode", ["fixed", "agent"])
-def test_the_defaults_given_explicitly_are_v0(env_id, mode):
+def test_the_defaults_given_explicitly_are_v0(env_id, mode, play):
     default, explicit = gym.make(env_id, experiments=mode), gym.make(env_id, experiments=mode, **DEFAULTS)
     actions = list(np.random.default_rng(2).uniform(-1, 1, (6, *default.action_space.shape)).astype(np.float32))
     for seed in range(2):
-        first, second = _play(default, seed, actions), _play(explicit, seed, actions)
+        first, second = play(default, seed, actions), play(explicit, seed, actions)
         assert all(np.array_equal(a, b) for a, b in zip(first[0], second[0]))
         assert first[1] == second[1] and first[2] == second[2]
 
@@ -57,15 +44,15 @@ def test_deviation_of_an_open_loop_step_is_the_analytic_integral():
     assert experiment_deviation(result) == pytest.approx(exact, rel=2e-6)
 
 
-def test_production_is_priced_in_the_cost():
+def test_production_is_priced_in_the_cost(play):
     """``cost = v0 cost + w_prod D_exp/T_ar`` (feasible, uncapped design), ``D_exp`` the sum of the
     experiments' deviations, reported in ``info`` in units of the true ``T_ar``."""
     plant = Plant.from_time_constants(1.5, (6.0, 2.0), 3.0)
     action = [np.array([0.3], dtype=np.float32)]
     free = gym.make("DeadTime/FPPI-v0")
     priced = gym.make("DeadTime/FPPI-v0", weights={"production": 0.5})
-    _, _, base = _play(free, 0, action, plant)
-    _, rewards, info = _play(priced, 0, action, plant)
+    _, _, base = play(free, 0, action, plant)
+    _, rewards, info = play(priced, 0, action, plant)
     evidence = priced.unwrapped.evidence
     deviation = sum(experiment_deviation(r) for r in evidence.results.values())
     assert "experiment_deviation" not in base

@@ -20,19 +20,6 @@ IDS = ["DeadTime/PID-v0", "DeadTime/FPPI-v0"]
 LS = {"identification": "least-squares"}
 
 
-def _play(env: gym.Env, seed: int, actions: list[np.ndarray], plant=None):
-    options = None if plant is None else {"plant": plant}
-    observations = [env.reset(seed=seed, options=options)[0]]
-    rewards, k = [], 0
-    while True:
-        observation, reward, terminated, truncated, info = env.step(actions[min(k, len(actions) - 1)])
-        observations.append(observation)
-        rewards.append(reward)
-        k += 1
-        if terminated or truncated:
-            return observations, rewards, info
-
-
 def _choose(env: gym.Env, experiment: str | None, parameter: float = 0.0, amplitude: float = 0.0) -> np.ndarray:
     """The agent-mode action that runs ``experiment`` (None: commit)."""
     names = env.unwrapped.experiment_names
@@ -56,15 +43,15 @@ def test_spaces_and_checker(env_id, mode):
 
 @pytest.mark.parametrize("env_id", IDS)
 @pytest.mark.parametrize("mode", ["fixed", "agent"])
-def test_seeds_given_explicitly_is_the_default(env_id, mode):
+def test_seeds_given_explicitly_is_the_default(env_id, mode, play):
     default, explicit = gym.make(env_id, experiments=mode), gym.make(env_id, experiments=mode, identification="seeds")
     actions = list(np.random.default_rng(1).uniform(-1, 1, (6, *default.action_space.shape)).astype(np.float32))
     for seed in range(3):
-        first, second = _play(default, seed, actions), _play(explicit, seed, actions)
+        first, second = play(default, seed, actions), play(explicit, seed, actions)
         assert all(np.array_equal(a, b) for a, b in zip(first[0], second[0])) and first[1] == second[1]
 
 
-def test_fixed_fppi_designs_from_the_fit_of_the_seeds_step():
+def test_fixed_fppi_designs_from_the_fit_of_the_seeds_step(play):
     """Same experiments as the seeds' procedure (same seed, same records), then the step's record fitted."""
     plant = Plant(num=(2.5,), den=(12.0, 1.0), dead_time=4.0)
     seeds, fitted = gym.make("DeadTime/FPPI-v0"), gym.make("DeadTime/FPPI-v0", **LS)
@@ -78,16 +65,16 @@ def test_fixed_fppi_designs_from_the_fit_of_the_seeds_step():
     assert model.gain == pytest.approx(2.5, rel=0.01)
     assert model.time_constant == pytest.approx(12.0, rel=0.02) and model.dead_time == pytest.approx(4.0, rel=0.02)
     assert fitted.unwrapped.evidence.fit.experiment == "open-loop-step"
-    _, _, info = _play(fitted, 3, [np.zeros(1, dtype=np.float32)], plant)
+    _, _, info = play(fitted, 3, [np.zeros(1, dtype=np.float32)], plant)
     assert info["model"] == expected.to_dict()
 
 
-def test_agent_prbs_replaces_the_open_loop_step():
+def test_agent_prbs_replaces_the_open_loop_step(play):
     """A PRBS (after the closed-loop step) gives the FPPI its FOPDT model: committing runs no step."""
     env = gym.make("DeadTime/FPPI-v0", experiments="agent", **LS)
     plant = Plant.from_time_constants(1.7, (6.0, 2.0), 3.0)
     actions = [_choose(env, "closed-loop-step"), _choose(env, "prbs"), _choose(env, None)]
-    _, rewards, info = _play(env, 0, actions, plant)
+    _, rewards, info = play(env, 0, actions, plant)
     evidence = env.unwrapped.evidence
     assert dict(zip(evidence.experiments, evidence.counts)) == {
         "closed-loop-step": 1, "open-loop-step": 0, "open-loop-ramp": 0, "relay": 0, "prbs": 1}
@@ -120,13 +107,13 @@ def test_refused(env_id, kwargs, message):
 
 
 @pytest.mark.parametrize("order", [("prbs", "open-loop-step"), ("open-loop-step", "prbs")], ids=["step-last", "prbs-last"])
-def test_agent_chooses_the_identification_by_its_latest_experiment(order):
+def test_agent_chooses_the_identification_by_its_latest_experiment(order, play):
     """Agent mode: the design reads the model of the latest experiment that gives one, the PRBS's by
     least squares or the step's by the seeds' area method (eq. 11)."""
     env = gym.make("DeadTime/FPPI-v0", experiments="agent", **LS)
     plant = Plant.from_time_constants(1.7, (6.0, 2.0), 3.0)
     actions = [_choose(env, "closed-loop-step"), *(_choose(env, kind) for kind in order), _choose(env, None)]
-    _, _, info = _play(env, 1, actions, plant)
+    _, _, info = play(env, 1, actions, plant)
     evidence = env.unwrapped.evidence
     if order[-1] == "prbs":
         assert info["model"] == evidence.fit.fit.model.to_dict()
