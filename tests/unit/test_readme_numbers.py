@@ -47,13 +47,18 @@ def test_the_tr_floors_are_those_of_the_code():
 
 
 def test_the_results_tables_are_the_committed_sweep_summaries():
-    """Every table of the README's Results is a table of a committed ``sweeps/*/summary.md``, verbatim."""
-    summaries = sorted((Path(__file__).resolve().parents[2] / "sweeps").glob("*/summary.md"))
-    committed = [table for summary in summaries for table in _tables(summary.read_text())]
+    """Every policy table of the README's Results is a table of a committed ``sweeps/*/summary.md``,
+    verbatim; every ``value [low, high]`` of its other tables (the overview) is in one of them too."""
+    summaries = [path.read_text() for path in sorted((Path(__file__).resolve().parents[2] / "sweeps").glob("*/summary.md"))]
+    committed = [table for summary in summaries for table in _tables(summary)]
     results = README[README.index("## Results"):README.index("## How the numbers are computed")]
-    readme_tables = _tables(results)
-    assert len(readme_tables) >= 3
-    assert all(table in committed for table in readme_tables)
+    policy_tables = [t for t in _tables(results) if t.startswith("| policy | role |")]
+    assert len(policy_tables) >= 3
+    assert all(table in committed for table in policy_tables)
+    quoted = [q for t in _tables(results) if not t.startswith("| policy | role |")
+              for q in re.findall(r"-?[\d.]+ \[-?[\d.]+, -?[\d.]+\]", t)]
+    assert len(quoted) >= 12
+    assert all(any(q in summary for summary in summaries) for q in quoted), [q for q in quoted if not any(q in m for m in summaries)]
 
 
 def _tables(text: str) -> list[str]:
