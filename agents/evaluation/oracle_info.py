@@ -3,8 +3,9 @@
 The environments (``envs``) know nothing of the baselines; this wrapper, in the layer that owns
 both, runs :func:`baselines.oracle.oracle` on the episode's true plant and identification when the
 design is committed, with the environment's own constraints and weights, and adds its cost and
-relative parameter (``mu``, ``T_r/T_n`` or ``T_r/L_n``) to that step's ``info``.  It is slow (about
-a second per episode: a log grid, then bounded Brent).
+relative parameter (``mu``, ``T_r/T_n`` or ``T_r/L_n``) to that step's ``info``.  It costs 10-16 ms
+per episode (a log grid, then bounded Brent; measured by the learned rule's fits on 1000 training
+plants), about ten episodes' worth.
 
 Examples
 --------
