@@ -52,6 +52,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from agents.training.files import write_json, write_text
+from agents.training.interrupts import StopRequest
 from agents.training.learned_rule_config import MAX_TRAINING_PLANTS, LearnedRuleConfig
 
 if TYPE_CHECKING:
@@ -140,8 +141,11 @@ def training_data(env: Any, config: LearnedRuleConfig, run_dir: Path) -> tuple[l
 
     records: list[dict[str, Any]] = []
     labelled = 0
-    with tqdm(total=config.training_plants, desc="oracle on training plants", unit="plant", file=sys.stderr,
-              disable=not config.progress_bar) as bar:
+    # SIGINT/SIGTERM are taken between plants (StopRequest): a KeyboardInterrupt raised inside a compiled
+    # (numba) call surfaces as a SystemError, and the labels of the chunk so far would be lost.
+    with StopRequest("of the labels after the current plant") as stop, \
+            tqdm(total=config.training_plants, desc="oracle on training plants", unit="plant", file=sys.stderr,
+                 disable=not config.progress_bar) as bar:
         for first in range(0, config.training_plants, CHUNK):
             indices = range(first, min(first + CHUNK, config.training_plants))
             seeds = [training_seed(config.seed, k) for k in indices]
@@ -153,6 +157,9 @@ def training_data(env: Any, config: LearnedRuleConfig, run_dir: Path) -> tuple[l
                     chunk.append(_label(env, seed, k))
                     labelled += 1
                     bar.update()
+                    if stop.requested:
+                        write_json(path, chunk)
+                        raise KeyboardInterrupt
                 write_json(path, chunk)
             records += chunk
     return records, labelled
@@ -321,7 +328,9 @@ def run(config: LearnedRuleConfig, *, resume: bool, command: str) -> int:
     """``deadtime train`` of a learned-rule config: fit, report where the rule is (exit 130 on Ctrl-C)."""
     try:
         result = fit(config, resume=resume, command=command)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, SystemError) as error:
+        if isinstance(error, SystemError) and not isinstance(error.__context__, KeyboardInterrupt):
+            raise  # a SystemError that is not Ctrl-C inside a compiled call
         run_dir = run_directory(config)
         kept = _labels_kept(config, run_dir)
         print(f"\ninterrupted; {kept} labelled training plants are kept in {run_dir / 'dataset'}; continue with: "

@@ -17,6 +17,7 @@ import pytest
 import scipy.optimize
 
 from envs.identification.least_squares import (
+    ITERATION_TOLERANCE,
     arx_regression,
     arx_response,
     instrumental_variables,
@@ -80,9 +81,14 @@ def test_sopdt_record_gives_the_plant():
     u = np.repeat(prbs_levels(6), 30)
     for method in METHODS:
         fit = least_squares_fit(u, _record(plant, u, dt), dt, order=2, method=method, delays=range(0, 100))
+        # The plain regression is exact to rounding (measured 2e-12 to 5e-12 on two OpenBLAS kernels);
+        # the instrumental-variables iteration stops once its coefficients move less than
+        # ITERATION_TOLERANCE, so its error is of that order, amplified from the discrete poles to the
+        # time constants (measured 8e-9 to 2.5e-7 across the Haswell and SkylakeX kernels): 10x that bound.
+        rel = 1e-9 if method == "least-squares" else 10 * ITERATION_TOLERANCE
         assert fit.delay == delay
-        assert fit.model.gain == pytest.approx(gain, rel=1e-8)
-        assert fit.model.time_constants == pytest.approx(lags, rel=1e-7)
+        assert fit.model.gain == pytest.approx(gain, rel=rel)
+        assert fit.model.time_constants == pytest.approx(lags, rel=rel)
 
 
 def test_regression_is_marlins_normal_equations():
