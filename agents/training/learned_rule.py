@@ -235,9 +235,8 @@ def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None 
         If the config is refused (naming the key), the run directory holds another run and
         ``resume`` is False, or ``resume`` is True with another environment or seed.
     """
-    from agents.runtime import git_commit, versions
     from agents.training.config import validate
-    from agents.training.train import TrainResult, _config_yaml
+    from agents.training.train import TrainResult, _config_yaml, run_provenance
 
     validate(config)
     run_dir = run_directory(config)
@@ -245,8 +244,7 @@ def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None 
     if finished is not None:
         print(f"{run_dir} already holds this learned rule (fit finished)")
         return finished
-    provenance = {"command": command or "(python API)", "commit": git_commit(), "versions": versions(),
-                  "started": datetime.now(UTC).isoformat(timespec="seconds")}
+    provenance = run_provenance(command)
     text = _config_yaml(config, provenance)
     print(text, end="")
     env = check_environment(config)

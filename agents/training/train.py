@@ -221,6 +221,12 @@ def _setup_torch(config: TrainConfig) -> None:
     torch.use_deterministic_algorithms(True)
 
 
+def run_provenance(command: str | None) -> dict[str, Any]:
+    """What a run records of how it was made: the command, the commit, the versions, the start time."""
+    return {"command": command or "(python API)", "commit": git_commit(), "versions": versions(),
+            "started": datetime.now(UTC).isoformat(timespec="seconds")}
+
+
 def _config_yaml(config: TrainConfig, provenance: Mapping[str, Any]) -> str:
     header = [f"# deadtime train: resolved config, {provenance['started']}",
               f"# command: {provenance['command']}",
@@ -297,8 +303,7 @@ def train(
         print(f"{run_dir} already finished {finished.num_timesteps} steps (raise total_timesteps to extend it)")
         return finished
 
-    provenance = {"command": command or "(python API)", "commit": git_commit(), "versions": versions(),
-                  "started": datetime.now(UTC).isoformat(timespec="seconds")}
+    provenance = run_provenance(command)
     text = _config_yaml(config, provenance)
     print(text, end="")
     _setup_torch(config)

@@ -135,22 +135,15 @@ class DisturbedNoise(MeasurementNoise):
     def drawn_as_needed(self) -> bool:
         return self._drawn < self.size
 
-    def first(self, count: int) -> np.ndarray:
-        count = min(int(count), self.size)
-        drawn = self._drawn
-        if count > drawn:
-            if self._values.size < self.size:
-                self._values = np.empty(self.size)
-            fresh = self._values[drawn:count]
-            fresh[:] = self.white.first(count)[drawn:]
-            if self._drift_source is not None:
-                walk = self._drift_level + self._drift_step * np.cumsum(self._drift_source.standard_normal(count - drawn))
-                self._drift_level = float(walk[-1])
-                fresh += walk
-            if self._load is not None:
-                fresh += self._load.response(count)[drawn:]
-            self._drawn = count
-        return self._values[:count]
+    def _fill(self, fresh: np.ndarray, drawn: int, count: int) -> None:
+        """The white samples, plus the drift's walk and the load's response over them."""
+        fresh[:] = self.white.first(count)[drawn:]
+        if self._drift_source is not None:
+            walk = self._drift_level + self._drift_step * np.cumsum(self._drift_source.standard_normal(count - drawn))
+            self._drift_level = float(walk[-1])
+            fresh += walk
+        if self._load is not None:
+            fresh += self._load.response(count)[drawn:]
 
 
 def _stream(seed: np.ndarray, key: int) -> np.random.Generator:

@@ -125,14 +125,17 @@ class MeasurementNoise:
         if count > drawn:
             if self._values.size < self.size:
                 self._values = np.empty(self.size)
-            fresh = self._values[drawn:count]
-            if self.noise_std == 0.0 or self._source is None:
-                fresh[:] = 0.0
-            else:  # the normals of standard_normal(count - drawn), scaled in place: the same products
-                self._source.standard_normal(out=fresh)
-                fresh *= self.noise_std
+            self._fill(self._values[drawn:count], drawn, count)
             self._drawn = count
         return self._values[:count]
+
+    def _fill(self, fresh: np.ndarray, drawn: int, count: int) -> None:
+        """Write samples ``drawn .. count - 1`` into ``fresh`` (the buffer's slice for them)."""
+        if self.noise_std == 0.0 or self._source is None:
+            fresh[:] = 0.0
+        else:  # the normals of standard_normal(count - drawn), scaled in place: the same products
+            self._source.standard_normal(out=fresh)
+            fresh *= self.noise_std
 
 
 def as_noise(noise: MeasurementNoise | np.ndarray) -> MeasurementNoise:
