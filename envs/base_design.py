@@ -160,7 +160,10 @@ def base_parameter(structure: str, identification: Identification) -> float:
 
     The FPPI's eq. 34 needs ``T_n > 0`` and ``T_f_bar + Delta L > 0``; where the identification
     gives neither (a model without dead time or mismatch), ``p_0`` is the range's aggressive end,
-    where ``fppi-eq34`` refuses the plant.
+    where ``fppi-eq34`` refuses the plant.  A mismatch area that was not measured (agent mode: the
+    design reads a PRBS's least-squares model and no open-loop step ran, or the step did not
+    settle) counts as 0, so that eq. 34 keeps its assumed dead-time error ``Delta L``; before
+    this, such an episode's base was the aggressive end and its loop was unstable at ``a = 0``.
     """
     if structure == "pid":
         return PID_BASE_MU
@@ -168,7 +171,8 @@ def base_parameter(structure: str, identification: Identification) -> float:
         delta = MSP_RELATIVE_DEAD_TIME_ERROR
         return 2.0 * delta / (1.0 - delta)
     fopdt = identification.fopdt
-    bound = identification.mismatch_time + FPPI_DEAD_TIME_ERROR * fopdt.dead_time
+    mismatch = identification.mismatch_time if math.isfinite(identification.mismatch_time) else 0.0
+    bound = mismatch + FPPI_DEAD_TIME_ERROR * fopdt.dead_time
     if not (fopdt.time_constant > 0 and bound > 0):
         return PARAMETER_RANGES["fppi"][0]
     return _clip_to_range("fppi", fppi_time_constant(fopdt.time_constant, bound) / fopdt.time_constant)

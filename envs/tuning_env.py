@@ -493,6 +493,12 @@ _SHARED_DOC = """
       log-correction of the structure's base rule (``gorez-klan-mu-2``, ``fppi-eq34``, ``msp-eq50``;
       action 0 is the rule), and the observation ends with three design features.  Plants,
       experiments, dynamics and cost are v0's.
+    * v2 (issue 17): v1 with a price on production: ``weights={"production": 0.05}`` (each unit of
+      ``D_exp/T_ar``, the experiments' integrated output deviation, costs 0.05: the seeds' procedure
+      at amplitude 1 costs about 0.5 more than in v1) and ``amplitude_limit=3`` (agent-mode
+      amplitudes above 3 are cut to 3).  The fixed mode runs v1's experiments (the same
+      identifications); its cost adds the production term.  In agent mode the FPPI base rule reads
+      an unmeasured mismatch area as 0 (:func:`envs.base_design.base_parameter`).
 """
 
 

@@ -59,6 +59,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument("--json", action="store_true", help="print results.json to stdout")
     parser.add_argument("--family", help="plant family of the test set (default: the environment's)")
+    parser.add_argument("--env-kwargs", help="a JSON object of environment arguments (or a file of one) that set the "
+                        "regime every policy is scored in, e.g. '{\"noise_std\": 0.1}'; not 'experiments'")
     parser.add_argument("--no-benchmark", action="store_true", help="leave out the seeds' benchmark batch")
     parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (default 2000)")
     parser.add_argument("--no-plots", action="store_true", help="write the tables only")
@@ -70,10 +72,11 @@ def run(args: argparse.Namespace) -> int:
     from agents.commands.arguments import load_json_argument
 
     plants = None if args.plants is None else load_json_argument(args.plants, "--plants")
+    regime = None if args.env_kwargs is None else load_json_argument(args.env_kwargs, "--env-kwargs")
     result = evaluate(
         env_id=args.env, policies=args.policies, n=args.n, seed=args.seed, out=Path(args.out), family=args.family,
         benchmark=not args.no_benchmark, resamples=args.resamples, plots=not args.no_plots, workers=args.workers,
-        plants=plants,
+        plants=plants, env_kwargs=regime,
     )  # fmt: skip
     if args.json:
         print(json.dumps(result, indent=2))
@@ -151,6 +154,18 @@ def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) 
     return agents, roles
 
 
+def _regime(env_kwargs: Any) -> dict[str, Any]:
+    """The ``--env-kwargs`` of an evaluation, checked: a mapping of environment arguments without
+    ``experiments`` (each policy plays its own mode); the environment checks the values."""
+    if env_kwargs is None:
+        return {}
+    if not isinstance(env_kwargs, dict):
+        raise ValueError(f"--env-kwargs must be a JSON object of environment arguments, got {type(env_kwargs).__name__}")
+    if "experiments" in env_kwargs:
+        raise ValueError("--env-kwargs: 'experiments' is not an evaluation's choice (each policy plays its own mode)")
+    return dict(env_kwargs)
+
+
 BENCHMARK_SEED_OFFSET = 1_000_000
 """Episode seed of benchmark plant ``j``: ``--seed + BENCHMARK_SEED_OFFSET + j``, whatever ``--n``."""
 
@@ -185,11 +200,15 @@ def evaluate(
     plots: bool = True,
     workers: int = 1,
     plants: list | None = None,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Evaluate ``policies`` on ``env_id``'s held-out plants and write the outputs into ``out``.
 
     Returns the ``results.json`` object.  See the module docstring.  ``plants``, a list of plants
     in any form :func:`envs.systems.plants.as_plant` takes, replaces the ``n`` random test plants.
+    ``env_kwargs``, environment arguments (noise, weights, amplitude limit, ...), set the regime: the
+    rules and oracles play the environment made with them, and every agent is scored in them (over
+    its own ``env_kwargs``); they are part of the cache key and of ``results.json``.
 
     Raises
     ------
@@ -208,7 +227,7 @@ def evaluate(
     if workers <= 0:
         raise ValueError(f"--workers must be positive, got {workers!r}")
     started = time.perf_counter()
-    env_kwargs: dict[str, Any] = {} if family is None else {"family": family}
+    env_kwargs = {**_regime(env_kwargs), **({} if family is None else {"family": family})}
     env = make_env(env_id, {"experiments": "fixed", **env_kwargs})
     unwrapped = env.unwrapped
     structure = unwrapped.structure
@@ -229,6 +248,7 @@ def evaluate(
     out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)
     results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, plants, seed, rules, agents, out, full, workers)
+    regime = {key: value for key, value in env_kwargs.items() if key != "family"}
     means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
     best_rule = min(own, key=lambda name: (means[name], name))
     shown = [s.name for s in specs if s.kind not in TRAINED] + list(agents)
@@ -246,6 +266,7 @@ def evaluate(
         "oracle_rescore_max_difference": mismatch,
         "resamples": resamples,
         "wall_time_s": round(elapsed, 2),
+        **({"env_kwargs": regime} if regime else {}),
     }
     from agents.evaluation.report import write_tables
 
@@ -281,8 +302,10 @@ def _score_plants(
     cache = Cache(out / "cache.jsonl")
     seeds = _episode_seeds(plants, seed)
     family = env.unwrapped.family
+    regime = {key: value for key, value in env_kwargs.items() if key != "family"}
+    environment = env_id if not regime else f"{env_id} {json.dumps(regime, sort_keys=True, default=str)}"
     keys = [
-        plant_key(env_id, family, seeds[i], i if subset == "test" else label, plant.to_dict())
+        plant_key(environment, family, seeds[i], i if subset == "test" else label, plant.to_dict())
         for i, (subset, label, plant) in enumerate(plants)
     ]
     mismatch = 0.0

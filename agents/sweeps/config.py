@@ -4,6 +4,8 @@ A sweep is a study: training configs x environment ids x seeds, then the evaluat
 trained agent, and of the rules and the oracle once per environment, on the held-out plants::
 
     name: fixed-mode                  # default: the file's stem
+    env_kwargs: {noise_std: 0.1}      # optional: the study's regime, given to every trial's
+                                      # environment (over its config's) and to the evaluation
     trials:
       - label: sac                    # names the runs (default: the config file's stem)
         config: configs/sac.yaml      # a training config, as for `deadtime train`
@@ -51,6 +53,7 @@ class Trial:
     seed: int
     config_path: str
     overrides: tuple[str, ...]
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -59,17 +62,19 @@ class Trial:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain values (Ray Tune's trial config, JSON); :meth:`from_dict` reads them back."""
-        return {**dataclasses.asdict(self), "overrides": list(self.overrides)}
+        return {**dataclasses.asdict(self), "overrides": list(self.overrides), "env_kwargs": dict(self.env_kwargs)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Trial:
-        return cls(**{**data, "overrides": tuple(data["overrides"])})
+        return cls(**{**data, "overrides": tuple(data["overrides"]), "env_kwargs": dict(data.get("env_kwargs", {}))})
 
     def train_config(self, run_dir: Path) -> TrainConfig:
-        """The config ``deadtime train`` would resolve, with the seed and the run directory set."""
+        """The config ``deadtime train`` would resolve, with the seed and the run directory set, and
+        the sweep's ``env_kwargs`` over the config's."""
         overrides = [*self.overrides, f"seed={self.seed}"]
         config = load_config(self.config_path, env_id=self.env_id, overrides=overrides)
-        return dataclasses.replace(config, output_dir=str(run_dir))
+        env_kwargs = {**config.env_kwargs, **self.env_kwargs}
+        return dataclasses.replace(config, output_dir=str(run_dir), env_kwargs=env_kwargs)
 
 
 @dataclass(frozen=True)
@@ -82,8 +87,9 @@ class TrialGroup:
     envs: tuple[str, ...]
     seeds: tuple[int, ...]
 
-    def trials(self) -> list[Trial]:
-        return [Trial(self.label, env, seed, self.config, self.overrides) for env in self.envs for seed in self.seeds]
+    def trials(self, env_kwargs: Mapping[str, Any] | None = None) -> list[Trial]:
+        return [Trial(self.label, env, seed, self.config, self.overrides, dict(env_kwargs or {}))
+                for env in self.envs for seed in self.seeds]
 
 
 @dataclass(frozen=True)
@@ -111,9 +117,10 @@ class SweepConfig:
     groups: tuple[TrialGroup, ...]
     evaluation: Evaluation = field(default_factory=Evaluation)
     failure: Failure = field(default_factory=Failure)
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
 
     def trials(self) -> list[Trial]:
-        return [trial for group in self.groups for trial in group.trials()]
+        return [trial for group in self.groups for trial in group.trials(self.env_kwargs)]
 
     def envs(self) -> list[str]:
         return sorted({env for group in self.groups for env in group.envs})
@@ -204,7 +211,7 @@ def load_sweep(path: str | Path) -> SweepConfig:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as error:
         raise ValueError(f"{path} is not valid YAML: {error}") from None
-    data = _mapping(data if data is not None else {}, str(path), ("name", "trials", "evaluation", "failure"))
+    data = _mapping(data if data is not None else {}, str(path), ("name", "env_kwargs", "trials", "evaluation", "failure"))
     name = data.get("name", path.stem)
     if not isinstance(name, str) or not name:
         raise ValueError(f"{path}: name must be a non-empty string, got {name!r}")
@@ -213,7 +220,11 @@ def load_sweep(path: str | Path) -> SweepConfig:
     groups = tuple(_group(item, f"trials[{i}]") for i, item in enumerate(data["trials"]))
     failure_data = _mapping(data.get("failure", {}), "failure", ("max_failures",))
     failure = Failure(_integer(failure_data.get("max_failures", Failure.max_failures), "failure.max_failures", 0))
-    sweep = SweepConfig(name, groups, _evaluation(data.get("evaluation", {})), failure)
+    env_kwargs = data.get("env_kwargs") or {}
+    if not isinstance(env_kwargs, Mapping) or "experiments" in env_kwargs:
+        raise ValueError(f"{path}: env_kwargs must be a mapping of environment arguments without 'experiments' "
+                         f"(each trial's config sets its mode), got {env_kwargs!r}")
+    sweep = SweepConfig(name, groups, _evaluation(data.get("evaluation", {})), failure, dict(env_kwargs))
     names = [trial.name for trial in sweep.trials()]
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:

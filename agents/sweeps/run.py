@@ -231,10 +231,10 @@ def _error_line(error: BaseException | None) -> str:
 
 
 # ---------------------------------------------------------------------------- evaluation
-def _evaluate_task(env_id: str, policies: str, n: int, seed: int, resamples: int, directory: str) -> str:
+def _evaluate_task(env_id: str, policies: str, n: int, seed: int, resamples: int, directory: str, env_kwargs: dict) -> str:
     from agents.evaluation.evaluate import evaluate
 
-    evaluate(env_id, policies, n, seed, Path(directory), resamples=resamples, plots=False)
+    evaluate(env_id, policies, n, seed, Path(directory), resamples=resamples, plots=False, env_kwargs=env_kwargs)
     return directory
 
 
@@ -246,7 +246,8 @@ def _evaluate_all(ray: Any, sweep: SweepConfig, trials: list[Trial], out: Path) 
     evaluation = sweep.evaluation
     jobs = [(env, ",".join(evaluation.policies), evaluation_directory(out, env, "baselines")) for env in sweep.envs()]
     jobs += [(t.env_id, f"agent={out / 'runs' / t.name}", evaluation_directory(out, t.env_id, t.name)) for t in trials]
-    pending = [task.remote(env, policies, evaluation.n, evaluation.seed, evaluation.resamples, str(directory))
+    regime = dict(sweep.env_kwargs)
+    pending = [task.remote(env, policies, evaluation.n, evaluation.seed, evaluation.resamples, str(directory), regime)
                for env, policies, directory in jobs]
     with tqdm(total=len(pending), desc="evaluations", unit="run", file=sys.stderr) as bar:
         while pending:

@@ -150,6 +150,8 @@ def _interval(row: dict[str, Any], key: str) -> str:
 def _markdown(summary: dict[str, Any]) -> str:
     sessions = summary["sessions"]
     lines = [f"# Sweep `{summary['sweep']}`", ""]
+    if summary.get("env_kwargs"):
+        lines += [f"- regime: every environment made with `{json.dumps(summary['env_kwargs'], sort_keys=True)}`"]
     if sessions:
         lines += [f"- wall time {summary['wall_time_s']:.0f} s in {len(sessions)} session(s) on {sessions[-1]['cpus']:g} CPUs, "
                   f"commit {sessions[-1]['commit']}", ""]
@@ -241,7 +243,8 @@ def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: di
     ``sessions`` (the invocations of the sweep, :mod:`agents.sweeps.run`) give the wall time.
     """
     entries = [_environment(sweep, env, trials, out) for env in sweep.envs()]
-    summary = {"sweep": sweep.name, "failed": failed, "envs": [entry for entry, _ in entries],
+    summary = {"sweep": sweep.name, **({"env_kwargs": dict(sweep.env_kwargs)} if sweep.env_kwargs else {}),
+               "failed": failed, "envs": [entry for entry, _ in entries],
                "sessions": list(sessions), "wall_time_s": round(sum(s["wall_time_s"] for s in sessions), 1)}
     summary = _json_ready(summary)
     curves = learning_curves(trials, out)
