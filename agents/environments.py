@@ -26,6 +26,8 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle
     except gymnasium.error.Error as error:
         known = sorted(k for k in gymnasium.registry if k.startswith("DeadTime/"))
         raise ValueError(f"unknown environment {env_id!r} ({error}); known: {', '.join(known) or 'none'}") from None
+    except TypeError as error:  # an argument the environment does not take (its constructor's message names it)
+        raise ValueError(f"environment arguments of {env_id}: {error}") from None
     if oracle:
         from agents.evaluation.oracle_info import OracleInfo
 

@@ -120,3 +120,25 @@ def test_disturbances_change_the_identification_not_the_white_noise(disturbances
 def test_bad_arguments_raise_one_value_error_naming_them(env_id, kwargs, message):
     with pytest.raises(ValueError, match=message):
         gym.make(env_id, **kwargs)
+
+
+@pytest.mark.parametrize("structure", ["PID", "FPPI", "MSP"])
+def test_v2_is_v1_with_production_priced(structure, play):
+    """Same seed and action: v2's fixed-mode episode identifies as v1's and its cost is v1's plus
+    ``0.05 D_exp/T_ar`` (v2's production weight); its agent-mode amplitudes stop at 3."""
+    v1, v2 = gym.make(f"DeadTime/{structure}-v1"), gym.make(f"DeadTime/{structure}-v2")
+    assert v2.unwrapped.weights == CostWeights(production=0.05)
+    assert v2.unwrapped.options.amplitude_limit == 3.0
+    action = [np.array([0.2], dtype=np.float32)]
+    for seed in range(3):
+        first, _, info1 = play(v1, seed, action)
+        second, _, info2 = play(v2, seed, action)
+        assert np.array_equal(first[0], second[0])
+        assert info1["controller"] == info2["controller"]
+        if info1["feasible"]:
+            assert info2["cost"] == pytest.approx(info1["cost"] + 0.05 * info2["experiment_deviation"], rel=1e-12)
+    agent = gym.make(f"DeadTime/{structure}-v2", experiments="agent")
+    agent.reset(seed=0)
+    step = np.full(agent.action_space.shape, -1.0, dtype=np.float32)
+    step[1], step[-2] = 1.0, 1.0  # the first experiment at the largest amplitude asked for (10)
+    assert agent.step(step)[4]["amplitude"] == 3.0

@@ -145,3 +145,39 @@ def test_env_checkers_pass_with_the_robustness_action(structure):
     from gymnasium.utils.env_checker import check_env
 
     check_env(gym.make(V1[structure], action="robustness").unwrapped, skip_render_check=True)
+
+
+def test_an_unmeasured_mismatch_area_counts_as_zero_in_the_fppi_base():
+    """Agent mode with only a PRBS fitted: no open-loop step measured ``T_f_bar`` (nan).  The base is
+    eq. 34 with ``T_f_bar = 0`` (the assumed dead-time error alone), not the range's aggressive end."""
+    from dataclasses import replace
+
+    from envs.base_design import FPPI_DEAD_TIME_ERROR, fppi_time_constant
+
+    env = gym.make(V1["fppi"]).unwrapped
+    env.reset(seed=0)
+    found = env.identification
+    unmeasured, zero = replace(found, mismatch_time=math.nan), replace(found, mismatch_time=0.0)
+    fopdt = found.fopdt
+    expected = fppi_time_constant(fopdt.time_constant, FPPI_DEAD_TIME_ERROR * fopdt.dead_time) / fopdt.time_constant
+    assert base_parameter("fppi", unmeasured) == base_parameter("fppi", zero) == pytest.approx(expected, rel=1e-12)
+    assert base_parameter("fppi", unmeasured) > PARAMETER_RANGES["fppi"][0]
+
+
+def test_a_prbs_only_agent_episode_designs_a_stable_loop_at_action_zero():
+    """FPPI-v2 in agent mode, a PRBS then the commit at ``a = 0``: the loop is stable on these plants
+    (before the base read an unmeasured ``T_f_bar`` as 0 it was the aggressive end: 26, unstable).
+    Without the mismatch area eq. 34 is aggressive (Ms 2-5 on some of them): robustness is the agent's
+    to buy, with a residual or an open-loop step."""
+    env = gym.make("DeadTime/FPPI-v2", experiments="agent", identification="least-squares")
+    names = env.unwrapped.experiment_names
+    for seed in range(3):
+        env.reset(seed=seed)
+        for kind in ("closed-loop-step", "prbs"):
+            action = np.full(env.action_space.shape, -1.0, dtype=np.float32)
+            action[names.index(kind) + 1], action[-2], action[-1] = 1.0, 0.0, 0.0
+            env.step(action)
+        commit = np.full(env.action_space.shape, -1.0, dtype=np.float32)
+        commit[0], commit[-1] = 1.0, 0.0
+        info = env.step(commit)[4]
+        assert info["score"]["stable"], info["cost"]

@@ -270,3 +270,61 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as done:
         main(["--version"])
     assert done.value.code == 0 and capsys.readouterr().out == f"deadtime {version('deadtime-gym')}\n"
+
+
+@pytest.mark.parametrize(
+    "regime, message",
+    [
+        ('{"experiments": "agent"}', "--env-kwargs: 'experiments' is not an evaluation's choice"),
+        ('{"noise": 0.1}', "unexpected keyword argument 'noise'"),
+        ('{"noise_std": -1}', "noise_std"),
+        ('[1]', "--env-kwargs must be a JSON object"),
+        ("{noise_std: 0.1}", "--env-kwargs is not valid JSON"),
+    ],
+    ids=["experiments", "unknown-argument", "bad-value", "not-an-object", "not-json"],
+)
+def test_bad_env_kwargs_are_one_line_and_exit_2(capsys, tmp_path, regime, message):
+    code = main(["evaluate", "--env", FAST_ENV, "--policies", "oracle", "--env-kwargs", regime, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and message in err and "Traceback" not in err, err
+
+
+def test_env_kwargs_set_the_regime_of_every_policy(capsys, tmp_path, fake_agents):
+    """``--env-kwargs``: the rules play the environment made with them, the agents are scored in them
+    over their own arguments, the cache keeps regimes apart, and results.json records them."""
+    import gymnasium
+
+    regime = {"noise_std": 0.1, "weights": {"production": 0.05}}
+    policies = f"fppi-eq34,constant={fake_agents.paths['constant']}"
+    plain = _evaluate(capsys, tmp_path / "plain", "--policies", policies, "--no-plots")
+    rows = {}
+    for name in ("first", "again"):  # the second run shares the first's cache: served from it, equal
+        found = _evaluate(capsys, tmp_path / "regime", "--policies", policies, "--no-plots", "--env-kwargs", json.dumps(regime))
+        rows[name] = _per_plant(tmp_path / "regime")
+    assert found["env_kwargs"] == regime and "env_kwargs" not in plain
+    assert rows["first"] == rows["again"]
+    default = _per_plant(tmp_path / "plain")
+    env = gymnasium.make(FAST_ENV, **regime)
+    for index in range(2):
+        plant = rows["first"][(index, "constant")]
+        assert float(plant["cost"]) != float(default[(index, "constant")]["cost"])
+        env.reset(seed=3 + index, options={"plant": _test_plant(index)})
+        cost = env.step(np.zeros(1, dtype=np.float32))[4]["cost"]
+        assert float(plant["cost"]) == pytest.approx(cost, rel=1e-12)
+        env.reset(seed=3 + index, options={"plant": _test_plant(index)})
+        rule = env.unwrapped.score_controller(_rule_controller(env, "fppi-eq34")).cost
+        assert float(rows["first"][(index, "fppi-eq34")]["cost"]) == pytest.approx(rule, rel=1e-12)
+
+
+def _test_plant(index: int):
+    """Test plant ``index`` of the evaluation's set."""
+    from envs.systems.plant_sets import plant_set
+
+    return plant_set("stable", "test", index + 1)[index]
+
+
+def _rule_controller(env, name: str):
+    from baselines.rules.registry import RuleInputs, get_rule
+
+    return get_rule(name).design(RuleInputs.from_identification(env.unwrapped.identification))

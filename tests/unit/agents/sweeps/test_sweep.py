@@ -223,3 +223,26 @@ evaluation: {{policies: [fppi-eq34, oracle], n: 2, resamples: 100}}
                for chunk in sorted((tmp_path / "out" / "runs" / f"learned-FPPI-v0-s{seed}" / "dataset").glob("*.json"))
                for record in json.loads(chunk.read_text())} for seed in (0, 1)]
     assert len(plants[0]) == len(plants[1]) == 12 and not plants[0] & plants[1]
+
+
+def test_a_sweeps_env_kwargs_go_to_every_trial_over_its_config(tmp_path: Path) -> None:
+    """``env_kwargs`` of a sweep file, the study's regime: merged over each trial config's own (the
+    mode stays the config's), and kept by the trial's plain form (Ray's trial config)."""
+    from agents.sweeps.config import Trial
+
+    text = GOOD.replace("trials:", "env_kwargs: {noise_std: 0.1, weights: {production: 0.0}}\ntrials:")
+    sweep = load_sweep(_sweep_file(tmp_path, text))
+    assert sweep.env_kwargs == {"noise_std": 0.1, "weights": {"production": 0.0}}
+    trial = sweep.trials()[0]
+    config = trial.train_config(tmp_path / "run")
+    assert dict(config.env_kwargs) == {"experiments": "fixed", "noise_std": 0.1, "weights": {"production": 0.0}}
+    assert Trial.from_dict(trial.to_dict()) == trial
+
+
+@pytest.mark.parametrize("value", ["{experiments: agent}", "[1]", "{noise: 0.1}"], ids=["mode", "not-a-mapping", "unknown"])
+def test_bad_env_kwargs_of_a_sweep_are_one_line_and_exit_2(tmp_path: Path, value: str) -> None:
+    path = _sweep_file(tmp_path, GOOD.replace("trials:", f"env_kwargs: {value}\ntrials:"))
+    status, out, err = run("sweep", "--config", str(path), "--out", str(tmp_path / "out"))
+    assert status == 2 and out == ""
+    assert err.count("\n") == 1 and ("env_kwargs" in err or "noise" in err), err
+    assert not (tmp_path / "out").exists()
