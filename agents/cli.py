@@ -52,6 +52,8 @@ COMMANDS: dict[str, Command] = {
     "evaluate": _described("agents.evaluation.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
     "bench": _described("agents.bench.bench", "measure the speed and accuracy of the scoring and the environments"),
     "sweep": _described("agents.sweeps.sweep", "train many seeds and configs on Ray Tune, evaluate them, and summarize"),
+    "regimes": _described("agents.sweeps.regimes", "compare sweeps that differ only in their regime (env_kwargs): "
+                          "costs, paired differences, a plot against one argument, what the agents do"),
     "process": Command(
         "agents.commands.process", "the procedure, the rules, the oracle and agents on a real process (the TCLab)",
         "Identify a sampled process (the TCLab emulator, or module:factory for your own) around its operating point, "

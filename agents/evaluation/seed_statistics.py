@@ -27,7 +27,9 @@ plants, with the same episode seeds), and the deterministic costs ``o[p]`` of th
 * **Probability of improvement** over a rule (section 4.4): ``P(C[s, p] < r[p])`` over the seeds,
   ties counting one half (the Mann-Whitney statistic), averaged over the plants.  Above 0.5, the
   agent is more likely than not to beat the rule on a plant.
-* **Paired difference** to a rule: ``mean_{s,p}(C[s, p] - r[p])``, negative when the agent is better.
+* **Paired difference** to a rule: ``mean_{s,p}(C[s, p] - r[p])``, negative when the agent is better;
+  between two trained policies (:func:`paired_difference`), ``mean(C_1) - mean(C_2)``, the plants
+  resampled together and each policy's seeds on their own (two sets of training runs, not pairs).
 * **Performance profile** (section 4.1): the fraction of runs whose normalized score is at least
   ``tau``, for ``tau`` in ``[0, 1]``; the area under it is the mean normalized score.
 """
@@ -45,6 +47,7 @@ __all__ = [
     "SeedStatistics",
     "iqm",
     "optimality_gap",
+    "paired_difference",
     "performance_profile",
     "probability_of_improvement",
     "seed_statistics",
@@ -111,6 +114,31 @@ def bootstrap_interval(
     values = statistic(costs[seed_rows[:, :, None], plant_columns[:, None, :]], plant_columns)
     low, high = np.quantile(values, [(1 - level) / 2, (1 + level) / 2])
     return [float(low), float(high)]
+
+
+def paired_difference(
+    first: np.ndarray, second: np.ndarray, *, level: float = 0.95, resamples: int = RESAMPLES, seed: int = 0
+) -> list[float]:
+    """``[mean(first) - mean(second), lo, hi]`` of two policies' costs on the same plants.
+
+    ``first`` and ``second`` are ``(seeds, plants)`` matrices (a rule or the oracle: one row).  A
+    resample draws the plants once for both (paired) and each matrix's seeds on their own, with
+    replacement: the seeds of two training configs are independent runs, not pairs.
+    """
+    first, second = _matrix(first), _matrix(second)
+    if first.shape[1] != second.shape[1]:
+        raise ValueError(f"the two policies must be scored on the same plants, got {first.shape[1]} and {second.shape[1]}")
+    rng = np.random.default_rng(seed)
+    plants = first.shape[1]
+    columns = rng.integers(0, plants, (resamples, plants))
+
+    def resampled_means(costs: np.ndarray) -> np.ndarray:
+        rows = rng.integers(0, costs.shape[0], (resamples, costs.shape[0]))
+        return costs[rows[:, :, None], columns[:, None, :]].mean(axis=(-2, -1))
+
+    differences = resampled_means(first) - resampled_means(second)
+    low, high = np.quantile(differences, [(1 - level) / 2, (1 + level) / 2])
+    return [float(first.mean() - second.mean()), float(low), float(high)]
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,300 @@
+"""``deadtime regimes``: sweeps that differ only in their regime (``env_kwargs``), side by side.
+
+::
+
+    deadtime regimes runs/experiments_noise01_time runs/experiments_noise10_time ... \\
+        --x noise_std --out sweeps/experiments
+
+Each argument is the output directory of a finished ``deadtime sweep`` whose file sets
+``env_kwargs`` (:mod:`agents.sweeps.config`); the sweeps share their trials, evaluation and
+environment, so their policies are the same.  Per regime and environment, from the evaluations'
+``per_plant.csv`` (the same held-out plants and episode seeds in every regime):
+
+* every policy's mean cost with its 95% interval (:mod:`agents.evaluation.seed_statistics`: agents
+  over seeds and plants, the rules and the oracle over plants);
+* the paired differences between the agent groups (``--compare A,B``: ``mean(A) - mean(B)``, each
+  group's seeds resampled on their own, the plants together) and of every agent group to every rule;
+  a group *beats every rule* where each of those intervals lies below 0;
+* with ``--behaviour N``: what each agent group does, replayed on the first ``N`` validation plants
+  (never the test plants) in its regime: the experiments it chooses and how many, their amplitudes,
+  the experiments its commit completes, the experiment time and production deviation, and its design
+  action (the residual around the base rule).
+
+Writes ``regimes.md``, ``regimes.json`` and ``regimes.png`` (cost against ``--x`` per policy, one panel
+per value of the regimes' other arguments) into ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+__all__ = ["add_arguments", "behaviour", "compare_regimes", "run"]
+
+ORACLES = ("oracle", "oracle-full")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare the options of ``deadtime regimes``."""
+    parser.add_argument("sweeps", nargs="+", help="output directories of finished sweeps that set env_kwargs")
+    parser.add_argument("--x", required=True, help="the env_kwargs key on the plot's axis, e.g. noise_std")
+    parser.add_argument("--compare", default="", help="two agent labels A,B: the paired difference mean(A) - mean(B)")
+    parser.add_argument("--behaviour", type=int, default=0, help="replay each agent on this many validation plants")
+    parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (default 2000)")
+    parser.add_argument("--out", required=True, help="output directory")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``deadtime regimes``; bad input is a ValueError (one line, exit status 2)."""
+    compare = tuple(item for item in args.compare.split(",") if item)
+    if compare and len(compare) != 2:
+        raise ValueError(f"--compare must name two agent labels A,B, got {args.compare!r}")
+    if args.behaviour < 0 or args.resamples <= 0:
+        raise ValueError("--behaviour must be >= 0 and --resamples > 0")
+    result = compare_regimes([Path(p) for p in args.sweeps], args.x, compare, args.behaviour, args.resamples)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "regimes.json").write_text(json.dumps(result, indent=2) + "\n")
+    (out / "regimes.md").write_text(markdown(result))
+    plot(result, out / "regimes.png")
+    print(markdown(result))
+    print(f"wrote {out / 'regimes.md'} (and .json, .png)", file=sys.stderr)
+    return 0
+
+
+# ------------------------------------------------------------------------------- reading
+def _regime(directory: Path) -> tuple[str, dict[str, Any]]:
+    """The sweep's name and ``env_kwargs`` (from the copy of its file the sweep keeps)."""
+    path = directory / "sweep.yaml"
+    if not path.is_file():
+        raise ValueError(f"{directory}: not the output directory of a sweep (no sweep.yaml)")
+    data = yaml.safe_load(path.read_text()) or {}
+    if not data.get("env_kwargs"):
+        raise ValueError(f"{path}: sets no env_kwargs, so it is no regime")
+    return str(data.get("name", directory.name)), dict(data["env_kwargs"])
+
+
+def _costs(path: Path) -> dict[str, dict[tuple, float]]:
+    if not path.is_file():
+        raise ValueError(f"{path}: missing (the sweep did not finish; run it again with --resume)")
+    costs: dict[str, dict[tuple, float]] = {}
+    with path.open(newline="") as file:
+        for row in csv.DictReader(file):
+            costs.setdefault(row["policy"], {})[(int(row["index"]), row["plant"], int(row["seed"]))] = float(row["cost"])
+    return costs
+
+
+def _environment(directory: Path, env: Path) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, list[Path]]]:
+    """Rules and oracle ``{name: (plants,)}``, agent groups ``{label: (seeds, plants)}`` and each group's runs."""
+    baselines = _costs(env / "baselines" / "per_plant.csv")
+    plants = sorted(next(iter(baselines.values())))
+    rules = {name: np.array([costs[p] for p in plants]) for name, costs in baselines.items()}
+    groups: dict[str, list[np.ndarray]] = {}
+    runs: dict[str, list[Path]] = {}
+    for trial in sorted(p for p in env.iterdir() if p.is_dir() and p.name != "baselines"):
+        label = trial.name[: trial.name.rindex(f"-{env.name}-s")]
+        costs = _costs(trial / "per_plant.csv")["agent"]
+        if sorted(costs) != plants:
+            raise ValueError(f"{trial}: its plants differ from the baselines'")
+        groups.setdefault(label, []).append(np.array([costs[p] for p in plants]))
+        runs.setdefault(label, []).append(directory / "runs" / trial.name)
+    return rules, {label: np.vstack(rows) for label, rows in groups.items()}, runs
+
+
+# ------------------------------------------------------------------------------- statistics
+def _interval(costs: np.ndarray, resamples: int) -> list[float]:
+    from agents.evaluation.seed_statistics import bootstrap_interval
+
+    return [float(costs.mean()), *bootstrap_interval(costs, lambda c, p: c.mean(axis=(-2, -1)), resamples=resamples)]
+
+
+def _entry(rules: dict[str, np.ndarray], agents: dict[str, np.ndarray], compare: tuple[str, ...], resamples: int) -> dict[str, Any]:
+    from agents.evaluation.seed_statistics import paired_difference
+
+    policies = {name: _interval(v[None, :], resamples) for name, v in rules.items()}
+    policies.update({label: _interval(m, resamples) for label, m in agents.items()})
+    named = [name for name in rules if name not in ORACLES]
+    best = min(named, key=lambda name: (rules[name].mean(), name))
+    to_rules = {}
+    for label, matrix in agents.items():
+        differences = {name: paired_difference(matrix, rules[name][None, :], resamples=resamples) for name in named}
+        worst = max(differences, key=lambda name: (differences[name][2], name))
+        to_rules[label] = {"best_rule": differences[best], "least_beaten_rule": worst,
+                           "least_beaten_difference": differences[worst],
+                           "beats_every_rule": all(d[2] < 0 for d in differences.values())}
+    entry = {"plants": int(next(iter(rules.values())).size), "best_rule": best, "mean_cost": policies,
+             "violation_rate": {name: float(np.mean(np.asarray(v) >= 21.0)) for name, v in {**rules, **agents}.items()},
+             "agents_to_rules": to_rules}
+    if compare:
+        entry["difference"] = {"first": compare[0], "second": compare[1],
+                               "estimate": paired_difference(agents[compare[0]], agents[compare[1]], resamples=resamples)}
+    return entry
+
+
+def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = (), plants: int = 0, resamples: int = 2000) -> dict[str, Any]:
+    """The ``regimes.json`` object of the module docstring."""
+    regimes = []
+    for directory in directories:
+        name, env_kwargs = _regime(directory)
+        if x not in env_kwargs:
+            raise ValueError(f"{directory}: env_kwargs has no {x!r} (it has {', '.join(env_kwargs)})")
+        for env in sorted(p for p in (directory / "eval").iterdir() if p.is_dir()):
+            rules, agents, runs = _environment(directory, env)
+            missing = [label for label in compare if label not in agents]
+            if missing:
+                raise ValueError(f"{directory}: no agent group {missing[0]!r} (groups: {', '.join(agents)})")
+            entry = _entry(rules, agents, compare, resamples)
+            if plants:
+                entry["behaviour"] = {label: behaviour(group, env_kwargs, plants) for label, group in runs.items()}
+            regimes.append({"sweep": name, "env": env.name, "env_kwargs": env_kwargs, **entry})
+    regimes.sort(key=lambda r: (r["env"], json.dumps({k: v for k, v in r["env_kwargs"].items() if k != x}, sort_keys=True),
+                                r["env_kwargs"][x]))
+    return {"x": x, "regimes": regimes}
+
+
+# ------------------------------------------------------------------------------- behaviour
+def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict[str, Any]:
+    """What the agents of one group do on the first ``plants`` validation plants (episode seed = index).
+
+    Per episode: the experiments the agent chose (its steps before the commit), those the commit
+    completed (the seeds' procedure, at amplitude 1 or the limit), the agent's amplitudes, the
+    experiment time and deviation in true ``T_ar`` and the design action; averaged over the
+    episodes of every seed, with the spread of the per-seed means.
+    """
+    from agents.environments import make_env
+    from agents.training.policies import load_policy
+    from envs.systems.plant_sets import plant_set
+
+    chosen: Counter = Counter()
+    amplitudes, per_seed_counts, per_seed_time, actions, deviations, completed = [], [], [], [], [], []
+    for path in runs:
+        policy = load_policy(path)
+        env = make_env(policy.env_id, {**dict(policy.env_kwargs or {}), **env_kwargs})
+        counts, times = [], []
+        for index, plant in enumerate(plant_set(env.unwrapped.family, "validation", plants)):
+            observation, _ = env.reset(seed=index, options={"plant": plant})
+            steps = 0
+            while True:
+                action, _ = policy.predict(observation, deterministic=True)
+                observation, _, terminated, _, info = env.step(action)
+                if terminated:
+                    break
+                steps += 1
+                chosen[info["experiment"]] += 1
+                amplitudes.append(info["amplitude"])
+            totals = dict(zip(env.unwrapped.evidence.experiments, env.unwrapped.evidence.counts))
+            completed.append(sum(totals.values()) - steps)
+            counts.append(steps)
+            times.append(info["experiment_time"])
+            deviations.append(info.get("experiment_deviation", float("nan")))
+            actions.append(float(np.asarray(action).reshape(-1)[-1]))
+        per_seed_counts.append(float(np.mean(counts)))
+        per_seed_time.append(float(np.mean(times)))
+    total = sum(chosen.values())
+    return {
+        "seeds": len(runs), "plants": plants,
+        "experiments_chosen": float(np.mean(per_seed_counts)),
+        "experiments_chosen_range": [min(per_seed_counts), max(per_seed_counts)],
+        "experiments_completed_by_commit": float(np.mean(completed)),
+        "share_of_chosen": {kind: count / total for kind, count in chosen.most_common()} if total else {},
+        "amplitude_quartiles": [float(q) for q in np.quantile(amplitudes, [0.25, 0.5, 0.75])] if amplitudes else [],
+        "experiment_time": float(np.mean(per_seed_time)),
+        "experiment_time_range": [min(per_seed_time), max(per_seed_time)],
+        "experiment_deviation": float(np.nanmean(deviations)) if np.isfinite(deviations).any() else None,
+        "design_action_quartiles": [float(q) for q in np.quantile(actions, [0.25, 0.5, 0.75])],
+    }
+
+
+# ------------------------------------------------------------------------------- output
+def _cell(values: list[float]) -> str:
+    return f"{values[0]:.3g} [{values[1]:.3g}, {values[2]:.3g}]"
+
+
+def _label(regime: dict[str, Any]) -> str:
+    return ", ".join(f"{key}={json.dumps(value, sort_keys=True)}" for key, value in regime["env_kwargs"].items())
+
+
+def markdown(result: dict[str, Any]) -> str:
+    """``regimes.md``: the regimes' table, every policy's mean cost per regime, and the behaviour."""
+    regimes = result["regimes"]
+    agents = list(regimes[0]["agents_to_rules"])
+    compare = regimes[0].get("difference")
+    head = ["regime", "env", "oracle", "best rule", *agents]
+    head += [f"{compare['first']} - {compare['second']}"] if compare else []
+    head += [f"{label} - best rule" for label in agents] + [f"{label} beats every rule" for label in agents]
+    lines = ["# Regimes", "", "Mean cost [95% interval]; differences are paired on the plants (negative: the first is better).", "",
+             "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in regimes:
+        costs = r["mean_cost"]
+        cells = [_label(r), r["env"], _cell(costs["oracle"]), f"`{r['best_rule']}` {_cell(costs[r['best_rule']])}"]
+        cells += [_cell(costs[label]) for label in agents]
+        cells += [_cell(r["difference"]["estimate"])] if compare else []
+        cells += [_cell(r["agents_to_rules"][label]["best_rule"]) for label in agents]
+        for label in agents:
+            found = r["agents_to_rules"][label]
+            cells.append("yes" if found["beats_every_rule"] else
+                         f"no (`{found['least_beaten_rule']}`: {_cell(found['least_beaten_difference'])})")
+        lines.append("| " + " | ".join(cells) + " |")
+    names = sorted({name for r in regimes for name in r["mean_cost"]}, key=lambda n: regimes[0]["mean_cost"].get(n, [0])[0])
+    lines += ["", "## Every policy's mean cost", "", "| policy | " + " | ".join(_label(r) for r in regimes) + " |",
+              "|" + "---|" * (len(regimes) + 1)]
+    for name in names:
+        lines.append(f"| {name} | " + " | ".join(f"{r['mean_cost'][name][0]:.3f}" if name in r["mean_cost"] else "-" for r in regimes) + " |")
+    if any("behaviour" in r for r in regimes):
+        lines += ["", "## What the agents do (validation plants)", "",
+                  "| regime | agents | experiments chosen (seed range) | completed by the commit | share of the chosen | "
+                  "amplitude quartiles | experiment time T_ar (seed range) | D_exp/T_ar | design action quartiles |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for r in regimes:
+            for label, b in r.get("behaviour", {}).items():
+                share = ", ".join(f"{k} {v:.0%}" for k, v in b["share_of_chosen"].items()) or "-"
+                amplitude = ", ".join(f"{v:.2g}" for v in b["amplitude_quartiles"]) or "-"
+                deviation = "-" if b["experiment_deviation"] is None else f"{b['experiment_deviation']:.2f}"
+                lines.append(
+                    f"| {_label(r)} | {label} | {b['experiments_chosen']:.2f} ({b['experiments_chosen_range'][0]:.2f}-"
+                    f"{b['experiments_chosen_range'][1]:.2f}) | {b['experiments_completed_by_commit']:.2f} | {share} | {amplitude} | "
+                    f"{b['experiment_time']:.1f} ({b['experiment_time_range'][0]:.1f}-{b['experiment_time_range'][1]:.1f}) | "
+                    f"{deviation} | {', '.join(f'{v:+.2f}' for v in b['design_action_quartiles'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def plot(result: dict[str, Any], path: Path) -> None:
+    """Cost against ``x`` per policy: the agents with their intervals, the oracle, the best rules;
+    one panel per environment and setting of the other arguments."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x = result["x"]
+    panels: dict[str, list[dict[str, Any]]] = {}
+    for r in result["regimes"]:
+        rest = {k: v for k, v in r["env_kwargs"].items() if k != x}
+        panels.setdefault(f"{r['env']} {json.dumps(rest, sort_keys=True)}", []).append(r)
+    figure, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 4.5), squeeze=False)
+    for axis, (title, regimes) in zip(axes[0], panels.items()):
+        xs = [r["env_kwargs"][x] for r in regimes]
+        agents = list(regimes[0]["agents_to_rules"])
+        shown = list(dict.fromkeys([*agents, "oracle", *(r["best_rule"] for r in regimes)]))
+        for name in sorted({n for r in regimes for n in r["mean_cost"]} - set(shown)):
+            axis.plot(xs, [r["mean_cost"].get(name, [np.nan])[0] for r in regimes], color="0.85", lw=0.8, zorder=1)
+        for name in shown:
+            values = np.array([r["mean_cost"].get(name, [np.nan] * 3) for r in regimes])
+            style = "-o" if name in agents else ("--" if name == "oracle" else "-.")
+            axis.errorbar(xs, values[:, 0], yerr=[values[:, 0] - values[:, 1], values[:, 2] - values[:, 0]], fmt=style,
+                          capsize=3, label=name, zorder=3)
+        low = min(r["mean_cost"]["oracle"][0] for r in regimes)
+        high = max(max(r["mean_cost"][n][2] for n in shown if n in r["mean_cost"]) for r in regimes)
+        axis.set(title=title, xlabel=x, ylabel="mean cost (95% interval)", ylim=(0.9 * low, 1.1 * high))
+        axis.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)

@@ -1,0 +1,132 @@
+"""``deadtime regimes`` (:mod:`agents.sweeps.regimes`) on synthetic sweep outputs: the figures against
+a direct computation, the behaviour of an agent replayed by hand, and bad input."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.cli import main
+from agents.evaluation.seed_statistics import paired_difference
+from agents.sweeps.regimes import behaviour, compare_regimes
+
+PLANTS = 6
+
+
+def _per_plant(path: Path, costs: dict[str, np.ndarray]) -> None:
+    path.mkdir(parents=True, exist_ok=True)
+    with (path / "per_plant.csv").open("w", newline="") as file:
+        writer = csv.writer(file)
+        writer.writerow(["index", "subset", "plant", "seed", "policy", "cost"])
+        for name, values in costs.items():
+            for i, value in enumerate(values):
+                writer.writerow([i, "test", f"test-{i}", i, name, value])
+
+
+def _sweep(root: Path, noise: float, shift: float) -> Path:
+    """A finished sweep's output: two rules, the oracle, and two agent groups of 3 seeds."""
+    rng = np.random.default_rng(int(noise * 100))
+    out = root / f"noise{noise}"
+    out.mkdir(parents=True)
+    (out / "sweep.yaml").write_text(f"name: n{noise}\nenv_kwargs: {{noise_std: {noise}}}\ntrials: []\n")
+    env = out / "eval" / "FPPI-v2"
+    _per_plant(env / "baselines", {"oracle": 1.0 + rng.random(PLANTS), "rule-a": 3.0 + rng.random(PLANTS),
+                                   "rule-b": 2.5 + shift + rng.random(PLANTS)})
+    for label, level in (("fixed", 2.4), ("chooser", 2.0 - shift)):
+        for seed in range(3):
+            _per_plant(env / f"{label}-FPPI-v2-s{seed}", {"agent": level + 0.1 * rng.random(PLANTS)})
+    return out
+
+
+def _read(path: Path, policy: str) -> np.ndarray:
+    with path.open(newline="") as file:
+        return np.array([float(row["cost"]) for row in csv.DictReader(file) if row["policy"] == policy])
+
+
+def test_figures_equal_a_direct_computation(tmp_path: Path) -> None:
+    sweeps = [_sweep(tmp_path, 0.1, 0.0), _sweep(tmp_path, 0.01, 0.5)]
+    result = compare_regimes(sweeps, "noise_std", ("chooser", "fixed"), resamples=300)
+    assert [r["env_kwargs"]["noise_std"] for r in result["regimes"]] == [0.01, 0.1]
+    for regime, directory in zip(result["regimes"], sweeps[::-1]):
+        env = directory / "eval" / "FPPI-v2"
+        rules = {name: _read(env / "baselines" / "per_plant.csv", name) for name in ("rule-a", "rule-b")}
+        groups = {label: np.vstack([_read(env / f"{label}-FPPI-v2-s{s}" / "per_plant.csv", "agent") for s in range(3)])
+                  for label in ("fixed", "chooser")}
+        assert regime["best_rule"] == min(rules, key=lambda n: rules[n].mean())
+        assert regime["mean_cost"]["chooser"][0] == pytest.approx(groups["chooser"].mean(), rel=1e-12)
+        assert regime["difference"]["estimate"] == pytest.approx(
+            paired_difference(groups["chooser"], groups["fixed"], resamples=300), rel=1e-12)
+        beaten = all(paired_difference(groups["chooser"], r[None, :], resamples=300)[2] < 0 for r in rules.values())
+        assert regime["agents_to_rules"]["chooser"]["beats_every_rule"] is beaten
+
+
+class _Policy:
+    """Agent mode on FPPI-v2: the closed-loop and open-loop steps at amplitude 3, then the commit at ``a = 0.5``."""
+
+    env_id = "DeadTime/FPPI-v2"
+    env_kwargs = {"experiments": "agent"}  # noqa: RUF012
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def predict(self, observation, deterministic=True):
+        action = np.full(7, -1.0, dtype=np.float32)  # 4 experiments + commit + amplitude + design
+        step = self.calls % 3
+        self.calls += 1
+        action[step + 1 if step < 2 else 0] = 1.0  # experiments 1 and 2 (closed-, open-loop step), then commit
+        action[-2], action[-1] = 1.0, 0.5  # amplitude 10, cut to the limit 3
+        return action, None
+
+
+def test_behaviour_of_a_scripted_agent(monkeypatch: pytest.MonkeyPatch) -> None:
+    import agents.training.policies
+
+    monkeypatch.setattr(agents.training.policies, "load_policy", lambda path: _Policy())
+    found = behaviour([Path("a"), Path("b")], {"noise_std": 0.05}, plants=3)
+    assert found["experiments_chosen"] == 2.0 and found["experiments_completed_by_commit"] == 0.0
+    assert found["share_of_chosen"] == {"closed-loop-step": 0.5, "open-loop-step": 0.5}
+    assert found["amplitude_quartiles"] == [3.0, 3.0, 3.0]
+    assert found["design_action_quartiles"] == [0.5, 0.5, 0.5]
+    assert found["experiment_deviation"] > 0
+
+
+def _run(*args: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        status = main(list(args))
+    return status, out.getvalue(), err.getvalue()
+
+
+def test_the_command_writes_its_outputs(tmp_path: Path) -> None:
+    sweeps = [str(_sweep(tmp_path, noise, 0.0)) for noise in (0.01, 0.1)]
+    status, out, _ = _run("regimes", *sweeps, "--x", "noise_std", "--compare", "chooser,fixed", "--out", str(tmp_path / "o"),
+                          "--resamples", "100")
+    assert status == 0 and out.startswith("# Regimes")
+    assert json.loads((tmp_path / "o" / "regimes.json").read_text())["x"] == "noise_std"
+    assert (tmp_path / "o" / "regimes.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--x", "amplitude_limit"], "env_kwargs has no 'amplitude_limit'"),
+        (["--x", "noise_std", "--compare", "chooser"], "--compare must name two agent labels"),
+        (["--x", "noise_std", "--compare", "chooser,nobody"], "no agent group 'nobody'"),
+    ],
+    ids=["x", "compare-one", "compare-unknown"],
+)
+def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, extra: list[str], message: str) -> None:
+    sweep = str(_sweep(tmp_path, 0.1, 0.0))
+    status, _, err = _run("regimes", sweep, *extra, "--out", str(tmp_path / "o"))
+    assert status == 2 and err.count("\n") == 1 and message in err, err
+
+
+def test_a_directory_that_is_no_sweep_is_named(tmp_path: Path) -> None:
+    status, _, err = _run("regimes", str(tmp_path), "--x", "noise_std", "--out", str(tmp_path / "o"))
+    assert status == 2 and "not the output directory of a sweep" in err
