@@ -27,7 +27,6 @@ per value of the regimes' other arguments) into ``--out``.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import sys
 from collections import Counter
@@ -82,26 +81,18 @@ def _regime(directory: Path) -> tuple[str, dict[str, Any]]:
     return str(data.get("name", directory.name)), dict(data["env_kwargs"])
 
 
-def _costs(path: Path) -> dict[str, dict[tuple, float]]:
-    if not path.is_file():
-        raise ValueError(f"{path}: missing (the sweep did not finish; run it again with --resume)")
-    costs: dict[str, dict[tuple, float]] = {}
-    with path.open(newline="") as file:
-        for row in csv.DictReader(file):
-            costs.setdefault(row["policy"], {})[(int(row["index"]), row["plant"], int(row["seed"]))] = float(row["cost"])
-    return costs
-
-
 def _environment(directory: Path, env: Path) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, list[Path]]]:
     """Rules and oracle ``{name: (plants,)}``, agent groups ``{label: (seeds, plants)}`` and each group's runs."""
-    baselines = _costs(env / "baselines" / "per_plant.csv")
+    from agents.sweeps.summary import per_plant_costs
+
+    baselines = per_plant_costs(env / "baselines")
     plants = sorted(next(iter(baselines.values())))
     rules = {name: np.array([costs[p] for p in plants]) for name, costs in baselines.items()}
     groups: dict[str, list[np.ndarray]] = {}
     runs: dict[str, list[Path]] = {}
     for trial in sorted(p for p in env.iterdir() if p.is_dir() and p.name != "baselines"):
         label = trial.name[: trial.name.rindex(f"-{env.name}-s")]
-        costs = _costs(trial / "per_plant.csv")["agent"]
+        costs = per_plant_costs(trial)["agent"]
         if sorted(costs) != plants:
             raise ValueError(f"{trial}: its plants differ from the baselines'")
         groups.setdefault(label, []).append(np.array([costs[p] for p in plants]))

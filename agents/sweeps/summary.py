@@ -36,12 +36,12 @@ from agents.evaluation.seed_statistics import SeedStatistics, seed_statistics
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
 from agents.training.files import write_json, write_text
 
-__all__ = ["write_summary"]
+__all__ = ["per_plant_costs", "write_summary"]
 
 ORACLES = ("oracle", "oracle-full")
 
 
-def _per_plant(directory: Path) -> dict[str, dict[tuple, float]]:
+def per_plant_costs(directory: Path) -> dict[str, dict[tuple, float]]:
     """``{policy: {(index, plant, seed): cost}}`` of an evaluation's ``per_plant.csv``."""
     path = directory / "per_plant.csv"
     if not path.is_file():
@@ -81,7 +81,7 @@ def _row(name: str, kind: str, stats: SeedStatistics) -> dict[str, Any]:
 
 def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The environment's entry of ``summary.json``, and the normalized scores of the agents and best rule."""
-    baselines = _per_plant(evaluation_directory(out, env_id, "baselines"))
+    baselines = per_plant_costs(evaluation_directory(out, env_id, "baselines"))
     if "oracle" not in baselines:
         raise ValueError(f"sweep {sweep.name}: evaluation.policies must include 'oracle' (the normalized score needs it)")
     plants = sorted(baselines["oracle"])
@@ -100,7 +100,7 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
 
     for label in dict.fromkeys(t.label for t in trials if t.env_id == env_id):
         group = [t for t in trials if t.env_id == env_id and t.label == label]
-        matrix = np.array([_vector(_per_plant(evaluation_directory(out, env_id, t.name))["agent"], plants, t.name)
+        matrix = np.array([_vector(per_plant_costs(evaluation_directory(out, env_id, t.name))["agent"], plants, t.name)
                            for t in group])
         rows.append(_row(label, _trained_kind(evaluation_directory(out, env_id, group[0].name)), statistics(matrix)))
         normalized[label] = (oracle / matrix).ravel()
