@@ -23,8 +23,9 @@ register(id="DeadTime/MSP-v1", entry_point="envs.tuning_env:MSPEnv", kwargs=_V1)
 
 # v2 (issue 17): v1 with experiments that have a price beyond their time: the production they disturb
 # (weights.production, per unit of D_exp/T_ar) and an amplitude limit of 3 (agent mode); the fixed
-# mode's experiments and the rules' inputs are v1's, its cost adds the production term.
-_V2 = {**_V1, "weights": {"production": 0.05}, "amplitude_limit": 3.0}
+# mode's experiments and the rules' inputs are v1's, its cost adds the production term.  Agent mode
+# designs in a step of its own, after the commit has completed and shown the identification.
+_V2 = {**_V1, "weights": {"production": 0.05}, "amplitude_limit": 3.0, "design_step": True}
 register(id="DeadTime/PID-v2", entry_point="envs.tuning_env:PIDEnv", kwargs=_V2)
 register(id="DeadTime/FPPI-v2", entry_point="envs.tuning_env:FPPIEnv", kwargs=_V2)
 register(id="DeadTime/MSP-v2", entry_point="envs.tuning_env:MSPEnv", kwargs=_V2)

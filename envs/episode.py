@@ -436,12 +436,14 @@ def feature_names(evidence: Evidence) -> tuple[str, ...]:
     return (*_names(evidence), *(f"count_{name}" for name in evidence.experiments), "budget_used")
 
 
-def identification(evidence: Evidence, structure: str, plant: Plant, rng: np.random.Generator, noise_std: float) -> Identification:
+def identification(
+    evidence: Evidence, structure: str, plant: Plant, rng: np.random.Generator, noise_std: float, amplitude: float | None = None
+) -> tuple[Identification, Evidence]:
     """The identified data the design reads, completing the seeds' procedure where it is missing.
 
     The PID and the MSP need the closed-loop step; the FPPI also needs ``T_n``, from the open-loop
-    step or else the ramp.  A missing experiment is run (amplitude 1, or the amplitude limit if
-    smaller; charged like any other).
+    step or else the ramp.  A missing experiment is run (at ``amplitude``; by default 1, or the
+    amplitude limit if smaller; charged like any other).
     Returns the evidence actually used too, as ``(identification, evidence)``.  With disturbances,
     up to :data:`DISTURBED_ATTEMPTS` closed-loop steps are run until one is usable.  With
     ``identification="least-squares"`` the latest least-squares fit's model replaces the FOPDT (FPPI)
@@ -452,7 +454,7 @@ def identification(evidence: Evidence, structure: str, plant: Plant, rng: np.ran
     ValueError
         If no closed-loop step identifies a usable gain and residence time.
     """
-    amplitude = evidence.options.seed_amplitude
+    amplitude = evidence.options.seed_amplitude if amplitude is None else amplitude
     attempts = DISTURBED_ATTEMPTS if evidence.options.disturbances.active else 1
     for _ in range(attempts):
         if evidence.closed_loop is not None:

@@ -127,6 +127,7 @@ class DeadTimeTuningEnv(gym.Env):
         identification: str = "seeds",
         amplitude_limit: float | None = None,
         disturbances: dict | None = None,
+        design_step: bool = False,
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
@@ -134,6 +135,8 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"action must be one of {', '.join(ACTIONS)}, got {action!r}")
         if not isinstance(design_features, bool):
             raise ValueError(f"design_features must be true or false, got {design_features!r}")
+        if not isinstance(design_step, bool):
+            raise ValueError(f"design_step must be true or false, got {design_step!r}")
         self.action_coordinates = action
         self.design_features = design_features
         if render_mode not in (None, *self.metadata["render_modes"]):
@@ -161,7 +164,10 @@ class DeadTimeTuningEnv(gym.Env):
         self.parameter_range = PARAMETER_RANGES[self.structure]
         evidence = Evidence.empty(self.integrating, self.options)
         self.experiment_names = evidence.experiments
+        self.design_step = design_step and self.mode == "agent"
         self.feature_names = feature_names(evidence) + (DESIGN_FEATURES if design_features else ())
+        self.feature_names += ("design_step",) if self.design_step else ()
+        self._design_pending = False
         size = 1 if self.mode == "fixed" else len(self.experiment_names) + 3
         self.action_space = spaces.Box(-1.0, 1.0, shape=(size,), dtype=np.float32)
         bound = OBSERVATION_BOUND
@@ -265,6 +271,7 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"family {self.family!r} drew a plant of the wrong kind for {type(self).__name__}")
         self.plant = plant
         self._base = None
+        self._design_pending = False
         if self.mode == "fixed":
             self.identification, self.evidence = start_fixed(plant, self.np_random, self.noise_std, self.options)
         else:
@@ -282,15 +289,32 @@ class DeadTimeTuningEnv(gym.Env):
         if not np.all(np.isfinite(action)):
             raise ValueError(f"action must be finite, got {action.tolist()}")
         action = np.clip(action, -1.0, 1.0)
-        if self.mode == "agent":
+        if self.mode == "agent" and not self._design_pending:
             choice = int(np.argmax(action[: len(self.experiment_names) + 1]))
             if choice > 0 and self.evidence.runs < self.budget:
                 return self._experiment(self.experiment_names[choice - 1], action[-2])
+            if self.design_step:
+                return self._identify(action[-2])
         return self._commit(action[-1])
 
-    def _experiment(self, kind: str, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
+    def _amplitude(self, amplitude_action: float) -> float:
+        """The experiment amplitude of an action's component: log scale over AMPLITUDE_RANGE, cut to the limit."""
         low, high = (math.log10(v) for v in AMPLITUDE_RANGE)
-        amplitude = self.options.limited(10.0 ** (low + 0.5 * (amplitude_action + 1.0) * (high - low)))
+        return self.options.limited(10.0 ** (low + 0.5 * (amplitude_action + 1.0) * (high - low)))
+
+    def _identify(self, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
+        """``design_step=True``: the commit completes the identification (missing seed experiments at
+        the commit's amplitude) and shows it; the next step designs."""
+        amplitude = self._amplitude(amplitude_action)
+        self.identification, self.evidence = identification(
+            self.evidence, self.structure, self.plant, self.np_random, self.noise_std, amplitude=amplitude
+        )
+        self._design_pending = True
+        observation, named = self._observation_and_features()
+        return observation, 0.0, False, False, {"identified": True, "amplitude": amplitude, "features": named}
+
+    def _experiment(self, kind: str, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
+        amplitude = self._amplitude(amplitude_action)
         self.evidence = run_experiment(
             self.evidence, kind, self.plant, self.np_random, amplitude, self.noise_std, self.excursion_limit
         )
@@ -409,6 +433,8 @@ class DeadTimeTuningEnv(gym.Env):
         if self.design_features:
             extra = design_features(self.structure, self.identification)  # zero in agent mode until the commit
             values = np.concatenate([values, list(extra.values())])
+        if self.design_step:
+            values = np.concatenate([values, [float(self._design_pending)]])
         observation = np.clip(values, -OBSERVATION_BOUND, OBSERVATION_BOUND).astype(np.float32)
         return observation, dict(zip(self.feature_names, values.tolist()))
 
@@ -458,7 +484,10 @@ _SHARED_DOC = """
     ## Episode End
     Termination: the design is committed (fixed mode: the first step; agent mode: the commit
     choice, or any step once ``budget`` experiments have run).  No truncation.  Committing with
-    missing data runs the missing seed experiments first (charged).
+    missing data runs the missing seed experiments first (charged).  With ``design_step=True``
+    (v2) a commit only completes the identification, at the commit action's amplitude, and returns
+    it (reward 0, the observation's last entry ``design_step`` = 1, the design features filled in);
+    the next step designs from its last component, whatever its choice, and ends the episode.
 
     ## Arguments
     | argument          | default                     | meaning                                                  |
@@ -476,6 +505,7 @@ _SHARED_DOC = """
     | `design_features` | `False` (v1: `True`)        | append ``log10 p_0`` and the base design's ``Ms`` and delay margin on the other identified model (:mod:`envs.base_design`) |
     | `identification`  | `"seeds"`                   | `"least-squares"` (PID, FPPI): fixed mode designs from the least-squares fit (Marlin 6.4) of the seeds' open-loop step; agent mode adds a PRBS fitted by least squares, and the latest model experiment decides (:mod:`envs.episode_options`) |
     | `amplitude_limit` | `None` (none)               | largest experiment amplitude (output units, > 0): agent amplitudes are cut to it, the seeds' experiments run at `min(1, limit)` |
+    | `design_step`     | `False` (v2: `True`)        | agent mode: the commit completes and shows the identification (at the commit's amplitude), and a separate last step designs (Episode End) |
     | `disturbances`    | `None` (none)               | `{kind: level}` beyond the white noise, kinds `"drift"` (random walk, `level` per `sqrt(T_ar)`) and `"load"` (unmeasured input step during the experiment, `level` of output) (:mod:`envs.identification.disturbances`) |
 
     ## Info
@@ -497,8 +527,11 @@ _SHARED_DOC = """
       ``D_exp/T_ar``, the experiments' integrated output deviation, costs 0.05: the seeds' procedure
       at amplitude 1 costs about 0.5 more than in v1) and ``amplitude_limit=3`` (agent-mode
       amplitudes above 3 are cut to 3).  The fixed mode runs v1's experiments (the same
-      identifications); its cost adds the production term.  In agent mode the FPPI base rule reads
-      an unmeasured mismatch area as 0 (:func:`envs.base_design.base_parameter`).
+      identifications); its cost adds the production term.  Agent mode has ``design_step=True``:
+      the commit completes the identification at its own amplitude and the design is a step of its
+      own, which sees the identification and the design features (in v1 the commit's design was
+      chosen before the missing experiments ran, and its features were zero).  In agent mode the
+      FPPI base rule reads an unmeasured mismatch area as 0 (:func:`envs.base_design.base_parameter`).
 """
 
 

@@ -156,7 +156,8 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
     """What the agents of one group do on the first ``plants`` validation plants (episode seed = index).
 
     Per episode: the experiments the agent chose (its steps before the commit), those the commit
-    completed (the seeds' procedure, at amplitude 1 or the limit), the agent's amplitudes, the
+    completed (the seeds' procedure: at the commit's amplitude with ``design_step``, else 1 or the
+    limit), the agent's amplitudes and the commit's, the
     experiment time and deviation in true ``T_ar`` and the design action; averaged over the
     episodes of every seed, with the spread of the per-seed means.
     """
@@ -165,7 +166,7 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
     from envs.systems.plant_sets import plant_set
 
     chosen: Counter = Counter()
-    amplitudes, per_seed_counts, per_seed_time, actions, deviations, completed = [], [], [], [], [], []
+    amplitudes, commit_amplitudes, per_seed_counts, per_seed_time, actions, deviations, completed = [], [], [], [], [], [], []
     for path in runs:
         policy = load_policy(path)
         env = make_env(policy.env_id, {**dict(policy.env_kwargs or {}), **env_kwargs})
@@ -178,6 +179,9 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
                 observation, _, terminated, _, info = env.step(action)
                 if terminated:
                     break
+                if "experiment" not in info:  # design_step: the commit completed the identification
+                    commit_amplitudes.append(info["amplitude"])
+                    continue
                 steps += 1
                 chosen[info["experiment"]] += 1
                 amplitudes.append(info["amplitude"])
@@ -197,6 +201,7 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
         "experiments_completed_by_commit": float(np.mean(completed)),
         "share_of_chosen": {kind: count / total for kind, count in chosen.most_common()} if total else {},
         "amplitude_quartiles": [float(q) for q in np.quantile(amplitudes, [0.25, 0.5, 0.75])] if amplitudes else [],
+        "commit_amplitude_quartiles": [float(q) for q in np.quantile(commit_amplitudes, [0.25, 0.5, 0.75])] if commit_amplitudes else [],
         "experiment_time": float(np.mean(per_seed_time)),
         "experiment_time_range": [min(per_seed_time), max(per_seed_time)],
         "experiment_deviation": float(np.nanmean(deviations)) if np.isfinite(deviations).any() else None,
@@ -242,16 +247,18 @@ def markdown(result: dict[str, Any]) -> str:
     if any("behaviour" in r for r in regimes):
         lines += ["", "## What the agents do (validation plants)", "",
                   "| regime | agents | experiments chosen (seed range) | completed by the commit | share of the chosen | "
-                  "amplitude quartiles | experiment time T_ar (seed range) | D_exp/T_ar | design action quartiles |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+                  "amplitude quartiles | commit's amplitude quartiles | experiment time T_ar (seed range) | D_exp/T_ar | "
+                  "design action quartiles |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
         for r in regimes:
             for label, b in r.get("behaviour", {}).items():
                 share = ", ".join(f"{k} {v:.0%}" for k, v in b["share_of_chosen"].items()) or "-"
                 amplitude = ", ".join(f"{v:.2g}" for v in b["amplitude_quartiles"]) or "-"
+                commit = ", ".join(f"{v:.2g}" for v in b["commit_amplitude_quartiles"]) or "-"
                 deviation = "-" if b["experiment_deviation"] is None else f"{b['experiment_deviation']:.2f}"
                 lines.append(
                     f"| {_label(r)} | {label} | {b['experiments_chosen']:.2f} ({b['experiments_chosen_range'][0]:.2f}-"
-                    f"{b['experiments_chosen_range'][1]:.2f}) | {b['experiments_completed_by_commit']:.2f} | {share} | {amplitude} | "
+                    f"{b['experiments_chosen_range'][1]:.2f}) | {b['experiments_completed_by_commit']:.2f} | {share} | {amplitude} | {commit} | "
                     f"{b['experiment_time']:.1f} ({b['experiment_time_range'][0]:.1f}-{b['experiment_time_range'][1]:.1f}) | "
                     f"{deviation} | {', '.join(f'{v:+.2f}' for v in b['design_action_quartiles'])} |")
     return "\n".join(lines) + "\n"

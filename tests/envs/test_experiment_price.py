@@ -142,3 +142,46 @@ def test_v2_is_v1_with_production_priced(structure, play):
     step = np.full(agent.action_space.shape, -1.0, dtype=np.float32)
     step[1], step[-2] = 1.0, 1.0  # the first experiment at the largest amplitude asked for (10)
     assert agent.step(step)[4]["amplitude"] == 3.0
+
+
+def _agent_action(size: int, choice: int, amplitude: float, design: float) -> np.ndarray:
+    action = np.full(size, -1.0, dtype=np.float32)
+    action[choice], action[-2], action[-1] = 1.0, amplitude, design
+    return action
+
+
+@pytest.mark.parametrize("structure", ["PID", "FPPI", "MSP"])
+def test_v2_agent_mode_designs_in_a_step_of_its_own(structure):
+    """v2 agent mode: the commit runs the missing seed experiments at the commit's amplitude (cut to
+    3) and shows them (reward 0, ``design_step`` 1, design features set); the next step designs
+    from its last component, as the fixed mode would on that identification."""
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(f"DeadTime/{structure}-v2", experiments="agent")
+    check_env(env.unwrapped, skip_render_check=True)
+    size = env.action_space.shape[0]
+    assert env.unwrapped.feature_names[-1] == "design_step"
+    observation, _ = env.reset(seed=1)
+    assert observation[-1] == 0.0
+    observation, reward, terminated, _, info = env.step(_agent_action(size, 0, 0.0, -1.0))  # commit at amplitude 1
+    evidence = env.unwrapped.evidence
+    assert (reward, terminated, observation[-1]) == (0.0, False, 1.0)
+    assert info["amplitude"] == pytest.approx(1.0) and evidence.noise_ratio == pytest.approx(0.01)
+    runs = 2 if structure == "FPPI" else 1  # the FPPI's design needs the open-loop step too
+    assert evidence.runs == runs and info["features"]["log_base_parameter"] != 0.0
+    design = 0.5  # exact in float32, the action's type
+    expected = env.unwrapped.score_controller(env.unwrapped.design(env.unwrapped.parameter_from_action(design))).cost
+    _, reward, terminated, _, info = env.step(_agent_action(size, 1, 0.0, design))  # its choice is ignored now
+    assert terminated and reward == -info["cost"] and info["cost"] == pytest.approx(expected, rel=1e-12)
+    assert env.unwrapped.evidence.runs == runs
+    env.reset(seed=1)
+    env.step(_agent_action(size, 0, 1.0, 0.0))  # amplitude 10, cut to 3
+    assert env.unwrapped.evidence.noise_ratio == pytest.approx(0.01 / 3.0)
+
+
+def test_v1_agent_mode_still_designs_at_the_commit():
+    env = gym.make("DeadTime/FPPI-v1", experiments="agent")
+    env.reset(seed=1)
+    _, _, terminated, _, info = env.step(_agent_action(env.action_space.shape[0], 0, 1.0, 0.0))
+    assert terminated and env.unwrapped.evidence.noise_ratio == pytest.approx(0.01)
+    assert "design_step" not in env.unwrapped.feature_names

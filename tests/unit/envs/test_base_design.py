@@ -179,5 +179,6 @@ def test_a_prbs_only_agent_episode_designs_a_stable_loop_at_action_zero():
             env.step(action)
         commit = np.full(env.action_space.shape, -1.0, dtype=np.float32)
         commit[0], commit[-1] = 1.0, 0.0
+        env.step(commit)  # v2: the commit shows the identification, the next step designs
         info = env.step(commit)[4]
         assert info["score"]["stable"], info["cost"]

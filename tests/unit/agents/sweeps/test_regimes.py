@@ -67,7 +67,8 @@ def test_figures_equal_a_direct_computation(tmp_path: Path) -> None:
 
 
 class _Policy:
-    """Agent mode on FPPI-v2: the closed-loop and open-loop steps at amplitude 3, then the commit at ``a = 0.5``."""
+    """Agent mode on FPPI-v2: the closed-loop and open-loop steps at amplitude 3, the commit, then the
+    design ``a = 0.5`` (v2 designs in a step of its own)."""
 
     env_id = "DeadTime/FPPI-v2"
     env_kwargs = {"experiments": "agent"}  # noqa: RUF012
@@ -77,9 +78,9 @@ class _Policy:
 
     def predict(self, observation, deterministic=True):
         action = np.full(7, -1.0, dtype=np.float32)  # 4 experiments + commit + amplitude + design
-        step = self.calls % 3
+        step = self.calls % 4
         self.calls += 1
-        action[step + 1 if step < 2 else 0] = 1.0  # experiments 1 and 2 (closed-, open-loop step), then commit
+        action[step + 1 if step < 2 else 0] = 1.0  # experiments 1 and 2 (closed-, open-loop step), commit, design
         action[-2], action[-1] = 1.0, 0.5  # amplitude 10, cut to the limit 3
         return action, None
 
@@ -91,7 +92,7 @@ def test_behaviour_of_a_scripted_agent(monkeypatch: pytest.MonkeyPatch) -> None:
     found = behaviour([Path("a"), Path("b")], {"noise_std": 0.05}, plants=3)
     assert found["experiments_chosen"] == 2.0 and found["experiments_completed_by_commit"] == 0.0
     assert found["share_of_chosen"] == {"closed-loop-step": 0.5, "open-loop-step": 0.5}
-    assert found["amplitude_quartiles"] == [3.0, 3.0, 3.0]
+    assert found["amplitude_quartiles"] == found["commit_amplitude_quartiles"] == [3.0, 3.0, 3.0]
     assert found["design_action_quartiles"] == [0.5, 0.5, 0.5]
     assert found["experiment_deviation"] > 0
 
