@@ -94,9 +94,10 @@ def _targets() -> list[tuple[Any, str, Any]]:
 
 
 @contextlib.contextmanager
-def compiled_calls_timed() -> Iterator[CompiledTime]:
-    """Time every compiled call of :mod:`envs` inside the block (module docstring); restored on exit."""
-    record, cost = CompiledTime(), _wrapper_cost()
+def compiled_calls_timed(record: CompiledTime | None = None) -> Iterator[CompiledTime]:
+    """Time every compiled call of :mod:`envs` inside the block into ``record`` (a new one if None),
+    which the block receives (module docstring); the functions are restored on exit."""
+    record, cost = record if record is not None else CompiledTime(), _wrapper_cost()
     targets = _targets()
     wrappers: dict[int, Callable] = {}
     for namespace, attribute, function in targets:
