@@ -4,7 +4,7 @@ Usage::
 
     deadtime bench [--json] [--quick] [--skip-envs] [--skip-ppo]
 
-Three parts, each on the same machine state:
+Four parts, each on the same machine state:
 
 1. Scoring (:mod:`agents.bench.scoring`): our :func:`envs.analysis.scoring.score` on designed loops of four
    plant families, one loop at a time and batched, against the same figures computed the
