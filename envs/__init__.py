@@ -1,7 +1,9 @@
 """deadtime-gym environments: ``import envs`` registers them with Gymnasium.
 
 The ids live in the ``DeadTime`` namespace (``gymnasium.make("DeadTime/PID-v0")``); the classes are
-in :mod:`envs.tuning_env`, the only module here that imports Gymnasium besides this registration.
+in :mod:`envs.tuning_env`, and the fixed mode's native vector environments (``gymnasium.make_vec``, the
+``vector_entry_point``) in :mod:`envs.vector_env`: the only modules here that import Gymnasium besides
+this registration.
 The numerical subpackages, in the order of an episode, import numpy, scipy and numba only:
 :mod:`envs.systems` (plants, families, controllers), :mod:`envs.simulation`,
 :mod:`envs.identification` (experiments and models) and :mod:`envs.analysis` (margins, IAE, the
@@ -10,22 +12,31 @@ cost); then :mod:`envs.design`, :mod:`envs.episode` and the environments.
 
 from gymnasium.envs.registration import register
 
-register(id="DeadTime/PID-v0", entry_point="envs.tuning_env:PIDEnv")
-register(id="DeadTime/FPPI-v0", entry_point="envs.tuning_env:FPPIEnv")
-register(id="DeadTime/MSP-v0", entry_point="envs.tuning_env:MSPEnv")
+register(id="DeadTime/PID-v0", entry_point="envs.tuning_env:PIDEnv",
+         vector_entry_point="envs.vector_env:PIDVectorEnv")
+register(id="DeadTime/FPPI-v0", entry_point="envs.tuning_env:FPPIEnv",
+         vector_entry_point="envs.vector_env:FPPIVectorEnv")
+register(id="DeadTime/MSP-v0", entry_point="envs.tuning_env:MSPEnv",
+         vector_entry_point="envs.vector_env:MSPVectorEnv")
 
 # v1: the action is a residual around the structure's base rule, and the observation has the design
 # features (envs.base_design); the plants, experiments and cost are v0's.
 _V1 = {"action": "residual", "design_features": True}
-register(id="DeadTime/PID-v1", entry_point="envs.tuning_env:PIDEnv", kwargs=_V1)
-register(id="DeadTime/FPPI-v1", entry_point="envs.tuning_env:FPPIEnv", kwargs=_V1)
-register(id="DeadTime/MSP-v1", entry_point="envs.tuning_env:MSPEnv", kwargs=_V1)
+register(id="DeadTime/PID-v1", entry_point="envs.tuning_env:PIDEnv",
+         vector_entry_point="envs.vector_env:PIDVectorEnv", kwargs=_V1)
+register(id="DeadTime/FPPI-v1", entry_point="envs.tuning_env:FPPIEnv",
+         vector_entry_point="envs.vector_env:FPPIVectorEnv", kwargs=_V1)
+register(id="DeadTime/MSP-v1", entry_point="envs.tuning_env:MSPEnv",
+         vector_entry_point="envs.vector_env:MSPVectorEnv", kwargs=_V1)
 
 # v2 (issue 17): v1 with experiments that have a price beyond their time: the production they disturb
 # (weights.production, per unit of D_exp/T_ar) and an amplitude limit of 3 (agent mode); the fixed
 # mode's experiments and the rules' inputs are v1's, its cost adds the production term.  Agent mode
 # designs in a step of its own, after the commit has completed and shown the identification.
 _V2 = {**_V1, "weights": {"production": 0.05}, "amplitude_limit": 3.0, "design_step": True}
-register(id="DeadTime/PID-v2", entry_point="envs.tuning_env:PIDEnv", kwargs=_V2)
-register(id="DeadTime/FPPI-v2", entry_point="envs.tuning_env:FPPIEnv", kwargs=_V2)
-register(id="DeadTime/MSP-v2", entry_point="envs.tuning_env:MSPEnv", kwargs=_V2)
+register(id="DeadTime/PID-v2", entry_point="envs.tuning_env:PIDEnv",
+         vector_entry_point="envs.vector_env:PIDVectorEnv", kwargs=_V2)
+register(id="DeadTime/FPPI-v2", entry_point="envs.tuning_env:FPPIEnv",
+         vector_entry_point="envs.vector_env:FPPIVectorEnv", kwargs=_V2)
+register(id="DeadTime/MSP-v2", entry_point="envs.tuning_env:MSPEnv",
+         vector_entry_point="envs.vector_env:MSPVectorEnv", kwargs=_V2)

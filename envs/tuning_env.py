@@ -235,7 +235,14 @@ class DeadTimeTuningEnv(gym.Env):
         unknown = sorted(set(options) - {"plant"})
         if unknown:
             raise ValueError(f"reset options: unknown key {unknown[0]!r}; valid keys: plant")
-        given = options.get("plant")
+        self.new_episode(options.get("plant"))
+        observation, named = self._observation_and_features()
+        return observation, {"plant": self.plant.to_dict(), "features": named}
+
+    def new_episode(self, given: Any = None) -> None:
+        """Reset's work before its observation, with the generator as it is: draw a plant (or take
+        ``given``, as ``options["plant"]``) and, in the fixed mode, identify it.  The native vector
+        environment (:mod:`envs.vector_env`) starts its episodes with it."""
         self.plant = self._given_plant(given) if given is not None else None
         for _ in range(MAX_SAMPLING_ATTEMPTS):
             plant = self.plant if given is not None else sample_plant(self.family, self.np_random, self.family_config)
@@ -249,8 +256,6 @@ class DeadTimeTuningEnv(gym.Env):
             raise RuntimeError(f"no plant of family {self.family!r} could be identified in {MAX_SAMPLING_ATTEMPTS} draws")
         self._done = False
         self._controller = None
-        observation, named = self._observation_and_features()
-        return observation, {"plant": self.plant.to_dict(), "features": named}
 
     def _wrong_family_kind(self, integrating: bool) -> str:
         """The one line for a family (or a draw of it) of the other kind of plant than this environment's."""
@@ -327,15 +332,22 @@ class DeadTimeTuningEnv(gym.Env):
             self.identification, self.evidence = identification(
                 self.evidence, self.structure, self.plant, self.np_random, self.noise_std
             )
+        relative, controller, result = self.commit_design(parameter_action)
+        observation, named = self._observation_and_features()
+        info = self._final_info(result, relative, controller, named)
+        return observation, -float(result.cost), True, False, info
+
+    def commit_design(self, parameter_action: float) -> tuple[float, Any, Score]:
+        """End the episode with the design of ``parameter_action`` (a number in [-1, 1]) on the current
+        identification: ``(relative parameter, controller, score)``.  Step's work in the fixed mode
+        before its observation and info; the native vector environment commits with it."""
         relative = self.parameter_from_action(parameter_action)
         controller = self.design(relative)
         self._controller = controller
         result = self.score_controller(controller)
         self._design = (relative, float(result.cost))
         self._done = True
-        observation, named = self._observation_and_features()
-        info = self._final_info(result, relative, controller, named)
-        return observation, -float(result.cost), True, False, info
+        return relative, controller, result
 
     # ------------------------------------------------------------------ scoring
     def model(self):
@@ -427,14 +439,19 @@ class DeadTimeTuningEnv(gym.Env):
         output.legend(fontsize=7)
 
     # ------------------------------------------------------------------ observation
-    def _observation_and_features(self) -> tuple[np.ndarray, dict[str, float]]:
-        """The observation (features clipped to the bounds, float32) and the features by name."""
+    def feature_values(self) -> np.ndarray:
+        """The features of the episode so far (float64, not clipped), in the order of :attr:`feature_names`."""
         values = features(self.evidence, self.budget)
         if self.design_features:
             extra = design_features(self.structure, self.identification)  # zero in agent mode until the commit
             values = np.concatenate([values, list(extra.values())])
         if self.design_step:
             values = np.concatenate([values, [float(self._design_pending)]])
+        return values
+
+    def _observation_and_features(self) -> tuple[np.ndarray, dict[str, float]]:
+        """The observation (features clipped to the bounds, float32) and the features by name."""
+        values = self.feature_values()
         observation = np.clip(values, -OBSERVATION_BOUND, OBSERVATION_BOUND).astype(np.float32)
         return observation, dict(zip(self.feature_names, values.tolist()))
 

@@ -4,7 +4,7 @@ Usage::
 
     deadtime bench [--json] [--quick] [--skip-envs] [--skip-ppo]
 
-Three parts, each on the same machine state:
+Four parts, each on the same machine state:
 
 1. Scoring (:mod:`agents.bench.scoring`): our :func:`envs.analysis.scoring.score` on designed loops of four
    plant families, one loop at a time and batched, against the same figures computed the
@@ -13,8 +13,15 @@ Three parts, each on the same machine state:
    (:mod:`agents.bench.fine_step`).  This part runs pinned to one CPU (``os.sched_setaffinity``).
 2. Environments (:mod:`agents.bench.episodes`): episodes per second of ``DeadTime/PID-v0``, single
    and vectorized (2 copies), in both modes, with and without the oracle.
-3. Training: the share of ``learn`` spent inside the environment, for PPO (``configs/ppo.yaml``, the
-   issue's yardstick) and for SAC (``configs/sac.yaml``, the agent of the demo).
+3. The native vector environment (:mod:`agents.bench.vector`, pinned to one CPU): the
+   compiled-arithmetic floor of a fixed-mode episode (:mod:`agents.bench.floor`: the time inside its
+   compiled calls, measured) for the single environment and the native vector environment with 32
+   slots, the ratio of each one's measured episode time to its floor, and episodes per second of
+   the single environment and of the native one with 1, 8 and 32 slots.
+4. Training: the share of ``learn`` spent inside the environment, for PPO (``configs/ppo.yaml``, one
+   environment) and for SAC (``configs/sac.yaml``, the agent of the demo); and PPO's samples per
+   second of ``learn`` (``configs/ppo.yaml``, one rollout of 128 steps per environment and its
+   update) with 1, 8 and 32 slots of the native vector environment, with the environment's share.
 
 Every part runs in a child process whose BLAS, OpenMP and numba pools have one thread
 (:data:`agents.runtime.THREAD_VARIABLES`; the variables must be set before numpy is imported): on this 2-core
@@ -50,11 +57,18 @@ HEADLINE = (
     "episodes_per_s_fixed",
     "episodes_per_s_agent",
     "env_share_of_ppo_time",
+    "episode_floor_ms",
+    "episode_to_floor_single",
+    "episode_to_floor_native32",
+    "native32_vs_single",
+    "ppo_samples_per_s_native32_vs_1",
 )
 CHILD_VARIABLE = "DEADTIME_BENCH_CHILD"
 ENV_ID = "DeadTime/PID-v0"
 SEED = 0
 N_ENVS = 2
+NATIVE_SLOTS = (1, 8, 32)
+FLOOR_EPISODES = 256
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -158,6 +172,50 @@ def _env_part(quick: bool) -> dict[str, Any]:
     }
 
 
+def _vector_part(quick: bool) -> dict[str, Any]:
+    from agents.bench.episodes import episodes_per_s
+    from agents.bench.vector import episode_floor, native_episodes_per_s
+
+    previous, core = _one_core()
+    try:
+        min_time, episodes = (0.0, 32) if quick else (3.0, FLOOR_EPISODES)
+        _progress(f"compiled-arithmetic floor: {episodes} episodes, single and native x{NATIVE_SLOTS[-1]}")
+        floor = episode_floor(ENV_ID, None, episodes, SEED)
+        floor_native = episode_floor(ENV_ID, NATIVE_SLOTS[-1], episodes, SEED)
+        _progress("episodes: single and native (one core)")
+        rates = {"single": episodes_per_s(ENV_ID, "fixed", False, min_time, SEED, 1 if quick else 64)}
+        for n in NATIVE_SLOTS:
+            rates[f"native{n}"] = native_episodes_per_s(ENV_ID, n, min_time, SEED, n if quick else max(64, 4 * n))
+    finally:
+        if previous is not None:
+            os.sched_setaffinity(0, previous)
+    last = f"native{NATIVE_SLOTS[-1]}"
+    return {
+        "episode_floor_ms": 1e3 * floor["seconds"], "episode_floor_calls": floor["calls"],
+        "episode_floor_top_ms": {k: 1e3 * v for k, v in floor["top"].items()},
+        "episode_floor_native32_ms": 1e3 * floor_native["seconds"],
+        "episode_ms_single": 1e3 / rates["single"], "episode_ms_native32": 1e3 / rates[last],
+        "episode_to_floor_single": 1.0 / (rates["single"] * floor["seconds"]),
+        "episode_to_floor_native32": 1.0 / (rates[last] * floor_native["seconds"]),
+        "episodes_per_s_native": rates, "native32_vs_single": rates[last] / rates["single"],
+        "vector_cpu_affinity": core,
+    }
+
+
+def _ppo_native_part(quick: bool) -> dict[str, Any]:
+    from agents.bench.vector import ppo_throughput
+
+    n_steps = 16 if quick else 128
+    figures: dict[str, Any] = {}
+    for n in NATIVE_SLOTS:
+        _progress(f"PPO (configs/ppo.yaml), native x{n}: one rollout of {n_steps} steps per environment and its update")
+        result = ppo_throughput(str(REPO / "configs" / "ppo.yaml"), ENV_ID, n, n_steps)
+        figures[f"ppo_samples_per_s_native{n}"] = result["samples_per_s"]
+        figures[f"env_share_of_ppo_native{n}"] = result["share"]
+    figures["ppo_samples_per_s_native32_vs_1"] = figures["ppo_samples_per_s_native32"] / figures["ppo_samples_per_s_native1"]
+    return figures
+
+
 def _training_part(quick: bool) -> dict[str, Any]:
     from agents.bench.episodes import training_env_share
 
@@ -185,8 +243,10 @@ def bench(quick: bool = False, envs: bool = True, ppo: bool = True, pade_order: 
     figures.update(_scoring_part(quick, pade_order, reference_samples))
     if envs:
         figures.update(_env_part(quick))
+        figures.update(_vector_part(quick))
     if ppo:
         figures.update(_training_part(quick))
+        figures.update(_ppo_native_part(quick))
     for key in HEADLINE:  # skipped parts: null in the JSON
         figures.setdefault(key, None)
     figures["machine"]["load_average_end"] = list(os.getloadavg())
@@ -227,8 +287,23 @@ ROWS = (
     ("Environments (episodes/s, DeadTime/PID-v0, random actions)", None),
     ("episodes_per_s_fixed", "single, fixed"),
     ("episodes_per_s_agent", "single, agent"),
-    ("Training (one environment)", None),
-    ("env_share_of_ppo_time", "environment share of PPO.learn"),
+    ("Native vector environment (DeadTime/PID-v0, fixed mode, one core)", None),
+    ("episode_floor_ms", "compiled-arithmetic floor of an episode, ms"),
+    ("episode_floor_native32_ms", "  the same, native x32, ms"),
+    ("episode_ms_single", "episode, single, ms"),
+    ("episode_ms_native32", "episode, native x32, ms"),
+    ("episode_to_floor_single", "episode / floor, single"),
+    ("episode_to_floor_native32", "episode / floor, native x32"),
+    ("native32_vs_single", "episodes/s native x32 / single"),
+    ("Training", None),
+    ("ppo_samples_per_s_native1", "PPO samples/s of learn, native x1"),
+    ("ppo_samples_per_s_native8", "PPO samples/s of learn, native x8"),
+    ("ppo_samples_per_s_native32", "PPO samples/s of learn, native x32"),
+    ("ppo_samples_per_s_native32_vs_1", "  x32 / x1"),
+    ("env_share_of_ppo_native1", "environment share of PPO.learn, native x1"),
+    ("env_share_of_ppo_native8", "environment share of PPO.learn, native x8"),
+    ("env_share_of_ppo_native32", "environment share of PPO.learn, native x32"),
+    ("env_share_of_ppo_time", "environment share of PPO.learn, one env (dummy)"),
     ("ppo_learn_seconds", "learn seconds"),
     ("ppo_timesteps", "timesteps"),
     ("env_share_of_sac_time", "environment share of SAC.learn (configs/sac.yaml)"),
@@ -245,6 +320,9 @@ def format_table(figures: dict[str, Any]) -> str:
             lines.append(f"\n{key}")
         elif key in figures:
             lines.append(f"  {label:48s} {_format(figures[key])}")
+        if key == "native32_vs_single":
+            for name, rate in figures.get("episodes_per_s_native", {}).items():
+                lines.append(f"  {'episodes/s, ' + name:48s} {_format(rate)}")
         if key == "episodes_per_s_agent":
             for name, rate in figures.get("episodes_per_s", {}).items():
                 if name not in ("single/fixed", "single/agent"):

@@ -51,7 +51,7 @@ __all__ = [
 
 ALGORITHMS = ("A2C", "PPO", "SAC", "TD3")
 OFF_POLICY = ("SAC", "TD3")
-VEC_ENVS = ("dummy", "subproc")
+VEC_ENVS = ("dummy", "subproc", "native")
 # Fields that hold open mappings (dotted override keys reach into them).
 MAPPING_FIELDS = ("env_kwargs", "hyperparameters", "policy_kwargs")
 # Constructor arguments that the config sets through its own fields, never through ``hyperparameters``.
@@ -88,7 +88,10 @@ class TrainConfig:
     seed : int
         The one training seed: ``set_random_seed(seed)``; vectorized environment ``i`` gets ``seed + i``.
     n_envs, vec_env : int, str
-        Number of training environments and their vectorization (``dummy`` or ``subproc``).
+        Number of training environments and their vectorization: ``dummy`` or ``subproc`` (SB3's, over
+        ``Monitor``-wrapped single environments), or ``native`` (the id's native vector environment,
+        :mod:`envs.vector_env`, through :mod:`agents.training.native_vec_env`: the same episodes,
+        fixed mode only, the per-episode Python of N single environments saved).
     normalize, normalize_reward : bool
         Wrap the training environments in ``VecNormalize`` (observations; rewards too if
         ``normalize_reward``).  The statistics are saved beside every model.
@@ -400,6 +403,22 @@ def validate(config: TrainConfig) -> None:
     check_hyperparameters(config.algorithm, config.hyperparameters, config.n_envs)
     check_policy_kwargs(config.policy_kwargs)
     _validate_env_kwargs(config)
+    _validate_native(config)
+
+
+def _validate_native(config: TrainConfig) -> None:
+    """``vec_env: native`` needs an id with a native vector environment, in the fixed mode."""
+    if config.vec_env != "native":
+        return
+    import gymnasium
+
+    if gymnasium.spec(config.env_id).vector_entry_point is None:
+        raise ValueError(f"vec_env: native needs an environment with a native vector environment "
+                         f"(vector_entry_point); {config.env_id} has none (use dummy or subproc)")
+    mode = config.env_kwargs.get("experiments", "fixed")
+    if mode != "fixed":
+        raise ValueError(f"vec_env: native runs the fixed mode only, but env_kwargs.experiments is {mode!r} "
+                         "(use dummy or subproc)")
 
 
 def _validate_env_kwargs(config: TrainConfig) -> None:

@@ -166,9 +166,14 @@ def _monitored_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
 
 
 def make_vec_env(config: TrainConfig) -> Any:
-    """The training environments (``Monitor``-wrapped, ``dummy`` or ``subproc``), not yet seeded."""
+    """The training environments (``Monitor``-wrapped, ``dummy`` or ``subproc``; or the ``native`` vector
+    environment, :mod:`agents.training.native_vec_env`), not yet seeded."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
+    if config.vec_env == "native":
+        from agents.training.native_vec_env import make_native_vec_env
+
+        return make_native_vec_env(config.env_id, config.n_envs, dict(config.env_kwargs))
     factories = [functools.partial(_monitored_env, config.env_id, dict(config.env_kwargs)) for _ in range(config.n_envs)]
     if config.vec_env == "subproc" and config.n_envs > 1:
         return SubprocVecEnv(factories)

@@ -115,6 +115,9 @@ NUMBERS = (
     "accuracy_python_control", "episodes_per_s_fixed", "episodes_per_s_agent", "env_share_of_ppo_time",
     "scorings_per_s_python_control", "margins_per_s", "iae_per_s_single", "iae_per_s_batched",
     "iae_per_s_python_control", "iae_per_s_scipy_dlsim", "margin_agreement", "bench_seconds",
+    "episode_floor_ms", "episode_floor_native32_ms", "episode_ms_single", "episode_ms_native32",
+    "episode_to_floor_single", "episode_to_floor_native32", "native32_vs_single", "ppo_samples_per_s_native1",
+    "ppo_samples_per_s_native8", "ppo_samples_per_s_native32", "ppo_samples_per_s_native32_vs_1",
 )  # fmt: skip
 
 
@@ -131,6 +134,9 @@ def test_bench_json_quick(capsys: Any) -> None:
     assert figures["accuracy_ours"] < 1e-2 and figures["accuracy_python_control"] < 1
     assert isinstance(figures["pade_order"], int) and isinstance(figures["loops"], int)
     assert all(isinstance(v, float) and v > 0 for v in figures["episodes_per_s"].values())
+    assert set(figures["episodes_per_s_native"]) == {"single", "native1", "native8", "native32"}
+    assert all(0 < figures[f"env_share_of_ppo_native{n}"] <= 1 for n in (1, 8, 32))
+    assert figures["episode_floor_calls"] > 0 and figures["episode_floor_top_ms"]
     machine = figures["machine"]
     assert isinstance(machine["cpu_count"], int) and isinstance(machine["versions"]["control"], str)
 
