@@ -12,31 +12,17 @@ cost); then :mod:`envs.design`, :mod:`envs.episode` and the environments.
 
 from gymnasium.envs.registration import register
 
-register(id="DeadTime/PID-v0", entry_point="envs.tuning_env:PIDEnv",
-         vector_entry_point="envs.vector_env:PIDVectorEnv")
-register(id="DeadTime/FPPI-v0", entry_point="envs.tuning_env:FPPIEnv",
-         vector_entry_point="envs.vector_env:FPPIVectorEnv")
-register(id="DeadTime/MSP-v0", entry_point="envs.tuning_env:MSPEnv",
-         vector_entry_point="envs.vector_env:MSPVectorEnv")
-
+# v0: the design parameter on a log scale over its range (envs.design.PARAMETER_RANGES).
 # v1: the action is a residual around the structure's base rule, and the observation has the design
 # features (envs.base_design); the plants, experiments and cost are v0's.
 _V1 = {"action": "residual", "design_features": True}
-register(id="DeadTime/PID-v1", entry_point="envs.tuning_env:PIDEnv",
-         vector_entry_point="envs.vector_env:PIDVectorEnv", kwargs=_V1)
-register(id="DeadTime/FPPI-v1", entry_point="envs.tuning_env:FPPIEnv",
-         vector_entry_point="envs.vector_env:FPPIVectorEnv", kwargs=_V1)
-register(id="DeadTime/MSP-v1", entry_point="envs.tuning_env:MSPEnv",
-         vector_entry_point="envs.vector_env:MSPVectorEnv", kwargs=_V1)
-
 # v2 (issue 17): v1 with experiments that have a price beyond their time: the production they disturb
 # (weights.production, per unit of D_exp/T_ar) and an amplitude limit of 3 (agent mode); the fixed
 # mode's experiments and the rules' inputs are v1's, its cost adds the production term.  Agent mode
 # designs in a step of its own, after the commit has completed and shown the identification.
 _V2 = {**_V1, "weights": {"production": 0.05}, "amplitude_limit": 3.0, "design_step": True}
-register(id="DeadTime/PID-v2", entry_point="envs.tuning_env:PIDEnv",
-         vector_entry_point="envs.vector_env:PIDVectorEnv", kwargs=_V2)
-register(id="DeadTime/FPPI-v2", entry_point="envs.tuning_env:FPPIEnv",
-         vector_entry_point="envs.vector_env:FPPIVectorEnv", kwargs=_V2)
-register(id="DeadTime/MSP-v2", entry_point="envs.tuning_env:MSPEnv",
-         vector_entry_point="envs.vector_env:MSPVectorEnv", kwargs=_V2)
+
+for _version, _kwargs in (("v0", {}), ("v1", _V1), ("v2", _V2)):
+    for _structure in ("PID", "FPPI", "MSP"):
+        register(id=f"DeadTime/{_structure}-{_version}", entry_point=f"envs.tuning_env:{_structure}Env",
+                 vector_entry_point=f"envs.vector_env:{_structure}VectorEnv", kwargs=_kwargs)
