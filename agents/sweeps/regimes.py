@@ -6,8 +6,9 @@
         --x noise_std --out sweeps/experiments
 
 Each argument is the output directory of a finished ``deadtime sweep`` whose file sets
-``env_kwargs`` (:mod:`agents.sweeps.config`); the sweeps share their trials, evaluation and
-environment, so their policies are the same.  Per regime and environment, from the evaluations'
+``env_kwargs`` (:mod:`agents.sweeps.config`); the sweeps share their evaluation (plants, episode
+seeds) and environment.  Sweeps of the same regime are merged: their agent groups side by side
+(a follow-up with another training budget, say), their rules' and oracle's costs checked equal.  Per regime and environment, from the evaluations'
 ``per_plant.csv`` (the same held-out plants and episode seeds in every regime):
 
 * every policy's mean cost with its 95% interval (:mod:`agents.evaluation.seed_statistics`: agents
@@ -130,22 +131,42 @@ def _entry(rules: dict[str, np.ndarray], agents: dict[str, np.ndarray], compare:
     return entry
 
 
-def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = (), plants: int = 0, resamples: int = 2000) -> dict[str, Any]:
-    """The ``regimes.json`` object of the module docstring."""
-    regimes = []
+def _merged(directories: list[Path], x: str) -> dict[tuple[str, str], dict[str, Any]]:
+    """The sweeps' evaluations per (regime, environment): sweeps of the same regime are merged (their
+    agent groups side by side; their rules and oracle must be the same numbers, on the same plants)."""
+    found: dict[tuple[str, str], dict[str, Any]] = {}
     for directory in directories:
         name, env_kwargs = _regime(directory)
         if x not in env_kwargs:
             raise ValueError(f"{directory}: env_kwargs has no {x!r} (it has {', '.join(env_kwargs)})")
         for env in sorted(p for p in (directory / "eval").iterdir() if p.is_dir()):
             rules, agents, runs = _environment(directory, env)
-            missing = [label for label in compare if label not in agents]
-            if missing:
-                raise ValueError(f"{directory}: no agent group {missing[0]!r} (groups: {', '.join(agents)})")
-            entry = _entry(rules, agents, compare, resamples)
-            if plants:
-                entry["behaviour"] = {label: behaviour(group, env_kwargs, plants) for label, group in runs.items()}
-            regimes.append({"sweep": name, "env": env.name, "env_kwargs": env_kwargs, **entry})
+            key = (json.dumps(env_kwargs, sort_keys=True), env.name)
+            if key not in found:
+                found[key] = {"sweeps": [], "env_kwargs": env_kwargs, "rules": rules, "agents": {}, "runs": {}}
+            entry = found[key]
+            if sorted(entry["rules"]) != sorted(rules) or any(not np.array_equal(entry["rules"][n], rules[n]) for n in rules):
+                raise ValueError(f"{directory}: its rules' costs differ from those of {entry['sweeps'][0]} in the same regime")
+            taken = sorted(set(entry["agents"]) & set(agents))
+            if taken:
+                raise ValueError(f"{directory}: agent group {taken[0]!r} is also in {entry['sweeps'][0]}")
+            entry["sweeps"].append(name)
+            entry["agents"].update(agents)
+            entry["runs"].update(runs)
+    return found
+
+
+def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = (), plants: int = 0, resamples: int = 2000) -> dict[str, Any]:
+    """The ``regimes.json`` object of the module docstring."""
+    regimes = []
+    for (_, env), found in _merged(directories, x).items():
+        missing = [label for label in compare if label not in found["agents"]]
+        if missing:
+            raise ValueError(f"{', '.join(found['sweeps'])}: no agent group {missing[0]!r} (groups: {', '.join(found['agents'])})")
+        entry = _entry(found["rules"], found["agents"], compare, resamples)
+        if plants:
+            entry["behaviour"] = {label: behaviour(group, found["env_kwargs"], plants) for label, group in found["runs"].items()}
+        regimes.append({"sweep": " + ".join(found["sweeps"]), "env": env, "env_kwargs": found["env_kwargs"], **entry})
     regimes.sort(key=lambda r: (r["env"], json.dumps({k: v for k, v in r["env_kwargs"].items() if k != x}, sort_keys=True),
                                 r["env_kwargs"][x]))
     return {"x": x, "regimes": regimes}

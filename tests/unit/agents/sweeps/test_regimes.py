@@ -131,3 +131,24 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, extra: list[str], mess
 def test_a_directory_that_is_no_sweep_is_named(tmp_path: Path) -> None:
     status, _, err = _run("regimes", str(tmp_path), "--x", "noise_std", "--out", str(tmp_path / "o"))
     assert status == 2 and "not the output directory of a sweep" in err
+
+
+def test_sweeps_of_one_regime_are_merged(tmp_path: Path) -> None:
+    """A follow-up sweep in the same regime adds its agent groups beside the first's (same rules);
+    the paired difference compares groups of the two sweeps."""
+    import shutil
+
+    first = _sweep(tmp_path, 0.1, 0.0)
+    follow = tmp_path / "follow"
+    shutil.copytree(first, follow)
+    env = follow / "eval" / "FPPI-v2"
+    for seed in range(3):
+        shutil.rmtree(env / f"fixed-FPPI-v2-s{seed}")
+        (env / f"chooser-FPPI-v2-s{seed}").rename(env / f"longer-FPPI-v2-s{seed}")
+    (follow / "sweep.yaml").write_text((first / "sweep.yaml").read_text().replace("name: n0.1", "name: follow"))
+    result = compare_regimes([first, follow], "noise_std", ("longer", "fixed"), resamples=100)
+    [regime] = result["regimes"]
+    assert regime["sweep"] == "n0.1 + follow" and set(regime["agents_to_rules"]) == {"fixed", "chooser", "longer"}
+    (env / "baselines" / "per_plant.csv").write_text((env / "baselines" / "per_plant.csv").read_text().replace("rule-a", "rule-c"))
+    with pytest.raises(ValueError, match="rules' costs differ"):
+        compare_regimes([first, follow], "noise_std")
