@@ -328,7 +328,7 @@ class DeadTimeTuningEnv(gym.Env):
         return observation, 0.0, False, False, info
 
     def _commit(self, parameter_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
-        if self.mode == "agent":
+        if self.mode == "agent" and not self._design_pending:  # (design_step: _identify has identified)
             self.identification, self.evidence = identification(
                 self.evidence, self.structure, self.plant, self.np_random, self.noise_std
             )

@@ -227,7 +227,8 @@ def evaluate(
     if workers <= 0:
         raise ValueError(f"--workers must be positive, got {workers!r}")
     started = time.perf_counter()
-    env_kwargs = {**_regime(env_kwargs), **({} if family is None else {"family": family})}
+    regime = _regime(env_kwargs)
+    env_kwargs = {**regime, **({} if family is None else {"family": family})}
     env = make_env(env_id, {"experiments": "fixed", **env_kwargs})
     unwrapped = env.unwrapped
     structure = unwrapped.structure
@@ -247,8 +248,7 @@ def evaluate(
 
     out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)
-    results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, plants, seed, rules, agents, out, full, workers)
-    regime = {key: value for key, value in env_kwargs.items() if key != "family"}
+    results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, out, full, workers)
     means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
     best_rule = min(own, key=lambda name: (means[name], name))
     shown = [s.name for s in specs if s.kind not in TRAINED] + list(agents)
@@ -281,6 +281,7 @@ def _score_plants(
     env: Any,
     env_id: str,
     env_kwargs: dict[str, Any],
+    regime: dict[str, Any],
     plants: list,
     seed: int,
     rules: list[str],
@@ -291,6 +292,7 @@ def _score_plants(
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], float]:
     """Every policy on every plant (with a progress bar): results, ``per_plant.csv`` rows, and the
     largest difference between the oracle's own cost and the environment's for its optimum.
+    ``regime``, the evaluation's ``--env-kwargs``, is part of each plant's cache key.
 
     With ``workers > 1`` the rules and oracles run in that many processes first (into the cache);
     the agents then run in this process.
@@ -302,7 +304,6 @@ def _score_plants(
     cache = Cache(out / "cache.jsonl")
     seeds = _episode_seeds(plants, seed)
     family = env.unwrapped.family
-    regime = {key: value for key, value in env_kwargs.items() if key != "family"}
     environment = env_id if not regime else f"{env_id} {json.dumps(regime, sort_keys=True, default=str)}"
     keys = [
         plant_key(environment, family, seeds[i], i if subset == "test" else label, plant.to_dict())

@@ -43,10 +43,14 @@ __all__ = [
     "MAPPING_FIELDS",
     "TrainConfig",
     "apply_overrides",
+    "frozen_mapping",
     "load_config",
     "merge",
     "parse_override",
+    "plain_value",
+    "require_field",
     "validate",
+    "yaml_number",
 ]
 
 ALGORITHMS = ("A2C", "PPO", "SAC", "TD3")
@@ -69,7 +73,7 @@ _RESERVED = {
 }
 
 
-def _frozen(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
+def frozen_mapping(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
     return MappingProxyType(dict(mapping))
 
 
@@ -149,28 +153,28 @@ class TrainConfig:
         object.__setattr__(self, "algorithm", self.algorithm.upper())
         for name in ("env_id", "policy", "device"):
             value = getattr(self, name)
-            _require(isinstance(value, str) and bool(value), name, "a non-empty string", value)
+            require_field(isinstance(value, str) and bool(value), name, "a non-empty string", value)
         for name, low in (("total_timesteps", 1), ("seed", 0), ("n_envs", 1), ("eval_freq", 0),
                           ("n_eval_episodes", 1), ("checkpoint_freq", 0), ("torch_threads", 1)):
-            value = _number(getattr(self, name))
+            value = yaml_number(getattr(self, name))
             if isinstance(value, float) and value.is_integer():  # YAML reads 1.0e5 as a float
                 value = int(value)
                 object.__setattr__(self, name, value)
-            _require(isinstance(value, int) and not isinstance(value, bool) and value >= low, name, f"an integer >= {low}", value)
+            require_field(isinstance(value, int) and not isinstance(value, bool) and value >= low, name, f"an integer >= {low}", value)
         for name in ("normalize", "normalize_reward", "progress_bar"):
-            _require(isinstance(getattr(self, name), bool), name, "true or false", getattr(self, name))
-        _require(self.vec_env in VEC_ENVS, "vec_env", " or ".join(VEC_ENVS), self.vec_env)
+            require_field(isinstance(getattr(self, name), bool), name, "true or false", getattr(self, name))
+        require_field(self.vec_env in VEC_ENVS, "vec_env", " or ".join(VEC_ENVS), self.vec_env)
         for name in ("eval_family", "output_dir"):
             value = getattr(self, name)
-            _require(value is None or (isinstance(value, str) and value), name, "a non-empty string or null", value)
+            require_field(value is None or (isinstance(value, str) and value), name, "a non-empty string or null", value)
         for name in MAPPING_FIELDS:
             value = getattr(self, name)
-            _require(isinstance(value, Mapping), name, "a mapping", value)
+            require_field(isinstance(value, Mapping), name, "a mapping", value)
             for key in value:
-                _require(isinstance(key, str), f"{name} key", "a string", key)
+                require_field(isinstance(key, str), f"{name} key", "a string", key)
             if name == "hyperparameters":
-                value = {key: _number(item) for key, item in value.items()}
-            object.__setattr__(self, name, _frozen(value))
+                value = {key: yaml_number(item) for key, item in value.items()}
+            object.__setattr__(self, name, frozen_mapping(value))
 
     @property
     def off_policy(self) -> bool:
@@ -184,7 +188,7 @@ class TrainConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain values (for YAML and JSON), in field order."""
-        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+        return {f.name: plain_value(getattr(self, f.name)) for f in dataclasses.fields(self)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "config") -> TrainConfig:
@@ -205,7 +209,7 @@ class TrainConfig:
 _EXPONENT_NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
-def _number(value: Any) -> Any:
+def yaml_number(value: Any) -> Any:
     """A number written in exponent form without a dot or sign (``1e5``, ``3e-4``), which YAML 1.1
     reads as a string, as a float; any other value unchanged."""
     if isinstance(value, str) and _EXPONENT_NUMBER.fullmatch(value.strip()):
@@ -213,16 +217,16 @@ def _number(value: Any) -> Any:
     return value
 
 
-def _require(condition: bool, name: str, what: str, value: Any) -> None:
+def require_field(condition: bool, name: str, what: str, value: Any) -> None:
     if not condition:
         raise ValueError(f"{name} must be {what}, got {value!r}")
 
 
-def _plain(value: Any) -> Any:
+def plain_value(value: Any) -> Any:
     if isinstance(value, Mapping):
-        return {key: _plain(item) for key, item in value.items()}
+        return {key: plain_value(item) for key, item in value.items()}
     if isinstance(value, tuple | list):
-        return [_plain(item) for item in value]
+        return [plain_value(item) for item in value]
     return value
 
 

@@ -236,7 +236,7 @@ def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None 
         ``resume`` is False, or ``resume`` is True with another environment or seed.
     """
     from agents.training.config import validate
-    from agents.training.train import TrainResult, _config_yaml, run_provenance
+    from agents.training.train import TrainResult, announce_config, run_provenance
 
     validate(config)
     run_dir = run_directory(config)
@@ -245,8 +245,7 @@ def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None 
         print(f"{run_dir} already holds this learned rule (fit finished)")
         return finished
     provenance = run_provenance(command)
-    text = _config_yaml(config, provenance)
-    print(text, end="")
+    text = announce_config(config, provenance)
     env = check_environment(config)
     try:
         run_dir.mkdir(parents=True, exist_ok=True)

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from agents.training.config import _frozen, _number, _plain, _require
+from agents.training.config import frozen_mapping, plain_value, require_field, yaml_number
 
 __all__ = ["LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS"]
 
@@ -70,26 +70,26 @@ class LearnedRuleConfig:
     progress_bar: bool = True
 
     def __post_init__(self) -> None:
-        _require(isinstance(self.algorithm, str) and self.algorithm.lower() == LEARNED_RULE, "algorithm", repr(LEARNED_RULE),
+        require_field(isinstance(self.algorithm, str) and self.algorithm.lower() == LEARNED_RULE, "algorithm", repr(LEARNED_RULE),
                  self.algorithm)
         object.__setattr__(self, "algorithm", LEARNED_RULE)
-        _require(isinstance(self.env_id, str) and bool(self.env_id), "env_id", "a non-empty string", self.env_id)
+        require_field(isinstance(self.env_id, str) and bool(self.env_id), "env_id", "a non-empty string", self.env_id)
         for name, low, high in (("seed", 0, math.inf), ("training_plants", 10, MAX_TRAINING_PLANTS),
                                 ("validation_plants", 1, math.inf)):
-            value = _number(getattr(self, name))
+            value = yaml_number(getattr(self, name))
             if isinstance(value, float) and value.is_integer():
                 value = int(value)
                 object.__setattr__(self, name, value)
             what = f"an integer >= {low}" + ("" if high == math.inf else f" and <= {high}")
-            _require(isinstance(value, int) and not isinstance(value, bool) and low <= value <= high, name, what, value)
-        _require(isinstance(self.env_kwargs, Mapping) and all(isinstance(k, str) for k in self.env_kwargs),
+            require_field(isinstance(value, int) and not isinstance(value, bool) and low <= value <= high, name, what, value)
+        require_field(isinstance(self.env_kwargs, Mapping) and all(isinstance(k, str) for k in self.env_kwargs),
                  "env_kwargs", "a mapping with string keys", self.env_kwargs)
-        object.__setattr__(self, "env_kwargs", _frozen(self.env_kwargs))
+        object.__setattr__(self, "env_kwargs", frozen_mapping(self.env_kwargs))
         object.__setattr__(self, "margins", _margins(self.margins))
         object.__setattr__(self, "models", _models(self.models))
-        _require(self.output_dir is None or (isinstance(self.output_dir, str) and bool(self.output_dir)), "output_dir",
+        require_field(self.output_dir is None or (isinstance(self.output_dir, str) and bool(self.output_dir)), "output_dir",
                  "a non-empty string or null", self.output_dir)
-        _require(isinstance(self.progress_bar, bool), "progress_bar", "true or false", self.progress_bar)
+        require_field(isinstance(self.progress_bar, bool), "progress_bar", "true or false", self.progress_bar)
 
     @property
     def run_name(self) -> str:
@@ -98,7 +98,7 @@ class LearnedRuleConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain values (for YAML and JSON), in field order."""
-        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+        return {f.name: plain_value(getattr(self, f.name)) for f in dataclasses.fields(self)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "config") -> LearnedRuleConfig:
@@ -116,11 +116,11 @@ class LearnedRuleConfig:
 
 def _margins(value: Any) -> tuple[float, ...]:
     items = value if isinstance(value, list | tuple) else None
-    _require(bool(items), "margins", "a non-empty list of numbers >= 0", value)
-    margins = tuple(_number(item) for item in items)
-    _require(all(isinstance(m, int | float) and not isinstance(m, bool) and math.isfinite(m) and m >= 0 for m in margins),
+    require_field(bool(items), "margins", "a non-empty list of numbers >= 0", value)
+    margins = tuple(yaml_number(item) for item in items)
+    require_field(all(isinstance(m, int | float) and not isinstance(m, bool) and math.isfinite(m) and m >= 0 for m in margins),
              "margins", "a non-empty list of numbers >= 0", value)
-    _require(len(set(margins)) == len(margins), "margins", "a list without repeats", value)
+    require_field(len(set(margins)) == len(margins), "margins", "a list without repeats", value)
     return tuple(float(m) for m in margins)
 
 
@@ -129,6 +129,6 @@ def _models(value: Any) -> tuple[str, ...]:
 
     items = [value] if isinstance(value, str) else value
     what = f"a non-empty list of model kinds ({', '.join(MODEL_KINDS)})"
-    _require(isinstance(items, list | tuple) and bool(items) and all(item in MODEL_KINDS for item in items), "models", what, value)
-    _require(len(set(items)) == len(items), "models", "a list without repeats", value)
+    require_field(isinstance(items, list | tuple) and bool(items) and all(item in MODEL_KINDS for item in items), "models", what, value)
+    require_field(len(set(items)) == len(items), "models", "a list without repeats", value)
     return tuple(items)

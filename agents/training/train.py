@@ -232,6 +232,14 @@ def run_provenance(command: str | None) -> dict[str, Any]:
             "started": datetime.now(UTC).isoformat(timespec="seconds")}
 
 
+def announce_config(config: Any, provenance: Mapping[str, Any]) -> str:
+    """The run's ``config.yaml`` text (the resolved config under its provenance), printed as the run
+    starts; the SB3 run and the learned rule's fit both begin with it."""
+    text = _config_yaml(config, provenance)
+    print(text, end="")
+    return text
+
+
 def _config_yaml(config: TrainConfig, provenance: Mapping[str, Any]) -> str:
     header = [f"# deadtime train: resolved config, {provenance['started']}",
               f"# command: {provenance['command']}",
@@ -309,8 +317,7 @@ def train(
         return finished
 
     provenance = run_provenance(command)
-    text = _config_yaml(config, provenance)
-    print(text, end="")
+    text = announce_config(config, provenance)
     _setup_torch(config)
     from stable_baselines3.common.utils import set_random_seed
 
