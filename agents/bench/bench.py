@@ -10,14 +10,20 @@ Four parts, each on the same machine state:
    plant families, one loop at a time and batched, against the same figures computed the
    python-control way (:mod:`agents.bench.reference`, Padé dead times); the accuracy of both is
    the largest relative IAE error against an independent fine-step simulation
-   (:mod:`agents.bench.fine_step`).  This part runs pinned to one CPU (``os.sched_setaffinity``).
+   (:mod:`agents.bench.fine_step`).  This part runs pinned to one CPU (``os.sched_setaffinity``);
+   the speed-up is the median over :data:`SCORING_ROUNDS` rounds of ours then python-control.
 2. Environments (:mod:`agents.bench.episodes`): episodes per second of ``DeadTime/PID-v0``, single
    and vectorized (2 copies), in both modes, with and without the oracle.
 3. The native vector environment (:mod:`agents.bench.vector`, pinned to one CPU): the
    compiled-arithmetic floor of a fixed-mode episode (:mod:`agents.bench.floor`: the time inside its
    compiled calls, measured) for the single environment and the native vector environment with 32
    slots, the ratio of each one's measured episode time to its floor, and episodes per second of
-   the single environment and of the native one with 1, 8 and 32 slots.
+   the single environment and of the native one with 1, 8 and 32 slots; and the lower bound of a
+   bit-identical episode (the floor with the library calls a batch giving the same bytes would
+   keep, :func:`agents.bench.floor.compiled_calls_timed`; timed in single and in native x32
+   episodes, the lower of the two), with the largest ratio of episodes/s native x32 over single
+   that it allows.  Measured in :data:`VECTOR_ROUNDS` rounds of
+   every setting; each figure is the median over the rounds of its value in one round.
 4. Training: the share of ``learn`` spent inside the environment, for PPO (``configs/ppo.yaml``, one
    environment) and for SAC (``configs/sac.yaml``, the agent of the demo); and PPO's samples per
    second of ``learn`` (``configs/ppo.yaml``, one rollout of 128 steps per environment and its
@@ -39,6 +45,7 @@ import argparse
 import json
 import os
 import platform
+import statistics
 import subprocess
 import sys
 import time
@@ -61,6 +68,7 @@ HEADLINE = (
     "episode_to_floor_single",
     "episode_to_floor_native32",
     "native32_vs_single",
+    "native32_vs_single_bound",
     "ppo_samples_per_s_native32_vs_1",
 )
 CHILD_VARIABLE = "DEADTIME_BENCH_CHILD"
@@ -68,7 +76,14 @@ ENV_ID = "DeadTime/PID-v0"
 SEED = 0
 N_ENVS = 2
 NATIVE_SLOTS = (1, 8, 32)
-FLOOR_EPISODES = 256
+FLOOR_EPISODES = 64
+VECTOR_ROUNDS = 5
+"""The vector part measures in rounds, each of every setting, and reports the median over them: the
+speed of a shared 2-core machine drifts by up to 2x within minutes, so settings measured one
+after the other in one block would compare different machine states."""
+VECTOR_SECONDS = 6.0  # per setting, over all rounds
+SCORING_ROUNDS = 3  # our scoring and python-control, interleaved (the speed-up: median over rounds)
+PPO_ROUNDS = 3  # the PPO figures too, each a median over rounds of x1, x8, x32
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -128,6 +143,7 @@ def _scoring_part(quick: bool, pade_order: int | None, samples: int | None) -> d
             pade_order=pade_order or PADE_ORDER,
             samples_per_time_scale=samples or SAMPLES_PER_TIME_SCALE,
             progress=_progress,
+            rounds=1 if quick else SCORING_ROUNDS,
         )
     finally:
         if previous is not None:
@@ -172,32 +188,68 @@ def _env_part(quick: bool) -> dict[str, Any]:
     }
 
 
-def _vector_part(quick: bool) -> dict[str, Any]:
+def _vector_round(min_time: float, episodes: int, quick: bool, warm: bool) -> dict[str, Any]:
+    """One round of the vector part: the floors (compiled, and the bit-identical bound of native x32),
+    then the episodes per second of the single environment and of the native one."""
     from agents.bench.episodes import episodes_per_s
     from agents.bench.vector import episode_floor, native_episodes_per_s
 
+    last = NATIVE_SLOTS[-1]
+    floors = {"single": episode_floor(ENV_ID, None, episodes, SEED, warm=warm),
+              f"native{last}": episode_floor(ENV_ID, last, episodes, SEED, warm=warm),
+              "library": episode_floor(ENV_ID, None, episodes, SEED, library=True, warm=True),
+              f"library{last}": episode_floor(ENV_ID, last, episodes, SEED, library=True, warm=True)}
+    rates = {"single": episodes_per_s(ENV_ID, "fixed", False, min_time, SEED, 1 if quick else 64)}
+    for n in NATIVE_SLOTS:
+        rates[f"native{n}"] = native_episodes_per_s(ENV_ID, n, min_time, SEED, n if quick else max(64, 4 * n))
+    return {"floors": floors, "rates": rates}
+
+
+def _median(values: list[float]) -> float:
+    return float(statistics.median(values))
+
+
+def _vector_part(quick: bool) -> dict[str, Any]:
     previous, core = _one_core()
+    rounds = 1 if quick else VECTOR_ROUNDS
+    min_time, episodes = (0.0, 32) if quick else (VECTOR_SECONDS / rounds, FLOOR_EPISODES)
     try:
-        min_time, episodes = (0.0, 32) if quick else (3.0, FLOOR_EPISODES)
-        _progress(f"compiled-arithmetic floor: {episodes} episodes, single and native x{NATIVE_SLOTS[-1]}")
-        floor = episode_floor(ENV_ID, None, episodes, SEED)
-        floor_native = episode_floor(ENV_ID, NATIVE_SLOTS[-1], episodes, SEED)
-        _progress("episodes: single and native (one core)")
-        rates = {"single": episodes_per_s(ENV_ID, "fixed", False, min_time, SEED, 1 if quick else 64)}
-        for n in NATIVE_SLOTS:
-            rates[f"native{n}"] = native_episodes_per_s(ENV_ID, n, min_time, SEED, n if quick else max(64, 4 * n))
+        measured = []
+        for r in range(rounds):
+            _progress(f"native vector environment, round {r + 1}/{rounds}: floors of {episodes} episodes, then "
+                      f"episodes/s of the single and native environments (one core)")
+            measured.append(_vector_round(min_time, episodes, quick, warm=r > 0))
     finally:
         if previous is not None:
             os.sched_setaffinity(0, previous)
     last = f"native{NATIVE_SLOTS[-1]}"
+    library = f"library{NATIVE_SLOTS[-1]}"
+
+    def bound(floors: dict) -> float:  # the lower of the two bounds (the same calls cost less one plant at a time)
+        return min(floors["library"]["seconds"], floors[library]["seconds"])
+
+    def per_round(figure) -> float:  # the median over the rounds of a figure of one round's numbers
+        return _median([figure(m["floors"], m["rates"]) for m in measured])
+
+    top = measured[-1]["floors"]
     return {
-        "episode_floor_ms": 1e3 * floor["seconds"], "episode_floor_calls": floor["calls"],
-        "episode_floor_top_ms": {k: 1e3 * v for k, v in floor["top"].items()},
-        "episode_floor_native32_ms": 1e3 * floor_native["seconds"],
-        "episode_ms_single": 1e3 / rates["single"], "episode_ms_native32": 1e3 / rates[last],
-        "episode_to_floor_single": 1.0 / (rates["single"] * floor["seconds"]),
-        "episode_to_floor_native32": 1.0 / (rates[last] * floor_native["seconds"]),
-        "episodes_per_s_native": rates, "native32_vs_single": rates[last] / rates["single"],
+        "vector_rounds": rounds,
+        "episode_floor_ms": per_round(lambda f, r: 1e3 * f["single"]["seconds"]),
+        "episode_floor_calls": top["single"]["calls"],
+        "episode_floor_top_ms": {k: 1e3 * v for k, v in top["single"]["top"].items()},
+        "episode_floor_native32_ms": per_round(lambda f, r: 1e3 * f[last]["seconds"]),
+        "episode_bound_ms": per_round(lambda f, r: 1e3 * bound(f)),
+        "episode_bound_single_ms": per_round(lambda f, r: 1e3 * f["library"]["seconds"]),
+        "episode_bound_native32_ms": per_round(lambda f, r: 1e3 * f[library]["seconds"]),
+        "episode_bound_top_ms": {k: 1e3 * v for k, v in top["library"]["top"].items()},
+        "episode_ms_single": per_round(lambda f, r: 1e3 / r["single"]),
+        "episode_ms_native32": per_round(lambda f, r: 1e3 / r[last]),
+        "episode_to_floor_single": per_round(lambda f, r: 1.0 / (r["single"] * f["single"]["seconds"])),
+        "episode_to_floor_native32": per_round(lambda f, r: 1.0 / (r[last] * f[last]["seconds"])),
+        "episodes_per_s_native": {name: _median([m["rates"][name] for m in measured]) for name in measured[0]["rates"]},
+        "native32_vs_single": per_round(lambda f, r: r[last] / r["single"]),
+        "native32_vs_single_rounds": [m["rates"][last] / m["rates"]["single"] for m in measured],
+        "native32_vs_single_bound": per_round(lambda f, r: 1.0 / (r["single"] * bound(f))),
         "vector_cpu_affinity": core,
     }
 
@@ -206,13 +258,20 @@ def _ppo_native_part(quick: bool) -> dict[str, Any]:
     from agents.bench.vector import ppo_throughput
 
     n_steps = 16 if quick else 128
-    figures: dict[str, Any] = {}
-    for n in NATIVE_SLOTS:
-        _progress(f"PPO (configs/ppo.yaml), native x{n}: one rollout of {n_steps} steps per environment and its update")
-        result = ppo_throughput(str(REPO / "configs" / "ppo.yaml"), ENV_ID, n, n_steps)
-        figures[f"ppo_samples_per_s_native{n}"] = result["samples_per_s"]
-        figures[f"env_share_of_ppo_native{n}"] = result["share"]
-    figures["ppo_samples_per_s_native32_vs_1"] = figures["ppo_samples_per_s_native32"] / figures["ppo_samples_per_s_native1"]
+    rounds = 1 if quick else PPO_ROUNDS
+    measured: list[dict[str, float]] = []
+    for r in range(rounds):
+        one: dict[str, float] = {}
+        for n in NATIVE_SLOTS:
+            _progress(f"PPO (configs/ppo.yaml), native x{n}, round {r + 1}/{rounds}: one rollout of {n_steps} steps "
+                      f"per environment and its update")
+            result = ppo_throughput(str(REPO / "configs" / "ppo.yaml"), ENV_ID, n, n_steps)
+            one[f"ppo_samples_per_s_native{n}"] = result["samples_per_s"]
+            one[f"env_share_of_ppo_native{n}"] = result["share"]
+        one["ppo_samples_per_s_native32_vs_1"] = one["ppo_samples_per_s_native32"] / one["ppo_samples_per_s_native1"]
+        measured.append(one)
+    figures = {key: _median([one[key] for one in measured]) for key in measured[0]}
+    figures["ppo_rounds"] = rounds
     return figures
 
 
@@ -295,6 +354,11 @@ ROWS = (
     ("episode_to_floor_single", "episode / floor, single"),
     ("episode_to_floor_native32", "episode / floor, native x32"),
     ("native32_vs_single", "episodes/s native x32 / single"),
+    ("episode_bound_ms", "bit-identical bound of an episode, ms"),
+    ("episode_bound_single_ms", "  in single episodes, ms"),
+    ("episode_bound_native32_ms", "  in native x32 episodes, ms"),
+    ("native32_vs_single_bound", "  largest native x32 / single it allows"),
+    ("vector_rounds", "rounds (figures: medians over them)"),
     ("Training", None),
     ("ppo_samples_per_s_native1", "PPO samples/s of learn, native x1"),
     ("ppo_samples_per_s_native8", "PPO samples/s of learn, native x8"),

@@ -14,6 +14,17 @@ clock reads, measured around an empty call) is subtracted per call.  Compiled co
 compiled code is timed once, as part of its outermost call.  Run the same episodes once without
 the timers first: a kernel that has to be compiled while its neighbours are wrapped would see a
 wrapper where it expects a dispatcher.
+
+``library=True`` measures instead a lower bound of any *bit-identical* episode: the time of the
+calls that a batch path giving the same bytes would still have to make one plant at a time,
+because no compiled code of ours reproduces their rounding.  They are our numba kernels, LAPACK's
+``dgebal``, the two compiled kernels of ``scipy.linalg.expm`` (``pick_pade_structure`` and
+``pade_UV_calc``; its Python around them is left out, and so is its ``bandwidth``, a decision a
+batch can take exactly), numpy's ``linalg.eigvals`` (the plant's poles), ``linalg.solve`` and
+``einsum`` (the discretization's products) and the measurement noise's standard normals
+(:meth:`~envs.identification.experiment_base.MeasurementNoise._fill`).  Matrix products by ``@``,
+the plant draws and the construction of the noise generators are left out too, so the bound is on
+the low side.  A call inside another timed call is counted once, in the outer one.
 """
 
 from __future__ import annotations
@@ -45,6 +56,7 @@ class CompiledTime:
     seconds: float = 0.0
     calls: int = 0
     by_name: dict[str, float] = field(default_factory=dict)
+    depth: int = 0  # timed calls in progress (a nested one is not counted)
 
 
 def _wrapper_cost(samples: int = 20_000) -> float:
@@ -66,11 +78,15 @@ def _timed(function: Callable, name: str, record: CompiledTime, cost: float) -> 
     clock = time.perf_counter
 
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if record.depth:
+            return function(*args, **kwargs)
+        record.depth += 1
         begin = clock()
         try:
             return function(*args, **kwargs)
         finally:
             spent = clock() - begin - cost
+            record.depth -= 1
             record.seconds += spent
             record.calls += 1
             record.by_name[name] = record.by_name.get(name, 0.0) + spent
@@ -78,12 +94,23 @@ def _timed(function: Callable, name: str, record: CompiledTime, cost: float) -> 
     return wrapper
 
 
-def _targets() -> list[tuple[Any, str, Any]]:
-    """``(namespace, attribute, function)`` of every compiled call site to wrap."""
+def _targets(library: bool) -> list[tuple[Any, str, Any]]:
+    """``(namespace, attribute, function)`` of every compiled call site to wrap (and with ``library``
+    the library calls of the module docstring)."""
+    import numpy
     import scipy.linalg
     from numba.core.registry import CPUDispatcher
 
-    found = [(scipy.linalg, "expm", scipy.linalg.expm)]
+    if not library:
+        found = [(scipy.linalg, "expm", scipy.linalg.expm)]
+    else:  # of scipy's expm, only its compiled kernels: its Python around them is not needed for its bytes
+        from scipy.linalg import _matfuncs
+
+        from envs.identification.experiment_base import MeasurementNoise
+
+        found = [(_matfuncs, name, getattr(_matfuncs, name)) for name in ("pick_pade_structure", "pade_UV_calc")]
+        found += [(numpy.linalg, "eigvals", numpy.linalg.eigvals), (numpy.linalg, "solve", numpy.linalg.solve),
+                  (numpy, "einsum", numpy.einsum), (MeasurementNoise, "_fill", MeasurementNoise._fill)]  # noqa: SLF001
     for name, module in list(sys.modules.items()):
         if module is None or not (name == "envs" or name.startswith("envs.")):
             continue
@@ -94,11 +121,12 @@ def _targets() -> list[tuple[Any, str, Any]]:
 
 
 @contextlib.contextmanager
-def compiled_calls_timed(record: CompiledTime | None = None) -> Iterator[CompiledTime]:
-    """Time every compiled call of :mod:`envs` inside the block into ``record`` (a new one if None),
-    which the block receives (module docstring); the functions are restored on exit."""
+def compiled_calls_timed(record: CompiledTime | None = None, library: bool = False) -> Iterator[CompiledTime]:
+    """Time every compiled call of :mod:`envs` (and with ``library`` the library calls a bit-identical
+    batch would keep) inside the block into ``record`` (a new one if None), which the block receives
+    (module docstring); the functions are restored on exit."""
     record, cost = record if record is not None else CompiledTime(), _wrapper_cost()
-    targets = _targets()
+    targets = _targets(library)
     wrappers: dict[int, Callable] = {}
     for namespace, attribute, function in targets:
         label = getattr(function, "__name__", attribute)

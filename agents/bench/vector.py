@@ -5,7 +5,8 @@ Three measurements, all of fixed-mode episodes with seeded random actions:
 * :func:`episode_floor`: the compiled-arithmetic floor of one episode (:mod:`agents.bench.floor`),
   of the single environment (``gymnasium.make``) or of the native vector environment
   (:mod:`envs.vector_env`) with ``n_envs`` slots: the same episodes (seeds) are played once
-  untimed, so that every kernel is compiled, then with the compiled calls timed.
+  untimed, so that every kernel is compiled, then with the compiled calls timed; with
+  ``library=True`` the lower bound of a bit-identical episode (the library calls too).
 * :func:`native_episodes_per_s`: episodes per second of ``gymnasium.make_vec(id, n)``, counted as
   in :mod:`agents.bench.episodes` (after one reset; at least ``min_time`` and ``min_episodes``).
 * :func:`ppo_throughput`: the samples per second of PPO's ``learn`` (``configs/ppo.yaml``, one
@@ -48,13 +49,18 @@ def _play(env_id: str, n_envs: int | None, episodes: int, seed: int, timing: Any
     return rounds * (1 if single else n_envs)
 
 
-def episode_floor(env_id: str, n_envs: int | None, episodes: int, seed: int) -> dict[str, Any]:
-    """Seconds of compiled calls per episode (and calls per episode, the five costliest kernels)."""
+def episode_floor(env_id: str, n_envs: int | None, episodes: int, seed: int, library: bool = False,
+                  warm: bool = False) -> dict[str, Any]:
+    """Seconds of compiled calls per episode (and calls per episode, the five costliest kernels); with
+    ``library`` the library calls a bit-identical batch would keep are counted too
+    (:func:`~agents.bench.floor.compiled_calls_timed`); ``warm``: the kernels are compiled already
+    (else these episodes are played once untimed first)."""
     from agents.bench.floor import CompiledTime, compiled_calls_timed
 
-    _play(env_id, n_envs, episodes, seed)  # compile every kernel these episodes need
+    if not warm:
+        _play(env_id, n_envs, episodes, seed)  # compile every kernel these episodes need
     record = CompiledTime()
-    played = _play(env_id, n_envs, episodes, seed, compiled_calls_timed(record))
+    played = _play(env_id, n_envs, episodes, seed, compiled_calls_timed(record, library))
     top = sorted(record.by_name.items(), key=lambda item: -item[1])[:5]
     return {"seconds": record.seconds / played, "calls": record.calls / played,
             "top": {name: seconds / played for name, seconds in top}}

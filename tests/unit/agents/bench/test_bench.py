@@ -118,6 +118,7 @@ NUMBERS = (
     "episode_floor_ms", "episode_floor_native32_ms", "episode_ms_single", "episode_ms_native32",
     "episode_to_floor_single", "episode_to_floor_native32", "native32_vs_single", "ppo_samples_per_s_native1",
     "ppo_samples_per_s_native8", "ppo_samples_per_s_native32", "ppo_samples_per_s_native32_vs_1",
+    "episode_bound_ms", "episode_bound_single_ms", "episode_bound_native32_ms", "native32_vs_single_bound",
 )  # fmt: skip
 
 
@@ -136,7 +137,8 @@ def test_bench_json_quick(capsys: Any) -> None:
     assert all(isinstance(v, float) and v > 0 for v in figures["episodes_per_s"].values())
     assert set(figures["episodes_per_s_native"]) == {"single", "native1", "native8", "native32"}
     assert all(0 < figures[f"env_share_of_ppo_native{n}"] <= 1 for n in (1, 8, 32))
-    assert figures["episode_floor_calls"] > 0 and figures["episode_floor_top_ms"]
+    assert figures["episode_floor_calls"] > 0 and figures["episode_floor_top_ms"] and figures["episode_bound_top_ms"]
+    assert figures["vector_rounds"] == 1 and len(figures["native32_vs_single_rounds"]) == 1 and figures["ppo_rounds"] == 1
     machine = figures["machine"]
     assert isinstance(machine["cpu_count"], int) and isinstance(machine["versions"]["control"], str)
 
