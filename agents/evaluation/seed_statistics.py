@@ -43,6 +43,7 @@ import numpy as np
 from scipy import stats
 
 __all__ = [
+    "VIOLATION_COST",
     "RESAMPLES",
     "SeedStatistics",
     "iqm",
@@ -55,6 +56,10 @@ __all__ = [
 ]
 
 RESAMPLES = 2000
+VIOLATION_COST = 21.0
+"""The least cost of a design that violates a constraint: the scoring charges ``FEASIBLE_CAP + 1 +
+grade`` (:mod:`envs.analysis.scoring`; ``tests/unit/agents/evaluation/test_evaluate_policies.py``
+checks the two agree), and every feasible cost is at most ``FEASIBLE_CAP``."""
 
 
 def iqm(values: np.ndarray) -> float:
@@ -169,14 +174,14 @@ def seed_statistics(
     rules: Mapping[str, np.ndarray],
     best_rule: str,
     *,
-    violation_threshold: float = 21.0,
+    violation_threshold: float = VIOLATION_COST,
     resamples: int = RESAMPLES,
     seed: int = 0,
 ) -> SeedStatistics:
     """Every figure of :class:`SeedStatistics` for costs ``(seeds, plants)`` against the oracle and rules.
 
-    ``violation_threshold`` is the cost from which a design violates a constraint (the scoring
-    charges ``21 + grade``; :mod:`envs.analysis.scoring`).
+    ``violation_threshold`` is the cost from which a design violates a constraint
+    (:data:`VIOLATION_COST`).
     """
     costs, oracle = _matrix(costs), np.asarray(oracle, dtype=float)
     best = np.asarray(rules[best_rule], dtype=float)

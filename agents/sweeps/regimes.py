@@ -109,7 +109,7 @@ def _interval(costs: np.ndarray, resamples: int) -> list[float]:
 
 
 def _entry(rules: dict[str, np.ndarray], agents: dict[str, np.ndarray], compare: tuple[str, ...], resamples: int) -> dict[str, Any]:
-    from agents.evaluation.seed_statistics import paired_difference
+    from agents.evaluation.seed_statistics import VIOLATION_COST, paired_difference
 
     policies = {name: _interval(v[None, :], resamples) for name, v in rules.items()}
     policies.update({label: _interval(m, resamples) for label, m in agents.items()})
@@ -123,7 +123,7 @@ def _entry(rules: dict[str, np.ndarray], agents: dict[str, np.ndarray], compare:
                            "least_beaten_difference": differences[worst],
                            "beats_every_rule": all(d[2] < 0 for d in differences.values())}
     entry = {"plants": int(next(iter(rules.values())).size), "best_rule": best, "mean_cost": policies,
-             "violation_rate": {name: float(np.mean(np.asarray(v) >= 21.0)) for name, v in {**rules, **agents}.items()},
+             "violation_rate": {name: float(np.mean(np.asarray(v) >= VIOLATION_COST)) for name, v in {**rules, **agents}.items()},
              "agents_to_rules": to_rules}
     if compare:
         entry["difference"] = {"first": compare[0], "second": compare[1],

@@ -15,6 +15,13 @@ def test_failure_costs_an_unstable_loop():
     assert FAILURE_COST == FEASIBLE_CAP + 1 + UNSTABLE_GRADE
 
 
+def test_violation_cost_is_the_scorings():
+    from agents.evaluation.seed_statistics import VIOLATION_COST
+    from envs.analysis.scoring import FEASIBLE_CAP
+
+    assert VIOLATION_COST == FEASIBLE_CAP + 1
+
+
 @pytest.mark.parametrize(
     "structure, own",
     [
