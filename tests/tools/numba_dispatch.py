@@ -1,0 +1,72 @@
+"""What numba's dispatch costs per fixed-mode episode (the README, Performance, "The bit-identical bound").
+
+Plays fixed-mode episodes of ``DeadTime/PID-v0`` in the native vector environment (32 slots),
+records one argument tuple of every numba kernel of :mod:`envs` and how often each is called, then
+times an empty compiled function called with those same arguments: the cost of dispatching the
+call (typing the arguments, unboxing them) without the kernel's work.  Their sum per episode is what
+calling every kernel once per batch instead of once per plant could save at most.
+
+    OPENBLAS_NUM_THREADS=1 NUMBA_NUM_THREADS=1 taskset -c 0 python tests/tools/numba_dispatch.py
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import gymnasium
+import numba
+from numba.core.registry import CPUDispatcher
+
+import envs  # noqa: F401  (registers the ids)
+
+SLOTS, ROUNDS, CALLS = 32, 2, 2000
+
+
+@numba.njit
+def _empty(*args):  # pragma: no cover - compiled
+    return 0
+
+
+def _kernels() -> list[tuple[object, str, CPUDispatcher]]:
+    return [(module, name, value) for key, module in list(sys.modules.items())
+            if module is not None and (key == "envs" or key.startswith("envs."))
+            for name, value in list(vars(module).items()) if isinstance(value, CPUDispatcher)]
+
+
+def main() -> None:
+    vec = gymnasium.make_vec("DeadTime/PID-v0", num_envs=SLOTS, experiments="fixed")
+    vec.action_space.seed(0)
+    vec.reset(seed=0)
+    vec.step(vec.action_space.sample())  # every kernel compiled and its module loaded
+    seen: dict[str, list] = {}
+
+    def recording(function, label):
+        def wrapper(*args, **kwargs):
+            seen.setdefault(label, [0, args])[0] += 1
+            return function(*args, **kwargs)
+        return wrapper
+
+    kernels, wrappers = _kernels(), {}
+    for module, name, function in kernels:
+        setattr(module, name, wrappers.setdefault(id(function), recording(function, function.__name__)))
+    try:
+        for _ in range(ROUNDS):
+            vec.step(vec.action_space.sample())
+    finally:
+        for module, name, function in kernels:
+            setattr(module, name, function)
+    episodes, total = SLOTS * ROUNDS, 0.0
+    for label, (count, args) in sorted(seen.items(), key=lambda item: -item[1][0]):
+        _empty(*args)
+        start = time.perf_counter()
+        for _ in range(CALLS):
+            _empty(*args)
+        each = (time.perf_counter() - start) / CALLS
+        total += each * count / episodes
+        print(f"{label:28s} calls/episode {count / episodes:5.2f}  arguments {len(args):2d}  dispatch {1e6 * each:6.2f} us")
+    print(f"numba dispatch per episode: {1e6 * total:.1f} us")
+
+
+if __name__ == "__main__":
+    main()
