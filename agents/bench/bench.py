@@ -22,8 +22,8 @@ Four parts, each on the same machine state:
    bit-identical episode (the floor with the library calls a batch giving the same bytes would
    keep, :func:`agents.bench.floor.compiled_calls_timed`; timed in single and in native x32
    episodes, the lower of the two), with the largest ratio of episodes/s native x32 over single
-   that it allows.  Measured in :data:`VECTOR_ROUNDS` rounds of
-   every setting; each figure is the median over the rounds of its value in one round.
+   that it allows.  Measured in :data:`VECTOR_ROUNDS` rounds of every setting; each figure is the
+   median over the rounds of its value in one round.
 4. Training: the share of ``learn`` spent inside the environment, for PPO (``configs/ppo.yaml``, one
    environment) and for SAC (``configs/sac.yaml``, the agent of the demo); and PPO's samples per
    second of ``learn`` (``configs/ppo.yaml``, one rollout of 128 steps per environment and its
@@ -189,8 +189,9 @@ def _env_part(quick: bool) -> dict[str, Any]:
 
 
 def _vector_round(min_time: float, episodes: int, quick: bool, warm: bool) -> dict[str, Any]:
-    """One round of the vector part: the floors (compiled, and the bit-identical bound of native x32),
-    then the episodes per second of the single environment and of the native one."""
+    """One round of the vector part: the floors (compiled, single and native x32; the bit-identical
+    bound, in single and in native x32 episodes), then the episodes per second of the single
+    environment and of the native one."""
     from agents.bench.episodes import episodes_per_s
     from agents.bench.vector import episode_floor, native_episodes_per_s
 

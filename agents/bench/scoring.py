@@ -137,8 +137,8 @@ def scoring_figures(
     ours_rates, reference_rates, reference = [], [], []
     with warnings.catch_warnings():  # overflow in python-control's step loop of a badly conditioned model
         warnings.simplefilter("ignore", RuntimeWarning)
-        reference = [reference_score(p, c, **options) for p, c in zip(plants, controllers)]  # warm-up, untimed: its
-        # first pass imports python-control's and scipy.signal's modules (about 0.9 s of its 2.4 s here)
+        # warm-up, untimed: the first pass imports python-control's and scipy.signal's modules (module docstring)
+        reference = [reference_score(p, c, **options) for p, c in zip(plants, controllers)]
         for _ in range(rounds):  # interleaved: the speed-up of each round compares one machine state
             ours_rates.append(measure_rate(each(score), n, min_time / rounds))
             start = time.perf_counter()
