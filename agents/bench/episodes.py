@@ -16,14 +16,15 @@ the timed environment time over the wall time of ``learn``.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
 
-__all__ = ["episodes_per_s", "make_env", "training_env_share", "vector_episodes_per_s"]
+__all__ = ["EnvTimer", "episodes_per_s", "make_env", "training_env_share", "vector_episodes_per_s"]
 
 
 def make_env(env_id: str, experiments: str, oracle: bool, wrapper: Callable | None = None):
@@ -101,12 +102,22 @@ def vector_episodes_per_s(
         vec.close()
 
 
-class _Timer:
-    """Accumulated wall time of the wrapped environments' ``reset`` and ``step``."""
+class EnvTimer:
+    """Accumulated wall time of the wrapped environments' ``reset`` and ``step`` (a Gymnasium
+    environment, :meth:`wrap`) or ``reset`` and ``step_wait`` (an SB3 ``VecEnv``, :meth:`wrap_vec`)."""
 
     def __init__(self) -> None:
         self.seconds = 0.0
         self.steps = 0
+
+    @contextlib.contextmanager
+    def timing(self) -> Iterator[None]:
+        """Add the wall time of the block to :attr:`seconds`."""
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds += time.perf_counter() - start
 
     def wrap(self, env):
         import gymnasium
@@ -115,21 +126,31 @@ class _Timer:
 
         class Timed(gymnasium.Wrapper):
             def reset(self, **kwargs: Any):
-                start = time.perf_counter()
-                try:
+                with timer.timing():
                     return self.env.reset(**kwargs)
-                finally:
-                    timer.seconds += time.perf_counter() - start
 
             def step(self, action):
-                start = time.perf_counter()
-                try:
+                timer.steps += 1
+                with timer.timing():
                     return self.env.step(action)
-                finally:
-                    timer.seconds += time.perf_counter() - start
-                    timer.steps += 1
 
         return Timed(env)
+
+    def wrap_vec(self, venv):
+        from stable_baselines3.common.vec_env import VecEnvWrapper
+
+        timer = self
+
+        class Timed(VecEnvWrapper):
+            def reset(self):
+                with timer.timing():
+                    return self.venv.reset()
+
+            def step_wait(self):
+                with timer.timing():
+                    return self.venv.step_wait()
+
+        return Timed(venv)
 
 
 def training_env_share(config_file: str, env_id: str, steps: int, overrides: tuple[str, ...] = (),
@@ -148,7 +169,7 @@ def training_env_share(config_file: str, env_id: str, steps: int, overrides: tup
 
     torch.set_num_threads(1)
     config = load_config(config_file, env_id, ["n_envs=1", "vec_env=dummy", "device=cpu", *overrides])
-    timer = _Timer()
+    timer = EnvTimer()
     vec = DummyVecEnv([functools.partial(make_env, env_id, "fixed", False, timer.wrap)])
     if config.normalize:
         vec = VecNormalize(vec, norm_obs=True, norm_reward=config.normalize_reward)

@@ -83,33 +83,12 @@ def native_episodes_per_s(env_id: str, n_envs: int, min_time: float, seed: int, 
             return episodes / elapsed
 
 
-def _timed(venv: Any, timer: dict[str, float]) -> Any:
-    """``venv`` with its ``reset`` and ``step_wait`` timed into ``timer["seconds"]``."""
-    from stable_baselines3.common.vec_env import VecEnvWrapper
-
-    class Timed(VecEnvWrapper):
-        def reset(self):
-            start = time.perf_counter()
-            try:
-                return self.venv.reset()
-            finally:
-                timer["seconds"] += time.perf_counter() - start
-
-        def step_wait(self):
-            start = time.perf_counter()
-            try:
-                return self.venv.step_wait()
-            finally:
-                timer["seconds"] += time.perf_counter() - start
-
-    return Timed(venv)
-
-
 def ppo_throughput(config_file: str, env_id: str, n_envs: int, n_steps: int) -> dict[str, float]:
     """PPO's samples per second of ``learn`` and the environment's share, ``n_envs`` native slots."""
     import torch
     from stable_baselines3.common.vec_env import VecNormalize
 
+    from agents.bench.episodes import EnvTimer
     from agents.training.config import load_config
     from agents.training.native_vec_env import make_native_vec_env
     from agents.training.train import new_model
@@ -117,16 +96,16 @@ def ppo_throughput(config_file: str, env_id: str, n_envs: int, n_steps: int) -> 
     torch.set_num_threads(1)
     config = load_config(config_file, env_id, [f"n_envs={n_envs}", "vec_env=native", "device=cpu",
                                                f"hyperparameters.n_steps={n_steps}"])
-    timer = {"seconds": 0.0}
-    vec = _timed(make_native_vec_env(env_id, n_envs, dict(config.env_kwargs)), timer)
+    timer = EnvTimer()
+    vec = timer.wrap_vec(make_native_vec_env(env_id, n_envs, dict(config.env_kwargs)))
     if config.normalize:
         vec = VecNormalize(vec, norm_obs=True, norm_reward=config.normalize_reward)
     model = new_model(config, vec)
     samples = n_steps * n_envs
-    timer["seconds"] = 0.0
+    timer.seconds = 0.0
     start = time.perf_counter()
     model.learn(total_timesteps=samples)
     total = time.perf_counter() - start
     vec.close()
-    return {"samples_per_s": model.num_timesteps / total, "share": timer["seconds"] / total,
+    return {"samples_per_s": model.num_timesteps / total, "share": timer.seconds / total,
             "learn_seconds": total, "timesteps": model.num_timesteps}

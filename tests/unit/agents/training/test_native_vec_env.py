@@ -12,8 +12,6 @@
 from __future__ import annotations
 
 import functools
-import os
-import signal
 from pathlib import Path
 
 import numpy as np
@@ -104,10 +102,9 @@ def test_native_needs_a_vector_entry_point(tmp_path):
 
 
 @pytest.mark.slow
-def test_native_training_resumes_exactly(tmp_path):
+def test_native_training_resumes_exactly(tmp_path, sigint_at):
     """``deadtime train`` with ``vec_env: native``, SIGINT mid-run, ``--resume``: the uninterrupted agent."""
     import torch
-    from stable_baselines3.common.callbacks import BaseCallback
 
     from agents.training.policies import load_policy
     from agents.training.train import train
@@ -118,14 +115,8 @@ def test_native_training_resumes_exactly(tmp_path):
     whole = tmp_path / "whole"
     assert main(["train", "--config", str(PPO), "--out", str(whole), *tiny]) == 0
 
-    class Interrupt(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.model.num_timesteps == 52:
-                os.kill(os.getpid(), signal.SIGINT)
-            return True
-
     run_dir = tmp_path / "part"
-    result = train(load_config(PPO, "DeadTime/PID-v0", [*tiny, f"output_dir={run_dir}"]), callbacks=[Interrupt()])
+    result = train(load_config(PPO, "DeadTime/PID-v0", [*tiny, f"output_dir={run_dir}"]), callbacks=[sigint_at(52)])
     assert result.status == "interrupted"
     assert main(["train", "--out", str(run_dir), "--resume"]) == 0
     resumed, reference = (load_policy(d / "model.zip").model.policy.state_dict() for d in (run_dir, whole))

@@ -227,10 +227,8 @@ def test_an_agent_is_loaded_with_its_statistics_or_refused(tmp_path: Path, unint
     assert load_policy(copy / "model.zip").normalization is not None
 
 
-def test_sac_on_the_deadtime_environment_resumes_exactly(tmp_path: Path, capsys: Any) -> None:
+def test_sac_on_the_deadtime_environment_resumes_exactly(tmp_path: Path, capsys: Any, sigint_at) -> None:
     """The configured algorithm on DeadTime/PID-v0 (fixed mode): SIGINT at step 13: a rollout is one step, so the checkpoint is at 13."""
-    from stable_baselines3.common.callbacks import BaseCallback
-
     from agents.training.config import load_config
     from agents.training.train import train
 
@@ -241,15 +239,9 @@ def test_sac_on_the_deadtime_environment_resumes_exactly(tmp_path: Path, capsys:
     whole = tmp_path / "whole"
     assert main(["train", "--config", str(config_path), "--out", str(whole), *tiny]) == 0
 
-    class Interrupt(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.model.num_timesteps == 13:
-                os.kill(os.getpid(), signal.SIGINT)
-            return True
-
     run_dir = tmp_path / "part"
     result = train(load_config(config_path, env_id="DeadTime/PID-v0", overrides=[*tiny, f"output_dir={run_dir}"]),
-                   callbacks=[Interrupt()])
+                   callbacks=[sigint_at(13)])
     assert (result.status, result.num_timesteps) == ("interrupted", 13)
     assert main(["train", "--out", str(run_dir), "--resume"]) == 0
     _assert_same_run(run_dir, whole)
