@@ -21,8 +21,12 @@ _V1 = {"action": "residual", "design_features": True}
 # mode's experiments and the rules' inputs are v1's, its cost adds the production term.  Agent mode
 # designs in a step of its own, after the commit has completed and shown the identification.
 _V2 = {**_V1, "weights": {"production": 0.05}, "amplitude_limit": 3.0, "design_step": True}
+# v3: v2 with a bounded violation cost (envs.analysis.scoring.violation_cost) and an observation made
+# of the records only: the noise level estimated from them, failed experiments shown, and a commit that
+# identifies nothing a failed experiment instead of an exception (envs.episode_options.EpisodeOptions).
+_V3 = {**_V2, "violation_cost": "bounded", "measured_observation": True}
 
-for _version, _kwargs in (("v0", {}), ("v1", _V1), ("v2", _V2)):
+for _version, _kwargs in (("v0", {}), ("v1", _V1), ("v2", _V2), ("v3", _V3)):
     for _structure in ("PID", "FPPI", "MSP"):
         register(id=f"DeadTime/{_structure}-{_version}", entry_point=f"envs.tuning_env:{_structure}Env",
                  vector_entry_point=f"envs.vector_env:{_structure}VectorEnv", kwargs=_kwargs)

@@ -15,9 +15,17 @@ noise-to-signal ratio is ``noise_std/amplitude`` whatever the plant's gain):
 ``open-loop-ramp``     input ramp of rate ``a/(K_n T_ar)`` for ``T_ar``: ``T_n`` (eq. 12)
 ``pulse``              (integrating plants) pulse ``a/(K_n tau_p)`` of length ``tau_p = L_n/3``:
                        ``A`` (eq. 46)
-``relay``              relay of amplitude ``a/|K_n|``, hysteresis ``3 noise_std``: ultimate gain and
+``relay``              relay of amplitude ``a/|K_n|``, hysteresis ``3 sigma``: ultimate gain and
                        period (Astrom-Hagglund; beyond the seeds)
 =====================  ============================================================================
+
+``sigma`` is the noise level.  With ``options.measured`` (the v3 environments) it is estimated from
+the records, as on a real loop, where nobody is told the noise level: the median absolute fourth
+difference of the latest usable closed-loop step's measured output over ``0.6745 sqrt(70)``
+(:func:`~envs.identification.steady_state.noise_level`; the median absolute deviation estimator
+of the finest-scale differences, as Donoho and Johnstone's wavelet estimate, with fourth
+differences so that the step response's own curvature does not count).  Without it (v0-v2), the
+environment's configured ``noise_std``.
 
 Every experiment but the first needs ``K_n`` and ``T_ar``; choosing one before a closed-loop step
 has identified them runs the closed-loop step instead.  Each type keeps its latest result.  An
@@ -48,6 +56,7 @@ from envs.identification.models import FOPDTModel, SOPDTModel, mismatch_time
 from envs.identification.prbs_experiment import fit_record, open_loop_prbs
 from envs.identification.procedure import PULSE_LENGTH, Identification, experiment_deviation, identify
 from envs.identification.relay import RelayResult, relay_feedback
+from envs.identification.steady_state import noise_level
 from envs.episode_options import DEFAULT_OPTIONS, EpisodeOptions
 
 __all__ = [
@@ -56,6 +65,8 @@ __all__ = [
     "LEAST_SQUARES_EXPERIMENTS",
     "FEATURES",
     "LEAST_SQUARES_FEATURES",
+    "MEASURED_FEATURES",
+    "IdentificationFailed",
     "RELAY_HYSTERESIS",
     "Evidence",
     "evidence_from_identification",
@@ -74,7 +85,7 @@ _SEEDS_MODEL_EXPERIMENTS = {1: ("open-loop-step", "open-loop-ramp"), 2: ("closed
 """With ``identification="least-squares"`` in agent mode, the design reads the model of the latest
 experiment that gives one: a PRBS (least squares), or these (the seeds' formulas; by the order of
 the design's model: the FPPI's FOPDT model, the PID's SOPDT model)."""
-RELAY_HYSTERESIS = 3.0  # in units of noise_std
+RELAY_HYSTERESIS = 3.0  # in units of the noise level sigma
 DISTURBED_ATTEMPTS = 3
 """With disturbances, the closed-loop steps a commit (or the fixed mode's start) runs at most until one
 identifies a usable model (a drift or a load can spoil one; each is charged)."""
@@ -102,7 +113,7 @@ name                     value                                                  
 ``dead_time_fraction``   ``L_n/T_ar`` from the open-loop step (eq. 11)               [0, 1]
 ``log_mismatch``         ``log10(T_f_bar/T_n)`` (eq. 22)                             [-5, 5]
 ``log_pulse_area``       ``log10(A/(K_n L_n))`` (eq. 46; integrating plants)         [-5, 5]
-``log_noise_ratio``      ``log10(noise_std/a)`` of the closed-loop step              [-5, 5]
+``log_noise_ratio``      ``log10(sigma/a)`` of the closed-loop step                  [-5, 5]
 ``log_relay_gain``       ``log10(K_u |K_n|)`` from the relay                         [-5, 5]
 ``relay_period``         ``P_u/T_ar`` from the relay, clipped                        [0, 5]
 ``ramp_time_constant``   ``T_n/T_ar`` from the ramp (eq. 12)                         [0, 1]
@@ -111,6 +122,11 @@ name                     value                                                  
 
 A feature whose experiment has not run (or failed) is 0; the counts that follow tell which ran.
 """
+
+MEASURED_FEATURES: tuple[str, ...] = ("failed_experiments",)
+"""With ``options.measured`` (v3), the last entry of :func:`features`: the experiments that gave
+nothing usable (stopped at the excursion limit, or a closed-loop step without a usable gain and
+``T_ar``) over the budget."""
 
 LEAST_SQUARES_FEATURES: tuple[str, ...] = ("ls_time_constant", "ls_dead_time", "log_ls_residual")
 """With ``identification="least-squares"``, three features follow :data:`FEATURES`: of the latest
@@ -157,7 +173,7 @@ class Evidence:
     aborted : int
         Number of experiments stopped at the excursion limit.
     noise_ratio : float
-        ``noise_std/a`` of the latest closed-loop step (nan before one).
+        ``sigma/a`` of the latest usable closed-loop step (nan before one; module docstring).
     options : EpisodeOptions
         The episode's identification settings (:mod:`envs.episode_options`; default: the v0
         environments').
@@ -169,6 +185,9 @@ class Evidence:
         ``int |y| dt`` of the true output over every experiment run (aborted ones included), the
         production they disturbed (:func:`envs.identification.procedure.experiment_deviation`);
         tracked only with ``options.production`` (else 0).
+    noise_estimate : float
+        With ``options.measured``: the noise level estimated from the latest usable closed-loop
+        step's record (nan before one).
     """
 
     experiments: tuple[str, ...]
@@ -180,6 +199,7 @@ class Evidence:
     options: EpisodeOptions = DEFAULT_OPTIONS
     fit: RecordFit | None = None
     experiment_deviation: float = 0.0
+    noise_estimate: float = math.nan
 
     @classmethod
     def empty(cls, integrating: bool, options: EpisodeOptions = DEFAULT_OPTIONS) -> Evidence:
@@ -205,9 +225,13 @@ def evidence_from_identification(
     second = "pulse" if identification.integrating else "open-loop-step"
     counts = tuple(int(name in ("closed-loop-step", second)) for name in evidence.experiments)
     results = {"closed-loop-step": identification.closed_loop, second: identification.open_loop}
+    measured = {}
+    if options.measured:
+        noise_std = noise_level(identification.closed_loop.output)
+        measured = {"noise_estimate": noise_std}
     return replace(
         evidence, counts=counts, results=results, experiment_time=identification.experiment_time,
-        noise_ratio=noise_std / amplitude, experiment_deviation=identification.experiment_deviation,
+        noise_ratio=noise_std / amplitude, experiment_deviation=identification.experiment_deviation, **measured,
     )  # fmt: skip
 
 
@@ -311,8 +335,9 @@ def _run(kind: str, plant: Plant, rng: np.random.Generator, amplitude: float, ev
             plant, rng, height / duration, duration, model.gain, model.dead_time,
             noise_std=noise_std, excursion_limit=limit, **extra,
         )  # fmt: skip
+    sigma = evidence.noise_estimate if evidence.options.measured else noise_std
     return relay_feedback(
-        plant, rng, abs(height), hysteresis=RELAY_HYSTERESIS * noise_std, noise_std=noise_std, excursion_limit=limit,
+        plant, rng, abs(height), hysteresis=RELAY_HYSTERESIS * sigma, noise_std=noise_std, excursion_limit=limit,
         **extra,
     )  # fmt: skip
 
@@ -350,7 +375,10 @@ def run_experiment(
         changes["experiment_deviation"] = evidence.experiment_deviation + experiment_deviation(result)
     if usable:
         changes["results"] = {**evidence.results, kind: result}
-        if kind == "closed-loop-step":
+        if kind == "closed-loop-step" and evidence.options.measured:
+            changes["noise_estimate"] = noise_level(result.output)
+            changes["noise_ratio"] = changes["noise_estimate"] / amplitude
+        elif kind == "closed-loop-step":
             changes["noise_ratio"] = noise_std / amplitude
     else:
         changes["aborted"] = evidence.aborted + 1
@@ -428,12 +456,23 @@ def features(evidence: Evidence, budget: int) -> np.ndarray:
     identification), then each type's count over ``budget``, then runs over ``budget``."""
     identified = _identified(evidence)
     counts = [c / budget for c in evidence.counts]
-    return np.array([*identified.values(), *counts, evidence.runs / budget], dtype=np.float64)
+    failed = [evidence.aborted / budget] if evidence.options.measured else []
+    return np.array([*identified.values(), *counts, evidence.runs / budget, *failed], dtype=np.float64)
 
 
 def feature_names(evidence: Evidence) -> tuple[str, ...]:
     """Names of the entries of :func:`features`."""
-    return (*_names(evidence), *(f"count_{name}" for name in evidence.experiments), "budget_used")
+    measured = MEASURED_FEATURES if evidence.options.measured else ()
+    return (*_names(evidence), *(f"count_{name}" for name in evidence.experiments), "budget_used", *measured)
+
+
+class IdentificationFailed(ValueError):
+    """No closed-loop step identified a usable gain and residence time; ``evidence`` holds the runs
+    that failed (charged, and counted in ``aborted``)."""
+
+    def __init__(self, evidence: Evidence) -> None:
+        super().__init__("the closed-loop step identified no usable gain and residence time")
+        self.evidence = evidence
 
 
 def identification(
@@ -451,8 +490,9 @@ def identification(
 
     Raises
     ------
-    ValueError
-        If no closed-loop step identifies a usable gain and residence time.
+    IdentificationFailed
+        If no closed-loop step identifies a usable gain and residence time (a ``ValueError``; its
+        ``evidence`` has the failed runs).
     """
     amplitude = evidence.options.seed_amplitude if amplitude is None else amplitude
     attempts = DISTURBED_ATTEMPTS if evidence.options.disturbances.active else 1
@@ -461,7 +501,7 @@ def identification(
             break
         evidence = run_experiment(evidence, "closed-loop-step", plant, rng, amplitude, noise_std, math.inf)
     if evidence.closed_loop is None:
-        raise ValueError("the closed-loop step identified no usable gain and residence time")
+        raise IdentificationFailed(evidence)
     step, ramp = evidence.results.get("open-loop-step"), evidence.results.get("open-loop-ramp")
     fitted = evidence.fit is not None
     if structure == "fppi" and not fitted and (step is None or step.model is None) and (ramp is None or ramp.model is None):

@@ -52,6 +52,12 @@ class EpisodeOptions:
     production : bool
         Whether the experiments' deviation ``D_exp`` is tracked (production has a price; the
         ``production`` weight of :class:`envs.analysis.scoring.CostWeights` is not 0).
+    measured : bool
+        The observation is made of the records only: the noise level is estimated from the
+        closed-loop step's record (:func:`envs.identification.steady_state.noise_level`) for the
+        noise-ratio feature and the relay's hysteresis, the experiments that gave nothing usable are a
+        feature, and a commit whose identification fails is a failed experiment, not an exception
+        (:mod:`envs.episode`).  Otherwise the configured noise level is read (the v0-v2 environments).
     """
 
     identification: str = "seeds"
@@ -59,6 +65,7 @@ class EpisodeOptions:
     amplitude_limit: float = math.inf
     disturbances: Disturbances = field(default_factory=Disturbances)
     production: bool = False
+    measured: bool = False
 
     def __post_init__(self) -> None:
         if self.identification not in IDENTIFICATIONS:
@@ -82,7 +89,7 @@ class EpisodeOptions:
     @classmethod
     def for_structure(
         cls, structure: str, *, identification: str = "seeds", amplitude_limit: float | None = None,
-        disturbances=None, production: bool = False,
+        disturbances=None, production: bool = False, measured: bool = False,
     ) -> EpisodeOptions:  # fmt: skip
         """The options of an environment of ``structure`` (``"pid"``, ``"fppi"`` or ``"msp"``), from its
         arguments (``amplitude_limit=None`` is no limit; ``disturbances`` a mapping ``{kind: level}``).
@@ -106,7 +113,7 @@ class EpisodeOptions:
                              f"the input of the {structure.upper()} environment's integrating plants grows without end, "
                              "and the closed-loop step identifies no model")
         return cls(identification=identification, order=_ORDERS.get(structure, 1), amplitude_limit=limit,
-                   disturbances=found, production=bool(production))
+                   disturbances=found, production=bool(production), measured=bool(measured))
 
 
 DEFAULT_OPTIONS = EpisodeOptions()

@@ -9,7 +9,7 @@ experiments and features in :mod:`envs.episode`, the designs in :mod:`envs.desig
 from __future__ import annotations
 
 import math
-from dataclasses import fields
+from dataclasses import fields, replace
 from typing import Any
 
 import gymnasium as gym
@@ -28,6 +28,7 @@ from envs.base_design import (
 from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.episode import (
     Evidence,
+    IdentificationFailed,
     feature_names,
     features,
     identification,
@@ -39,7 +40,7 @@ from envs.systems.families import FAMILIES, sample_plant
 from envs.systems.plants import Plant, as_plant
 from envs.identification.procedure import Identification
 from envs.threads import single_threaded
-from envs.analysis.scoring import Constraints, CostWeights, Score, score
+from envs.analysis.scoring import FEASIBLE_CAP, VIOLATION_BAND, VIOLATION_COSTS, Constraints, CostWeights, Score, score
 from envs.validation import require_number
 
 # The kind of plant each family of :mod:`envs.systems.families` draws (True: integrating), checked when the
@@ -53,6 +54,9 @@ MODES = ("fixed", "agent")
 AMPLITUDE_RANGE = (0.1, 10.0)  # relative experiment amplitude, log scale
 OBSERVATION_BOUND = 5.0
 MAX_SAMPLING_ATTEMPTS = 10
+NO_DESIGN_COST = FEASIBLE_CAP + 1 + VIOLATION_BAND
+"""The cost of an episode that ends without a design (``measured_observation``: no closed-loop step
+identified a usable gain and ``T_ar`` once the budget was spent): that of an unstable loop."""
 
 
 def _dataclass_argument(value: Any, kind: type, name: str) -> Any:
@@ -128,6 +132,8 @@ class DeadTimeTuningEnv(gym.Env):
         amplitude_limit: float | None = None,
         disturbances: dict | None = None,
         design_step: bool = False,
+        violation_cost: str = "graded",
+        measured_observation: bool = False,
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
@@ -137,6 +143,10 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"design_features must be true or false, got {design_features!r}")
         if not isinstance(design_step, bool):
             raise ValueError(f"design_step must be true or false, got {design_step!r}")
+        if not isinstance(measured_observation, bool):
+            raise ValueError(f"measured_observation must be true or false, got {measured_observation!r}")
+        if violation_cost not in VIOLATION_COSTS:
+            raise ValueError(f"violation_cost must be one of {', '.join(VIOLATION_COSTS)}, got {violation_cost!r}")
         self.action_coordinates = action
         self.design_features = design_features
         if render_mode not in (None, *self.metadata["render_modes"]):
@@ -150,6 +160,8 @@ class DeadTimeTuningEnv(gym.Env):
         self.family_config = family_config
         self.noise_std = require_number(noise_std, "noise_std", nonnegative=True)
         self.constraints = _dataclass_argument(constraints, Constraints, "constraints") if constraints is not None else self.default_constraints()
+        if self.constraints.violation_cost != violation_cost:
+            self.constraints = replace(self.constraints, violation_cost=violation_cost)
         self.weights = _dataclass_argument(weights, CostWeights, "weights")
         if isinstance(budget, bool) or int(budget) != budget or budget < 1:
             raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
@@ -157,7 +169,7 @@ class DeadTimeTuningEnv(gym.Env):
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
         self.options = EpisodeOptions.for_structure(
             self.structure, identification=identification, amplitude_limit=amplitude_limit, disturbances=disturbances,
-            production=self.weights.production > 0,
+            production=self.weights.production > 0, measured=measured_observation,
         )  # fmt: skip
         self.render_mode = render_mode
         self._controller = None
@@ -311,12 +323,32 @@ class DeadTimeTuningEnv(gym.Env):
         """``design_step=True``: the commit completes the identification (missing seed experiments at
         the commit's amplitude) and shows it; the next step designs."""
         amplitude = self._amplitude(amplitude_action)
-        self.identification, self.evidence = identification(
-            self.evidence, self.structure, self.plant, self.np_random, self.noise_std, amplitude=amplitude
-        )
+        try:
+            self.identification, self.evidence = identification(
+                self.evidence, self.structure, self.plant, self.np_random, self.noise_std, amplitude=amplitude
+            )
+        except IdentificationFailed as failure:
+            return self._failed(failure, amplitude)
         self._design_pending = True
         observation, named = self._observation_and_features()
         return observation, 0.0, False, False, {"identified": True, "amplitude": amplitude, "features": named}
+
+    def _failed(self, failure: IdentificationFailed, amplitude: float | None) -> tuple[np.ndarray, float, bool, bool, dict]:
+        """``measured_observation``: a commit whose identification failed is a failed experiment (charged,
+        shown in ``failed_experiments``); the episode goes on while the budget lasts, and else ends
+        without a design at :data:`NO_DESIGN_COST`.  Otherwise the failure raises, as in v0-v2."""
+        if not self.options.measured:
+            raise failure
+        self.evidence = failure.evidence
+        observation, named = self._observation_and_features()
+        info = {"identified": False, "amplitude": amplitude, "features": named}
+        if self.evidence.runs < self.budget:
+            return observation, 0.0, False, False, info
+        self._done = True
+        scale = self.plant.residence_time
+        info.update(cost=NO_DESIGN_COST, feasible=False, plant=self.plant.to_dict(),
+                    experiment_time=self.evidence.experiment_time / scale, **self._production_info())
+        return observation, -NO_DESIGN_COST, True, False, info
 
     def _experiment(self, kind: str, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         amplitude = self._amplitude(amplitude_action)
@@ -329,9 +361,12 @@ class DeadTimeTuningEnv(gym.Env):
 
     def _commit(self, parameter_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         if self.mode == "agent" and not self._design_pending:  # (design_step: _identify has identified)
-            self.identification, self.evidence = identification(
-                self.evidence, self.structure, self.plant, self.np_random, self.noise_std
-            )
+            try:
+                self.identification, self.evidence = identification(
+                    self.evidence, self.structure, self.plant, self.np_random, self.noise_std
+                )
+            except IdentificationFailed as failure:
+                return self._failed(failure, None)
         relative, controller, result = self.commit_design(parameter_action)
         observation, named = self._observation_and_features()
         info = self._final_info(result, relative, controller, named)
@@ -481,16 +516,23 @@ _SHARED_DOC = """
     ``theta``, ``L_n/T_ar``, ``log10(T_f_bar/T_n)``, ``log10(A/(K_n L_n))``, noise-to-amplitude
     ratio, relay gain and period, ramp ``T_n/T_ar``, experiment time), 0 where not measured (with
     ``identification="least-squares"``, three more: :data:`envs.episode.LEAST_SQUARES_FEATURES`);
-    then the number of runs of each experiment type over the budget, and the total runs over the budget.
+    then the number of runs of each experiment type over the budget, and the total runs over the budget;
+    with ``measured_observation=True`` (v3) one more, ``failed_experiments``: the runs that gave nothing
+    usable over the budget.  The noise-to-amplitude ratio is ``sigma/a`` of the closed-loop step, with
+    ``sigma`` the configured ``noise_std`` (v0-v2) or, with ``measured_observation=True``, estimated from
+    the step's record (:mod:`envs.episode`); the relay's hysteresis is ``3 sigma`` of the same ``sigma``.
 
     ## Rewards
     ``r = -cost`` on the step that commits the design, 0 on experiment steps, where
     (:mod:`envs.analysis.scoring`) ``cost = w_load IAE_load/(|K| T_ar) + w_sp IAE_sp/T_ar + w_exp t_exp/T_ar
     + w_prod D_exp/T_ar`` (``D_exp = int |y| dt`` of the true output over the experiments; ``w_prod = 0``
     by default) on the TRUE plant (``K``, ``T_ar`` true; integrating plants: ``IAE_load/(|K_v| T_ar^2)``),
-    capped at 20 when the loop meets the constraints, and ``21 + grade`` when it does not (unstable:
-    grade 5; else the sum of the relative violations).  The cost is the one of ``deadtime analyze``
-    and :func:`envs.analysis.scoring.score` for the same plant and controller.
+    capped at 20 when the loop meets the constraints.  A design that violates them costs, with ``g``
+    the sum of its relative violations (:func:`envs.analysis.scoring.violation_cost`):
+    ``violation_cost="graded"`` (v0-v2) ``21 + g``, an unstable loop 26; ``violation_cost="bounded"``
+    (v3) ``21 + 5 g/(1 + g)``, an unstable loop 26, so that every violation costs more than every
+    feasible design and no stable loop more than an unstable one.  The cost is the one of
+    ``deadtime analyze`` and :func:`envs.analysis.scoring.score` for the same plant and controller.
 
     ## Starting State
     A plant drawn from ``family`` with ``self.np_random`` (or ``options["plant"]`` of ``reset``).
@@ -505,6 +547,10 @@ _SHARED_DOC = """
     (v2) a commit only completes the identification, at the commit action's amplitude, and returns
     it (reward 0, the observation's last entry ``design_step`` = 1, the design features filled in);
     the next step designs from its last component, whatever its choice, and ends the episode.
+    With ``measured_observation=True`` (v3) a commit whose closed-loop step identifies no usable gain
+    and ``T_ar`` is a failed experiment (charged, counted in ``failed_experiments``, reward 0, info
+    ``identified=False``): the episode goes on while the budget lasts, else it terminates without a
+    design at cost 26 (``NO_DESIGN_COST``, that of an unstable loop).
 
     ## Arguments
     | argument          | default                     | meaning                                                  |
@@ -523,6 +569,8 @@ _SHARED_DOC = """
     | `identification`  | `"seeds"`                   | `"least-squares"` (PID, FPPI): fixed mode designs from the least-squares fit (Marlin 6.4) of the seeds' open-loop step; agent mode adds a PRBS fitted by least squares, and the latest model experiment decides (:mod:`envs.episode_options`) |
     | `amplitude_limit` | `None` (none)               | largest experiment amplitude (output units, > 0): agent amplitudes are cut to it, the seeds' experiments run at `min(1, limit)` |
     | `design_step`     | `False` (v2: `True`)        | agent mode: the commit completes and shows the identification (at the commit's amplitude), and a separate last step designs (Episode End) |
+    | `violation_cost`  | `"graded"` (v3: `"bounded"`) | how a violating design is charged (Rewards; :func:`envs.analysis.scoring.violation_cost`) |
+    | `measured_observation` | `False` (v3: `True`)   | the noise level estimated from the records (never the configured `noise_std`), failed experiments observed, and a failed commit charged instead of raised (Observation Space, Episode End) |
     | `disturbances`    | `None` (none)               | `{kind: level}` beyond the white noise, kinds `"drift"` (random walk, `level` per `sqrt(T_ar)`) and `"load"` (unmeasured input step during the experiment, `level` of output) (:mod:`envs.identification.disturbances`) |
 
     ## Info
@@ -549,6 +597,13 @@ _SHARED_DOC = """
       own, which sees the identification and the design features (in v1 the commit's design was
       chosen before the missing experiments ran, and its features were zero).  In agent mode the
       FPPI base rule reads an unmeasured mismatch area as 0 (:func:`envs.base_design.base_parameter`).
+    * v3: v2 with ``violation_cost="bounded"`` (a violating design costs ``21 + 5 g/(1 + g)``, an
+      unstable loop 26: bounded, and no stable loop above an unstable one; v2's ``21 + g`` reached the
+      thousands near instability) and ``measured_observation=True`` (the noise ratio and the relay's
+      hysteresis from the noise level estimated in the closed-loop step's record, not the configured
+      one; the feature ``failed_experiments``; a commit that identifies nothing is a failed experiment,
+      never an exception).  Plants, the seeds' experiments and feasible costs are v2's (the relay's
+      hysteresis follows the estimate).
 """
 
 

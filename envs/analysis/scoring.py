@@ -19,10 +19,19 @@ Both IAE terms are invariant to the plant's gain and time scale.  The feasible c
 (the last two are the cost of the experiments, ``Score.experiment_cost``; ``w_production`` is 0 by
 default, and the term is then left out), capped at
 ``FEASIBLE_CAP`` (a design that bad is useless anyway; the cap keeps the ordering below strict).
-A design that violates a constraint costs ``FEASIBLE_CAP + 1 + grade``: strictly worse than every
-feasible design and graded by how far it violates.  The grade sums the relative violations
-``Ms/Ms_max - 1``, ``1 - DM_rel/DM_min``, ``1 - GM/GM_min``, ``1 - PM/PM_min`` (each when positive),
-plus ``UNSTABLE_GRADE`` for an unstable loop (whose margins are then undefined and not graded).
+A design that violates a constraint costs more than every feasible design, by
+:func:`violation_cost` of its grade ``g``: the sum of the relative violations ``Ms/Ms_max - 1``,
+``1 - DM_rel/DM_min``, ``1 - GM/GM_min``, ``1 - PM/PM_min`` (each when positive) of a stable loop.
+An unstable loop's margins are undefined and not graded.  Two maps (``Constraints.violation_cost``):
+
+* ``"graded"`` (the environments' v0-v2): ``FEASIBLE_CAP + 1 + g``, and ``FEASIBLE_CAP + 1 +
+  UNSTABLE_GRADE`` for an unstable loop.  Unbounded: a stable loop near instability (``Ms`` in the
+  thousands) costs far more than an unstable one, and one such plant dominates a policy's mean.
+* ``"bounded"`` (v3): ``FEASIBLE_CAP + 1 + VIOLATION_BAND g/(1 + g)`` for a stable loop, and the top
+  of the band, ``FEASIBLE_CAP + 1 + VIOLATION_BAND``, for an unstable one.  Every violating design
+  costs more than every feasible one, every unstable loop at least as much as every stable one, and
+  the cost grows strictly with ``g`` (half the band at ``g = 1``, e.g. ``Ms = 4`` against ``Ms <= 2``).
+
 The delay margin is relative to the true dead time ``L`` (to ``T_ar`` if ``L = 0``).
 
 A feasible design whose cost is capped is simulated only until that is certain: the IAE terms
@@ -48,10 +57,18 @@ from envs.analysis.robustness import Margins
 from envs.threads import single_threaded
 from envs.validation import require_number
 
-__all__ = ["Constraints", "CostWeights", "Score", "score", "constraint_violations", "FEASIBLE_CAP", "UNSTABLE_GRADE"]
+__all__ = [
+    "Constraints", "CostWeights", "Score", "score", "constraint_violations", "violation_cost", "FEASIBLE_CAP",
+    "UNSTABLE_GRADE", "VIOLATION_BAND", "VIOLATION_COSTS",
+]
 
 FEASIBLE_CAP = 20.0
 UNSTABLE_GRADE = 5.0
+"""The grade of an unstable loop in the ``"graded"`` map."""
+VIOLATION_BAND = 5.0
+"""The width of the ``"bounded"`` map's band of violating costs above ``FEASIBLE_CAP + 1``; an unstable
+loop costs its top, ``FEASIBLE_CAP + 1 + VIOLATION_BAND``, the same as in the ``"graded"`` map."""
+VIOLATION_COSTS = ("graded", "bounded")
 
 
 @dataclass(frozen=True)
@@ -66,16 +83,23 @@ class Constraints:
         ``DM/L >= min_relative_delay_margin`` (default 0.2), ``L`` the true dead time.
     min_gain_margin, min_phase_margin_deg : float or None
         Optional classical margins (default off).
+    violation_cost : {"graded", "bounded"}
+        How a violating design is charged (:func:`violation_cost`; the environments set it from
+        their ``violation_cost`` argument).
     """
 
     max_sensitivity: float | None = 2.0
     min_relative_delay_margin: float | None = 0.2
     min_gain_margin: float | None = None
     min_phase_margin_deg: float | None = None
+    violation_cost: str = "graded"
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
-            if value is not None:
+            if name == "violation_cost":
+                if value not in VIOLATION_COSTS:
+                    raise ValueError(f"constraints.violation_cost must be one of {', '.join(VIOLATION_COSTS)}, got {value!r}")
+            elif value is not None:
                 require_number(value, f"constraints.{name}", positive=True)
 
 
@@ -150,6 +174,17 @@ def constraint_violations(margins: Margins, relative_delay_margin: float, constr
     return {k: float(v) for k, v in found.items() if v > 0}
 
 
+def violation_cost(violations: dict[str, float], stable: bool, kind: str = "graded") -> float:
+    """The cost of a design with these (non-empty) ``violations`` (:func:`constraint_violations`); see
+    the module docstring for the two maps, ``kind`` ``"graded"`` or ``"bounded"``."""
+    if kind == "graded":
+        return FEASIBLE_CAP + 1 + sum(violations.values())
+    if not stable:
+        return FEASIBLE_CAP + 1 + VIOLATION_BAND
+    grade = sum(violations.values())
+    return FEASIBLE_CAP + 1 + VIOLATION_BAND * grade / (1 + grade)
+
+
 @single_threaded
 def score(
     plant: Plant,
@@ -180,7 +215,7 @@ def score(
     if violations:
         undefined = math.inf if not margins.stable else math.nan
         return Score(
-            FEASIBLE_CAP + 1 + sum(violations.values()), False, violations, margins.stable, margins.ms,
+            violation_cost(violations, margins.stable, constraints.violation_cost), False, violations, margins.stable, margins.ms,
             margins.gain_margin, margins.phase_margin_deg, margins.delay_margin, relative_dm,
             undefined, undefined, undefined, undefined, experiment_cost, margins,
         )  # fmt: skip

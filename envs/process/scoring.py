@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 from envs.analysis.loop_analysis import plant_margins
 from envs.analysis.robustness import Margins
-from envs.analysis.scoring import FEASIBLE_CAP, UNSTABLE_GRADE, Constraints, CostWeights, constraint_violations
+from envs.analysis.scoring import FEASIBLE_CAP, UNSTABLE_GRADE, Constraints, CostWeights, constraint_violations, violation_cost
 from envs.process.performance import ProcessPerformance, RunProtocol, closed_loop_performance
 from envs.process.procedure import ProcessIdentification
 from envs.process.protocol import Process
@@ -110,7 +110,7 @@ def process_score(
         if performance.stopped:
             violations = {**violations, "stopped": UNSTABLE_GRADE}
     if violations:
-        cost = FEASIBLE_CAP + 1.0 + sum(violations.values())
+        cost = violation_cost(violations, margins.stable and "stopped" not in violations, constraints.violation_cost)
     else:
         cost = min(setpoint_cost + load_cost, FEASIBLE_CAP)
     return ProcessScore(float(cost), not violations, violations, margins, relative_dm, performance, setpoint_cost, load_cost)

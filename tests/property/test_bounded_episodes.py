@@ -1,5 +1,6 @@
-"""Nothing hangs, nothing explodes (issue 12.2, 12.3): random agents on every id and mode, the plant
-that hung PPO, and dead times down to 1e-12 ``T_ar``.
+"""Nothing hangs, nothing explodes, nothing raises: random agents on every id and mode (v0, and v3 at
+1% to 20% noise with amplitudes at the ends of the range), the plant that hung PPO, and dead times
+down to 1e-12 ``T_ar``.
 
 Actions are uniform over the action space.  Bounds asserted:
 * samples: every experiment's record has at most ``MAX_RUN_SAMPLES`` samples (the bound of the
@@ -48,11 +49,14 @@ def _peak_rss_bytes() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # kilobytes on Linux
 
 
-def _episode(env, rng, seed, plant=None):
+def _episode(env, rng, seed, plant=None, amplitude=None):
+    """One episode of uniform random actions; ``amplitude`` fixes the agent mode's amplitude component."""
     _timed(env.reset, seed=seed, options=None if plant is None else {"plant": plant})
     done = False
     while not done:
         action = rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32)
+        if amplitude is not None:
+            action[-2] = amplitude
         _, reward, terminated, truncated, info = _timed(env.step, action)
         assert np.isfinite(reward)
         done = terminated or truncated
@@ -84,6 +88,33 @@ def _cases(episodes_per_case: int, seed0: int):
 def test_random_agents_are_bounded():
     """About 250 episodes: 30 per id and mode, plus 2 per id, mode and special plant."""
     _run(30, 0)
+
+
+def _v3_cases(episodes_per_case: int, seed0: int):
+    """v3, every id and mode, noise 1% to 20%, agent-mode amplitudes at both ends of the range."""
+    for structure in ("PID", "FPPI", "MSP"):
+        for mode in MODES:
+            for noise_std in (0.01, 0.05, 0.2):
+                env = gym.make(f"DeadTime/{structure}-v3", experiments=mode, noise_std=noise_std)
+                rng = np.random.default_rng(seed0)
+                for k in range(episodes_per_case):
+                    ends = (-1.0, 1.0)[k % 2] if mode == "agent" else None
+                    _episode(env, rng, seed0 + k, amplitude=ends)
+
+
+def test_random_agents_are_bounded_on_v3():
+    """About 360 episodes: 20 per id, mode and noise level, half at the smallest amplitude."""
+    start = _peak_rss_bytes()
+    _v3_cases(20, 0)
+    assert _peak_rss_bytes() - start < MEMORY_BYTES
+
+
+@pytest.mark.slow
+def test_random_agents_are_bounded_on_v3_long():
+    """About 1,800 episodes."""
+    start = _peak_rss_bytes()
+    _v3_cases(100, 1000)
+    assert _peak_rss_bytes() - start < MEMORY_BYTES
 
 
 @pytest.mark.slow

@@ -36,6 +36,10 @@ from baselines.rules.registry import RULES
 
 FILE = Path(__file__).with_name("fingerprint.json")
 IDS = ("DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0")
+VERSIONS_FILE = Path(__file__).with_name("fingerprint_versions.json")
+"""The episodes of the later versions (same seeds and actions as the v0 episodes of :data:`FILE`); a
+version's entries are recorded when it is registered and never change after."""
+VERSION_IDS = tuple(f"DeadTime/{structure}-{version}" for version in ("v1", "v2", "v3") for structure in ("PID", "FPPI", "MSP"))
 EPISODES = {"fixed": 12, "agent": 6}
 PLANTS = {
     "stable": {"num": [1.0], "den": [2.0, 3.0, 1.0], "delay": 1.0},
@@ -84,12 +88,14 @@ def _episode(env_id: str, mode: str, seed: int) -> dict[str, Any]:
     return record
 
 
+def _episodes(ids: tuple[str, ...]) -> dict[str, Any]:
+    return {f"{env_id}/{mode}/{seed}": _episode(env_id, mode, seed)
+            for env_id in ids for mode, count in EPISODES.items() for seed in range(count)}
+
+
 def fingerprint() -> dict[str, Any]:
     """Everything the fingerprint holds, as JSON-ready values."""
-    episodes = {
-        f"{env_id}/{mode}/{seed}": _episode(env_id, mode, seed)
-        for env_id in IDS for mode, count in EPISODES.items() for seed in range(count)
-    }
+    episodes = _episodes(IDS)
     analyze = [_cli("analyze", "--plant", json.dumps(p), "--controller", json.dumps(c), "--json") for p, c in ANALYZE]
     tune = {f"{rule}/{kind}": _cli("tune", "--rule", rule, "--plant", json.dumps(plant), "--json")
             for rule in RULES for kind, plant in PLANTS.items()}
@@ -122,15 +128,25 @@ def _first_difference(expected: Any, actual: Any, path: str = "") -> str | None:
     return None if same else f"{path}: {expected!r} != {actual!r}"
 
 
-@pytest.mark.slow
-def test_numbers_are_bit_identical_to_the_fingerprint() -> None:
-    actual = _canonical(fingerprint())
+def _check(file: Path, compute) -> None:
+    """``compute()`` equal bit for bit to what ``file`` recorded (or recorded, see the module docstring)."""
+    actual = _canonical(compute())
     if os.environ.get("DEADTIME_WRITE_FINGERPRINT"):
-        FILE.write_text(json.dumps({"machine": _machine(), "fingerprint": actual}, indent=None) + "\n")
-        pytest.skip(f"wrote {FILE}")
-    recorded = json.loads(FILE.read_text())
+        file.write_text(json.dumps({"machine": _machine(), "fingerprint": actual}, indent=None) + "\n")
+        pytest.skip(f"wrote {file}")
+    recorded = json.loads(file.read_text())
     if recorded["machine"] != _canonical(_machine()):
         pytest.skip(f"fingerprint recorded on {recorded['machine']}, this is {_machine()}: bit identity is defined "
                     "only on the same machine and libraries")
     difference = _first_difference(recorded["fingerprint"], actual)
     assert difference is None, difference
+
+
+@pytest.mark.slow
+def test_numbers_are_bit_identical_to_the_fingerprint() -> None:
+    _check(FILE, fingerprint)
+
+
+def test_later_versions_are_bit_identical_to_their_fingerprint() -> None:
+    """The v1-v3 episodes (a few seconds, so in the fast suite)."""
+    _check(VERSIONS_FILE, lambda: _episodes(VERSION_IDS))
