@@ -54,7 +54,7 @@ from envs.systems.plants import Plant
 from envs.identification.least_squares import LeastSquaresFit
 from envs.identification.models import FOPDTModel, SOPDTModel, mismatch_time
 from envs.identification.prbs_experiment import fit_record, open_loop_prbs
-from envs.identification.procedure import PULSE_LENGTH, Identification, experiment_deviation, identify
+from envs.identification.procedure import PULSE_LENGTH, Identification, ProcedureFailed, experiment_deviation, identify
 from envs.identification.relay import RelayResult, relay_feedback
 from envs.identification.steady_state import noise_level
 from envs.episode_options import DEFAULT_OPTIONS, EpisodeOptions
@@ -71,6 +71,7 @@ __all__ = [
     "Evidence",
     "evidence_from_identification",
     "start_fixed",
+    "failed_start",
     "run_experiment",
     "features",
     "feature_names",
@@ -253,6 +254,15 @@ def start_fixed(
         return found, evidence
     evidence = _with_fit(evidence, "open-loop-step", found.open_loop, amplitude)
     return _least_squares_identification(found, evidence), evidence
+
+
+def failed_start(failure: ProcedureFailed, integrating: bool, options: EpisodeOptions) -> Evidence:
+    """The evidence of a fixed-mode start whose seeds' procedure identified nothing
+    (:func:`start_fixed` raised ``failure``): its closed-loop steps, charged and failed."""
+    evidence = Evidence.empty(integrating, options)
+    counts = tuple(failure.attempts * (name == "closed-loop-step") for name in evidence.experiments)
+    return replace(evidence, counts=counts, aborted=failure.attempts, experiment_time=failure.experiment_time,
+                   experiment_deviation=failure.experiment_deviation)
 
 
 def _latest_model(evidence: Evidence, kind: str, result, amplitude: float) -> Evidence:

@@ -29,6 +29,7 @@ from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.episode import (
     Evidence,
     IdentificationFailed,
+    failed_start,
     feature_names,
     features,
     identification,
@@ -38,7 +39,7 @@ from envs.episode import (
 from envs.episode_options import EpisodeOptions
 from envs.systems.families import FAMILIES, sample_plant
 from envs.systems.plants import Plant, as_plant
-from envs.identification.procedure import Identification
+from envs.identification.procedure import Identification, ProcedureFailed
 from envs.threads import single_threaded
 from envs.analysis.scoring import FEASIBLE_CAP, VIOLATION_BAND, VIOLATION_COSTS, Constraints, CostWeights, Score, score
 from envs.validation import require_number
@@ -259,7 +260,7 @@ class DeadTimeTuningEnv(gym.Env):
         for _ in range(MAX_SAMPLING_ATTEMPTS):
             plant = self.plant if given is not None else sample_plant(self.family, self.np_random, self.family_config)
             try:
-                self._start(plant)
+                self._start(plant, given is not None)
                 break
             except ValueError:
                 if given is not None:
@@ -283,14 +284,22 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"reset options: plant must be {kind} plant for {type(self).__name__}")
         return plant
 
-    def _start(self, plant: Plant) -> None:
+    def _start(self, plant: Plant, given: bool = False) -> None:
+        """Start on ``plant``.  A drawn plant whose seeds' procedure fails (fixed mode) raises, and is drawn
+        again; a given one, with ``measured_observation``, starts an episode that can only end without a
+        design (:meth:`_no_design`), its failed steps charged and observed."""
         if plant.integrating != self.integrating:
             raise ValueError(f"family {self.family!r} drew a plant of the wrong kind for {type(self).__name__}")
         self.plant = plant
         self._base = None
         self._design_pending = False
         if self.mode == "fixed":
-            self.identification, self.evidence = start_fixed(plant, self.np_random, self.noise_std, self.options)
+            try:
+                self.identification, self.evidence = start_fixed(plant, self.np_random, self.noise_std, self.options)
+            except ProcedureFailed as failure:
+                if not (given and self.options.measured):
+                    raise
+                self.identification, self.evidence = None, failed_start(failure, self.integrating, self.options)
         else:
             self.identification = None
             self.evidence = Evidence.empty(self.integrating, self.options)
@@ -306,6 +315,8 @@ class DeadTimeTuningEnv(gym.Env):
         if not np.all(np.isfinite(action)):
             raise ValueError(f"action must be finite, got {action.tolist()}")
         action = np.clip(action, -1.0, 1.0)
+        if self.mode == "fixed" and self.identification is None:  # the seeds' procedure failed on a given plant
+            return self._no_design({"identified": False})
         if self.mode == "agent" and not self._design_pending:
             choice = int(np.argmax(action[: len(self.experiment_names) + 1]))
             if choice > 0 and self.evidence.runs < self.budget:
@@ -344,10 +355,15 @@ class DeadTimeTuningEnv(gym.Env):
         info = {"identified": False, "amplitude": amplitude, "features": named}
         if self.evidence.runs < self.budget:
             return observation, 0.0, False, False, info
+        return self._no_design(info)
+
+    def _no_design(self, info: dict) -> tuple[np.ndarray, float, bool, bool, dict]:
+        """End the episode without a design, at :data:`NO_DESIGN_COST`."""
         self._done = True
+        observation, named = self._observation_and_features()
         scale = self.plant.residence_time
-        info.update(cost=NO_DESIGN_COST, feasible=False, plant=self.plant.to_dict(),
-                    experiment_time=self.evidence.experiment_time / scale, **self._production_info())
+        info = {**info, "cost": NO_DESIGN_COST, "feasible": False, "plant": self.plant.to_dict(),
+                "experiment_time": self.evidence.experiment_time / scale, "features": named, **self._production_info()}
         return observation, -NO_DESIGN_COST, True, False, info
 
     def _experiment(self, kind: str, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:

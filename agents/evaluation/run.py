@@ -245,8 +245,8 @@ def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
     else:
         raise ValueError("the agent's episode did not end within 10000 steps")
     return PolicyResult(
-        float(info["cost"]), bool(info["feasible"]), False, float(info.get("experiment_time", math.nan)),
-        info.get("controller"), _finite(info.get("parameter")),
+        float(info["cost"]), bool(info["feasible"]), info.get("identified") is False,
+        float(info.get("experiment_time", math.nan)), info.get("controller"), _finite(info.get("parameter")),
     )  # fmt: skip
 
 
@@ -292,11 +292,14 @@ def evaluate_plant(
     mismatch = 0.0
     if any(result is None for result in results.values()):
         env.reset(seed=seed, options={"plant": plant})
-        experiment_time = env.unwrapped.identification.experiment_time / plant.residence_time
+        identified = env.unwrapped.identification is not None  # (v3: None when the seeds' procedure failed)
+        experiment_time = env.unwrapped.evidence.experiment_time / plant.residence_time
         for name in wanted:
             if results[name] is not None:
                 continue
-            if name in ("oracle", "oracle-full"):
+            if not identified:
+                results[name] = PolicyResult.failed(ValueError("the seeds' procedure identified no usable model"), experiment_time)
+            elif name in ("oracle", "oracle-full"):
                 results[name], off = _oracle_result(env, name == "oracle-full", experiment_time)
                 mismatch = max(mismatch, off) if name == "oracle" else mismatch
             else:

@@ -109,9 +109,9 @@ def identify(
 
     Raises
     ------
-    ValueError
+    ProcedureFailed
         If no closed-loop experiment identifies a usable gain and residence time (e.g. it was
-        aborted).
+        aborted); a ``ValueError`` that tells what the failed steps cost.
     """
     spent = lost = 0.0
     for attempt in range(attempts):
@@ -120,13 +120,26 @@ def identify(
             break
         spent, lost = spent + first.duration, lost + (experiment_deviation(first) if deviation else 0.0)
     else:
-        raise ValueError(f"the closed-loop step identified no usable model (gain {first.gain}, T_ar {first.residence_time})")
+        raise ProcedureFailed(first, attempts, spent, lost)
     found = _second_experiment(plant, rng, noise_std, amplitude, disturbances, first)
     if deviation:
         found = replace(found, experiment_deviation=experiment_deviation(first) + experiment_deviation(found.open_loop) + lost)
     if attempt == 0:
         return found
     return replace(found, experiment_time=found.experiment_time + spent)
+
+
+class ProcedureFailed(ValueError):
+    """No closed-loop step of the procedure identified a usable model: ``attempts`` steps ran, taking
+    ``experiment_time`` and disturbing ``experiment_deviation`` (0 unless asked for); ``closed_loop``
+    is the last."""
+
+    def __init__(self, closed_loop: ClosedLoopStepResult, attempts: int, experiment_time: float,
+                 experiment_deviation: float) -> None:  # fmt: skip
+        super().__init__(f"the closed-loop step identified no usable model (gain {closed_loop.gain}, "
+                         f"T_ar {closed_loop.residence_time})")
+        self.closed_loop, self.attempts = closed_loop, attempts
+        self.experiment_time, self.experiment_deviation = experiment_time, experiment_deviation
 
 
 def usable_closed_loop(first: ClosedLoopStepResult) -> bool:

@@ -176,3 +176,19 @@ def test_a_commit_that_identifies_nothing_is_a_failed_experiment(amplitude):
 def test_v3_is_the_latest_version_without_a_deprecation_warning(recwarn):
     gym.make("DeadTime/PID-v3")
     assert not [w for w in recwarn if "out of date" in str(w.message)]
+
+
+def test_a_given_plant_whose_seeds_procedure_fails_ends_without_a_design():
+    """Fixed mode, 10% noise: on this test plant the closed-loop step identifies no usable model.
+    v2 raises at reset (a drawn plant is drawn again; a given one cannot be); v3 starts the episode,
+    shows the failed step, and ends it without a design."""
+    from envs.systems.plant_sets import plant_set
+
+    plant = plant_set("integrating", "test", 50)[16]
+    env = gym.make("DeadTime/MSP-v3", noise_std=0.1)
+    _, info = env.reset(seed=16, options={"plant": plant})
+    assert info["features"]["failed_experiments"] > 0 and env.unwrapped.identification is None
+    _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
+    assert terminated and reward == -NO_DESIGN_COST and info["identified"] is False and info["experiment_time"] > 0
+    with pytest.raises(ValueError, match="no usable model"):
+        gym.make("DeadTime/MSP-v2", noise_std=0.1).reset(seed=16, options={"plant": plant})
