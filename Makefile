@@ -23,13 +23,13 @@ $(STAMP): pyproject.toml constraints.txt
 
 install: $(STAMP)
 
-# The demo: train SAC on DeadTime/PID-v0 (fixed mode, configs/sac.yaml, a few minutes on 2 cores),
+# The demo: train SAC on DeadTime/PID-v3 (fixed mode, configs/sac.yaml, a few minutes on 2 cores),
 # then evaluate it against every rule and the oracle on the held-out test set.  Interrupted, it
 # resumes from the latest checkpoint; finished, it only re-evaluates (cached per plant).
 DEMO := runs/demo
 demo: $(STAMP)
-	$(BIN)/deadtime train --config configs/sac.yaml --env DeadTime/PID-v0 --out $(DEMO) --resume
-	$(BIN)/deadtime evaluate --env DeadTime/PID-v0 --policies agent=$(DEMO)/model.zip,all-rules,oracle \
+	$(BIN)/deadtime train --config configs/sac.yaml --env DeadTime/PID-v3 --out $(DEMO) --resume
+	$(BIN)/deadtime evaluate --env DeadTime/PID-v3 --policies agent=$(DEMO)/model.zip,all-rules,oracle \
 		--n 50 --seed 0 --out $(DEMO)/eval --workers 2
 
 reproduce: $(STAMP)

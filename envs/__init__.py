@@ -23,8 +23,9 @@ _V1 = {"action": "residual", "design_features": True}
 _V2 = {**_V1, "weights": {"production": 0.05}, "amplitude_limit": 3.0, "design_step": True}
 # v3: v2 with a bounded violation cost (envs.analysis.scoring.violation_cost) and an observation made
 # of the records only: the noise level estimated from them, failed experiments shown, and a commit that
-# identifies nothing a failed experiment instead of an exception (envs.episode_options.EpisodeOptions).
-_V3 = {**_V2, "violation_cost": "bounded", "measured_observation": True}
+# identifies nothing a failed experiment instead of an exception (envs.episode_options.EpisodeOptions);
+# agent mode offers the experiments the structure's design reads (envs.episode_options.DESIGN_EXPERIMENTS).
+_V3 = {**_V2, "violation_cost": "bounded", "measured_observation": True, "experiment_set": "design"}
 
 for _version, _kwargs in (("v0", {}), ("v1", _V1), ("v2", _V2), ("v3", _V3)):
     for _structure in ("PID", "FPPI", "MSP"):

@@ -207,6 +207,8 @@ class Evidence:
         experiments = INTEGRATING_EXPERIMENTS if integrating else STABLE_EXPERIMENTS
         if options.least_squares and not integrating:
             experiments = LEAST_SQUARES_EXPERIMENTS
+        if options.experiment_types is not None:
+            experiments = options.experiment_types
         return cls(experiments, (0,) * len(experiments), {}, options=options)
 
     @property

@@ -17,13 +17,30 @@ from dataclasses import dataclass, field
 from envs.identification.disturbances import Disturbances
 from envs.validation import require_number
 
-__all__ = ["IDENTIFICATIONS", "EpisodeOptions", "DEFAULT_OPTIONS"]
+__all__ = ["IDENTIFICATIONS", "EXPERIMENT_SETS", "DESIGN_EXPERIMENTS", "EpisodeOptions", "DEFAULT_OPTIONS"]
 
 IDENTIFICATIONS: tuple[str, ...] = ("seeds", "least-squares")
 """``identification`` values: the seeds' formulas (moments, areas), or the least-squares fit of
 Marlin section 6.4 (:mod:`envs.identification.least_squares`) of the open-loop records."""
 
 _ORDERS = {"pid": 2, "fppi": 1}  # the least-squares model each structure's design reads: SOPDT, FOPDT
+
+EXPERIMENT_SETS: tuple[str, ...] = ("all", "design")
+"""``experiment_set`` values: every experiment type of the plant's kind (v0-v2), or those whose result
+the structure's design or design features read (:data:`DESIGN_EXPERIMENTS`; v3)."""
+
+DESIGN_EXPERIMENTS: dict[str, tuple[str, ...]] = {
+    "pid": ("closed-loop-step", "open-loop-step", "relay"),
+    "fppi": ("closed-loop-step", "open-loop-step"),
+    "msp": ("closed-loop-step", "pulse"),
+}
+"""The agent mode's experiment types with ``experiment_set="design"``.  The closed-loop step gives
+``K_n``, ``T_ar`` and the PID's SOPDT model (Gorez-Klan eq. 2-8) and the MSP's model (Ingimundarson
+eq. 2); the open-loop step the FPPI's FOPDT model and mismatch area (eq. 11, 22) and the model the
+PID's design features check against; the pulse the MSP's area (eq. 46); the relay the PID's ultimate
+point (Astrom-Hagglund), the classical basis of a PID design.  The ramp only repeats the open-loop
+step's ``T_n``, and no design reads a relay's result but the PID's: an agent offered them spent a
+third to a half of its experiments on them.  ``identification="least-squares"`` adds the PRBS."""
 
 
 @dataclass(frozen=True)
@@ -58,6 +75,9 @@ class EpisodeOptions:
         noise-ratio feature and the relay's hysteresis, the experiments that gave nothing usable are a
         feature, and a commit whose identification fails is a failed experiment, not an exception
         (:mod:`envs.episode`).  Otherwise the configured noise level is read (the v0-v2 environments).
+    experiment_types : tuple of str or None
+        The agent mode's experiment types (``experiment_set="design"``: :data:`DESIGN_EXPERIMENTS`);
+        None: every type of the plant's kind (:mod:`envs.episode`).
     """
 
     identification: str = "seeds"
@@ -66,6 +86,7 @@ class EpisodeOptions:
     disturbances: Disturbances = field(default_factory=Disturbances)
     production: bool = False
     measured: bool = False
+    experiment_types: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         if self.identification not in IDENTIFICATIONS:
@@ -89,7 +110,7 @@ class EpisodeOptions:
     @classmethod
     def for_structure(
         cls, structure: str, *, identification: str = "seeds", amplitude_limit: float | None = None,
-        disturbances=None, production: bool = False, measured: bool = False,
+        disturbances=None, production: bool = False, measured: bool = False, experiment_set: str = "all",
     ) -> EpisodeOptions:  # fmt: skip
         """The options of an environment of ``structure`` (``"pid"``, ``"fppi"`` or ``"msp"``), from its
         arguments (``amplitude_limit=None`` is no limit; ``disturbances`` a mapping ``{kind: level}``).
@@ -112,8 +133,13 @@ class EpisodeOptions:
             raise ValueError("disturbances['load'] needs self-regulating plants: under a lasting load the integral of "
                              f"the input of the {structure.upper()} environment's integrating plants grows without end, "
                              "and the closed-loop step identifies no model")
+        if experiment_set not in EXPERIMENT_SETS:
+            raise ValueError(f"experiment_set must be one of {', '.join(EXPERIMENT_SETS)}, got {experiment_set!r}")
+        types = None
+        if experiment_set == "design":
+            types = DESIGN_EXPERIMENTS[structure] + (("prbs",) if identification == "least-squares" else ())
         return cls(identification=identification, order=_ORDERS.get(structure, 1), amplitude_limit=limit,
-                   disturbances=found, production=bool(production), measured=bool(measured))
+                   disturbances=found, production=bool(production), measured=bool(measured), experiment_types=types)
 
 
 DEFAULT_OPTIONS = EpisodeOptions()

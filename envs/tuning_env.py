@@ -51,7 +51,7 @@ _FAMILY_KINDS: dict[str, bool] = {"stable": False, "fopdt": False, "sopdt": Fals
 
 __all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "MODES", "AMPLITUDE_RANGE"]
 
-MODES = ("fixed", "agent")
+MODES = ("fixed", "agent", "plan")
 AMPLITUDE_RANGE = (0.1, 10.0)  # relative experiment amplitude, log scale
 OBSERVATION_BOUND = 5.0
 MAX_SAMPLING_ATTEMPTS = 10
@@ -135,6 +135,7 @@ class DeadTimeTuningEnv(gym.Env):
         design_step: bool = False,
         violation_cost: str = "graded",
         measured_observation: bool = False,
+        experiment_set: str = "all",
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
@@ -170,18 +171,18 @@ class DeadTimeTuningEnv(gym.Env):
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
         self.options = EpisodeOptions.for_structure(
             self.structure, identification=identification, amplitude_limit=amplitude_limit, disturbances=disturbances,
-            production=self.weights.production > 0, measured=measured_observation,
+            production=self.weights.production > 0, measured=measured_observation, experiment_set=experiment_set,
         )  # fmt: skip
         self.render_mode = render_mode
         self._controller = None
         self.parameter_range = PARAMETER_RANGES[self.structure]
         evidence = Evidence.empty(self.integrating, self.options)
         self.experiment_names = evidence.experiments
-        self.design_step = design_step and self.mode == "agent"
+        self.design_step = (design_step and self.mode == "agent") or self.mode == "plan"
         self.feature_names = feature_names(evidence) + (DESIGN_FEATURES if design_features else ())
         self.feature_names += ("design_step",) if self.design_step else ()
         self._design_pending = False
-        size = 1 if self.mode == "fixed" else len(self.experiment_names) + 3
+        size = {"fixed": 1, "agent": len(self.experiment_names) + 3, "plan": 3}[self.mode]
         self.action_space = spaces.Box(-1.0, 1.0, shape=(size,), dtype=np.float32)
         bound = OBSERVATION_BOUND
         self.observation_space = spaces.Box(-bound, bound, shape=(len(self.feature_names),), dtype=np.float32)
@@ -317,6 +318,8 @@ class DeadTimeTuningEnv(gym.Env):
         action = np.clip(action, -1.0, 1.0)
         if self.mode == "fixed" and self.identification is None:  # the seeds' procedure failed on a given plant
             return self._no_design({"identified": False})
+        if self.mode == "plan" and not self._design_pending:
+            return self._plan(float(action[0]), float(action[1]))
         if self.mode == "agent" and not self._design_pending:
             choice = int(np.argmax(action[: len(self.experiment_names) + 1]))
             if choice > 0 and self.evidence.runs < self.budget:
@@ -343,6 +346,29 @@ class DeadTimeTuningEnv(gym.Env):
         self._design_pending = True
         observation, named = self._observation_and_features()
         return observation, 0.0, False, False, {"identified": True, "amplitude": amplitude, "features": named}
+
+    def _plan(self, first_action: float, second_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
+        """``experiments="plan"``: the seeds' two experiments at the plan's amplitudes (the closed-loop step,
+        then the open-loop step or the pulse), the identification completed and shown; the next step designs."""
+        first, second = self._amplitude(first_action), self._amplitude(second_action)
+        evidence = run_experiment(self.evidence, "closed-loop-step", self.plant, self.np_random, first, self.noise_std,
+                                  self.excursion_limit)
+        if evidence.closed_loop is not None:
+            kind = "pulse" if self.integrating else "open-loop-step"
+            evidence = run_experiment(evidence, kind, self.plant, self.np_random, second, self.noise_std, self.excursion_limit)
+        self.evidence = evidence
+        try:
+            self.identification, self.evidence = identification(
+                self.evidence, self.structure, self.plant, self.np_random, self.noise_std, amplitude=first
+            )
+        except IdentificationFailed as failure:
+            if not self.options.measured:
+                raise
+            self.evidence = failure.evidence
+            return self._no_design({"identified": False, "amplitudes": (first, second)})
+        self._design_pending = True
+        observation, named = self._observation_and_features()
+        return observation, 0.0, False, False, {"identified": True, "amplitudes": (first, second), "features": named}
 
     def _failed(self, failure: IdentificationFailed, amplitude: float | None) -> tuple[np.ndarray, float, bool, bool, dict]:
         """``measured_observation``: a commit whose identification failed is a failed experiment (charged,
@@ -524,6 +550,17 @@ _SHARED_DOC = """
     | n + 1     | amplitude ``a`` of the experiment, log scale over [0.1, 10] (unit output change) |
     | n + 2     | the design parameter, as in the fixed mode (read when committing)            |
 
+    ``experiments="plan"``: ``Box(-1, 1, (3,), float32)``: the first step reads the amplitudes of the
+    seeds' two experiments (index 0: the closed-loop step, 1: the open-loop step, or the pulse for
+    integrating plants; log scale over [0.1, 10] as above), runs both and shows the identification;
+    the second step designs from index 2, as in the fixed mode.  A plan of amplitudes (1, 1) is the
+    fixed mode's procedure, bit for bit.
+
+    With ``experiment_set="design"`` (v3) the agent mode's ``n`` experiment types are those the
+    structure's design or design features read (:data:`envs.episode_options.DESIGN_EXPERIMENTS`): PID
+    closed-loop step, open-loop step, relay; FPPI closed-loop step, open-loop step; MSP closed-loop
+    step, pulse.
+
     Actions outside [-1, 1] are clipped to it; a NaN or infinite action raises ``ValueError``.
 
     ## Observation Space
@@ -557,8 +594,8 @@ _SHARED_DOC = """
     Agent mode: nothing has run; the observation is zero.
 
     ## Episode End
-    Termination: the design is committed (fixed mode: the first step; agent mode: the commit
-    choice, or any step once ``budget`` experiments have run).  No truncation.  Committing with
+    Termination: the design is committed (fixed mode: the first step; plan mode: the second; agent
+    mode: the commit choice, or any step once ``budget`` experiments have run).  No truncation.  Committing with
     missing data runs the missing seed experiments first (charged).  With ``design_step=True``
     (v2) a commit only completes the identification, at the commit action's amplitude, and returns
     it (reward 0, the observation's last entry ``design_step`` = 1, the design features filled in);
@@ -571,7 +608,7 @@ _SHARED_DOC = """
     ## Arguments
     | argument          | default                     | meaning                                                  |
     |-------------------|-----------------------------|----------------------------------------------------------|
-    | `experiments`     | `"fixed"`                   | `"fixed"` or `"agent"`                                   |
+    | `experiments`     | `"fixed"`                   | `"fixed"`, `"agent"` or `"plan"` (Action Space)           |
     | `family`          | see class                   | plant family of :mod:`envs.systems.families`                     |
     | `family_config`   | `None`                      | the family's config dataclass (its parameter ranges)      |
     | `noise_std`       | `0.01`                      | measurement noise, relative to a unit output change       |
@@ -587,6 +624,7 @@ _SHARED_DOC = """
     | `design_step`     | `False` (v2: `True`)        | agent mode: the commit completes and shows the identification (at the commit's amplitude), and a separate last step designs (Episode End) |
     | `violation_cost`  | `"graded"` (v3: `"bounded"`) | how a violating design is charged (Rewards; :func:`envs.analysis.scoring.violation_cost`) |
     | `measured_observation` | `False` (v3: `True`)   | the noise level estimated from the records (never the configured `noise_std`), failed experiments observed, and a failed commit charged instead of raised (Observation Space, Episode End) |
+    | `experiment_set`  | `"all"` (v3: `"design"`)    | the agent mode's experiment types: all of the plant's kind, or those the design reads (Action Space) |
     | `disturbances`    | `None` (none)               | `{kind: level}` beyond the white noise, kinds `"drift"` (random walk, `level` per `sqrt(T_ar)`) and `"load"` (unmeasured input step during the experiment, `level` of output) (:mod:`envs.identification.disturbances`) |
 
     ## Info
@@ -618,8 +656,9 @@ _SHARED_DOC = """
       thousands near instability) and ``measured_observation=True`` (the noise ratio and the relay's
       hysteresis from the noise level estimated in the closed-loop step's record, not the configured
       one; the feature ``failed_experiments``; a commit that identifies nothing is a failed experiment,
-      never an exception).  Plants, the seeds' experiments and feasible costs are v2's (the relay's
-      hysteresis follows the estimate).
+      never an exception), and ``experiment_set="design"`` (agent mode offers only the experiments
+      the structure's design reads).  Plants, the seeds' experiments and feasible costs are v2's (the
+      relay's hysteresis follows the estimate).  The ``"plan"`` mode is new in every version.
 """
 
 

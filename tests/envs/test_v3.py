@@ -165,6 +165,8 @@ def test_a_commit_that_identifies_nothing_is_a_failed_experiment(amplitude):
             assert info["features"]["failed_experiments"] > 0
     assert failed > 0  # the case is exercised
     v2 = gym.make("DeadTime/MSP-v2", experiments="agent", noise_std=0.1)
+    action = np.full(v2.action_space.shape, -1.0, dtype=np.float32)
+    action[0], action[-2] = 1.0, _amplitude_action(amplitude)
     with pytest.raises(ValueError, match="no usable gain"):
         for seed in range(60):
             v2.reset(seed=seed)
@@ -192,3 +194,41 @@ def test_a_given_plant_whose_seeds_procedure_fails_ends_without_a_design():
     assert terminated and reward == -NO_DESIGN_COST and info["identified"] is False and info["experiment_time"] > 0
     with pytest.raises(ValueError, match="no usable model"):
         gym.make("DeadTime/MSP-v2", noise_std=0.1).reset(seed=16, options={"plant": plant})
+
+
+# ----------------------------------------------------------------------------- experiments and plans
+def test_v3_agent_mode_offers_the_experiments_the_design_reads():
+    from envs.episode_options import DESIGN_EXPERIMENTS
+
+    for structure in STRUCTURES:
+        env = gym.make(f"DeadTime/{structure}-v3", experiments="agent")
+        assert env.unwrapped.experiment_names == DESIGN_EXPERIMENTS[structure.lower()]
+        assert env.action_space.shape == (len(DESIGN_EXPERIMENTS[structure.lower()]) + 3,)
+
+
+@pytest.mark.parametrize("structure", STRUCTURES)
+@pytest.mark.parametrize("regime", [{"noise_std": 0.01}, {"noise_std": 0.1, "weights": {"production": 0.0}}])
+def test_the_plan_of_unit_amplitudes_is_the_fixed_procedure_bit_for_bit(structure, regime):
+    """Plan mode at amplitudes (1, 1), designing at the base rule (residual 0), gives the fixed mode's
+    episode at the base rule: the same experiments, noise, identification and cost."""
+    fixed = gym.make(f"DeadTime/{structure}-v3", **regime)
+    plan = gym.make(f"DeadTime/{structure}-v3", experiments="plan", **regime)
+    unit = _amplitude_action(1.0)
+    for seed in range(6):
+        fixed.reset(seed=seed)
+        _, expected, *_ = fixed.step(np.zeros(1, dtype=np.float32))
+        plan.reset(seed=seed)
+        observation, reward, terminated, _, info = plan.step(np.array([unit, unit, 0.9], dtype=np.float32))
+        assert (reward, terminated, observation[-1]) == (0.0, False, 1.0) and info["identified"]
+        _, reward, terminated, _, _ = plan.step(np.array([-1.0, -1.0, 0.0], dtype=np.float32))
+        assert terminated and reward == expected
+
+
+def test_a_plan_sets_each_experiment_amplitude():
+    env = gym.make("DeadTime/FPPI-v3", experiments="plan")
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([_amplitude_action(0.3), _amplitude_action(3.0), 0.0], dtype=np.float32))
+    first, second = env.unwrapped.evidence.closed_loop, env.unwrapped.evidence.results["open-loop-step"]
+    assert info["amplitudes"] == pytest.approx((0.3, 3.0))
+    assert first.amplitude == pytest.approx(0.3)
+    assert second.height * first.gain == pytest.approx(3.0)

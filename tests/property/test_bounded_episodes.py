@@ -91,14 +91,14 @@ def test_random_agents_are_bounded():
 
 
 def _v3_cases(episodes_per_case: int, seed0: int):
-    """v3, every id and mode, noise 1% to 20%, agent-mode amplitudes at both ends of the range."""
+    """v3, every id and mode, noise 1% to 20%, amplitudes at both ends of the range."""
     for structure in ("PID", "FPPI", "MSP"):
-        for mode in MODES:
+        for mode in (*MODES, "plan"):
             for noise_std in (0.01, 0.05, 0.2):
                 env = gym.make(f"DeadTime/{structure}-v3", experiments=mode, noise_std=noise_std)
                 rng = np.random.default_rng(seed0)
                 for k in range(episodes_per_case):
-                    ends = (-1.0, 1.0)[k % 2] if mode == "agent" else None
+                    ends = (-1.0, 1.0)[k % 2] if mode != "fixed" else None
                     _episode(env, rng, seed0 + k, amplitude=ends)
 
 
