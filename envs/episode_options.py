@@ -17,7 +17,11 @@ from dataclasses import dataclass, field
 from envs.identification.disturbances import Disturbances
 from envs.validation import require_number
 
-__all__ = ["IDENTIFICATIONS", "EXPERIMENT_SETS", "DESIGN_EXPERIMENTS", "EpisodeOptions", "DEFAULT_OPTIONS"]
+__all__ = ["AMPLITUDE_RANGE", "IDENTIFICATIONS", "EXPERIMENT_SETS", "DESIGN_EXPERIMENTS", "EpisodeOptions", "DEFAULT_OPTIONS"]
+
+AMPLITUDE_RANGE = (0.1, 10.0)
+"""The range of an agent-mode or plan-mode experiment amplitude (relative to a unit output change),
+which the action's component in [-1, 1] covers on a log scale."""
 
 IDENTIFICATIONS: tuple[str, ...] = ("seeds", "least-squares")
 """``identification`` values: the seeds' formulas (moments, areas), or the least-squares fit of

@@ -36,7 +36,7 @@ from envs.episode import (
     run_experiment,
     start_fixed,
 )
-from envs.episode_options import EpisodeOptions
+from envs.episode_options import AMPLITUDE_RANGE, EpisodeOptions
 from envs.systems.families import FAMILIES, sample_plant
 from envs.systems.plants import Plant, as_plant
 from envs.identification.procedure import Identification, ProcedureFailed
@@ -52,7 +52,6 @@ _FAMILY_KINDS: dict[str, bool] = {"stable": False, "fopdt": False, "sopdt": Fals
 __all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "MODES", "AMPLITUDE_RANGE"]
 
 MODES = ("fixed", "agent", "plan")
-AMPLITUDE_RANGE = (0.1, 10.0)  # relative experiment amplitude, log scale
 OBSERVATION_BOUND = 5.0
 MAX_SAMPLING_ATTEMPTS = 10
 NO_DESIGN_COST = FEASIBLE_CAP + 1 + VIOLATION_BAND

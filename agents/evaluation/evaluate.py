@@ -146,10 +146,18 @@ def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) 
         if trained_on is not None and trained_on != env_id:
             raise ValueError(f"agent {spec.path!r} was trained on {trained_on}, not {env_id}")
         kwargs = {**dict(getattr(policy, "env_kwargs", None) or {}), **scoring}
+        if spec.kind == "procedure" and spec.name == "plan-best":
+            from agents.evaluation.plan_search import best_plan
+
+            policy, _ = best_plan(env_id, kwargs)
         path = str(getattr(policy, "path", spec.path))
         stamp = os.path.getmtime(path) if os.path.exists(path) else 0.0
-        identity = f"agent|{os.path.abspath(path)}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
-        agents[name] = (policy, make_env(env_id, kwargs), identity)
+        source = f"procedure:{policy.name}" if spec.kind == "procedure" else os.path.abspath(path)
+        identity = f"agent|{source}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
+        env = make_env(env_id, kwargs)
+        if hasattr(policy, "bind"):  # a procedure that reads the observation by its feature names
+            policy.bind(env.unwrapped.feature_names, env.unwrapped.experiment_names)
+        agents[name] = (policy, env, identity)
         roles[name] = ROLES[spec.kind]
     return agents, roles
 
@@ -218,7 +226,7 @@ def evaluate(
     """
     import numpy as np
 
-    from agents.evaluation.policies import TRAINED, own_rules, parse_policies
+    from agents.evaluation.policies import PLAYED, own_rules, parse_policies
 
     if isinstance(n, bool) or int(n) != n or n <= 0:
         raise ValueError(f"--n must be a positive integer, got {n!r}")
@@ -240,7 +248,7 @@ def evaluate(
     scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **env_kwargs}
     if hasattr(unwrapped, "noise_std"):
         scoring["noise_std"] = unwrapped.noise_std
-    agents, agent_roles = _agents([s for s in specs if s.kind in TRAINED], env_id, scoring, {*rules, "oracle", "oracle-full"})
+    agents, agent_roles = _agents([s for s in specs if s.kind in PLAYED], env_id, scoring, {*rules, "oracle", "oracle-full"})
     given = None if plants is None else _given_plants(plants, structure)
     count = f"{n} test plants" if given is None else f"{len(given)} given plants"
     print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
@@ -251,12 +259,13 @@ def evaluate(
     results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, out, full, workers)
     means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
     best_rule = min(own, key=lambda name: (means[name], name))
-    shown = [s.name for s in specs if s.kind not in TRAINED] + list(agents)
+    shown = [s.name for s in specs if s.kind not in PLAYED] + list(agents)
     shown += [name for name in ("oracle", best_rule) if name not in shown]
     roles = _roles(shown, agent_roles, best_rule, listed_rules)
     subsets = _subset_statistics(plants, results, shown, best_rule, resamples, seed)
     elapsed = time.perf_counter() - started
     extra = {
+        **({"chosen_plan": agents["plan-best"][0].name} if "plan-best" in agents else {}),
         "family": family,
         "structure": structure,
         "plants": len(plants),

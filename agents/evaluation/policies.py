@@ -17,7 +17,12 @@ A policy is one of
 * a path to a learned rule (``PATH`` or ``NAME=PATH``: the run directory of a ``learned-rule`` fit, or
   its ``learned_rule.json``; :mod:`agents.training.learned_rule`), recognized by its files and loaded
   by ``agents.training.learned_rule_policy.load_learned_rule``.  It plays like an agent (one action
-  from the observation) and has the role ``learned rule`` in the tables.
+  from the observation) and has the role ``learned rule`` in the tables;
+* a procedure of :mod:`baselines.procedures`: ``plan-A1-A2`` (the seeds' two experiments at
+  amplitudes ``A1`` and ``A2`` for every plant, then the structure's base rule; ``plan-1-1`` is the
+  fixed procedure), ``plan-best`` (the plan of the least mean cost on the validation plants in the
+  evaluation's regime: :mod:`agents.evaluation.plan_search`) or ``amplitude-rule`` (Marlin's
+  signal-to-noise guideline from the measured noise).  It plays like an agent, in its own mode, and has the role ``procedure``.
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ import os
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["ROLES", "STRUCTURE_CONTROLLER", "TRAINED", "PolicySpec", "applicable_rules", "load_agent", "own_rules",
+__all__ = ["PLAYED", "ROLES", "STRUCTURE_CONTROLLER", "TRAINED", "PolicySpec", "applicable_rules", "load_agent", "own_rules",
            "parse_policies"]
 
 STRUCTURE_CONTROLLER = {"pid": "pid-series", "fppi": "fppi", "msp": "msp"}
@@ -38,14 +43,18 @@ _PLANT_KINDS = {"pid": ("stable", "both"), "fppi": ("stable", "both"), "msp": ("
 TRAINED = ("agent", "learned-rule")
 """The kinds of policy loaded from a path and played from the observation."""
 
-ROLES = {"agent": "agent", "learned-rule": "learned rule"}
-"""The role in the tables of each kind of :data:`TRAINED`."""
+PLAYED = (*TRAINED, "procedure")
+"""The kinds of policy that play episodes of their own (the others design on the fixed mode's
+identification)."""
+
+ROLES = {"agent": "agent", "learned-rule": "learned rule", "procedure": "procedure"}
+"""The role in the tables of each kind of :data:`PLAYED`."""
 
 
 @dataclass(frozen=True)
 class PolicySpec:
-    """One policy to evaluate: ``kind`` is ``"rule"``, ``"oracle"``, ``"oracle-full"``, ``"agent"`` or
-    ``"learned-rule"``."""
+    """One policy to evaluate: ``kind`` is ``"rule"``, ``"oracle"``, ``"oracle-full"``, ``"agent"``,
+    ``"learned-rule"`` or ``"procedure"``."""
 
     name: str
     kind: str
@@ -84,6 +93,7 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
         For an empty list or an unknown rule (the message names it).  Agent paths are checked
         when loaded (:func:`load_agent`).
     """
+    from baselines.procedures import is_procedure, procedure
     from baselines.rules.registry import RULES, get_rule
 
     items = [item.strip() for item in text.split(",")]
@@ -97,6 +107,9 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
             specs.append(PolicySpec(item, item))
         elif item in RULES:
             specs.append(PolicySpec(item, "rule"))
+        elif is_procedure(item):
+            procedure(item)  # raises: amplitudes out of range
+            specs.append(PolicySpec(item, "procedure"))
         elif "=" in item or os.sep in item or item.endswith(".zip") or os.path.exists(item):
             name, _, path = item.rpartition("=")
             if not path:
@@ -122,6 +135,10 @@ def load_agent(spec: PolicySpec) -> tuple[str, Any]:
     ValueError
         If the agent cannot be loaded (the message names the path).
     """
+    if spec.kind == "procedure":
+        from baselines.procedures import procedure
+
+        return spec.name, procedure(spec.name)
     if spec.kind == "learned-rule":
         from agents.training.learned_rule_policy import load_learned_rule
 
