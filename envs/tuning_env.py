@@ -135,6 +135,7 @@ class DeadTimeTuningEnv(gym.Env):
         violation_cost: str = "graded",
         measured_observation: bool = False,
         experiment_set: str = "all",
+        plan: Any = None,
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
@@ -146,6 +147,7 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"design_step must be true or false, got {design_step!r}")
         if not isinstance(measured_observation, bool):
             raise ValueError(f"measured_observation must be true or false, got {measured_observation!r}")
+        self.plan = self._plan_argument(plan, experiments)
         if violation_cost not in VIOLATION_COSTS:
             raise ValueError(f"violation_cost must be one of {', '.join(VIOLATION_COSTS)}, got {violation_cost!r}")
         self.action_coordinates = action
@@ -192,6 +194,21 @@ class DeadTimeTuningEnv(gym.Env):
         self._done = True
 
     # ------------------------------------------------------------------ configuration
+    def _plan_argument(self, plan: Any, experiments: str) -> tuple[float, float] | None:
+        """``plan``: None, or two amplitudes in :data:`AMPLITUDE_RANGE` for the fixed mode (cut to the
+        amplitude limit when run, as the plan mode's)."""
+        if plan is None:
+            return None
+        if experiments != "fixed":
+            raise ValueError(f"plan sets the fixed mode's experiments; experiments={experiments!r} chooses its own")
+        if isinstance(plan, (str, bytes)) or not hasattr(plan, "__len__") or len(plan) != 2:
+            raise ValueError(f"plan must be two amplitudes [closed-loop step, second experiment], got {plan!r}")
+        low, high = AMPLITUDE_RANGE
+        amplitudes = tuple(require_number(a, "plan amplitude", positive=True) for a in plan)
+        if not all(low <= a <= high for a in amplitudes):
+            raise ValueError(f"plan amplitudes must lie in [{low:g}, {high:g}], got {list(plan)!r}")
+        return amplitudes
+
     @classmethod
     def default_constraints(cls) -> Constraints:
         """``Ms <= 2`` and a delay margin of at least 0.2 times the true dead time (SPEC "Score")."""
@@ -293,7 +310,15 @@ class DeadTimeTuningEnv(gym.Env):
         self.plant = plant
         self._base = None
         self._design_pending = False
-        if self.mode == "fixed":
+        if self.mode == "fixed" and self.plan is not None:
+            self.evidence = Evidence.empty(self.integrating, self.options)
+            try:
+                self._run_plan(*(self.options.limited(a) for a in self.plan))
+            except IdentificationFailed as failure:
+                if not (given and self.options.measured):
+                    raise
+                self.identification, self.evidence = None, failure.evidence
+        elif self.mode == "fixed":
             try:
                 self.identification, self.evidence = start_fixed(plant, self.np_random, self.noise_std, self.options)
             except ProcedureFailed as failure:
@@ -347,19 +372,12 @@ class DeadTimeTuningEnv(gym.Env):
         return observation, 0.0, False, False, {"identified": True, "amplitude": amplitude, "features": named}
 
     def _plan(self, first_action: float, second_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
-        """``experiments="plan"``: the seeds' two experiments at the plan's amplitudes (the closed-loop step,
-        then the open-loop step or the pulse), the identification completed and shown; the next step designs."""
+        """``experiments="plan"``: the procedure's two experiments at the plan's amplitudes (the closed-loop
+        step, then the open-loop step or the pulse), the identification completed and shown; the next
+        step designs."""
         first, second = self._amplitude(first_action), self._amplitude(second_action)
-        evidence = run_experiment(self.evidence, "closed-loop-step", self.plant, self.np_random, first, self.noise_std,
-                                  self.excursion_limit)
-        if evidence.closed_loop is not None:
-            kind = "pulse" if self.integrating else "open-loop-step"
-            evidence = run_experiment(evidence, kind, self.plant, self.np_random, second, self.noise_std, self.excursion_limit)
-        self.evidence = evidence
         try:
-            self.identification, self.evidence = identification(
-                self.evidence, self.structure, self.plant, self.np_random, self.noise_std, amplitude=first
-            )
+            self._run_plan(first, second)
         except IdentificationFailed as failure:
             if not self.options.measured:
                 raise
@@ -368,6 +386,18 @@ class DeadTimeTuningEnv(gym.Env):
         self._design_pending = True
         observation, named = self._observation_and_features()
         return observation, 0.0, False, False, {"identified": True, "amplitudes": (first, second), "features": named}
+
+    def _run_plan(self, first: float, second: float) -> None:
+        """Run a plan on the episode's evidence and identify (raises :class:`IdentificationFailed`)."""
+        evidence = run_experiment(self.evidence, "closed-loop-step", self.plant, self.np_random, first, self.noise_std,
+                                  self.excursion_limit)
+        if evidence.closed_loop is not None:
+            kind = "pulse" if self.integrating else "open-loop-step"
+            evidence = run_experiment(evidence, kind, self.plant, self.np_random, second, self.noise_std, self.excursion_limit)
+        self.evidence = evidence
+        self.identification, self.evidence = identification(
+            self.evidence, self.structure, self.plant, self.np_random, self.noise_std, amplitude=first
+        )
 
     def _failed(self, failure: IdentificationFailed, amplitude: float | None) -> tuple[np.ndarray, float, bool, bool, dict]:
         """``measured_observation``: a commit whose identification failed is a failed experiment (charged,
@@ -623,6 +653,7 @@ _SHARED_DOC = """
     | `design_step`     | `False` (v2: `True`)        | agent mode: the commit completes and shows the identification (at the commit's amplitude), and a separate last step designs (Episode End) |
     | `violation_cost`  | `"graded"` (v3: `"bounded"`) | how a violating design is charged (Rewards; :func:`envs.analysis.scoring.violation_cost`) |
     | `measured_observation` | `False` (v3: `True`)   | the noise level estimated from the records (never the configured `noise_std`), failed experiments observed, and a failed commit charged instead of raised (Observation Space, Episode End) |
+    | `plan`            | `None`                      | fixed mode: run the closed-loop step and the second experiment at these two amplitudes, as the plan mode's first step does (None: the procedure at amplitude 1 of the earlier versions) |
     | `experiment_set`  | `"all"` (v3: `"design"`)    | the agent mode's experiment types: all of the plant's kind, or those the design reads (Action Space) |
     | `disturbances`    | `None` (none)               | `{kind: level}` beyond the white noise, kinds `"drift"` (random walk, `level` per `sqrt(T_ar)`) and `"load"` (unmeasured input step during the experiment, `level` of output) (:mod:`envs.identification.disturbances`) |
 

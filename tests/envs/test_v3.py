@@ -232,3 +232,26 @@ def test_a_plan_sets_each_experiment_amplitude():
     assert info["amplitudes"] == pytest.approx((0.3, 3.0))
     assert first.amplitude == pytest.approx(0.3)
     assert second.height * first.gain == pytest.approx(3.0)
+
+
+@pytest.mark.parametrize("structure", STRUCTURES)
+def test_the_fixed_mode_with_a_plan_is_the_plan_mode_with_that_first_step(structure):
+    regime = {"noise_std": 0.1}
+    fixed = gym.make(f"DeadTime/{structure}-v3", plan=(3.0, 0.1), **regime)
+    plan = gym.make(f"DeadTime/{structure}-v3", experiments="plan", **regime)
+    for seed in range(5):
+        first, _ = fixed.reset(seed=seed)
+        _, expected, *_ = fixed.step(np.array([0.3], dtype=np.float32))
+        plan.reset(seed=seed)
+        shown, *_ = plan.step(np.array([_amplitude_action(3.0), _amplitude_action(0.1), 0.0], dtype=np.float32))
+        _, reward, *_ = plan.step(np.array([0.0, 0.0, 0.3], dtype=np.float32))
+        assert reward == expected
+        np.testing.assert_array_equal(first, shown[:-1])  # the plan mode's observation adds the design-step flag
+
+
+def test_a_bad_plan_is_one_line():
+    for plan, message in (((1.0,), "two amplitudes"), ((1.0, 30.0), "must lie in"), ("11", "two amplitudes")):
+        with pytest.raises(ValueError, match=message):
+            gym.make("DeadTime/FPPI-v3", plan=plan)
+    with pytest.raises(ValueError, match="fixed mode"):
+        gym.make("DeadTime/FPPI-v3", experiments="agent", plan=(1.0, 1.0))
