@@ -5,7 +5,6 @@ Imported only when a sweep runs (Ray is an optional extra, ``pip install -e '.[s
 
 from __future__ import annotations
 
-import json
 import os
 import pickle
 import sys
@@ -18,7 +17,9 @@ from ray import tune
 
 from agents.runtime import THREAD_VARIABLES, git_commit, versions
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
-from agents.training.files import write_json, write_text
+from agents.sweeps.interrupts import TuneStop
+from agents.sweeps.resume import check_resumable, experiment_state_problem
+from agents.training.files import read_record, write_json, write_text
 
 __all__ = ["Progress", "run_sweep", "trial_function"]
 
@@ -78,6 +79,9 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
     started = time.perf_counter()
     out = out.resolve()
     _check_directory(sweep_file, out, resume)
+    if resume:
+        for note in check_resumable(sweep, out):
+            print(f"deadtime sweep: {note}", file=sys.stderr, flush=True)
     _connect(ray, address)
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "sweep.yaml", sweep_file.read_text())
@@ -98,7 +102,7 @@ def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, A
     import ray
 
     path = out / "sessions.json"
-    sessions = json.loads(path.read_text()) if path.is_file() else []
+    sessions = read_record(path, list) or []
     sessions.append({"finished": datetime.now(UTC).isoformat(timespec="seconds"), "resumed": resume,
                      "wall_time_s": round(seconds, 1), "cpus": ray.cluster_resources().get("CPU"),
                      "commit": git_commit(), "versions": versions()})
@@ -123,7 +127,7 @@ def trial_function(config: dict[str, Any]) -> None:
         callbacks = [TuneReporter(train_config.total_timesteps)]
     result = train(train_config, resume=True, command=f"deadtime sweep (trial {trial.name})", callbacks=callbacks)
     tune.report({"timesteps": result.num_timesteps, "best_cost": result.best_cost, "final_cost": result.final_cost,
-                 "finished": True})
+                 "finished": result.status == "finished"})
 
 
 class Progress(tune.Callback):
@@ -161,7 +165,13 @@ class Progress(tune.Callback):
 
 
 def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | None]:
-    """Run (or restore and finish) the Tune experiment; each trial's name with its error or None."""
+    """Run (or restore and finish) the Tune experiment; each trial's name with its error or None.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        After Ctrl-C has stopped the experiment (:class:`agents.sweeps.interrupts.TuneStop`).
+    """
     trials = sweep.trials()
     storage = out / "tune"
     tuner = _restored(storage) if resume else None
@@ -174,7 +184,10 @@ def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | N
         space = {"trial": tune.grid_search([t.to_dict() for t in trials]), "out": str(out)}
         tuner = tune.Tuner(_trainable(), param_space=space, run_config=run_config)
     os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's classic reporter, which verbose=0 silences
-    grid = tuner.fit()
+    with TuneStop() as stop:
+        grid = tuner.fit()
+    if stop.requested:
+        raise KeyboardInterrupt
     outcome: dict[str, str | None] = {}
     for result in grid:
         trial = result.config["trial"]
@@ -214,6 +227,11 @@ def _restored(storage: Path) -> Any:
     path = _latest_experiment(storage)
     if path is None or not tune.Tuner.can_restore(str(path)):
         return None
+    problem = experiment_state_problem(path)
+    if problem is not None:
+        print(f"deadtime sweep: cannot restore {path}: {problem}; running its trials again as a new Tune "
+              "experiment, each resuming its run directory", file=sys.stderr)
+        return None
     try:
         return tune.Tuner.restore(str(path), trainable=_trainable(), resume_unfinished=True, restart_errored=True)
     except (ImportError, AttributeError, pickle.UnpicklingError) as error:
@@ -231,11 +249,15 @@ def _error_line(error: BaseException | None) -> str:
 
 
 # ---------------------------------------------------------------------------- evaluation
-def _evaluate_task(env_id: str, policies: str, n: int, seed: int, resamples: int, directory: str, env_kwargs: dict) -> str:
+def _evaluate_task(env_id: str, policies: str, n: int, seed: int, resamples: int, directory: str,
+                   env_kwargs: dict) -> list[str]:
+    """One evaluation; the lines it would print on stderr (a Ray task's stderr stays in its log)."""
     from agents.evaluation.evaluate import evaluate
 
-    evaluate(env_id, policies, n, seed, Path(directory), resamples=resamples, plots=False, env_kwargs=env_kwargs)
-    return directory
+    lines: list[str] = []
+    evaluate(env_id, policies, n, seed, Path(directory), resamples=resamples, plots=False, env_kwargs=env_kwargs,
+             warn=lines.append)
+    return lines
 
 
 def _evaluate_all(ray: Any, sweep: SweepConfig, trials: list[Trial], out: Path) -> None:
@@ -249,8 +271,14 @@ def _evaluate_all(ray: Any, sweep: SweepConfig, trials: list[Trial], out: Path) 
     regime = dict(sweep.env_kwargs)
     pending = [task.remote(env, policies, evaluation.n, evaluation.seed, evaluation.resamples, str(directory), regime)
                for env, policies, directory in jobs]
+    directories = {ref: directory for ref, (_, _, directory) in zip(pending, jobs)}
     with tqdm(total=len(pending), desc="evaluations", unit="run", file=sys.stderr) as bar:
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
-            ray.get(done)
+            try:
+                lines = ray.get(done[0])
+            except ray.exceptions.RayTaskError as error:
+                raise ValueError(f"the evaluation into {directories[done[0]]} failed ({_error_line(error)})") from None
+            for line in lines:
+                bar.write(f"deadtime sweep: {line}", file=sys.stderr)
             bar.update(len(done))

@@ -15,11 +15,11 @@ import hashlib
 import json
 import os
 import secrets
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["DamagedFileError", "atomic_write", "file_digest", "read_record", "write_json", "write_text"]
+__all__ = ["DamagedFileError", "atomic_write", "atomic_write_all", "file_digest", "read_record", "write_json", "write_text"]
 
 
 class DamagedFileError(ValueError):
@@ -41,6 +41,26 @@ def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
         temporary.unlink(missing_ok=True)
         raise
     return path
+
+
+def atomic_write_all(writers: Mapping[Path, Callable[[IO[bytes]], None]]) -> list[Path]:
+    """Write every file of ``writers`` (path to ``write(file)``) to a temporary file, then move them all
+    into place: an error or an interruption while writing leaves every previous file as it was."""
+    temporaries: dict[Path, Path] = {}
+    try:
+        for path, write in writers.items():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            temporaries[path] = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+            with open(temporaries[path], "xb") as handle:
+                write(handle)
+                handle.flush()
+                os.fsync(handle.fileno())
+        for path, temporary in temporaries.items():
+            os.replace(temporary, path)
+    finally:
+        for temporary in temporaries.values():
+            temporary.unlink(missing_ok=True)
+    return list(writers)
 
 
 def write_text(path: str | Path, text: str) -> Path:
