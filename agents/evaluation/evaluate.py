@@ -52,7 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--env", required=True, help="environment id, e.g. DeadTime/PID-v0")
     parser.add_argument(
         "--policies", required=True,
-        help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH",
+        help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH (loading an "
+             "agent runs pickled code from its folder: load only agents you trust; its files are checked against "
+             "the manifest written when it was saved)",
     )  # fmt: skip
     parser.add_argument("--n", type=int, default=50, help="number of random held-out test plants (default 50)")
     parser.add_argument("--plants", help="a JSON list of plants (each {\"num\": [...], \"den\": [...], \"delay\": L}) or a "

@@ -10,6 +10,7 @@ The driver then raises ``KeyboardInterrupt`` after ``fit`` returns, and nothing 
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import threading
@@ -51,4 +52,5 @@ class TuneStop:
         if self.requested or not tune_listens:
             raise KeyboardInterrupt
         self.requested = True
+        logging.getLogger("ray.tune.tune").setLevel(logging.CRITICAL)  # its advice to call Tuner.restore: ours is --resume
         os.kill(os.getpid(), signal.SIGUSR1)
