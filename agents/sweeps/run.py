@@ -15,7 +15,8 @@ from typing import Any
 
 from ray import tune
 
-from agents.runtime import THREAD_VARIABLES, git_commit, versions
+from agents.runtime import git_commit, versions
+from agents.sweeps.cluster import connect
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
 from agents.sweeps.interrupts import TuneStop
 from agents.sweeps.resume import check_resumable, experiment_state_problem
@@ -37,41 +38,6 @@ def _check_directory(sweep_file: Path, out: Path, resume: bool) -> None:
         raise ValueError(f"{out} is not empty and holds no sweep.yaml; choose another --out")
 
 
-def _check_reachable(address: str) -> None:
-    """Refuse at once an address where nothing listens (``ray.init`` would retry for minutes)."""
-    import socket
-    from urllib.parse import urlsplit
-
-    if address in ("auto", "local"):
-        return
-    parts = urlsplit(address if "://" in address else f"//{address}")
-    try:
-        host, port = parts.hostname, parts.port
-    except ValueError:
-        host, port = None, None
-    if not host or port is None:
-        raise ValueError(f"--address {address}: expected HOST:PORT (or ray://HOST:PORT, or auto)")
-    try:
-        socket.create_connection((host, port), timeout=5.0).close()
-    except OSError as error:
-        raise ValueError(f"--address {address}: no Ray cluster answers at {host}:{port} ({error.strerror or error})") from None
-
-
-def _connect(ray: Any, address: str | None) -> None:
-    """Start a local Ray instance, or join the cluster at ``address``; one thread per task."""
-    options = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False,
-               "runtime_env": {"env_vars": dict.fromkeys(THREAD_VARIABLES, "1")}}
-    if ray.is_initialized():
-        return
-    if address:
-        _check_reachable(address)
-    try:
-        ray.init(address=address, **options) if address else ray.init(**options)
-    except Exception as error:  # ray raises ConnectionError, RuntimeError or its own errors
-        where = f"--address {address}" if address else "a local Ray instance"
-        raise ValueError(f"{where}: Ray could not start or connect ({type(error).__name__}: {str(error).splitlines()[0]})") from None
-
-
 def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str | None = None, resume: bool = False) -> dict[str, Any]:
     """Train every trial on Ray Tune, evaluate, and write the summary; returns ``summary.json``'s object."""
     import ray
@@ -82,7 +48,7 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
     if resume:
         for note in check_resumable(sweep, out):
             print(f"deadtime sweep: {note}", file=sys.stderr, flush=True)
-    _connect(ray, address)
+    connect(ray, address)
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "sweep.yaml", sweep_file.read_text())
     results = _train_all(sweep, out, resume)

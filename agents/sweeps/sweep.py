@@ -12,11 +12,12 @@ rules and the oracle once per environment, are evaluated on the held-out plants 
 evaluation of ``deadtime evaluate``, into ``DIR/eval/...``), and :mod:`agents.sweeps.summary` writes
 ``DIR/summary.{md,csv,json}`` and the plots.
 
-* **Where it runs.**  Without ``--address`` (or ``RAY_ADDRESS``) ``ray.init`` starts a local Ray
-  instance with one CPU per core.  With an address it joins that cluster: every node must have this
-  package installed (``pip install -e '.[sweep]'`` in the same path), and ``--out`` must be a
-  directory every node sees (a shared file system), because Tune's ``storage_path``, the run
-  directories and the evaluations all live in it.
+* **Where it runs.**  Without ``--address`` (or ``RAY_ADDRESS``) a new local Ray instance starts
+  with one CPU per core, never a cluster already running on the machine.  With an address it joins
+  that cluster, with Ray's token authentication where the cluster uses it
+  (:mod:`agents.sweeps.cluster`): every node must have this package installed (``pip install -e
+  '.[sweep]'`` in the same path), and ``--out`` must be a directory every node sees (a shared file
+  system), because Tune's ``storage_path``, the run directories and the evaluations all live in it.
 * **Interruptions.**  Training checkpoints are ``deadtime train``'s own (atomic; a trial always
   resumes its run directory), Tune's experiment state is in ``DIR/tune``.  Ctrl-C stops the trials
   (:mod:`agents.sweeps.interrupts`), writes no summary, prints the command that resumes, and exits
@@ -51,7 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime sweep``."""
     parser.add_argument("--config", required=True, help="a sweep file (sweeps/NAME.yaml)")
     parser.add_argument("--out", required=True, help="the sweep's directory (runs, evaluations, summary)")
-    parser.add_argument("--address", help="a Ray cluster's address (default: RAY_ADDRESS, else a local instance)")
+    parser.add_argument("--address", help="a Ray cluster's address (default: RAY_ADDRESS, else a new local instance); "
+                        "a token for its authentication is taken from ~/.ray/auth_token, RAY_AUTH_TOKEN or "
+                        "RAY_AUTH_TOKEN_PATH")
     parser.add_argument("--resume", action="store_true", help="finish an interrupted sweep in --out")
     parser.add_argument("--json", action="store_true", help="print summary.json")
 

@@ -87,7 +87,7 @@ def test_ctrl_c_exits_130_writes_nothing_final_and_says_how_to_resume(tmp_path: 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt  # as _train_all raises once Ctrl-C has stopped the Tune experiment
 
-    monkeypatch.setattr(sweep_run, "_connect", lambda ray, address: None)
+    monkeypatch.setattr(sweep_run, "connect", lambda ray, address: None)
     monkeypatch.setattr(sweep_run, "_train_all", interrupted)
     out = tmp_path / "out dir"
     status, printed, err = run("sweep", "--config", str(SMOKE), "--out", str(out))
