@@ -125,6 +125,11 @@ class Progress(tune.Callback):
         self._write(f"finished {name['label']} {name['env_id']} seed {name['seed']}: {result.get('timesteps')} "
                     f"steps, best validation cost {result.get('best_cost', float('nan')):.6g}")
 
+    def on_experiment_end(self, trials: list, **info: Any) -> None:
+        """Close the bar, so that the lines printed after the experiment come after it."""
+        if self.bar is not None:
+            self.bar.close()
+
     def on_trial_error(self, iteration: int, trials: list, trial: Any, **info: Any) -> None:
         name = trial.config["trial"]
         self._write(f"failed {name['label']} {name['env_id']} seed {name['seed']} (after its retries)")

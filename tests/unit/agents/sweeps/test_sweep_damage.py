@@ -164,3 +164,34 @@ def test_files_written_together_are_all_or_none(tmp_path: Path) -> None:
     assert (tmp_path / "a").read_text() == (tmp_path / "b").read_text() == "old"
     atomic_write_all({tmp_path / "a": lambda handle: handle.write(b"new"), tmp_path / "b": lambda handle: handle.write(b"new")})
     assert (tmp_path / "a").read_text() == (tmp_path / "b").read_text() == "new"
+
+
+def test_a_checkpoint_fallback_of_a_trial_is_said_on_the_terminal(started: Path) -> None:
+    """The line ``deadtime train`` prints in the trial's Ray worker, where the user never sees it, is
+    said by the driver before the sweep resumes."""
+    from agents.sweeps.config import load_sweep
+    from agents.sweeps.resume import check_resumable
+
+    run_dir = started / "runs" / TRIAL
+    _checkpoint(run_dir, 100)
+    directory = _checkpoint(run_dir, 200)
+    (directory / "state_200.pkl").write_bytes(b"truncated")
+    notes = check_resumable(load_sweep(SMOKE), started)
+    assert len(notes) == 1
+    assert notes[0].startswith(f"trial {TRIAL}: {directory / 'state_200.pkl'} is damaged: 9 bytes, ")
+    assert notes[0].endswith("resuming from checkpoint_100.json (100 steps) instead")
+
+
+def _checkpoint(run_dir: Path, steps: int) -> Path:
+    """A checkpoint of ``steps`` steps as ``save_checkpoint`` writes its manifests (stand-in file contents)."""
+    from agents.training.files import atomic_write, file_digest, write_json
+
+    directory = run_dir / "checkpoints"
+    manifest = {"format": 2, "num_timesteps": steps, "periodic_checkpoint": steps, "files": {}, "evaluations": []}
+    for role, suffix in (("model", "zip"), ("state", "pkl")):
+        path = atomic_write(directory / f"{role}_{steps}.{suffix}", lambda handle: handle.write(bytes(range(256))))
+        manifest[role] = path.name
+        manifest["files"][path.name] = {"bytes": path.stat().st_size, "sha256": file_digest(path)}
+    write_json(directory / f"checkpoint_{steps}.json", manifest)
+    write_json(directory / "latest.json", manifest)
+    return directory
