@@ -77,7 +77,7 @@ def test_garbage_lines_are_counted(tmp_path):
 
 
 def test_evaluate_recomputes_an_edited_cost_and_says_so(capsys, tmp_path):
-    """The audit's case: a cost edited from its value to 0.001 was used as it stood."""
+    """A cost edited in the file (to 0.001) is not used: the plant is scored again and the line said."""
     argv = ["evaluate", "--env", "DeadTime/FPPI-v0", "--n", "1", "--seed", "3", "--policies", "ppi-kappa1,oracle",
             "--no-benchmark", "--no-plots", "--json", "--out", str(tmp_path)]
     assert main(argv) == 0
