@@ -57,22 +57,22 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
         print(f"trial {name} failed: {error}", file=sys.stderr)
     trials = [trial for trial in sweep.trials() if trial.name not in failed]
     _evaluate_all(ray, sweep, trials, out)
-    sessions = _record_session(out, time.perf_counter() - started, resume)
+    sessions = _sessions(out, time.perf_counter() - started, resume)
     from agents.sweeps.summary import write_summary
 
-    return write_summary(sweep, trials, out, failed, sessions)
+    summary = write_summary(sweep, trials, out, failed, sessions)
+    write_json(out / "sessions.json", sessions)  # after the summary: a session that wrote none is not recorded
+    return summary
 
 
-def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, Any]]:
-    """Append this invocation (commit, versions, CPUs, wall time) to ``DIR/sessions.json``; return all."""
+def _sessions(out: Path, seconds: float, resume: bool) -> list[dict[str, Any]]:
+    """The invocations of ``DIR/sessions.json`` and this one (commit, versions, CPUs, wall time)."""
     import ray
 
-    path = out / "sessions.json"
-    sessions = read_record(path, list) or []
+    sessions = read_record(out / "sessions.json", list) or []
     sessions.append({"finished": datetime.now(UTC).isoformat(timespec="seconds"), "resumed": resume,
                      "wall_time_s": round(seconds, 1), "cpus": ray.cluster_resources().get("CPU"),
                      "commit": git_commit(), "versions": versions()})
-    write_json(path, sessions)
     return sessions
 
 
