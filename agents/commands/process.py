@@ -39,7 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--policies", default=DEFAULT_POLICIES,
                         help=f"comma-separated: rule names, all-rules (every rule for self-regulating plants), oracle (the PID's mu "
                         f"searched on the process), oracle-fppi (the FPPI's T_r), agent paths or NAME=PATH (default "
-                        f"{DEFAULT_POLICIES}); the commissioning controller is always the first row")
+                        f"{DEFAULT_POLICIES}); the commissioning controller is always the first row; loading an agent runs "
+                        "pickled code from its folder: load only agents you trust")
     parser.add_argument("--controller", help="the loop's existing controller, JSON {\"type\": \"pid\"|\"pid-series\", \"kp\", "
                         "\"ti\", ...} in the process's units (default: designed from a first open-loop step)")
     parser.add_argument("--operating-input", type=float, help="the input of the operating point (default: the process's)")

@@ -26,7 +26,8 @@ Writes into ``--out``: ``results.md``, ``results.csv``, ``results.json`` (also p
 rule's median- and largest-regret plants, and each agent's median-regret plant),
 ``responses_<plant>.png`` and ``nyquist_<plant>.png``.  Per-plant results are appended to
 ``cache.jsonl``, so an interrupted run resumes where it stopped; the key holds a hash of the source
-of ``envs`` and ``baselines``, so results of other code are recomputed, not reused.
+of ``envs`` and ``baselines``, so results of other code are recomputed, not reused, and each line a
+checksum, so a line edited or damaged is recomputed too (said in one line; :mod:`agents.evaluation.cache`).
 ``--workers N`` scores the rules and oracles in ``N`` processes (the oracle's search dominates; its
 time per plant is in the README's Performance section); results do not depend on it.
 """
@@ -37,6 +38,7 @@ import argparse
 import json
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -50,7 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--env", required=True, help="environment id, e.g. DeadTime/PID-v0")
     parser.add_argument(
         "--policies", required=True,
-        help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH",
+        help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH (loading an "
+             "agent runs pickled code from its folder: load only agents you trust; its files are checked against "
+             "the manifest written when it was saved)",
     )  # fmt: skip
     parser.add_argument("--n", type=int, default=50, help="number of random held-out test plants (default 50)")
     parser.add_argument("--plants", help="a JSON list of plants (each {\"num\": [...], \"den\": [...], \"delay\": L}) or a "
@@ -209,6 +213,7 @@ def evaluate(
     workers: int = 1,
     plants: list | None = None,
     env_kwargs: dict[str, Any] | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Evaluate ``policies`` on ``env_id``'s held-out plants and write the outputs into ``out``.
 
@@ -216,7 +221,9 @@ def evaluate(
     in any form :func:`envs.systems.plants.as_plant` takes, replaces the ``n`` random test plants.
     ``env_kwargs``, environment arguments (noise, weights, amplitude limit, ...), set the regime: the
     rules and oracles play the environment made with them, and every agent is scored in them (over
-    its own ``env_kwargs``); they are part of the cache key and of ``results.json``.
+    its own ``env_kwargs``); they are part of the cache key and of ``results.json``.  ``warn`` takes
+the one line that says which lines of ``cache.jsonl`` were dropped and recomputed (default: printed
+on stderr).
 
     Raises
     ------
@@ -256,7 +263,8 @@ def evaluate(
 
     out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)
-    results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, out, full, workers)
+    results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, out, full, workers,
+                                                 warn or _print_warning)
     means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
     best_rule = min(own, key=lambda name: (means[name], name))
     shown = [s.name for s in specs if s.kind not in PLAYED] + list(agents)
@@ -298,13 +306,14 @@ def _score_plants(
     out: Path,
     full: bool,
     workers: int,
+    warn: Callable[[str], None],
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], float]:
     """Every policy on every plant (with a progress bar): results, ``per_plant.csv`` rows, and the
     largest difference between the oracle's own cost and the environment's for its optimum.
     ``regime``, the evaluation's ``--env-kwargs``, is part of each plant's cache key.
 
     With ``workers > 1`` the rules and oracles run in that many processes first (into the cache);
-    the agents then run in this process.
+    the agents then run in this process.  ``warn`` gets the cache's :meth:`~agents.evaluation.cache.Cache.note`.
     """
     from tqdm import tqdm
 
@@ -338,7 +347,13 @@ def _score_plants(
             {**common, "policy": name, **r.to_dict(), "controller": json.dumps(r.controller), "error": r.error or ""}
             for name, r in found.items()
         ]
+    if cache.note() is not None:
+        warn(cache.note())
     return results, rows, mismatch
+
+
+def _print_warning(line: str) -> None:
+    print(f"deadtime evaluate: {line}", file=sys.stderr, flush=True)
 
 
 def _roles(shown: list[str], agents: dict[str, str], best_rule: str, listed_rules: list[str]) -> dict[str, str]:

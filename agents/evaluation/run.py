@@ -29,48 +29,18 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
+
+from agents.evaluation.cache import Cache
+from agents.evaluation.result import FAILURE_COST, PolicyResult
 
 __all__ = ["FAILURE_COST", "Cache", "PolicyResult", "evaluate_plant", "plant_key"]
 
 
-FAILURE_COST = 26.0
-"""The cost charged for a failure: that of an unstable loop (``FEASIBLE_CAP + 1 + UNSTABLE_GRADE``)."""
-
-
-@dataclass(frozen=True)
-class PolicyResult:
-    """The outcome of one policy on one plant.
-
-    ``controller`` is the controller's JSON (``None`` on failure); ``parameter`` the dimensionless
-    design parameter where the policy has one (``mu``, ``T_r/T_n`` or ``T_r/L_n``, as the agent's
-    and the oracle's), else ``None``; ``error`` the failure's message.
-    """
-
-    cost: float
-    feasible: bool
-    failure: bool
-    experiment_time: float
-    controller: dict[str, Any] | None = None
-    parameter: float | None = None
-    error: str | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> PolicyResult:
-        return cls(**data)
-
-    @classmethod
-    def failed(cls, error: Exception, experiment_time: float) -> PolicyResult:
-        return cls(FAILURE_COST, False, True, experiment_time, error=str(error))
-
-
-CACHE_VERSION = 2
-"""Bumped whenever a cached result would change meaning (2: dimensionless rule parameters)."""
+CACHE_VERSION = 3
+"""Bumped whenever a cached result would change meaning (2: dimensionless rule parameters; 3: lines
+carry a checksum, :mod:`agents.evaluation.cache`)."""
 
 
 _FINGERPRINT: list[str] = []
@@ -97,87 +67,6 @@ def plant_key(env_id: str, family: str, seed: int, position: int | str, plant_di
     episode seed, position in the set (index or name) and the plant itself."""
     text = json.dumps([CACHE_VERSION, code_fingerprint(), env_id, family, seed, position, plant_dict], sort_keys=True)
     return hashlib.sha1(text.encode()).hexdigest()
-
-
-class Cache:
-    """Per-plant, per-policy results appended to a JSON-lines file, read back on a rerun.
-
-    Several evaluations may share one file (two runs on one ``--out``): each append holds an
-    exclusive ``fcntl.flock`` on the file, reads first what the others appended since this cache
-    last read it, and skips a result that is already there, so every ``(key, policy)`` is written
-    once; a lookup that misses reads the others' new lines too, so a result computed by one run is
-    not recomputed by the other once it is on file.  A line cut short by an interruption is
-    skipped (and closed by the next append's newline).
-    """
-
-    def __init__(self, path: Path | None) -> None:
-        self.path = path
-        self.entries: dict[tuple[str, str], PolicyResult] = {}
-        self._on_file: set[tuple[str, str]] = set()
-        self._offset = 0  # bytes of the file read so far (whole lines only)
-        self._refresh()
-
-    def _refresh(self, file: Any = None) -> None:
-        """Read the whole lines appended to the file since the last read."""
-        if self.path is None:
-            return
-        if file is None:
-            if not self.path.is_file():
-                return
-            with self.path.open("rb") as handle:
-                handle.seek(self._offset)
-                data = handle.read()
-        else:
-            file.seek(self._offset)
-            data = file.read()
-        complete = data[: data.rfind(b"\n") + 1]
-        self._offset += len(complete)
-        for line in complete.decode("utf-8", errors="replace").splitlines():
-            try:
-                entry = json.loads(line)
-                found = (entry["key"], entry["policy"])
-                self.entries[found] = PolicyResult.from_dict(entry["result"])
-                self._on_file.add(found)
-            except (json.JSONDecodeError, KeyError, TypeError):
-                continue  # a line cut short by an interruption
-
-    def get(self, key: str, policy: str) -> PolicyResult | None:
-        found = self.entries.get((key, policy))
-        if found is None and self.path is not None:
-            self._refresh()
-            found = self.entries.get((key, policy))
-        return found
-
-    def put(self, key: str, policy: str, result: PolicyResult) -> None:
-        self.entries[(key, policy)] = result
-        if self.path is None:
-            return
-        line = json.dumps({"key": key, "policy": policy, "result": result.to_dict()}) + "\n"
-        with self.path.open("a+b") as file:
-            _lock(file)
-            self._refresh(file)
-            if (key, policy) in self._on_file:
-                return  # another run wrote it first
-            file.seek(0, 2)
-            end = file.tell()
-            if end > 0:
-                file.seek(end - 1)
-                if file.read(1) != b"\n":
-                    file.write(b"\n")  # close a line cut short by an interruption
-            file.write(line.encode())
-            file.flush()
-            self._offset = file.tell()
-            self._on_file.add((key, policy))
-            self.entries[(key, policy)] = result
-
-
-def _lock(file: Any) -> None:
-    """An exclusive lock on ``file`` until it is closed (``fcntl.flock``; none where there is no fcntl)."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not POSIX
-        return
-    fcntl.flock(file.fileno(), fcntl.LOCK_EX)
 
 
 def _finite(x: Any) -> float | None:

@@ -22,7 +22,8 @@ trained agent, and of the rules and the oracle once per environment, on the held
 The rules of ``configs/`` hold: ``yaml.safe_load`` into frozen dataclasses, an unknown key is an
 error that names it, paths are relative to the directory the command runs in.  Each training
 config is resolved and validated here (:func:`agents.training.config.validate`), with its overrides and the
-trial's seed, so that a bad config fails the sweep before any trial starts.
+trial's seed, and ``evaluation.policies`` parsed for each environment as ``deadtime evaluate`` would,
+so that a bad config or a misspelled policy fails the sweep before any trial starts.
 """
 
 from __future__ import annotations
@@ -236,4 +237,28 @@ def load_sweep(path: str | Path) -> SweepConfig:
             validate(trial.train_config(Path("unused")))
         except ValueError as error:
             raise ValueError(f"{path}, trial {trial.name}: {error}") from None
+    _check_policies(path, sweep)
     return sweep
+
+
+def _check_policies(path: Path, sweep: SweepConfig) -> None:
+    """``evaluation.policies`` as ``deadtime evaluate`` parses them for each environment's structure, and
+    with what the summary needs (the oracle and a rule), so that a misspelled policy fails the sweep
+    before any trial trains."""
+    from agents.environments import make_env
+    from agents.evaluation.policies import parse_policies
+
+    policies = sweep.evaluation.policies
+    for env_id in sweep.envs():
+        env = make_env(env_id, {"experiments": "fixed", **sweep.env_kwargs})
+        structure = env.unwrapped.structure
+        env.close()
+        try:
+            specs = parse_policies(",".join(policies), structure)
+        except ValueError as error:
+            raise ValueError(f"{path}: evaluation.policies: {error}") from None
+        if "oracle" not in policies:
+            raise ValueError(f"{path}: evaluation.policies must include 'oracle' (the normalized score needs it), "
+                             f"got {list(policies)}")
+        if not any(spec.kind == "rule" for spec in specs):
+            raise ValueError(f"{path}: evaluation.policies must include at least one rule of {env_id}, got {list(policies)}")

@@ -5,7 +5,6 @@ Imported only when a sweep runs (Ray is an optional extra, ``pip install -e '.[s
 
 from __future__ import annotations
 
-import json
 import os
 import pickle
 import sys
@@ -16,9 +15,12 @@ from typing import Any
 
 from ray import tune
 
-from agents.runtime import THREAD_VARIABLES, git_commit, versions
+from agents.runtime import git_commit, versions
+from agents.sweeps.cluster import connect
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
-from agents.training.files import write_json, write_text
+from agents.sweeps.interrupts import TuneStop
+from agents.sweeps.resume import check_resumable, experiment_state_problem
+from agents.training.files import read_record, write_json, write_text
 
 __all__ = ["Progress", "run_sweep", "trial_function"]
 
@@ -36,41 +38,6 @@ def _check_directory(sweep_file: Path, out: Path, resume: bool) -> None:
         raise ValueError(f"{out} is not empty and holds no sweep.yaml; choose another --out")
 
 
-def _check_reachable(address: str) -> None:
-    """Refuse at once an address where nothing listens (``ray.init`` would retry for minutes)."""
-    import socket
-    from urllib.parse import urlsplit
-
-    if address in ("auto", "local"):
-        return
-    parts = urlsplit(address if "://" in address else f"//{address}")
-    try:
-        host, port = parts.hostname, parts.port
-    except ValueError:
-        host, port = None, None
-    if not host or port is None:
-        raise ValueError(f"--address {address}: expected HOST:PORT (or ray://HOST:PORT, or auto)")
-    try:
-        socket.create_connection((host, port), timeout=5.0).close()
-    except OSError as error:
-        raise ValueError(f"--address {address}: no Ray cluster answers at {host}:{port} ({error.strerror or error})") from None
-
-
-def _connect(ray: Any, address: str | None) -> None:
-    """Start a local Ray instance, or join the cluster at ``address``; one thread per task."""
-    options = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False,
-               "runtime_env": {"env_vars": dict.fromkeys(THREAD_VARIABLES, "1")}}
-    if ray.is_initialized():
-        return
-    if address:
-        _check_reachable(address)
-    try:
-        ray.init(address=address, **options) if address else ray.init(**options)
-    except Exception as error:  # ray raises ConnectionError, RuntimeError or its own errors
-        where = f"--address {address}" if address else "a local Ray instance"
-        raise ValueError(f"{where}: Ray could not start or connect ({type(error).__name__}: {str(error).splitlines()[0]})") from None
-
-
 def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str | None = None, resume: bool = False) -> dict[str, Any]:
     """Train every trial on Ray Tune, evaluate, and write the summary; returns ``summary.json``'s object."""
     import ray
@@ -78,7 +45,10 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
     started = time.perf_counter()
     out = out.resolve()
     _check_directory(sweep_file, out, resume)
-    _connect(ray, address)
+    if resume:
+        for note in check_resumable(sweep, out):
+            print(f"deadtime sweep: {note}", file=sys.stderr, flush=True)
+    connect(ray, address)
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "sweep.yaml", sweep_file.read_text())
     results = _train_all(sweep, out, resume)
@@ -87,22 +57,22 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
         print(f"trial {name} failed: {error}", file=sys.stderr)
     trials = [trial for trial in sweep.trials() if trial.name not in failed]
     _evaluate_all(ray, sweep, trials, out)
-    sessions = _record_session(out, time.perf_counter() - started, resume)
+    sessions = _sessions(out, time.perf_counter() - started, resume)
     from agents.sweeps.summary import write_summary
 
-    return write_summary(sweep, trials, out, failed, sessions)
+    summary = write_summary(sweep, trials, out, failed, sessions)
+    write_json(out / "sessions.json", sessions)  # after the summary: a session that wrote none is not recorded
+    return summary
 
 
-def _record_session(out: Path, seconds: float, resume: bool) -> list[dict[str, Any]]:
-    """Append this invocation (commit, versions, CPUs, wall time) to ``DIR/sessions.json``; return all."""
+def _sessions(out: Path, seconds: float, resume: bool) -> list[dict[str, Any]]:
+    """The invocations of ``DIR/sessions.json`` and this one (commit, versions, CPUs, wall time)."""
     import ray
 
-    path = out / "sessions.json"
-    sessions = json.loads(path.read_text()) if path.is_file() else []
+    sessions = read_record(out / "sessions.json", list) or []
     sessions.append({"finished": datetime.now(UTC).isoformat(timespec="seconds"), "resumed": resume,
                      "wall_time_s": round(seconds, 1), "cpus": ray.cluster_resources().get("CPU"),
                      "commit": git_commit(), "versions": versions()})
-    write_json(path, sessions)
     return sessions
 
 
@@ -123,7 +93,7 @@ def trial_function(config: dict[str, Any]) -> None:
         callbacks = [TuneReporter(train_config.total_timesteps)]
     result = train(train_config, resume=True, command=f"deadtime sweep (trial {trial.name})", callbacks=callbacks)
     tune.report({"timesteps": result.num_timesteps, "best_cost": result.best_cost, "final_cost": result.final_cost,
-                 "finished": True})
+                 "finished": result.status == "finished"})
 
 
 class Progress(tune.Callback):
@@ -155,13 +125,24 @@ class Progress(tune.Callback):
         self._write(f"finished {name['label']} {name['env_id']} seed {name['seed']}: {result.get('timesteps')} "
                     f"steps, best validation cost {result.get('best_cost', float('nan')):.6g}")
 
+    def on_experiment_end(self, trials: list, **info: Any) -> None:
+        """Close the bar, so that the lines printed after the experiment come after it."""
+        if self.bar is not None:
+            self.bar.close()
+
     def on_trial_error(self, iteration: int, trials: list, trial: Any, **info: Any) -> None:
         name = trial.config["trial"]
         self._write(f"failed {name['label']} {name['env_id']} seed {name['seed']} (after its retries)")
 
 
 def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | None]:
-    """Run (or restore and finish) the Tune experiment; each trial's name with its error or None."""
+    """Run (or restore and finish) the Tune experiment; each trial's name with its error or None.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        After Ctrl-C has stopped the experiment (:class:`agents.sweeps.interrupts.TuneStop`).
+    """
     trials = sweep.trials()
     storage = out / "tune"
     tuner = _restored(storage) if resume else None
@@ -174,7 +155,10 @@ def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | N
         space = {"trial": tune.grid_search([t.to_dict() for t in trials]), "out": str(out)}
         tuner = tune.Tuner(_trainable(), param_space=space, run_config=run_config)
     os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's classic reporter, which verbose=0 silences
-    grid = tuner.fit()
+    with TuneStop() as stop:
+        grid = tuner.fit()
+    if stop.requested:
+        raise KeyboardInterrupt
     outcome: dict[str, str | None] = {}
     for result in grid:
         trial = result.config["trial"]
@@ -214,6 +198,11 @@ def _restored(storage: Path) -> Any:
     path = _latest_experiment(storage)
     if path is None or not tune.Tuner.can_restore(str(path)):
         return None
+    problem = experiment_state_problem(path)
+    if problem is not None:
+        print(f"deadtime sweep: cannot restore {path}: {problem}; running its trials again as a new Tune "
+              "experiment, each resuming its run directory", file=sys.stderr)
+        return None
     try:
         return tune.Tuner.restore(str(path), trainable=_trainable(), resume_unfinished=True, restart_errored=True)
     except (ImportError, AttributeError, pickle.UnpicklingError) as error:
@@ -231,11 +220,15 @@ def _error_line(error: BaseException | None) -> str:
 
 
 # ---------------------------------------------------------------------------- evaluation
-def _evaluate_task(env_id: str, policies: str, n: int, seed: int, resamples: int, directory: str, env_kwargs: dict) -> str:
+def _evaluate_task(env_id: str, policies: str, n: int, seed: int, resamples: int, directory: str,
+                   env_kwargs: dict) -> list[str]:
+    """One evaluation; the lines it would print on stderr (a Ray task's stderr stays in its log)."""
     from agents.evaluation.evaluate import evaluate
 
-    evaluate(env_id, policies, n, seed, Path(directory), resamples=resamples, plots=False, env_kwargs=env_kwargs)
-    return directory
+    lines: list[str] = []
+    evaluate(env_id, policies, n, seed, Path(directory), resamples=resamples, plots=False, env_kwargs=env_kwargs,
+             warn=lines.append)
+    return lines
 
 
 def _evaluate_all(ray: Any, sweep: SweepConfig, trials: list[Trial], out: Path) -> None:
@@ -249,8 +242,14 @@ def _evaluate_all(ray: Any, sweep: SweepConfig, trials: list[Trial], out: Path) 
     regime = dict(sweep.env_kwargs)
     pending = [task.remote(env, policies, evaluation.n, evaluation.seed, evaluation.resamples, str(directory), regime)
                for env, policies, directory in jobs]
+    directories = {ref: directory for ref, (_, _, directory) in zip(pending, jobs)}
     with tqdm(total=len(pending), desc="evaluations", unit="run", file=sys.stderr) as bar:
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
-            ray.get(done)
+            try:
+                lines = ray.get(done[0])
+            except ray.exceptions.RayTaskError as error:
+                raise ValueError(f"the evaluation into {directories[done[0]]} failed ({_error_line(error)})") from None
+            for line in lines:
+                bar.write(f"deadtime sweep: {line}", file=sys.stderr)
             bar.update(len(done))

@@ -25,7 +25,10 @@ and the oracle; ``summary.json`` and ``summary.csv`` hold every rule.
 from __future__ import annotations
 
 import csv
+import functools
+import io
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +37,7 @@ import numpy as np
 from agents.evaluation.policies import ROLES, TRAINED
 from agents.evaluation.seed_statistics import SeedStatistics, seed_statistics
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
-from agents.training.files import write_json, write_text
+from agents.training.files import atomic_write_all
 
 __all__ = ["per_plant_costs", "write_summary"]
 
@@ -48,8 +51,16 @@ def per_plant_costs(directory: Path) -> dict[str, dict[tuple, float]]:
         raise ValueError(f"{path}: missing (the evaluation did not finish; run the sweep again with --resume)")
     costs: dict[str, dict[tuple, float]] = {}
     with path.open(newline="") as file:
-        for row in csv.DictReader(file):
-            costs.setdefault(row["policy"], {})[(int(row["index"]), row["plant"], int(row["seed"]))] = float(row["cost"])
+        for line, row in enumerate(csv.DictReader(file), start=2):
+            try:
+                cost = float(row["cost"])
+                where = (int(row["index"]), row["plant"], int(row["seed"]))
+            except (KeyError, TypeError, ValueError):
+                cost, where = math.nan, None
+            if where is None or not math.isfinite(cost):
+                raise ValueError(f"{path}, line {line}: not a finite cost of a plant ({row.get('cost')!r}); delete the "
+                                 "file and run the sweep again with --resume to evaluate again")
+            costs.setdefault(row["policy"], {})[where] = cost
     return costs
 
 
@@ -183,24 +194,26 @@ def _markdown(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _csv(summary: dict[str, Any], path: Path) -> None:
-    with path.open("w", newline="") as file:
-        writer = csv.writer(file)
-        writer.writerow(["env", "policy", "kind", "seeds", "mean_cost", "mean_cost_lo", "mean_cost_hi", "iqm_cost",
-                         "iqm_cost_lo", "iqm_cost_hi", "violation_rate", "normalized_iqm", "optimality_gap",
-                         "prob_improvement_best_rule", "diff_to_best_rule", "diff_lo", "diff_hi"])
-        for env in summary["envs"]:
-            for row in env["policies"]:
-                ci = row["ci95"] or {}
-                writer.writerow([env["env"], row["name"], row["kind"], row["seeds"], row["mean_cost"],
-                                 *(ci.get("mean_cost") or ["", ""]), row["iqm_cost"], *(ci.get("iqm_cost") or ["", ""]),
-                                 row["violation_rate"], row["normalized_iqm"], row["optimality_gap"],
-                                 row["prob_improvement"].get(env["best_rule"], ""),
-                                 *["" if v is None else v for v in row["diff_to_best_rule"]]])
+def _csv(summary: dict[str, Any]) -> str:
+    file = io.StringIO(newline="")
+    writer = csv.writer(file)
+    writer.writerow(["env", "policy", "kind", "seeds", "mean_cost", "mean_cost_lo", "mean_cost_hi", "iqm_cost",
+                     "iqm_cost_lo", "iqm_cost_hi", "violation_rate", "normalized_iqm", "optimality_gap",
+                     "prob_improvement_best_rule", "diff_to_best_rule", "diff_lo", "diff_hi"])
+    for env in summary["envs"]:
+        for row in env["policies"]:
+            ci = row["ci95"] or {}
+            writer.writerow([env["env"], row["name"], row["kind"], row["seeds"], row["mean_cost"],
+                             *(ci.get("mean_cost") or ["", ""]), row["iqm_cost"], *(ci.get("iqm_cost") or ["", ""]),
+                             row["violation_rate"], row["normalized_iqm"], row["optimality_gap"],
+                             row["prob_improvement"].get(env["best_rule"], ""),
+                             *["" if v is None else v for v in row["diff_to_best_rule"]]])
+    return file.getvalue()
 
 
-def _plots(summary: dict[str, Any], curves: dict[str, dict[str, Any]], profiles: list[dict[str, np.ndarray]], out: Path) -> None:
-    """``learning_curves.png`` (median and quartiles over seeds) and ``performance_profiles.png``."""
+def _plots(summary: dict[str, Any], curves: dict[str, dict[str, Any]], profiles: list[dict[str, np.ndarray]]) -> dict[str, Any]:
+    """The figures ``learning_curves.png`` (median and quartiles over seeds) and ``performance_profiles.png``,
+    by file name."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -209,7 +222,7 @@ def _plots(summary: dict[str, Any], curves: dict[str, dict[str, Any]], profiles:
     from agents.evaluation.seed_statistics import performance_profile
 
     envs = summary["envs"]
-    figure, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 3.6), squeeze=False)
+    curves_figure, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 3.6), squeeze=False)
     for axis, env in zip(axes[0], envs):
         for key, curve in curves.items():
             if key.endswith("/" + env["env"]) and curve["steps"]:
@@ -218,12 +231,10 @@ def _plots(summary: dict[str, Any], curves: dict[str, dict[str, Any]], profiles:
                                   label="quartiles over seeds")
         axis.set(title=env["env"], xlabel="environment steps", ylabel="validation mean cost")
         axis.legend(fontsize=7)
-    figure.tight_layout()
-    figure.savefig(out / "learning_curves.png", dpi=120)
-    plt.close(figure)
+    curves_figure.tight_layout()
 
     taus = np.linspace(0.0, 1.0, 101)
-    figure, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 3.6), squeeze=False)
+    profiles_figure, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 3.6), squeeze=False)
     for axis, env, scores in zip(axes[0], envs, profiles):
         for name, values in scores.items():
             style = "--" if name == env["best_rule"] else "-"
@@ -231,14 +242,14 @@ def _plots(summary: dict[str, Any], curves: dict[str, dict[str, Any]], profiles:
         axis.set(title=env["env"], xlabel="normalized score tau (oracle cost / cost)",
                  ylabel="fraction of runs with score >= tau", ylim=(0, 1.02))
         axis.legend(fontsize=7)
-    figure.tight_layout()
-    figure.savefig(out / "performance_profiles.png", dpi=120)
-    plt.close(figure)
+    profiles_figure.tight_layout()
+    return {"learning_curves.png": curves_figure, "performance_profiles.png": profiles_figure}
 
 
 def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: dict[str, str],
                   sessions: list[dict[str, Any]] = ()) -> dict[str, Any]:
-    """Aggregate the evaluations in ``out`` and write ``summary.{md,csv,json}`` and the plots.
+    """Aggregate the evaluations in ``out`` and write ``summary.{md,csv,json}`` and the plots, all or none
+(everything is computed first, then written to temporary files moved into place together).
 
     ``sessions`` (the invocations of the sweep, :mod:`agents.sweeps.run`) give the wall time.
     """
@@ -248,9 +259,21 @@ def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: di
                "sessions": list(sessions), "wall_time_s": round(sum(s["wall_time_s"] for s in sessions), 1)}
     summary = _json_ready(summary)
     curves = learning_curves(trials, out)
-    write_json(out / "summary.json", {**summary, "learning_curves": curves})
-    write_text(out / "summary.md", _markdown(summary))
-    _csv(summary, out / "summary.csv")
-    _plots(summary, curves, [profile for _, profile in entries], out)
+    texts = {"summary.json": json.dumps({**summary, "learning_curves": curves}, indent=2) + "\n",
+             "summary.md": _markdown(summary), "summary.csv": _csv(summary)}
+    figures = _plots(summary, curves, [profile for _, profile in entries])
+    writers = {out / name: functools.partial(_write_bytes, text.encode()) for name, text in texts.items()}
+    writers.update({out / name: functools.partial(figure.savefig, format="png", dpi=120) for name, figure in figures.items()})
+    try:
+        atomic_write_all(writers)
+    finally:
+        import matplotlib.pyplot as plt
+
+        for figure in figures.values():
+            plt.close(figure)
     return summary
+
+
+def _write_bytes(data: bytes, handle: Any) -> None:
+    handle.write(data)
 

@@ -50,12 +50,17 @@ def save_model(model: Any, path: str | Path, vecnormalize: Any = None) -> Path:
     """Save ``model`` to ``path`` (a ``.zip``) atomically, and the ``VecNormalize`` statistics beside it.
 
     The statistics go to ``<stem>.vecnormalize.pkl`` (see :func:`agents.training.policies.load_policy`), written
-    before the model, whose ``deadtime_vecnormalize`` attribute says that they are needed.
+    before the model, whose ``deadtime_vecnormalize`` attribute says that they are needed; then the
+    manifest ``<stem>.manifest.json`` records both (:mod:`agents.training.manifest`).
     """
+    from agents.training.manifest import write_manifest
+
     path = Path(path)
+    files = []
     if vecnormalize is not None:
-        atomic_write(path.with_suffix(".vecnormalize.pkl"), lambda handle: pickle.dump(vecnormalize, handle))
-    atomic_write(path, model.save)
+        files.append(atomic_write(path.with_suffix(".vecnormalize.pkl"), lambda handle: pickle.dump(vecnormalize, handle)))
+    files.insert(0, atomic_write(path, model.save))
+    write_manifest(path, files)
     return path
 
 

@@ -39,7 +39,7 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-from agents.training.files import atomic_write, file_digest, write_json
+from agents.training.files import DamagedFileError, atomic_write, file_digest, write_json
 
 __all__ = [
     "CHECKPOINT_INDEX",
@@ -62,10 +62,6 @@ _STEPS = re.compile(r"(model|replay_buffer|vecnormalize|state|checkpoint)_(\d+)\
 # What a damaged or foreign file raises when loaded (pickle, zip, torch, numpy, SB3's own checks).
 LOAD_ERRORS = (pickle.UnpicklingError, EOFError, zipfile.BadZipFile, ValueError, KeyError, OSError,
                AttributeError, TypeError, RuntimeError, IndexError, ImportError)
-
-
-class DamagedFileError(ValueError):
-    """A file of a run that is missing, truncated or unreadable; the message names it."""
 
 
 # ----------------------------------------------------------------------------------- environments

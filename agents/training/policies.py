@@ -13,6 +13,12 @@ saved by ``deadtime train`` records ``deadtime_vecnormalize`` in its ``data``, a
 ``config.yaml`` says ``normalize``; either makes a missing statistics file an error that names it.
 (A model saved elsewhere, without either, is loaded as it is.)  A damaged statistics file is an error
 naming it too.
+
+Loading an agent runs code from its folder: stable-baselines3 unpickles objects stored in the
+model's ``.zip``, and the statistics are a pickle.  Load only agents from folders you trust.  Before
+anything is unpickled, the model and its statistics are checked against the manifest written when
+they were saved (``<stem>.manifest.json``, or a checkpoint's ``checkpoint_<N>.json``;
+:mod:`agents.training.manifest`): a file damaged or replaced since is refused in one line naming it.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from agents.training.config import ALGORITHMS, TrainConfig, load_config
+from agents.training.manifest import verify_agent_files
 
 __all__ = ["LoadedPolicy", "load_policy", "resolve_model_path"]
 
@@ -157,17 +164,22 @@ def _load_statistics(model_path: Path, required: bool) -> Any:
 def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
     """Load a saved agent from a run directory or a model ``.zip``, with its normalization statistics.
 
+    Loading runs pickled code from the model's folder (the module docstring says which files); they
+    are first checked against the manifest written when they were saved.
+
     Raises
     ------
     ValueError
-        If there is no model at ``path``, no stable-baselines3 algorithm can load it, or its
-        statistics are required (the model or the run's config says so) but missing or damaged.
+        If there is no model at ``path``, no stable-baselines3 algorithm can load it, its files differ
+        from their manifest, or its statistics are required (the model or the run's config says so)
+        but missing or damaged.
     """
     model_path = resolve_model_path(path)  # a missing or unreadable file is named before torch is imported
     run_dir = model_path.parent.parent if model_path.parent.name == "checkpoints" else model_path.parent
     config_path = run_dir / "config.yaml"
     config = load_config(config_path) if config_path.is_file() else None
     required = _saved_with_statistics(model_path) or (config is not None and config.normalize)
+    verify_agent_files(model_path, _statistics_path(model_path))  # before anything of the folder is unpickled
     normalization = _load_statistics(model_path, required)
     import stable_baselines3
 

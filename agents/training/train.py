@@ -378,10 +378,13 @@ def _existing_run(config: TrainConfig, run_dir: Path, resume: bool) -> Checkpoin
     """Check (reading only) that the run directory fits the request; the checkpoint to resume from, if any."""
     from agents.training.checkpoints import find_checkpoint
 
+    from agents.training.files import read_record
+
     saved_config = run_dir / "config.yaml"
     checkpoint = None
     if resume and saved_config.is_file():
         _check_resumable(load_config(saved_config), config, run_dir)
+        read_record(run_dir / "run.json", dict)  # rewritten when the session ends: a damaged one is named now
         checkpoint, note = find_checkpoint(run_dir)
         if note:
             print(f"deadtime train: {note}", file=sys.stderr)
@@ -484,12 +487,14 @@ def _close(venv: Any) -> None:
 
 def _finished(run_dir: Path, config: TrainConfig) -> TrainResult | None:
     """The result of a run that already reached ``config.total_timesteps``, or None."""
+    from agents.training.files import read_record
+
+    record = read_record(run_dir / "run.json", dict)
     try:
-        record = json.loads((run_dir / "run.json").read_text())
         evaluations = json.loads((run_dir / "evaluations.json").read_text())
     except (OSError, ValueError):
         return None
-    if record.get("status") != "finished" or record.get("num_timesteps", 0) < config.total_timesteps:
+    if record is None or record.get("status") != "finished" or record.get("num_timesteps", 0) < config.total_timesteps:
         return None
     return TrainResult(run_dir=run_dir, num_timesteps=int(record["num_timesteps"]), session_steps=0, train_seconds=0.0,
                        steps_per_second=float("nan"),
@@ -500,10 +505,10 @@ def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str,
                     num_timesteps: int, start_steps: int, train_seconds: float, cpu_seconds: float,
                     resumed: bool) -> None:
     """Record the run; ``cpu_seconds`` is the training process's own (not its subprocess workers')."""
-    from agents.training.files import write_json
+    from agents.training.files import read_record, write_json
 
     path = run_dir / "run.json"
-    previous = json.loads(path.read_text()) if path.is_file() else {}
+    previous = read_record(path, dict) or {}
     segment = {"command": provenance["command"], "commit": provenance["commit"], "started": provenance["started"],
                "status": status, "resumed": resumed, "from_timesteps": start_steps,
                "num_timesteps": num_timesteps, "train_seconds": round(train_seconds, 3),

@@ -37,7 +37,7 @@ def test_two_runs_on_one_file_write_each_line_once(tmp_path):
     assert Cache(path).entries == {(k, p): PolicyResult(float(len(k) + len(p)), True, False, 1.0) for k, p in ENTRIES}
 
 
-def test_a_line_cut_short_is_skipped_and_closed_by_the_next_append(tmp_path):
+def test_a_line_cut_short_is_skipped_and_cut_off_by_the_next_append(tmp_path):
     path = tmp_path / "cache.jsonl"
     path.write_text('{"key": "a", "policy": "p", "result": {"cost": 1.0, "feas')
     cache = Cache(path)

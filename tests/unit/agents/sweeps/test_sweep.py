@@ -141,16 +141,25 @@ def test_smoke_sweep_equals_the_runs_done_one_by_one(smoke: Path, tmp_path: Path
 
 
 @pytest.mark.slow
-def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGINT], ids=["SIGKILL", "Ctrl-C"])
+def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path, how: signal.Signals) -> None:
+    """SIGKILL of the driver and the local Ray instance it started, or Ctrl-C (SIGINT to the process
+    group, as a terminal sends it): exit status 130, one line saying how to resume, no summary."""
     out = tmp_path / "killed"
     driver = subprocess.Popen(_sweep_command(out), cwd=REPO, env=_environment(), stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL, start_new_session=True)
+                              stderr=subprocess.PIPE, text=True, start_new_session=True)
     deadline = time.monotonic() + 600
     while not list(out.glob("runs/*/checkpoints/latest.json")) and time.monotonic() < deadline and driver.poll() is None:
         time.sleep(0.2)
-    os.killpg(driver.pid, signal.SIGKILL)  # the driver and the local Ray instance it started
-    driver.wait()
-    assert not (out / "summary.json").exists()
+    os.killpg(driver.pid, how)
+    _, err = driver.communicate(timeout=300)
+    if how == signal.SIGINT:
+        assert driver.returncode == 130, err[-2000:]
+        assert err.rstrip().splitlines()[-1] == (
+            "deadtime sweep: interrupted; no summary written, the trials' checkpoints and the evaluations' caches are "
+            f"kept; continue with: deadtime sweep --config {SMOKE} --out {out} --resume")
+        assert "Tuner.restore" not in err
+    assert not any(out.glob("summary.*")) and not (out / "sessions.json").exists()
     done = subprocess.run(_sweep_command(out, "--resume", "--json"), cwd=REPO, env=_environment(), capture_output=True,
                           text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
@@ -246,3 +255,90 @@ def test_bad_env_kwargs_of_a_sweep_are_one_line_and_exit_2(tmp_path: Path, value
     assert status == 2 and out == ""
     assert err.count("\n") == 1 and ("env_kwargs" in err or "noise" in err), err
     assert not (tmp_path / "out").exists()
+
+
+# ------------------------------------------------------------------------------ a real cluster
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _kill_session(session: int) -> None:
+    """SIGKILL every process of the session ``ray start`` ran in (the head node's processes, which
+    Ray starts in process groups of their own, so a process group is not enough)."""
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        if int(stat[stat.rindex(")") + 2:].split()[3]) == session:
+            try:
+                os.kill(int(entry.name), signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+@pytest.fixture
+def ray_start_cluster() -> tuple[str, dict[str, str]]:
+    """A one-node cluster of ``ray start --head`` on free ports in a temporary directory, with token
+    authentication (a token in the temporary home, as ``ray start`` finds one); stopped at the end.
+    The address, and the environment of a driver on this machine (the same home, RAY_AUTH_MODE unset)."""
+    import secrets
+    import shutil
+    import tempfile
+
+    ray = Path(sys.executable).with_name("ray")
+    if not ray.is_file() or not Path("/proc").is_dir():
+        pytest.skip(f"ray start is unavailable: no {ray}" if not ray.is_file() else "ray start is unavailable: no /proc")
+    root = Path(tempfile.mkdtemp(prefix="dtray", dir="/tmp"))  # short: Ray's socket paths have a length limit
+    (root / "home" / ".ray").mkdir(parents=True)
+    (root / "home" / ".ray" / "auth_token").write_text(secrets.token_hex(32))
+    environment = {key: value for key, value in _environment().items() if not key.startswith("RAY_AUTH")}
+    environment["HOME"] = str(root / "home")
+    port = _free_port()
+    command = [str(ray), "start", "--head", "--block", f"--port={port}", f"--temp-dir={root / 'ray'}", "--num-cpus=2",
+               "--include-dashboard=false", f"--dashboard-port={_free_port()}", f"--ray-client-server-port={_free_port()}",
+               f"--dashboard-agent-listen-port={_free_port()}", "--disable-usage-stats"]
+    head = subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        lines = []
+        while time.monotonic() < deadline:
+            line = head.stdout.readline()
+            lines.append(line)
+            if "Ray runtime started" in line:
+                break
+            if not line and head.poll() is not None:
+                pytest.skip(f"ray start is unavailable: it exited with status {head.returncode}: {''.join(lines)[-500:]}")
+        else:
+            pytest.skip("ray start is unavailable: the head node did not start within 120 s")
+        assert "Token authentication is enabled" in "".join(lines)
+        yield f"127.0.0.1:{port}", environment
+    finally:
+        _kill_session(head.pid)
+        head.wait(timeout=30)
+        shutil.rmtree(root, ignore_errors=True)
+
+
+@pytest.mark.slow
+def test_a_sweep_on_a_ray_start_cluster_by_address_equals_the_local_run(smoke: Path, tmp_path: Path,
+                                                                       ray_start_cluster: tuple[str, dict[str, str]]) -> None:
+    """``ray start`` turns on token authentication; ``--address`` works with it, and the cluster gives
+    the local run's summary."""
+    address, environment = ray_start_cluster
+    out = tmp_path / "on-cluster"
+    done = subprocess.run(_sweep_command(out, "--address", address, "--json"), cwd=REPO, env=environment,
+                          capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "InvalidAuthToken" not in done.stderr and "gcs_client" not in done.stderr
+    expected, remote = (json.loads((d / "summary.json").read_text()) for d in (smoke, out))
+    assert remote["envs"] == expected["envs"]
+    assert remote["learning_curves"] == expected["learning_curves"]
+    assert (out / "summary.csv").read_text() == (smoke / "summary.csv").read_text()
+    assert remote["sessions"][0]["cpus"] == 2

@@ -1,0 +1,58 @@
+"""What ``deadtime sweep --resume`` checks before it connects to Ray, reading only.
+
+A resumed sweep rewrites ``DIR/sessions.json`` and each trial's ``run.json`` when its work is done,
+and each trial resumes its run directory from its newest intact checkpoint.  A damaged record, or a
+run with no intact checkpoint, is named here in one line (:class:`agents.training.files.DamagedFileError`)
+before any trial starts; a trial that falls back on an older checkpoint is said here, on the user's
+terminal, not only in a Ray worker's log.  :func:`experiment_state_problem` says why Tune's
+experiment state of an earlier session cannot be restored (then the trials run as a new Tune
+experiment, each resuming its run directory, which is as exact).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from agents.sweeps.config import SweepConfig
+from agents.training.files import DamagedFileError, read_record
+
+__all__ = ["check_resumable", "experiment_state_problem"]
+
+
+def check_resumable(sweep: SweepConfig, out: Path) -> list[str]:
+    """Check the records and run directories of the sweep in ``out``; the lines to print about them.
+
+    Raises
+    ------
+    DamagedFileError
+        Naming ``sessions.json``, a trial's ``run.json`` or checkpoint that is damaged (with no
+        intact checkpoint to fall back on), and the trial.
+    """
+    from agents.training.checkpoints import find_checkpoint
+
+    read_record(out / "sessions.json", list)
+    notes = []
+    for trial in sweep.trials():
+        run_dir = out / "runs" / trial.name
+        try:
+            read_record(run_dir / "run.json", dict)
+            _, note = find_checkpoint(run_dir)
+        except DamagedFileError as error:
+            raise DamagedFileError(f"trial {trial.name}: {error}") from None
+        if note:
+            notes.append(f"trial {trial.name}: {note}")
+    return notes
+
+
+def experiment_state_problem(experiment: Path) -> str | None:
+    """None if the newest ``experiment_state-*.json`` of a Tune experiment directory reads as JSON,
+    else what is wrong with it, naming it."""
+    states = sorted(experiment.glob("experiment_state-*.json"))
+    if not states:
+        return f"{experiment} holds no experiment_state-*.json"
+    try:
+        json.loads(states[-1].read_text())
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as error:
+        return f"{states[-1]} is damaged ({type(error).__name__}: {error})"
+    return None
