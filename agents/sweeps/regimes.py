@@ -13,9 +13,11 @@ seeds) and environment.  Sweeps of the same regime are merged: their agent group
 
 * every policy's mean cost with its 95% interval (:mod:`agents.evaluation.seed_statistics`: agents
   over seeds and plants, the rules and the oracle over plants);
-* the paired differences between the agent groups (``--compare A,B``: ``mean(A) - mean(B)``, each
+* the paired differences of an agent group to other policies (``--compare A,B[,C...]``: ``mean(A) -
+  mean(B)`` for each, ``B`` an agent group, a rule or a procedure of :mod:`baselines.procedures`; each
   group's seeds resampled on their own, the plants together) and of every agent group to every rule;
-  a group *beats every rule* where each of those intervals lies below 0;
+  a group *beats every rule* where each of those intervals lies below 0 (the procedures are not rules:
+  they are compared by ``--compare``, and the best rule is the best of the rules);
 * with ``--behaviour N``: what each agent group does, replayed on the first ``N`` validation plants
   (never the test plants) in its regime: the experiments it chooses and how many, their amplitudes,
   the experiments its commit completes, the experiment time and production deviation, and its design
@@ -46,7 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime regimes``."""
     parser.add_argument("sweeps", nargs="+", help="output directories of finished sweeps that set env_kwargs")
     parser.add_argument("--x", required=True, help="the env_kwargs key on the plot's axis, e.g. noise_std")
-    parser.add_argument("--compare", default="", help="two agent labels A,B: the paired difference mean(A) - mean(B)")
+    parser.add_argument("--compare", default="", help="A,B[,C...]: the paired difference mean(A) - mean(B) for each B, "
+                        "A an agent label, B an agent label, a rule or a procedure")
     parser.add_argument("--behaviour", type=int, default=0, help="replay each agent on this many validation plants")
     parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (default 2000)")
     parser.add_argument("--out", required=True, help="output directory")
@@ -55,8 +58,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime regimes``; bad input is a ValueError (one line, exit status 2)."""
     compare = tuple(item for item in args.compare.split(",") if item)
-    if compare and len(compare) != 2:
-        raise ValueError(f"--compare must name two agent labels A,B, got {args.compare!r}")
+    if compare and len(compare) < 2:
+        raise ValueError(f"--compare must name an agent label and what to compare it with, A,B[,C...], got {args.compare!r}")
     if args.behaviour < 0 or args.resamples <= 0:
         raise ValueError("--behaviour must be >= 0 and --resamples > 0")
     result = compare_regimes([Path(p) for p in args.sweeps], args.x, compare, args.behaviour, args.resamples)
@@ -111,9 +114,11 @@ def _interval(costs: np.ndarray, resamples: int) -> list[float]:
 def _entry(rules: dict[str, np.ndarray], agents: dict[str, np.ndarray], compare: tuple[str, ...], resamples: int) -> dict[str, Any]:
     from agents.evaluation.seed_statistics import VIOLATION_COST, paired_difference
 
+    from baselines.procedures import is_procedure
+
     policies = {name: _interval(v[None, :], resamples) for name, v in rules.items()}
     policies.update({label: _interval(m, resamples) for label, m in agents.items()})
-    named = [name for name in rules if name not in ORACLES]
+    named = [name for name in rules if name not in ORACLES and not is_procedure(name)]
     best = min(named, key=lambda name: (rules[name].mean(), name))
     to_rules = {}
     for label, matrix in agents.items():
@@ -126,8 +131,10 @@ def _entry(rules: dict[str, np.ndarray], agents: dict[str, np.ndarray], compare:
              "violation_rate": {name: float(np.mean(np.asarray(v) >= VIOLATION_COST)) for name, v in {**rules, **agents}.items()},
              "agents_to_rules": to_rules}
     if compare:
-        entry["difference"] = {"first": compare[0], "second": compare[1],
-                               "estimate": paired_difference(agents[compare[0]], agents[compare[1]], resamples=resamples)}
+        others = {**{name: v[None, :] for name, v in rules.items()}, **agents}
+        entry["differences"] = [{"first": compare[0], "second": name,
+                                 "estimate": paired_difference(agents[compare[0]], others[name], resamples=resamples)}
+                                for name in compare[1:]]
     return entry
 
 
@@ -160,9 +167,11 @@ def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = 
     """The ``regimes.json`` object of the module docstring."""
     regimes = []
     for (_, env), found in _merged(directories, x).items():
-        missing = [label for label in compare if label not in found["agents"]]
+        missing = [label for label in compare[:1] if label not in found["agents"]]
+        missing += [name for name in compare[1:] if name not in found["agents"] and name not in found["rules"]]
         if missing:
-            raise ValueError(f"{', '.join(found['sweeps'])}: no agent group {missing[0]!r} (groups: {', '.join(found['agents'])})")
+            raise ValueError(f"{', '.join(found['sweeps'])}: no agent group, rule or procedure {missing[0]!r} "
+                             f"(groups: {', '.join(found['agents'])})")
         entry = _entry(found["rules"], found["agents"], compare, resamples)
         if plants:
             entry["behaviour"] = {label: behaviour(group, found["env_kwargs"], plants) for label, group in found["runs"].items()}
@@ -243,9 +252,9 @@ def markdown(result: dict[str, Any]) -> str:
     """``regimes.md``: the regimes' table, every policy's mean cost per regime, and the behaviour."""
     regimes = result["regimes"]
     agents = list(regimes[0]["agents_to_rules"])
-    compare = regimes[0].get("difference")
+    compare = regimes[0].get("differences", [])
     head = ["regime", "env", "oracle", "best rule", *agents]
-    head += [f"{compare['first']} - {compare['second']}"] if compare else []
+    head += [f"{d['first']} - {d['second']}" for d in compare]
     head += [f"{label} - best rule" for label in agents] + [f"{label} beats every rule" for label in agents]
     lines = ["# Regimes", "", "Mean cost [95% interval]; differences are paired on the plants (negative: the first is better).", "",
              "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -253,7 +262,7 @@ def markdown(result: dict[str, Any]) -> str:
         costs = r["mean_cost"]
         cells = [_label(r), r["env"], _cell(costs["oracle"]), f"`{r['best_rule']}` {_cell(costs[r['best_rule']])}"]
         cells += [_cell(costs[label]) for label in agents]
-        cells += [_cell(r["difference"]["estimate"])] if compare else []
+        cells += [_cell(d["estimate"]) for d in r.get("differences", [])]
         cells += [_cell(r["agents_to_rules"][label]["best_rule"]) for label in agents]
         for label in agents:
             found = r["agents_to_rules"][label]

@@ -97,7 +97,10 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
         raise ValueError(f"sweep {sweep.name}: evaluation.policies must include 'oracle' (the normalized score needs it)")
     plants = sorted(baselines["oracle"])
     oracle = _vector(baselines["oracle"], plants, "oracle")
-    rules = {name: _vector(c, plants, name) for name, c in baselines.items() if name not in ORACLES}
+    from baselines.procedures import is_procedure
+
+    procedures = {name: _vector(c, plants, name) for name, c in baselines.items() if is_procedure(name)}
+    rules = {name: _vector(c, plants, name) for name, c in baselines.items() if name not in ORACLES and name not in procedures}
     if not rules:
         raise ValueError(f"sweep {sweep.name}: evaluation.policies must include at least one rule")
     best_rule = min(rules, key=lambda name: (float(rules[name].mean()), name))
@@ -106,7 +109,7 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
     rows, normalized = [], {}
 
     def statistics(costs: np.ndarray) -> SeedStatistics:
-        return seed_statistics(costs, oracle, rules, best_rule, resamples=sweep.evaluation.resamples,
+        return seed_statistics(costs, oracle, {**rules, **procedures}, best_rule, resamples=sweep.evaluation.resamples,
                                seed=sweep.evaluation.seed)
 
     for label in dict.fromkeys(t.label for t in trials if t.env_id == env_id):
@@ -117,6 +120,7 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
         normalized[label] = (oracle / matrix).ravel()
     normalized[best_rule] = oracle / rules[best_rule]
     rows += [_row(name, "rule", statistics(cost[None, :])) for name, cost in rules.items()]
+    rows += [_row(name, "procedure", statistics(cost[None, :])) for name, cost in procedures.items()]
     rows.append(_row("oracle", "oracle", statistics(oracle[None, :])))
     rows.sort(key=lambda row: (row["kind"] not in TRAINED, row["mean_cost"]))
     entry = {"env": env_id, "plants": len(plants), "best_rule": best_rule, "best_structure_rule": own_rule, "policies": rows}

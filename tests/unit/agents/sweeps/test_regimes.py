@@ -51,7 +51,7 @@ def _read(path: Path, policy: str) -> np.ndarray:
 
 def test_figures_equal_a_direct_computation(tmp_path: Path) -> None:
     sweeps = [_sweep(tmp_path, 0.1, 0.0), _sweep(tmp_path, 0.01, 0.5)]
-    result = compare_regimes(sweeps, "noise_std", ("chooser", "fixed"), resamples=300)
+    result = compare_regimes(sweeps, "noise_std", ("chooser", "fixed", "rule-a"), resamples=300)
     assert [r["env_kwargs"]["noise_std"] for r in result["regimes"]] == [0.01, 0.1]
     for regime, directory in zip(result["regimes"], sweeps[::-1]):
         env = directory / "eval" / "FPPI-v2"
@@ -60,8 +60,11 @@ def test_figures_equal_a_direct_computation(tmp_path: Path) -> None:
                   for label in ("fixed", "chooser")}
         assert regime["best_rule"] == min(rules, key=lambda n: rules[n].mean())
         assert regime["mean_cost"]["chooser"][0] == pytest.approx(groups["chooser"].mean(), rel=1e-12)
-        assert regime["difference"]["estimate"] == pytest.approx(
-            paired_difference(groups["chooser"], groups["fixed"], resamples=300), rel=1e-12)
+        first, second = regime["differences"]
+        assert (first["second"], second["second"]) == ("fixed", "rule-a")
+        assert first["estimate"] == pytest.approx(paired_difference(groups["chooser"], groups["fixed"], resamples=300), rel=1e-12)
+        assert second["estimate"] == pytest.approx(
+            paired_difference(groups["chooser"], rules["rule-a"][None, :], resamples=300), rel=1e-12)
         beaten = all(paired_difference(groups["chooser"], r[None, :], resamples=300)[2] < 0 for r in rules.values())
         assert regime["agents_to_rules"]["chooser"]["beats_every_rule"] is beaten
 
@@ -117,8 +120,8 @@ def test_the_command_writes_its_outputs(tmp_path: Path) -> None:
     "extra, message",
     [
         (["--x", "amplitude_limit"], "env_kwargs has no 'amplitude_limit'"),
-        (["--x", "noise_std", "--compare", "chooser"], "--compare must name two agent labels"),
-        (["--x", "noise_std", "--compare", "chooser,nobody"], "no agent group 'nobody'"),
+        (["--x", "noise_std", "--compare", "chooser"], "--compare must name an agent label and what to compare it with"),
+        (["--x", "noise_std", "--compare", "chooser,nobody"], "no agent group, rule or procedure 'nobody'"),
     ],
     ids=["x", "compare-one", "compare-unknown"],
 )

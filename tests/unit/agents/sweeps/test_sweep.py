@@ -209,7 +209,8 @@ def test_every_committed_sweep_file_is_valid(path: Path) -> None:
 @pytest.mark.slow
 def test_a_sweep_of_learned_rules_fits_one_per_seed_and_summarizes_them_as_learned_rules(tmp_path: Path) -> None:
     """``configs/learned_rule.yaml`` as a trial group: each seed fits its own rule on its own training
-    plants, the evaluations play them, and the summary's role says what they are."""
+    plants, the evaluations play them, and the summary's role says what they are; a procedure of the
+    evaluation is a row of its own kind, not a rule."""
     path = _sweep_file(tmp_path, f"""
 trials:
   - label: learned
@@ -218,13 +219,15 @@ trials:
                 progress_bar=false]
     envs: [DeadTime/FPPI-v0]
     seeds: [0, 1]
-evaluation: {{policies: [fppi-eq34, oracle], n: 2, resamples: 100}}
+evaluation: {{policies: [fppi-eq34, plan-1-1, oracle], n: 2, resamples: 100}}
 """)
     done = subprocess.run([sys.executable, "-m", "agents.cli", "sweep", "--config", str(path), "--out", str(tmp_path / "out"),
                            "--json"], cwd=REPO, env=_environment(), capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     summary = json.loads(done.stdout)
     assert summary["failed"] == {}
+    procedure = next(p for p in summary["envs"][0]["policies"] if p["name"] == "plan-1-1")
+    assert procedure["kind"] == "procedure" and summary["envs"][0]["best_rule"] == "fppi-eq34"  # a procedure is no rule
     learned = next(p for p in summary["envs"][0]["policies"] if p["name"] == "learned")
     assert (learned["kind"], learned["seeds"], len(learned["per_seed_mean_cost"])) == ("learned-rule", 2, 2)
     assert "| learned | learned rule | 2 |" in (tmp_path / "out" / "summary.md").read_text()
