@@ -54,6 +54,9 @@ __all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "MODES", "AMPLITU
 MODES = ("fixed", "agent", "plan")
 OBSERVATION_BOUND = 5.0
 MAX_SAMPLING_ATTEMPTS = 10
+MAX_BUDGET = 100
+"""The largest ``budget`` (agent mode's experiments per episode): far above any useful identification
+(the procedure runs two), and an episode of an agent that never commits stays short."""
 NO_DESIGN_COST = FEASIBLE_CAP + 1 + VIOLATION_BAND
 """The cost of an episode that ends without a design (``measured_observation``: no closed-loop step
 identified a usable gain and ``T_ar`` once the budget was spent): that of an unstable loop."""
@@ -166,8 +169,9 @@ class DeadTimeTuningEnv(gym.Env):
         if self.constraints.violation_cost != violation_cost:
             self.constraints = replace(self.constraints, violation_cost=violation_cost)
         self.weights = _dataclass_argument(weights, CostWeights, "weights")
-        if isinstance(budget, bool) or int(budget) != budget or budget < 1:
-            raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
+        if isinstance(budget, bool) or not isinstance(budget, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(budget) or int(budget) != budget or not 1 <= budget <= MAX_BUDGET:
+            raise ValueError(f"budget must be an integer from 1 to {MAX_BUDGET}, got {budget!r}")
         self.budget = int(budget)
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
         self.options = EpisodeOptions.for_structure(
@@ -260,6 +264,8 @@ class DeadTimeTuningEnv(gym.Env):
         plant : Plant, dict, control.TransferFunction or (TransferFunction, dead_time)
             Use this plant instead of drawing one (any form :func:`envs.systems.plants.as_plant` takes).
         """
+        if seed is not None and (isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0):
+            raise ValueError(f"seed must be an integer >= 0 or None, got {seed!r}")
         super().reset(seed=seed)
         options = {} if options is None else dict(options)
         unknown = sorted(set(options) - {"plant"})
@@ -334,9 +340,7 @@ class DeadTimeTuningEnv(gym.Env):
         """Run an experiment (agent mode) or commit the design; see the class docstring."""
         if self._done:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        action = np.asarray(action, dtype=np.float64).reshape(-1)
-        if action.shape != self.action_space.shape:
-            raise ValueError(f"action must have shape {self.action_space.shape}, got {action.shape}")
+        action = self._checked_action(action)
         if not np.all(np.isfinite(action)):
             raise ValueError(f"action must be finite, got {action.tolist()}")
         action = np.clip(action, -1.0, 1.0)
@@ -370,6 +374,17 @@ class DeadTimeTuningEnv(gym.Env):
         self._design_pending = True
         observation, named = self._observation_and_features()
         return observation, 0.0, False, False, {"identified": True, "amplitude": amplitude, "features": named}
+
+    def _checked_action(self, action: Any) -> np.ndarray:
+        """The action as float64 of the action space's shape (a number for a one-component action);
+        a boolean, complex or non-numeric array, or another shape, is a ``ValueError`` naming it."""
+        raw = np.asarray(action)
+        if raw.dtype.kind not in "fiu":
+            raise ValueError(f"action must be real numbers, got {raw.dtype} values")
+        shape = self.action_space.shape
+        if raw.shape != shape and not (shape == (1,) and raw.shape == ()):
+            raise ValueError(f"action must have shape {shape}, got {raw.shape}")
+        return raw.astype(np.float64).reshape(shape)
 
     def _plan(self, first_action: float, second_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         """``experiments="plan"``: the procedure's two experiments at the plan's amplitudes (the closed-loop

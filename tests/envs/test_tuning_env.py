@@ -170,7 +170,7 @@ def test_info_carries_every_figure():
     ({"family": "sine"}, "unknown plant family 'sine'"),
     ({"constraints": {"max_sensitivty": 2.0}}, "constraints: unknown key 'max_sensitivty'"),
     ({"weights": {"load": -1.0}}, "weights.load"),
-    ({"budget": 0}, "budget must be an integer >= 1"),
+    ({"budget": 0}, "budget must be an integer from 1 to 100"),
     ({"noise_std": math.nan}, "noise_std"),
     ({"render_mode": "human"}, "render_mode must be None or 'rgb_array'"),
     ({"action": "ms"}, "action must be one of parameter, residual, robustness, got .ms."),

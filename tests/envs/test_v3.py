@@ -255,3 +255,27 @@ def test_a_bad_plan_is_one_line():
             gym.make("DeadTime/FPPI-v3", plan=plan)
     with pytest.raises(ValueError, match="fixed mode"):
         gym.make("DeadTime/FPPI-v3", experiments="agent", plan=(1.0, 1.0))
+
+
+@pytest.mark.parametrize("action, message", [
+    (np.array([True]), "real numbers"), (np.array([0.1 + 1j]), "real numbers"), (np.array(["0.1"]), "real numbers"),
+    (np.zeros((1, 1)), "shape"), (np.zeros(2), "shape"), (np.array([np.nan]), "finite"),
+])
+def test_a_bad_action_is_one_line(action, message):
+    env = gym.make("DeadTime/FPPI-v3")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        env.step(action)
+    env.step(0.0)  # a number is a one-component action
+
+
+@pytest.mark.parametrize("seed", [True, -1, 1.5, "1"])
+def test_a_bad_seed_is_one_line(seed):
+    with pytest.raises(ValueError, match="seed must be an integer >= 0 or None"):
+        gym.make("DeadTime/FPPI-v3").reset(seed=seed)
+
+
+@pytest.mark.parametrize("budget", [0, 1e9, 2.5, True, float("inf"), "4"])
+def test_a_bad_budget_is_one_line(budget):
+    with pytest.raises(ValueError, match="budget must be an integer from 1 to 100"):
+        gym.make("DeadTime/FPPI-v3", experiments="agent", budget=budget)
