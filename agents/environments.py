@@ -2,7 +2,7 @@
 
 :func:`make_env` registers the DeadTime ids first (a worker process, spawned, has not imported
 ``envs``), makes the environment with its keyword arguments, refuses an unknown id in one line
-naming the known ones, and with ``oracle=True`` adds the oracle's figures to the final ``info``
+naming the known ones (and a ``render_mode`` the environment cannot render itself), and with ``oracle=True`` adds the oracle's figures to the final ``info``
 (:class:`agents.evaluation.oracle_info.OracleInfo`).
 """
 
@@ -28,8 +28,19 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle
         raise ValueError(f"unknown environment {env_id!r} ({error}); known: {', '.join(known) or 'none'}") from None
     except TypeError as error:  # an argument the environment does not take (its constructor's message names it)
         raise ValueError(f"environment arguments of {env_id}: {error}") from None
+    _check_render_mode(env, env_id, env_kwargs)
     if oracle:
         from agents.evaluation.oracle_info import OracleInfo
 
         env = OracleInfo(env)
     return env
+
+
+def _check_render_mode(env: Any, env_id: str, env_kwargs: Mapping[str, Any] | None) -> None:
+    """Refuse a ``render_mode`` the environment does not render itself: ``gymnasium.make`` would wrap it
+    (``human`` in ``HumanRendering``, which needs pygame at the first reset)."""
+    requested = (env_kwargs or {}).get("render_mode")
+    modes = env.unwrapped.metadata.get("render_modes", [])
+    if requested is not None and requested not in modes:
+        env.close()
+        raise ValueError(f"render_mode: {env_id} renders {', '.join(map(repr, modes)) or 'nothing'}, got {requested!r}")
