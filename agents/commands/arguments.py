@@ -13,7 +13,11 @@ from typing import Any
 
 from agents.limits import MAX_NESTING
 
-__all__ = ["CommandError", "format_value", "load_json_argument"]
+__all__ = ["CommandError", "PLANT_COEFFICIENTS", "format_value", "load_json_argument"]
+
+PLANT_COEFFICIENTS = 101
+""":data:`envs.systems.plants.MAX_COEFFICIENTS`, quoted by the help texts without importing envs'
+numerics when the command line is parsed (tests/unit/test_hostile_input.py checks that they agree)."""
 
 
 class CommandError(ValueError):

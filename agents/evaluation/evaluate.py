@@ -41,6 +41,7 @@ from numbers import Integral
 from pathlib import Path
 from typing import Any
 
+from agents.commands.arguments import PLANT_COEFFICIENTS
 from agents.environments import make_env
 from agents.limits import MAX_RESAMPLES, MAX_TEST_PLANTS, MAX_WORKERS, require_at_most
 
@@ -57,7 +58,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--n", type=int, default=50,
                         help=f"number of random held-out test plants (default 50, at most {MAX_TEST_PLANTS})")
     parser.add_argument("--plants", help="a JSON list of plants (each {\"num\": [...], \"den\": [...], \"delay\": L}) or a "
-                        f"file of one: the user's own test set (at most {MAX_TEST_PLANTS} plants), instead of --n random plants")
+                        f"file of one: the user's own test set (at most {MAX_TEST_PLANTS} plants of at most {PLANT_COEFFICIENTS} "
+                        "coefficients in num and in den), instead of --n random plants")
     parser.add_argument("--seed", type=int, default=0,
                         help="episode seeds are seed + plant index; also seeds the bootstrap (an integer >= 0, default 0)")
     parser.add_argument("--out", required=True, help="output directory (created; not the empty string)")

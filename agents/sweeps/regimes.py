@@ -35,7 +35,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
+
+from agents.yaml_input import load_yaml
 
 __all__ = ["add_arguments", "behaviour", "compare_regimes", "run"]
 
@@ -76,7 +77,7 @@ def _regime(directory: Path) -> tuple[str, dict[str, Any]]:
     path = directory / "sweep.yaml"
     if not path.is_file():
         raise ValueError(f"{directory}: not the output directory of a sweep (no sweep.yaml)")
-    data = yaml.safe_load(path.read_text()) or {}
+    data = load_yaml(path.read_text(), str(path)) or {}
     if not data.get("env_kwargs"):
         raise ValueError(f"{path}: sets no env_kwargs, so it is no regime")
     return str(data.get("name", directory.name)), dict(data["env_kwargs"])

@@ -34,6 +34,7 @@ import json
 import os
 from pathlib import Path
 
+from agents.limits import MAX_RESAMPLES, MAX_SEEDS, MAX_TEST_PLANTS
 from agents.sweeps.config import load_sweep
 
 __all__ = ["add_arguments", "run"]
@@ -41,7 +42,10 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime sweep``."""
-    parser.add_argument("--config", required=True, help="a sweep file (sweeps/NAME.yaml)")
+    parser.add_argument("--config", required=True,
+                        help=f"a sweep file (sweeps/NAME.yaml).  Limits (agents/limits.py): at most {MAX_SEEDS} seeds per "
+                        f"group, evaluation.n <= {MAX_TEST_PLANTS}, evaluation.resamples <= {MAX_RESAMPLES}, and those of "
+                        "deadtime train for each config")
     parser.add_argument("--out", required=True, help="the sweep's directory (runs, evaluations, summary)")
     parser.add_argument("--address", help="a Ray cluster's address (default: RAY_ADDRESS, else a local instance)")
     parser.add_argument("--resume", action="store_true", help="finish an interrupted sweep in --out")
