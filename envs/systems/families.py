@@ -498,7 +498,8 @@ def sample_plant(family: str, rng: np.random.Generator, config: object = None) -
 
 def sample_plants(family: str, n: int, seed: int, config: object = None) -> list[Plant]:
     """``n`` plants of ``family`` from ``numpy.random.default_rng(seed)``; see :func:`sample_plant`."""
-    if n < 0:
-        raise ValueError(f"n must be >= 0, got {n!r}")
+    for name, value in (("n", n), ("seed", seed)):
+        if not isinstance(value, int | np.integer) or isinstance(value, bool) or value < 0:
+            raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
     rng = np.random.default_rng(seed)
     return [sample_plant(family, rng, config) for _ in range(n)]

@@ -248,6 +248,8 @@ class Plant:
         num = _as_coefficients(self.num, "num")
         den = _as_coefficients(self.den, "den")
         try:
+            if isinstance(self.dead_time, bool | str | bytes):  # numbers to float(), not to Python
+                raise TypeError
             dead_time = float(self.dead_time)
         except (TypeError, ValueError, OverflowError):
             raise ValueError(f"dead_time must be a number, got {self.dead_time!r}") from None

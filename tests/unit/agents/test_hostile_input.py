@@ -1,0 +1,182 @@
+"""Hostile and careless input to the command line: one line, exit status 2, within seconds, nothing written.
+
+Each row of :data:`CASES` is a command (with the files it reads, written into a temporary
+directory first) and a stable fragment of the one line it must print on stderr.  Every row is run
+in-process through :func:`agents.cli.main` (as tests/unit/agents/test_cli_extremes.py does) and
+checked for: exit status 2, exactly one line on stderr and no traceback, the fragment in it, no
+line longer than :data:`MAX_LINE` (an alias bomb's value is never printed), the time bound
+:data:`SECONDS` (a hang detector only: the rows take well under a second each, the first
+``train`` row a few seconds to import stable-baselines3), and the temporary directory holding
+exactly the input files afterwards (no output folder, no ``config.yaml``, no ``run.json``).  The
+working directory is that temporary directory, so that ``--out ""`` would show as a file written.
+
+The limits themselves are :mod:`agents.limits` and :data:`envs.systems.plants.MAX_COEFFICIENTS`.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+from typing import NamedTuple
+
+import pytest
+
+from agents.cli import main
+
+ROOT = Path(__file__).resolve().parents[3]
+SECONDS = 30.0
+"""Generous: a hang detector for a slow shared machine (the rows take about 0.1 to 3 s here)."""
+MAX_LINE = 2_000
+"""The longest acceptable error line: a value of thousands of characters is never echoed."""
+
+PLANT = {"num": [1], "den": [10, 1], "delay": 5}
+PID = json.dumps({"type": "pid", "kp": 1.2, "ti": 9, "td": 1.5, "n": 10})
+DEEP_LIST = "[" * 100_000 + "]" * 100_000
+DEEP_OBJECT = '{"a":' * 100_000 + "1" + "}" * 100_000
+
+
+def _bomb(levels: int = 9) -> str:
+    """A flow YAML "billion laughs": ``levels`` anchors, each a list of nine aliases of the one before (9**levels)."""
+    items = ["&l0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    items += [f"&l{k} [{', '.join([f'*l{k - 1}'] * 9)}]" for k in range(1, levels)]
+    return "[" + ", ".join(items) + "]"
+
+
+BOMB = _bomb()
+DEEP_YAML = "[" * 5_000 + "]" * 5_000
+EVALUATE = ["evaluate", "--env", "DeadTime/PID-v0", "--policies", "simc-pi", "--n", "2", "--no-benchmark", "--no-plots"]
+PPO = str(ROOT / "configs" / "ppo.yaml")
+SAC = str(ROOT / "configs" / "sac.yaml")
+
+
+def _plant(den_size: int) -> str:
+    return json.dumps({"num": [1.0], "den": [1.0] * den_size, "delay": 1.0})
+
+
+def _zoo(top: str) -> str:
+    """A training config whose ``default`` entry is valid, with ``top`` added at the top of the file."""
+    return ("default:\n  algorithm: PPO\n  env_id: DeadTime/PID-v0\n  total_timesteps: 100\n"
+            "  hyperparameters: {n_steps: 16, batch_size: 16}\n" + top)
+
+
+def _sweep(trials: str, extra: str = "") -> str:
+    return f"{extra}trials:\n  - config: {PPO}\n    envs: [DeadTime/PID-v0]\n    {trials}\n"
+
+
+class Case(NamedTuple):
+    argv: list[str]
+    fragment: str
+    files: dict[str, str] = {}
+
+
+CASES: dict[str, Case] = {
+    # nesting: RecursionError in the JSON decoder or in PyYAML's composer
+    "analyze --plant deep": Case(["analyze", "--plant", DEEP_LIST, "--controller", PID], "--plant nests deeper than 32 levels"),
+    "analyze --controller deep": Case(["analyze", "--plant", json.dumps(PLANT), "--controller", DEEP_OBJECT],
+                                      "--controller nests deeper than 32 levels"),
+    "tune --model deep": Case(["tune", "--rule", "simc-pi", "--model", DEEP_LIST], "--model nests deeper than 32 levels"),
+    "evaluate --plants deep": Case([*EVALUATE, "--plants", DEEP_LIST, "--out", "out"], "--plants nests deeper than 32 levels"),
+    "evaluate --env-kwargs deep": Case([*EVALUATE, "--env-kwargs", DEEP_OBJECT, "--out", "out"],
+                                       "--env-kwargs nests deeper than 32 levels"),
+    "process --controller deep": Case(["process", "--process", "tclab", "--controller", DEEP_LIST],
+                                      "--controller nests deeper than 32 levels"),
+    "train deep YAML file": Case(["train", "--config", "deep.yaml", "--out", "run"], "deep.yaml nests deeper than 32 levels",
+                                 {"deep.yaml": _zoo(f"DeadTime/PID-v0: {{env_kwargs: {{x: {DEEP_YAML}}}}}\n")}),
+    "train deep override": Case(["train", "--config", PPO, "--out", "run", f"env_kwargs.x={DEEP_YAML}"],
+                                "override 'env_kwargs.x' nests deeper than 32 levels"),
+    "integer of 10000 digits": Case(["analyze", "--plant", '{"num": [' + "1" * 10_000 + '], "den": [1, 1], "delay": 1}',
+                                     "--controller", PID], "--plant is not valid JSON"),
+    # alias bombs: refused before they are expanded, never printed
+    "train bomb as a value": Case(["train", "--config", "bomb.yaml", "--out", "run"], "bomb.yaml holds more than 100000 values",
+                                  {"bomb.yaml": _zoo(f"DeadTime/PID-v0: {{env_kwargs: {{x: {BOMB}}}}}\n")}),
+    "train bomb merged from default": Case(
+        ["train", "--config", "merged.yaml", "--out", "run"], "merged.yaml holds more than 100000 values",
+        {"merged.yaml": f"default: &d\n  algorithm: PPO\n  env_id: DeadTime/PID-v0\n  total_timesteps: 100\n"
+                        f"  env_kwargs: {{x: {BOMB}}}\nDeadTime/PID-v0:\n  <<: *d\n"}),
+    "train bomb in an override": Case(["train", "--config", PPO, "--out", "run", f"env_kwargs.x={BOMB}"],
+                                      "override 'env_kwargs.x' holds more than 100000 values"),
+    "sweep bomb in env_kwargs": Case(["sweep", "--config", "bomb.yaml", "--out", "sweep"], "bomb.yaml holds more than 100000 values",
+                                     {"bomb.yaml": _sweep("seeds: [0]", f"env_kwargs: {{x: {BOMB}}}\n")}),
+    # evaluate: validated before --out is created
+    "evaluate --seed -1": Case([*EVALUATE, "--seed", "-1", "--out", "out"], "--seed must be an integer >= 0, got -1"),
+    "evaluate render_mode human": Case([*EVALUATE, "--env-kwargs", '{"render_mode": "human"}', "--out", "out"],
+                                       "render_mode: DeadTime/PID-v0 renders 'rgb_array', got 'human'"),
+    "evaluate --out empty": Case([*EVALUATE, "--out", ""], "--out must name a directory, got the empty string"),
+    "evaluate --resamples 1e12": Case([*EVALUATE, "--resamples", str(10**12), "--out", "out"], "--resamples must be at most 100000"),
+    "evaluate --n 1e12": Case([*EVALUATE, "--n", str(10**12), "--out", "out"], "--n must be at most 10000"),
+    "evaluate --workers 1e6": Case([*EVALUATE, "--workers", str(10**6), "--out", "out"], "--workers must be at most 1024"),
+    "evaluate --plants 6000 coefficients": Case([*EVALUATE, "--plants", f"[{_plant(6_000)}]", "--out", "out"],
+                                                "plant.den must have at most 101 coefficients"),
+    # plants
+    "analyze 6000 coefficients": Case(["analyze", "--plant", _plant(6_000), "--controller", PID],
+                                      "plant.den must have at most 101 coefficients (the documented limit, envs.systems.plants.MAX_COEFFICIENTS), got 6000"),
+    "analyze a million coefficients": Case(["analyze", "--plant", _plant(1_000_000), "--controller", PID],
+                                           "plant.den must have at most 101 coefficients"),
+    "tune 6000 coefficients": Case(["tune", "--rule", "simc-pi", "--plant", _plant(6_000)], "plant.den must have at most 101"),
+    # training configs: refused before config.yaml and run.json are written
+    "train buffer_size 1e14": Case(["train", "--config", SAC, "--out", "run", f"hyperparameters.buffer_size={10**14}"],
+                                   "hyperparameters.buffer_size must be at most 10000000"),
+    "train net_arch [100000, 100000]": Case(["train", "--config", PPO, "--out", "run", "policy_kwargs.net_arch=[100000, 100000]"],
+                                            "a layer of policy_kwargs.net_arch must be at most 1024"),
+    "train net_arch 100 layers": Case(["train", "--config", PPO, "--out", "run", f"policy_kwargs.net_arch={[8] * 100}"],
+                                      "the number of hidden layers of policy_kwargs.net_arch must be at most 8"),
+    "train invalid device": Case(["train", "--config", PPO, "--out", "run", "device=banana:7"],
+                                 "device must be auto or a torch device"),
+    "train family_config=5": Case(["train", "--config", PPO, "--out", "run", "env_kwargs.family_config=5"],
+                                  "env_kwargs: refused by DeadTime/PID-v0"),
+    "train n_envs 100000": Case(["train", "--config", PPO, "--out", "run", "n_envs=100000"], "n_envs must be at most 256"),
+    "train n_eval_episodes 1e8": Case(["train", "--config", PPO, "--out", "run", "n_eval_episodes=1e8"],
+                                      "n_eval_episodes must be at most 10000"),
+    "train total_timestep at the top": Case(["train", "--config", "typo.yaml", "--out", "run"],
+                                            "unknown config key 'total_timestep' at the top of typo.yaml (did you mean "
+                                            "'total_timesteps', under 'default'?)", {"typo.yaml": _zoo("total_timestep: 5\n")}),
+    "train misspelled env id section": Case(["train", "--config", "typo.yaml", "--out", "run"],
+                                            "unknown config key 'DeadTime/PDI-v0' at the top of typo.yaml (did you mean "
+                                            "'DeadTime/PID-v0'?)", {"typo.yaml": _zoo("DeadTime/PDI-v0: {total_timesteps: 5}\n")}),
+    "train misspelled key of a run's config": Case(["train", "--config", "config.yaml", "--out", "run"],
+                                                   "unknown config key 'total_timestep' in config.yaml (did you mean "
+                                                   "'total_timesteps'?)",
+                                                   {"config.yaml": "algorithm: PPO\nenv_id: DeadTime/PID-v0\ntotal_timestep: 5\n"}),
+    # sweeps
+    "sweep seeds count 1e8": Case(["sweep", "--config", "big.yaml", "--out", "sweep"], "trials[0].seeds.count must be at most 1000",
+                                  {"big.yaml": _sweep("seeds: {count: 100000000}")}),
+    "sweep evaluation.n 1e12": Case(["sweep", "--config", "big.yaml", "--out", "sweep"], "evaluation.n must be at most 10000",
+                                    {"big.yaml": _sweep("seeds: [0]", f"evaluation: {{n: {10**12}}}\n")}),
+    # process
+    "process --load-step 200": Case(["process", "--process", "tclab", "--load-step", "200"],
+                                    "--load-step 200 is outside the load input's range [0, 100]"),
+    "process --load-step 1e300": Case(["process", "--process", "tclab", "--load-step", "1e300"],
+                                      "--load-step 1e+300 is outside the load input's range [0, 100]"),
+}
+
+
+def _files(directory: Path) -> set[str]:
+    return {str(path.relative_to(directory)) for path in directory.rglob("*")}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_hostile_input_is_one_line_exit_2_and_nothing_written(name: str, tmp_path: Path,
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    case = CASES[name]
+    for file_name, text in case.files.items():
+        (tmp_path / file_name).write_text(text)
+    monkeypatch.chdir(tmp_path)
+    before = _files(tmp_path)
+    out, err = io.StringIO(), io.StringIO()
+    started = time.perf_counter()
+    with redirect_stdout(out), redirect_stderr(err):
+        try:
+            code = main(case.argv)
+        except SystemExit as exit_:
+            code = exit_.code
+    elapsed = time.perf_counter() - started
+    lines = err.getvalue().strip().splitlines()
+    assert code == 2, (code, err.getvalue()[-2000:])
+    assert len(lines) == 1 and "Traceback" not in lines[0], lines
+    assert case.fragment in lines[0], lines[0][:MAX_LINE]
+    assert len(lines[0]) < MAX_LINE, lines[0][:MAX_LINE]
+    assert elapsed < SECONDS, elapsed
+    assert _files(tmp_path) == before
