@@ -5,9 +5,10 @@ below) and low enough that a value just under it still runs in bounded time and 
 above is refused before anything is computed or written, in one line naming the field and the
 limit (exit status 2 on the command line).  The help texts quote these constants.
 
-The size of a plant is a property of the plant, so its limit lives beside the plant's other
-documented ranges: :data:`envs.systems.plants.MAX_COEFFICIENTS` (with ``GAIN_RANGE`` and
-``TIME_SCALE_RANGE``).
+Two limits live beside what they bound: the size of a plant is a property of the plant, so
+:data:`envs.systems.plants.MAX_COEFFICIENTS` (101 coefficients in ``num`` and in ``den``) sits with its
+other documented ranges (``GAIN_RANGE``, ``TIME_SCALE_RANGE``); a learned rule's training plants are
+bounded by the stride of its seeds, :data:`agents.training.learned_rule_config.MAX_TRAINING_PLANTS`.
 
 This module imports nothing, so that the command line's help texts can quote it without loading
 numpy or torch.
@@ -61,7 +62,9 @@ MAX_ENVS = 256
 """Training environments of one run (``n_envs``): one environment per core is the honest use."""
 
 MAX_EVAL_EPISODES = 10_000
-"""Validation episodes of one evaluation during training (``n_eval_episodes``, one validation plant each)."""
+"""Validation episodes of one evaluation during training (``n_eval_episodes``, one validation plant
+each), validation plants of a learned rule (``validation_plants``), agents' replays of ``deadtime
+regimes --behaviour``."""
 
 MAX_BUFFER_SIZE = 10_000_000
 """Transitions of an off-policy replay buffer (``hyperparameters.buffer_size``; stable-baselines3

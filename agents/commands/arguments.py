@@ -13,7 +13,7 @@ from typing import Any
 
 from agents.limits import MAX_NESTING
 
-__all__ = ["CommandError", "PLANT_COEFFICIENTS", "format_value", "load_json_argument"]
+__all__ = ["CommandError", "PLANT_COEFFICIENTS", "format_value", "load_json_argument", "require_directory"]
 
 PLANT_COEFFICIENTS = 101
 """:data:`envs.systems.plants.MAX_COEFFICIENTS`, quoted by the help texts without importing envs'
@@ -54,6 +54,14 @@ def _depth(value: Any) -> int:
             deepest = max(deepest, level)
             stack.extend((child, level + 1) for child in children)
     return deepest
+
+
+def require_directory(text: str, name: str = "--out") -> Path:
+    """The output directory ``text`` names; the empty string (which would write into the working
+    directory) is refused."""
+    if not text.strip():
+        raise CommandError(f"{name} must name a directory, got the empty string")
+    return Path(text)
 
 
 def format_value(value: Any) -> str:

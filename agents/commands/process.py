@@ -26,7 +26,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any
 
-from agents.commands.arguments import CommandError, load_json_argument
+from agents.commands.arguments import CommandError, load_json_argument, require_directory
 
 __all__ = ["add_arguments", "run", "make_process"]
 
@@ -47,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--input-step", type=float, help="input step of the first open-loop step, input units")
     parser.add_argument("--load-step", type=float, help="load step of the load test, load units, inside the load input's "
                         "range (0 to 100 %% heater 2 for the TCLab)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the process's noise (default 0)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the process's noise (an integer >= 0, default 0)")
     parser.add_argument("--out", help="output directory for results.{md,csv,json} and the plots")
     parser.add_argument("--no-plots", action="store_true", help="write the tables only")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -123,6 +123,10 @@ def run(args: argparse.Namespace) -> int:
     from envs.threads import single_threaded
 
     started = time.perf_counter()
+    if args.seed < 0:
+        raise CommandError(f"--seed must be an integer >= 0, got {args.seed}")
+    if args.out is not None:
+        require_directory(args.out)
     items = [item.strip() for item in args.policies.split(",")]
     fppi_oracle = "oracle-fppi" in items
     others = ",".join(item for item in items if item != "oracle-fppi")

@@ -76,10 +76,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime evaluate``; bad input is a ValueError (one line, exit status 2)."""
-    from agents.commands.arguments import load_json_argument
+    from agents.commands.arguments import load_json_argument, require_directory
 
-    if not args.out.strip():
-        raise ValueError("--out must name a directory, got the empty string")
+    require_directory(args.out)
     plants = None if args.plants is None else load_json_argument(args.plants, "--plants")
     regime = None if args.env_kwargs is None else load_json_argument(args.env_kwargs, "--env-kwargs")
     result = evaluate(

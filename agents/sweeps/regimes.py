@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.limits import MAX_EVAL_EPISODES, MAX_RESAMPLES, require_at_most
 from agents.yaml_input import load_yaml
 
 __all__ = ["add_arguments", "behaviour", "compare_regimes", "run"]
@@ -48,13 +49,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("sweeps", nargs="+", help="output directories of finished sweeps that set env_kwargs")
     parser.add_argument("--x", required=True, help="the env_kwargs key on the plot's axis, e.g. noise_std")
     parser.add_argument("--compare", default="", help="two agent labels A,B: the paired difference mean(A) - mean(B)")
-    parser.add_argument("--behaviour", type=int, default=0, help="replay each agent on this many validation plants")
-    parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (default 2000)")
+    parser.add_argument("--behaviour", type=int, default=0,
+                        help=f"replay each agent on this many validation plants (at most {MAX_EVAL_EPISODES})")
+    parser.add_argument("--resamples", type=int, default=2000, help=f"bootstrap resamples (default 2000, at most {MAX_RESAMPLES})")
     parser.add_argument("--out", required=True, help="output directory")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime regimes``; bad input is a ValueError (one line, exit status 2)."""
+    from agents.commands.arguments import require_directory
+
+    require_directory(args.out)
+    require_at_most(args.behaviour, MAX_EVAL_EPISODES, "--behaviour")
+    require_at_most(args.resamples, MAX_RESAMPLES, "--resamples")
     compare = tuple(item for item in args.compare.split(",") if item)
     if compare and len(compare) != 2:
         raise ValueError(f"--compare must name two agent labels A,B, got {args.compare!r}")

@@ -54,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``deadtime sweep``: check the sweep, run it, print the summary."""
+    from agents.commands.arguments import require_directory
+
+    require_directory(args.out)
     sweep = load_sweep(args.config)
     try:
         from agents.sweeps.run import run_sweep

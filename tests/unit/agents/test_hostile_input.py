@@ -150,6 +150,13 @@ CASES: dict[str, Case] = {
                                     "--load-step 200 is outside the load input's range [0, 100]"),
     "process --load-step 1e300": Case(["process", "--process", "tclab", "--load-step", "1e300"],
                                       "--load-step 1e+300 is outside the load input's range [0, 100]"),
+    "process --seed -1": Case(["process", "--process", "tclab", "--seed", "-1"], "--seed must be an integer >= 0, got -1"),
+    "process --out empty": Case(["process", "--process", "tclab", "--out", ""], "--out must name a directory"),
+    "sweep --out empty": Case(["sweep", "--config", "ok.yaml", "--out", ""], "--out must name a directory",
+                              {"ok.yaml": _sweep("seeds: [0]")}),
+    "regimes --out empty": Case(["regimes", "a", "b", "--x", "noise_std", "--out", ""], "--out must name a directory"),
+    "regimes --resamples 1e12": Case(["regimes", "a", "b", "--x", "noise_std", "--resamples", str(10**12), "--out", "out"],
+                                     "--resamples must be at most 100000"),
 }
 
 
@@ -180,3 +187,52 @@ def test_hostile_input_is_one_line_exit_2_and_nothing_written(name: str, tmp_pat
     assert len(lines[0]) < MAX_LINE, lines[0][:MAX_LINE]
     assert elapsed < SECONDS, elapsed
     assert _files(tmp_path) == before
+
+
+# ----------------------------------------------------------------------------------- the Python API
+API_CASES = {
+    "Plant boolean coefficient": ("envs.systems.plants:Plant", {"num": [True], "den": [10.0, 1.0], "dead_time": 1.0},
+                                  "num must be a list of numbers, got [True]"),
+    "Plant string coefficient": ("envs.systems.plants:Plant", {"num": ["1"], "den": [10.0, 1.0], "dead_time": 1.0},
+                                 "num must be a list of numbers, got ['1']"),
+    "Plant boolean dead time": ("envs.systems.plants:Plant", {"num": [1.0], "den": [10.0, 1.0], "dead_time": True},
+                                "dead_time must be a number, got True"),
+    "Plant string dead time": ("envs.systems.plants:Plant", {"num": [1.0], "den": [10.0, 1.0], "dead_time": "5"},
+                               "dead_time must be a number, got '5'"),
+    "Plant 6000 coefficients": ("envs.systems.plants:Plant", {"num": [1.0], "den": [1.0] * 6000, "dead_time": 1.0},
+                                "den must have at most 101 coefficients"),
+    "sample_plants n=True": ("envs.systems.families:sample_plants", {"family": "fopdt", "n": True, "seed": 0},
+                             "n must be an integer >= 0, got True"),
+    "sample_plants n=2.5": ("envs.systems.families:sample_plants", {"family": "fopdt", "n": 2.5, "seed": 0},
+                            "n must be an integer >= 0, got 2.5"),
+    "sample_plants seed=True": ("envs.systems.families:sample_plants", {"family": "fopdt", "n": 2, "seed": True},
+                                "seed must be an integer >= 0, got True"),
+    "analyze a wrong controller": ("envs.analysis.loop_analysis:analyze", {"plant": PLANT, "controller": 5},
+                                   "controller must be a PID, SeriesPID, FPPI or MSP"),
+    "evaluate seed=True": ("agents.evaluation.evaluate:evaluate", {"env_id": "DeadTime/PID-v0", "policies": "simc-pi", "n": 2,
+                                                                  "seed": True, "out": Path("out")}, "--seed must be an integer"),
+    "evaluate n=2.5": ("agents.evaluation.evaluate:evaluate", {"env_id": "DeadTime/PID-v0", "policies": "simc-pi", "n": 2.5,
+                                                              "seed": 0, "out": Path("out")}, "--n must be an integer >= 1, got 2.5"),
+}
+
+
+@pytest.mark.parametrize("name", list(API_CASES))
+def test_python_api_names_the_field(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Values the Python API accepted silently (or refused without naming the field): a ``ValueError`` naming it."""
+    from importlib import import_module
+
+    target, kwargs, fragment = API_CASES[name]
+    module, function = target.split(":")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError) as error:
+        getattr(import_module(module), function)(**kwargs)
+    assert fragment in str(error.value)
+    assert not any(tmp_path.iterdir())
+
+
+def test_help_texts_quote_the_plant_limit() -> None:
+    """The help texts quote :data:`agents.commands.arguments.PLANT_COEFFICIENTS` (parsing loads no envs numerics)."""
+    from agents.commands.arguments import PLANT_COEFFICIENTS
+    from envs.systems.plants import MAX_COEFFICIENTS
+
+    assert PLANT_COEFFICIENTS == MAX_COEFFICIENTS
