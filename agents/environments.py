@@ -21,6 +21,7 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle
 
     import envs  # noqa: F401  (registers the DeadTime ids)
 
+    _check_make_arguments(env_kwargs or {})
     try:
         env = gymnasium.make(env_id, **dict(env_kwargs or {}))
     except gymnasium.error.Error as error:
@@ -34,6 +35,20 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle
 
         env = OracleInfo(env)
     return env
+
+
+_MAKE_FLAGS = ("disable_env_checker", "autoreset", "apply_api_compatibility")
+"""Arguments of ``gymnasium.make`` itself that take true or false (it does not check them)."""
+
+
+def _check_make_arguments(env_kwargs: Mapping[str, Any]) -> None:
+    """The arguments ``gymnasium.make`` takes for itself: ``max_episode_steps`` null or an integer >= 1, the flags booleans."""
+    steps = env_kwargs.get("max_episode_steps")
+    if steps is not None and (not isinstance(steps, int) or isinstance(steps, bool) or steps < 1):
+        raise ValueError(f"max_episode_steps must be null or an integer >= 1, got {steps!r}")
+    for name in _MAKE_FLAGS:
+        if name in env_kwargs and not isinstance(env_kwargs[name], bool):
+            raise ValueError(f"{name} must be true or false, got {env_kwargs[name]!r}")
 
 
 def _check_render_mode(env: Any, env_id: str, env_kwargs: Mapping[str, Any] | None) -> None:

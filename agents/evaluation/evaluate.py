@@ -177,6 +177,15 @@ def _regime(env_kwargs: Any) -> dict[str, Any]:
     return dict(env_kwargs)
 
 
+def _first_episode(env: Any, plant: Any, seed: int) -> None:
+    """Reset ``env`` on the first plant with its seed, before anything is written: an argument of the
+    regime that only an episode reads, and cannot take, is refused with no output folder left."""
+    try:
+        env.reset(seed=seed, options={"plant": plant})
+    except (TypeError, KeyError, AssertionError, OverflowError) as error:
+        raise ValueError(f"--env-kwargs: refused by the environment: {error or error.__class__.__name__}") from None
+
+
 def _check_sizes(n: Any, seed: Any, resamples: Any, workers: Any) -> None:
     """``n``, ``resamples`` and ``workers`` integers from 1 to their limits (:mod:`agents.limits`), ``seed`` >= 0."""
     for name, value, low, limit in (("--n", n, 1, MAX_TEST_PLANTS), ("--seed", seed, 0, None),
@@ -263,6 +272,7 @@ def evaluate(
     print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
     plants = _plants(family, structure, n, benchmark, given)
 
+    _first_episode(env, plants[0][2], _episode_seeds(plants, seed)[0])
     out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)
     results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, out, full, workers)
