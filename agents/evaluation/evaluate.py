@@ -269,10 +269,10 @@ def evaluate(
     agents, agent_roles = _agents([s for s in specs if s.kind in TRAINED], env_id, scoring, {*rules, "oracle", "oracle-full"})
     given = None if plants is None else _given_plants(plants, structure)
     count = f"{n} test plants" if given is None else f"{len(given)} given plants"
-    print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
     plants = _plants(family, structure, n, benchmark, given)
-
     _first_episode(env, plants[0][2], _episode_seeds(plants, seed)[0])
+    print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
+
     out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)
     results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, out, full, workers)
