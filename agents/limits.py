@@ -68,7 +68,8 @@ regimes --behaviour``."""
 
 MAX_BUFFER_SIZE = 10_000_000
 """Transitions of an off-policy replay buffer (``hyperparameters.buffer_size``; stable-baselines3
-allocates it whole when the model is built; its default is 1,000,000)."""
+allocates it whole when the model is built; its default is 1,000,000), of an on-policy rollout
+(``hyperparameters.n_steps * n_envs``), and of a minibatch (``hyperparameters.batch_size``)."""
 
 MAX_LAYER_WIDTH = 1_024
 """Units of one hidden layer of a policy or value network (``policy_kwargs.net_arch``; the configs use 64 to 256)."""

@@ -123,8 +123,11 @@ def check_hyperparameters(algorithm: str, hyperparameters: Mapping[str, Any], n_
             raise ValueError(f"hyperparameters.{key} cannot be set from a config (it takes a Python class)")
         if key in rules and not rules[key][0](value):
             raise ValueError(f"hyperparameters.{key} must be {rules[key][1]}, got {value!r}")
-    if "buffer_size" in hyperparameters:
-        require_at_most(hyperparameters["buffer_size"], MAX_BUFFER_SIZE, "hyperparameters.buffer_size")
+    for key in ("buffer_size", "batch_size"):
+        if key in hyperparameters:
+            require_at_most(hyperparameters[key], MAX_BUFFER_SIZE, f"hyperparameters.{key}")
+    if isinstance(hyperparameters.get("n_steps"), int):  # the rollout buffer holds n_steps * n_envs transitions
+        require_at_most(hyperparameters["n_steps"] * n_envs, MAX_BUFFER_SIZE, "hyperparameters.n_steps * n_envs")
     if "train_freq" in hyperparameters:
         _check_train_freq(hyperparameters["train_freq"], n_envs)
     if "action_noise" in hyperparameters:

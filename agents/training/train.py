@@ -73,7 +73,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime train``."""
     parser.add_argument("--config", help="a YAML config (configs/<algorithm>.yaml, or a run's config.yaml); "
                         f"optional with --resume --out DIR.  Limits (agents/limits.py): n_envs <= {MAX_ENVS}, "
-                        f"n_eval_episodes <= {MAX_EVAL_EPISODES}, hyperparameters.buffer_size <= {MAX_BUFFER_SIZE}, "
+                        f"n_eval_episodes <= {MAX_EVAL_EPISODES}, hyperparameters.buffer_size, batch_size and n_steps * n_envs "
+                        f"<= {MAX_BUFFER_SIZE}, "
                         f"policy_kwargs.net_arch at most {MAX_LAYERS} layers of {MAX_LAYER_WIDTH} units, "
                         f"nesting <= {MAX_NESTING} levels, <= {MAX_YAML_NODES} values with aliases expanded")
     parser.add_argument("--env", help="environment id (selects the config's entry; default the config's env_id)")

@@ -107,6 +107,7 @@ CASES: dict[str, Case] = {
     "evaluate --out empty": Case([*EVALUATE, "--out", ""], "--out must name a directory, got the empty string"),
     "evaluate --resamples 1e12": Case([*EVALUATE, "--resamples", str(10**12), "--out", "out"], "--resamples must be at most 100000"),
     "evaluate --n 1e12": Case([*EVALUATE, "--n", str(10**12), "--out", "out"], "--n must be at most 10000"),
+    "evaluate --n 1e12 as typed": Case([*EVALUATE, "--n", "1e12", "--out", "out"], "argument --n: invalid int value: '1e12'"),
     "evaluate --workers 1e6": Case([*EVALUATE, "--workers", str(10**6), "--out", "out"], "--workers must be at most 1024"),
     "evaluate max_episode_steps -1": Case([*EVALUATE, "--env-kwargs", '{"max_episode_steps": -1}', "--out", "out"],
                                           "max_episode_steps must be null or an integer >= 1, got -1"),
@@ -123,6 +124,8 @@ CASES: dict[str, Case] = {
     # training configs: refused before config.yaml and run.json are written
     "train buffer_size 1e14": Case(["train", "--config", SAC, "--out", "run", f"hyperparameters.buffer_size={10**14}"],
                                    "hyperparameters.buffer_size must be at most 10000000"),
+    "train n_steps 1e9": Case(["train", "--config", PPO, "--out", "run", f"hyperparameters.n_steps={10**9}"],
+                              "hyperparameters.n_steps * n_envs must be at most 10000000"),
     "train net_arch [100000, 100000]": Case(["train", "--config", PPO, "--out", "run", "policy_kwargs.net_arch=[100000, 100000]"],
                                             "a layer of policy_kwargs.net_arch must be at most 1024"),
     "train net_arch 100 layers": Case(["train", "--config", PPO, "--out", "run", f"policy_kwargs.net_arch={[8] * 100}"],
