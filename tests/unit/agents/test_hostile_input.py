@@ -243,3 +243,15 @@ def test_help_texts_quote_the_plant_limit() -> None:
     from envs.systems.plants import MAX_COEFFICIENTS
 
     assert PLANT_COEFFICIENTS == MAX_COEFFICIENTS
+
+
+def test_ctrl_c_is_one_line_and_exit_130(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """Ctrl-C in a subcommand that does not handle it itself: one line, exit status 130, no traceback."""
+    import agents.commands.analyze
+
+    def interrupted(args: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(agents.commands.analyze, "run", interrupted)
+    assert main(["analyze", "--plant", json.dumps(PLANT), "--controller", PID]) == 130
+    assert capsys.readouterr().err.strip().splitlines() == ["deadtime analyze: interrupted"]
