@@ -413,6 +413,7 @@ def validate(config: TrainConfig) -> None:
 
         _validate_env_kwargs(config)
         check_environment(config).close()
+        _probe_environment(config)
         return
     import stable_baselines3
 

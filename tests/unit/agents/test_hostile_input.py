@@ -134,6 +134,8 @@ CASES: dict[str, Case] = {
                                  "device must be auto or a torch device"),
     "train family_config=5": Case(["train", "--config", PPO, "--out", "run", "env_kwargs.family_config=5"],
                                   "env_kwargs: refused by DeadTime/PID-v0"),
+    "train learned rule family_config=5": Case(["train", "--config", str(ROOT / "configs" / "learned_rule.yaml"), "--out", "run",
+                                                "env_kwargs.family_config=5"], "env_kwargs: refused by DeadTime/PID-v0"),
     "train n_envs 100000": Case(["train", "--config", PPO, "--out", "run", "n_envs=100000"], "n_envs must be at most 256"),
     "train n_eval_episodes 1e8": Case(["train", "--config", PPO, "--out", "run", "n_eval_episodes=1e8"],
                                       "n_eval_episodes must be at most 10000"),
