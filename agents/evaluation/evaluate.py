@@ -222,7 +222,7 @@ def evaluate(
     policies: str,
     n: int,
     seed: int,
-    out: Path,
+    out: Path | str,
     *,
     family: str | None = None,
     benchmark: bool = True,
@@ -252,6 +252,10 @@ def evaluate(
     from agents.evaluation.policies import TRAINED, own_rules, parse_policies
 
     _check_sizes(n, seed, resamples, workers)
+    if isinstance(out, str):
+        from agents.commands.arguments import require_directory
+
+        out = require_directory(out, "out")
     started = time.perf_counter()
     regime = _regime(env_kwargs)
     env_kwargs = {**regime, **({} if family is None else {"family": family})}

@@ -222,6 +222,8 @@ API_CASES = {
                                                                   "seed": True, "out": Path("out")}, "--seed must be an integer"),
     "evaluate n=2.5": ("agents.evaluation.evaluate:evaluate", {"env_id": "DeadTime/PID-v0", "policies": "simc-pi", "n": 2.5,
                                                               "seed": 0, "out": Path("out")}, "--n must be an integer >= 1, got 2.5"),
+    "evaluate out=''": ("agents.evaluation.evaluate:evaluate", {"env_id": "DeadTime/PID-v0", "policies": "simc-pi", "n": 2,
+                                                               "seed": 0, "out": ""}, "out must name a directory"),
 }
 
 
