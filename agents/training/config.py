@@ -261,7 +261,8 @@ def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def parse_override(text: str) -> tuple[list[str], Any]:
-    """``"hyperparameters.n_steps=32"`` -> ``(["hyperparameters", "n_steps"], 32)`` (value read as YAML by :func:`agents.yaml_input.load_yaml`)."""
+    """``"hyperparameters.n_steps=32"`` -> ``(["hyperparameters", "n_steps"], 32)`` (the value read as YAML,
+    :func:`agents.yaml_input.load_yaml`)."""
     key, sep, raw = text.partition("=")
     path = key.strip().split(".")
     if not sep or not all(path):
@@ -352,14 +353,16 @@ def _check_top_level(data: Mapping[str, Any], path: Path) -> None:
 
     import envs  # noqa: F401  (registers the DeadTime ids)
 
-    fields = [f.name for f in dataclasses.fields(TrainConfig)]
+    from agents.training.learned_rule_config import LearnedRuleConfig
+
+    fields = list(dict.fromkeys(f.name for schema in (TrainConfig, LearnedRuleConfig) for f in dataclasses.fields(schema)))
     for key in data:
         if key == "default" or (isinstance(key, str) and key in gymnasium.registry):
             continue
         if key in fields:
             raise ValueError(f"unknown config key {key!r} at the top of {path} (put it under 'default')")
-        field_hint = did_you_mean(key, fields)
-        hint = f"{field_hint[:-2]}, under 'default'?)" if field_hint else did_you_mean(
+        close = difflib.get_close_matches(str(key), fields, n=1)
+        hint = f" (did you mean {close[0]!r}, under 'default'?)" if close else did_you_mean(
             key, ["default", *sorted(k for k in gymnasium.registry if k.startswith("DeadTime/"))])
         raise ValueError(f"unknown config key {key!r} at the top of {path}{hint}: the top holds 'default' and "
                          "entries keyed by registered environment ids")
