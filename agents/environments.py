@@ -2,8 +2,9 @@
 
 :func:`make_env` registers the DeadTime ids first (a worker process, spawned, has not imported
 ``envs``), makes the environment with its keyword arguments, refuses an unknown id in one line
-naming the known ones (and a ``render_mode`` the environment cannot render itself), and with ``oracle=True`` adds the oracle's figures to the final ``info``
-(:class:`agents.evaluation.oracle_info.OracleInfo`).
+naming the known ones (and ``gymnasium.make``'s own arguments of the wrong type, and a
+``render_mode`` the environment cannot render itself), and with ``oracle=True`` adds the oracle's
+figures to the final ``info`` (:class:`agents.evaluation.oracle_info.OracleInfo`).
 """
 
 from __future__ import annotations
