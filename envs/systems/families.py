@@ -66,6 +66,7 @@ __all__ = [
     "BenchmarkConfig",
     "MixtureConfig",
     "benchmark_plants",
+    "check_family_config",
     "sample_plant",
     "sample_plants",
 ]
@@ -494,6 +495,18 @@ def sample_plant(family: str, rng: np.random.Generator, config: object = None) -
         members = config.members()
         return _sample_random(rng, members[rng.integers(len(members))])
     return _sample_random(rng, config)
+
+
+def check_family_config(family: str, config: object, name: str = "family_config") -> object:
+    """``config`` if it is None or the config class of ``family`` (:func:`sample_plant`), else a
+    ``ValueError`` naming ``name``: ``"family_config must be a FopdtConfig for family 'fopdt', got int"``."""
+    if config is None:
+        return None
+    try:
+        return _config_for(family, config)
+    except TypeError:
+        expected = _CONFIGS[family].__name__
+        raise ValueError(f"{name} must be a {expected} for family {family!r}, got {type(config).__name__}") from None
 
 
 def sample_plants(family: str, n: int, seed: int, config: object = None) -> list[Plant]:
