@@ -10,8 +10,8 @@ Two limits live beside what they bound: the size of a plant is a property of the
 other documented ranges (``GAIN_RANGE``, ``TIME_SCALE_RANGE``); a learned rule's training plants are
 bounded by the stride of its seeds, :data:`agents.training.learned_rule_config.MAX_TRAINING_PLANTS`.
 
-This module imports nothing, so that the command line's help texts can quote it without loading
-numpy or torch.
+This module imports no numerics, so that the command line's help texts quote it without loading
+numpy, envs or torch.
 """
 
 from __future__ import annotations
@@ -79,9 +79,13 @@ MAX_LAYERS = 8
 
 
 def require_at_most(value: Any, limit: int, name: str) -> None:
-    """Refuse a number above its documented ``limit``: ``"--n must be at most 10000 (agents.limits), got 1e12"``.
+    """Refuse a number above its documented ``limit``, naming ``name``.
 
     Other checks (type, sign) are the caller's; a value that is not a number passes.
+
+    >>> require_at_most(10**12, MAX_TEST_PLANTS, "--n")
+    Traceback (most recent call last):
+    ValueError: --n must be at most 10000 (the documented limit, agents/limits.py), got 1000000000000
     """
     try:
         above = value > limit
