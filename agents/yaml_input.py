@@ -11,18 +11,21 @@ tag ever executes code) after two checks on the composed document, before any va
   to billions of values in whatever walks it (a merge, a copy, a printed message, ``yaml.safe_dump``).
   The count is memoized per node, so it takes time linear in the document's text.
 
-A refusal is a ``ValueError`` that names the source and never prints the value.
+A refusal is a ``ValueError`` that names the source and never prints the value.  Files are read as
+UTF-8 text (:func:`read_text`, also for the JSON arguments that name a file); a binary file is
+refused by name.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import yaml
 
 from agents.limits import MAX_NESTING, MAX_YAML_NODES
 
-__all__ = ["load_yaml"]
+__all__ = ["load_yaml", "load_yaml_file", "read_text"]
 
 
 class _Refused(Exception):
@@ -60,6 +63,20 @@ def _expanded_size(node: yaml.Node, sizes: dict[int, int]) -> int:
 
 def _one_line(error: BaseException) -> str:
     return " ".join(str(error).split())
+
+
+def read_text(path: Path) -> str:
+    """The text of ``path``; a file that is not UTF-8 text is a ``ValueError`` naming it."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{path} is not a text file (not UTF-8 at byte {error.start})") from None
+
+
+def load_yaml_file(path: str | Path) -> Any:
+    """:func:`load_yaml` of the file ``path``, named in every message."""
+    path = Path(path)
+    return load_yaml(read_text(path), str(path))
 
 
 def load_yaml(text: str, where: str) -> Any:

@@ -28,7 +28,9 @@ def load_json_argument(text: str, name: str) -> Any:
     """Parse ``text`` as JSON, or read it from a file if ``text`` is a path."""
     source = text
     if not text.lstrip().startswith(("{", "[")) and Path(text).is_file():
-        source = Path(text).read_text()
+        from agents.yaml_input import read_text
+
+        source = read_text(Path(text))
     try:
         value = json.loads(source)
     except json.JSONDecodeError as error:

@@ -37,7 +37,7 @@ from typing import Any
 
 from agents.limits import MAX_RESAMPLES, MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
 from agents.training.config import TrainConfig, load_config
-from agents.yaml_input import load_yaml
+from agents.yaml_input import load_yaml_file
 
 __all__ = ["Evaluation", "Failure", "SweepConfig", "Trial", "TrialGroup", "evaluation_directory", "load_sweep"]
 
@@ -218,7 +218,7 @@ def load_sweep(path: str | Path) -> SweepConfig:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"--config {path}: no such file")
-    data = load_yaml(path.read_text(), str(path))
+    data = load_yaml_file(path)
     data = _mapping(data if data is not None else {}, str(path), ("name", "env_kwargs", "trials", "evaluation", "failure"))
     name = data.get("name", path.stem)
     if not isinstance(name, str) or not name:

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from agents.limits import MAX_EVAL_EPISODES, MAX_RESAMPLES, require_at_most
-from agents.yaml_input import load_yaml
+from agents.yaml_input import load_yaml_file
 
 __all__ = ["add_arguments", "behaviour", "compare_regimes", "run"]
 
@@ -84,7 +84,7 @@ def _regime(directory: Path) -> tuple[str, dict[str, Any]]:
     path = directory / "sweep.yaml"
     if not path.is_file():
         raise ValueError(f"{directory}: not the output directory of a sweep (no sweep.yaml)")
-    data = load_yaml(path.read_text(), str(path)) or {}
+    data = load_yaml_file(path) or {}
     if not data.get("env_kwargs"):
         raise ValueError(f"{path}: sets no env_kwargs, so it is no regime")
     return str(data.get("name", directory.name)), dict(data["env_kwargs"])

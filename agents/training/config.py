@@ -41,7 +41,7 @@ from types import MappingProxyType
 from typing import Any
 
 from agents.limits import MAX_ENVS, MAX_EVAL_EPISODES, require_at_most
-from agents.yaml_input import load_yaml
+from agents.yaml_input import load_yaml, load_yaml_file
 
 __all__ = [
     "ALGORITHMS",
@@ -315,7 +315,7 @@ def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence
         On an unreadable file, an unknown key (named), or an invalid value (named).
     """
     path = Path(path)
-    data = load_yaml(path.read_text(), str(path))
+    data = load_yaml_file(path)
     if data is None:
         data = {}
     if not isinstance(data, Mapping):

@@ -86,10 +86,10 @@ def is_learned_rule(path: str | Path) -> bool:
         return False
     if (path / MANIFEST).is_file():
         return True
-    from agents.yaml_input import load_yaml
+    from agents.yaml_input import load_yaml_file
 
     try:
-        config = load_yaml((path / "config.yaml").read_text(), str(path / "config.yaml"))
+        config = load_yaml_file(path / "config.yaml")
     except (OSError, ValueError):
         return False
     return isinstance(config, dict) and str(config.get("algorithm", "")).lower() == "learned-rule"

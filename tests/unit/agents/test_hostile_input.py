@@ -89,6 +89,8 @@ CASES: dict[str, Case] = {
                                 "override 'env_kwargs.x' nests deeper than 32 levels"),
     "integer of 10000 digits": Case(["analyze", "--plant", '{"num": [' + "1" * 10_000 + '], "den": [1, 1], "delay": 1}',
                                      "--controller", PID], "--plant is not valid JSON"),
+    "train binary config": Case(["train", "--config", "binary.yaml", "--out", "run"], "binary.yaml is not a text file"),
+    "analyze binary plant file": Case(["analyze", "--plant", "binary.json", "--controller", PID], "binary.json is not a text file"),
     # alias bombs: refused before they are expanded, never printed
     "train bomb as a value": Case(["train", "--config", "bomb.yaml", "--out", "run"], "bomb.yaml holds more than 100000 values",
                                   {"bomb.yaml": _zoo(f"DeadTime/PID-v0: {{env_kwargs: {{x: {BOMB}}}}}\n")}),
@@ -179,6 +181,8 @@ def test_hostile_input_is_one_line_exit_2_and_nothing_written(name: str, tmp_pat
     case = CASES[name]
     for file_name, text in case.files.items():
         (tmp_path / file_name).write_text(text)
+    for binary in ("binary.yaml", "binary.json"):
+        (tmp_path / binary).write_bytes(bytes(range(128, 256)))
     monkeypatch.chdir(tmp_path)
     before = _files(tmp_path)
     out, err = io.StringIO(), io.StringIO()
