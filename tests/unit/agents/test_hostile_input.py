@@ -156,6 +156,8 @@ CASES: dict[str, Case] = {
                                   {"big.yaml": _sweep("seeds: {count: 100000000}")}),
     "sweep evaluation.n 1e12": Case(["sweep", "--config", "big.yaml", "--out", "sweep"], "evaluation.n must be at most 10000",
                                     {"big.yaml": _sweep("seeds: [0]", f"evaluation: {{n: {10**12}}}\n")}),
+    "evaluate misspelled rule": Case(["evaluate", "--env", "DeadTime/PID-v0", "--policies", "simc-ip", "--out", "out"],
+                                     "unknown rule 'simc-ip' (did you mean 'simc-pi'?)"),
     # process
     "process --load-step 200": Case(["process", "--process", "tclab", "--load-step", "200"],
                                     "--load-step 200 is outside the load input's range [0, 100]"),
