@@ -154,6 +154,10 @@ CASES: dict[str, Case] = {
     # sweeps
     "sweep seeds count 1e8": Case(["sweep", "--config", "big.yaml", "--out", "sweep"], "trials[0].seeds.count must be at most 1000",
                                   {"big.yaml": _sweep("seeds: {count: 100000000}")}),
+    "sweep env_kwargs a trial's environment refuses": Case(
+        ["sweep", "--config", "bad.yaml", "--out", "sweep"],
+        "trial bad-PID-v0-s0: env_kwargs: refused by DeadTime/PID-v0: noise_std must be >= 0, got -1.0",
+        {"bad.yaml": _sweep("seeds: [0]\n    label: bad\n    overrides: [env_kwargs.noise_std=-1]")}),
     "sweep evaluation.n 1e12": Case(["sweep", "--config", "big.yaml", "--out", "sweep"], "evaluation.n must be at most 10000",
                                     {"big.yaml": _sweep("seeds: [0]", f"evaluation: {{n: {10**12}}}\n")}),
     "evaluate misspelled rule": Case(["evaluate", "--env", "DeadTime/PID-v0", "--policies", "simc-ip", "--out", "out"],
