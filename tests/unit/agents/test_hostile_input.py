@@ -8,9 +8,12 @@ line longer than :data:`MAX_LINE` (an alias bomb's value is never printed), the 
 :data:`SECONDS` (a hang detector only: the rows take well under a second each, the first
 ``train`` row a few seconds to import stable-baselines3), and the temporary directory holding
 exactly the input files afterwards (no output folder, no ``config.yaml``, no ``run.json``).  The
-working directory is that temporary directory, so that ``--out ""`` would show as a file written.
+working directory is that temporary directory (with two files that are not text, ``binary.yaml``
+and ``binary.json``), so that ``--out ""`` would show as a file written.
 
-The limits themselves are :mod:`agents.limits` and :data:`envs.systems.plants.MAX_COEFFICIENTS`.
+:data:`API_CASES` are the Python API's soft cases outside the environment classes: values it took
+silently, or refused without naming the field.  Ctrl-C is one line and exit status 130.  The
+limits themselves are :mod:`agents.limits` and :data:`envs.systems.plants.MAX_COEFFICIENTS`.
 """
 
 from __future__ import annotations
