@@ -10,7 +10,8 @@ functions of ``envs`` and ``baselines`` (packages that know nothing of the comma
 :mod:`agents.commands`.
 
 Bad input anywhere (a ``ValueError``, ``OverflowError`` or ``OSError``) prints one line naming what is
-wrong and exits with status 2; no traceback.  An error with an ``exit_status`` attribute exits with
+wrong and exits with status 2; no traceback.  Ctrl-C prints one line and exits with status 130
+(:data:`INTERRUPTED`).  An error with an ``exit_status`` attribute exits with
 that status instead.  ``deadtime tune`` exits with status 3 (:data:`agents.commands.tune.LOOP_PROBLEM`)
 when the rule's loop is unstable or outside the constraints on the plant, or the rule's ``T_r`` is
 degenerate (:mod:`baselines.rules.tune`), after one line on stderr saying so.
@@ -24,7 +25,10 @@ from importlib import import_module
 from pathlib import Path
 from typing import Callable, NamedTuple, Sequence
 
-__all__ = ["COMMANDS", "Command", "main", "shadowed_package"]
+__all__ = ["COMMANDS", "Command", "INTERRUPTED", "main", "shadowed_package"]
+
+INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT, as a shell reports a process it interrupted)."""
 
 
 class Command(NamedTuple):
@@ -130,6 +134,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         status = getattr(error, "exit_status", 2)
         print(f"deadtime {args.command}: {'error: ' if status == 2 else ''}{error}", file=sys.stderr)
         return status
+    except KeyboardInterrupt:  # a subcommand that can resume says how itself, and returns 130
+        print(f"\ndeadtime {args.command}: interrupted", file=sys.stderr)
+        return INTERRUPTED
 
 
 if __name__ == "__main__":

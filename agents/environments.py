@@ -2,8 +2,9 @@
 
 :func:`make_env` registers the DeadTime ids first (a worker process, spawned, has not imported
 ``envs``), makes the environment with its keyword arguments, refuses an unknown id in one line
-naming the known ones, and with ``oracle=True`` adds the oracle's figures to the final ``info``
-(:class:`agents.evaluation.oracle_info.OracleInfo`).
+naming the known ones (and ``gymnasium.make``'s own arguments of the wrong type, and a
+``render_mode`` the environment cannot render itself), and with ``oracle=True`` adds the oracle's
+figures to the final ``info`` (:class:`agents.evaluation.oracle_info.OracleInfo`).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle
 
     import envs  # noqa: F401  (registers the DeadTime ids)
 
+    _check_make_arguments(env_kwargs or {})
     try:
         env = gymnasium.make(env_id, **dict(env_kwargs or {}))
     except gymnasium.error.Error as error:
@@ -28,8 +30,33 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle
         raise ValueError(f"unknown environment {env_id!r} ({error}); known: {', '.join(known) or 'none'}") from None
     except TypeError as error:  # an argument the environment does not take (its constructor's message names it)
         raise ValueError(f"environment arguments of {env_id}: {error}") from None
+    _check_render_mode(env, env_id, env_kwargs)
     if oracle:
         from agents.evaluation.oracle_info import OracleInfo
 
         env = OracleInfo(env)
     return env
+
+
+_MAKE_FLAGS = ("disable_env_checker", "autoreset", "apply_api_compatibility")
+"""Arguments of ``gymnasium.make`` itself that take true or false (it does not check them)."""
+
+
+def _check_make_arguments(env_kwargs: Mapping[str, Any]) -> None:
+    """The arguments ``gymnasium.make`` takes for itself: ``max_episode_steps`` null or an integer >= 1, the flags booleans."""
+    steps = env_kwargs.get("max_episode_steps")
+    if steps is not None and (not isinstance(steps, int) or isinstance(steps, bool) or steps < 1):
+        raise ValueError(f"max_episode_steps must be null or an integer >= 1, got {steps!r}")
+    for name in _MAKE_FLAGS:
+        if name in env_kwargs and not isinstance(env_kwargs[name], bool):
+            raise ValueError(f"{name} must be true or false, got {env_kwargs[name]!r}")
+
+
+def _check_render_mode(env: Any, env_id: str, env_kwargs: Mapping[str, Any] | None) -> None:
+    """Refuse a ``render_mode`` the environment does not render itself: ``gymnasium.make`` would wrap it
+    (``human`` in ``HumanRendering``, which needs pygame at the first reset)."""
+    requested = (env_kwargs or {}).get("render_mode")
+    modes = env.unwrapped.metadata.get("render_modes", [])
+    if requested is not None and requested not in modes:
+        env.close()
+        raise ValueError(f"render_mode: {env_id} renders {', '.join(map(repr, modes)) or 'nothing'}, got {requested!r}")

@@ -7,7 +7,7 @@ from typing import Any, Collection
 
 import numpy as np
 
-__all__ = ["require_number", "check_keys"]
+__all__ = ["require_number", "require_real_array", "check_keys"]
 
 
 def require_number(
@@ -33,6 +33,25 @@ def require_number(
     if nonzero and value == 0:
         raise ValueError(f"{name} must be non-zero, got {value!r}")
     return value
+
+
+def require_real_array(value: Any, name: str) -> np.ndarray:
+    """``value`` as a float64 array of finite real numbers, its shape kept.
+
+    Booleans, complex numbers, strings and objects are refused (``numpy.asarray(..., dtype=float)``
+    would turn ``True`` into 1.0 and drop an imaginary part): ``"action must be real numbers, got
+    bool"``, ``"action must be finite, got [nan]"``.
+
+    >>> require_real_array([0.5], "action"), require_real_array(1, "action").shape
+    (array([0.5]), ())
+    """
+    array = np.asarray(value)
+    if array.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be real numbers, got {array.dtype.name if array.dtype.kind != 'U' else 'text'}")
+    array = array.astype(np.float64, copy=False)
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must be finite, got {array.tolist()}")
+    return array
 
 
 def check_keys(

@@ -5,14 +5,15 @@ from __future__ import annotations
 import argparse
 import json
 
-from agents.commands.arguments import format_value, load_json_argument
+from agents.commands.arguments import PLANT_COEFFICIENTS, format_value, load_json_argument
 
 __all__ = ["add_arguments", "run"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime analyze``."""
-    parser.add_argument("--plant", required=True, help='JSON {"num": [...], "den": [...], "delay": L} or a file')
+    parser.add_argument("--plant", required=True, help='JSON {"num": [...], "den": [...], "delay": L} or a file; at most '
+                        f'{PLANT_COEFFICIENTS} coefficients in num and in den')
     parser.add_argument("--controller", required=True, help='JSON {"type": "pid", "kp":, "ti":, "td":, "n":} etc. or a file')
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 

@@ -26,7 +26,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any
 
-from agents.commands.arguments import CommandError, load_json_argument
+from agents.commands.arguments import CommandError, load_json_argument, require_directory
 
 __all__ = ["add_arguments", "run", "make_process"]
 
@@ -46,8 +46,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--operating-input", type=float, help="the input of the operating point (default: the process's)")
     parser.add_argument("--setpoint-step", type=float, help="set-point step of the experiment and of the test, output units")
     parser.add_argument("--input-step", type=float, help="input step of the first open-loop step, input units")
-    parser.add_argument("--load-step", type=float, help="load step of the load test, load units")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the process's noise (default 0)")
+    parser.add_argument("--load-step", type=float, help="load step of the load test, load units, inside the load input's "
+                        "range (0 to 100 %% heater 2 for the TCLab)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the process's noise (an integer >= 0, default 0)")
     parser.add_argument("--out", help="output directory for results.{md,csv,json} and the plots")
     parser.add_argument("--no-plots", action="store_true", help="write the tables only")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -101,6 +102,18 @@ def _controller(text: str | None) -> Any:
     return controller
 
 
+def _load_step(process: Any, value: float | None) -> float:
+    """``--load-step`` (default the process's), inside the range of the process's load input."""
+    from envs.process.protocol import check_load_step
+
+    if value is None:
+        return process.load_step
+    try:
+        return check_load_step(process, value, "--load-step")
+    except ValueError as error:
+        raise CommandError(str(error)) from None
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime process``; bad input is a ValueError (one line, exit status 2)."""
     from agents.evaluation.policies import parse_policies
@@ -111,6 +124,10 @@ def run(args: argparse.Namespace) -> int:
     from envs.threads import single_threaded
 
     started = time.perf_counter()
+    if args.seed < 0:
+        raise CommandError(f"--seed must be an integer >= 0, got {args.seed}")
+    if args.out is not None:
+        require_directory(args.out)
     items = [item.strip() for item in args.policies.split(",")]
     fppi_oracle = "oracle-fppi" in items
     others = ",".join(item for item in items if item != "oracle-fppi")
@@ -119,11 +136,11 @@ def run(args: argparse.Namespace) -> int:
     controller = _controller(args.controller)
     process = make_process(args.process)
     try:
+        load_step = _load_step(process, args.load_step)
         found = single_threaded(identify_process)(
             process, seed=args.seed, controller=controller, setpoint_step=args.setpoint_step,
             input_step=args.input_step, operating_input=args.operating_input,
         )  # fmt: skip
-        load_step = process.load_step if args.load_step is None else args.load_step
         protocol = RunProtocol.from_identification(found, load_step, seed=args.seed)
         identified = time.perf_counter() - started
         results = single_threaded(evaluate_policies)(process, found, protocol, specs, fppi_oracle)

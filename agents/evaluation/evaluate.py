@@ -39,10 +39,13 @@ import json
 import sys
 import time
 from collections.abc import Callable
+from numbers import Integral
 from pathlib import Path
 from typing import Any
 
+from agents.commands.arguments import PLANT_COEFFICIENTS
 from agents.environments import make_env
+from agents.limits import MAX_RESAMPLES, MAX_TEST_PLANTS, MAX_WORKERS, require_at_most
 
 __all__ = ["add_arguments", "evaluate", "run"]
 
@@ -56,25 +59,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
              "agent runs pickled code from its folder: load only agents you trust; its files are checked against "
              "the manifest written when it was saved)",
     )  # fmt: skip
-    parser.add_argument("--n", type=int, default=50, help="number of random held-out test plants (default 50)")
+    parser.add_argument("--n", type=int, default=50,
+                        help=f"number of random held-out test plants (default 50, at most {MAX_TEST_PLANTS})")
     parser.add_argument("--plants", help="a JSON list of plants (each {\"num\": [...], \"den\": [...], \"delay\": L}) or a "
-                        "file of one: the user's own test set, instead of --n random plants")
-    parser.add_argument("--seed", type=int, default=0, help="episode seeds are seed + plant index; also seeds the bootstrap")
-    parser.add_argument("--out", required=True, help="output directory")
+                        f"file of one: the user's own test set (at most {MAX_TEST_PLANTS} plants of at most {PLANT_COEFFICIENTS} "
+                        "coefficients in num and in den), instead of --n random plants")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="episode seeds are seed + plant index; also seeds the bootstrap (an integer >= 0, default 0)")
+    parser.add_argument("--out", required=True, help="output directory (created; not the empty string)")
     parser.add_argument("--json", action="store_true", help="print results.json to stdout")
     parser.add_argument("--family", help="plant family of the test set (default: the environment's)")
     parser.add_argument("--env-kwargs", help="a JSON object of environment arguments (or a file of one) that set the "
                         "regime every policy is scored in, e.g. '{\"noise_std\": 0.1}'; not 'experiments'")
     parser.add_argument("--no-benchmark", action="store_true", help="leave out the seeds' benchmark batch")
-    parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (default 2000)")
+    parser.add_argument("--resamples", type=int, default=2000, help=f"bootstrap resamples (default 2000, at most {MAX_RESAMPLES})")
     parser.add_argument("--no-plots", action="store_true", help="write the tables only")
-    parser.add_argument("--workers", type=int, default=1, help="processes for the rules and oracles (default 1)")
+    parser.add_argument("--workers", type=int, default=1,
+                        help=f"processes for the rules and oracles (default 1, at most {MAX_WORKERS})")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime evaluate``; bad input is a ValueError (one line, exit status 2)."""
-    from agents.commands.arguments import load_json_argument
+    from agents.commands.arguments import load_json_argument, require_directory
 
+    require_directory(args.out)
     plants = None if args.plants is None else load_json_argument(args.plants, "--plants")
     regime = None if args.env_kwargs is None else load_json_argument(args.env_kwargs, "--env-kwargs")
     result = evaluate(
@@ -120,6 +128,9 @@ def _given_plants(given: Any, structure: str) -> list[Any]:
 
     if not isinstance(given, list) or not given:
         raise ValueError(f"--plants must be a non-empty JSON list of plants, got {type(given).__name__}")
+    if len(given) > MAX_TEST_PLANTS:
+        raise ValueError(f"--plants must hold at most {MAX_TEST_PLANTS} plants (the documented limit, agents/limits.py), "
+                         f"got {len(given)}")
     plants = [as_plant(value, f"--plants[{i}]") for i, value in enumerate(given)]
     for i, plant in enumerate(plants):
         if plant.integrating != (structure == "msp"):
@@ -178,6 +189,25 @@ def _regime(env_kwargs: Any) -> dict[str, Any]:
     return dict(env_kwargs)
 
 
+def _first_episode(env: Any, plant: Any, seed: int) -> None:
+    """Reset ``env`` on the first plant with its seed, before anything is written: an argument of the
+    regime that only an episode reads, and cannot take, is refused with no output folder left."""
+    try:
+        env.reset(seed=seed, options={"plant": plant})
+    except (TypeError, KeyError, AssertionError, OverflowError) as error:
+        raise ValueError(f"--env-kwargs: refused by the environment: {error or error.__class__.__name__}") from None
+
+
+def _check_sizes(n: Any, seed: Any, resamples: Any, workers: Any) -> None:
+    """``n``, ``resamples`` and ``workers`` integers from 1 to their limits (:mod:`agents.limits`), ``seed`` >= 0."""
+    for name, value, low, limit in (("--n", n, 1, MAX_TEST_PLANTS), ("--seed", seed, 0, None),
+                                    ("--resamples", resamples, 1, MAX_RESAMPLES), ("--workers", workers, 1, MAX_WORKERS)):
+        if not isinstance(value, Integral) or isinstance(value, bool) or value < low:
+            raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+        if limit is not None:
+            require_at_most(value, limit, name)
+
+
 BENCHMARK_SEED_OFFSET = 1_000_000
 """Episode seed of benchmark plant ``j``: ``--seed + BENCHMARK_SEED_OFFSET + j``, whatever ``--n``."""
 
@@ -204,7 +234,7 @@ def evaluate(
     policies: str,
     n: int,
     seed: int,
-    out: Path,
+    out: Path | str,
     *,
     family: str | None = None,
     benchmark: bool = True,
@@ -228,19 +258,19 @@ on stderr).
     Raises
     ------
     ValueError
-        For an unknown environment, policy or rule, ``n <= 0``, ``resamples <= 0`` or an agent
-        that cannot be loaded.
+        For an unknown environment, policy or rule, ``n``, ``resamples`` or ``workers`` not an integer
+        from 1 to its limit (:mod:`agents.limits`), ``seed`` not an integer >= 0, or an agent that cannot
+        be loaded; all before ``out`` is created.
     """
     import numpy as np
 
     from agents.evaluation.policies import PLAYED, own_rules, parse_policies
 
-    if isinstance(n, bool) or int(n) != n or n <= 0:
-        raise ValueError(f"--n must be a positive integer, got {n!r}")
-    if resamples <= 0:
-        raise ValueError(f"--resamples must be positive, got {resamples!r}")
-    if workers <= 0:
-        raise ValueError(f"--workers must be positive, got {workers!r}")
+    _check_sizes(n, seed, resamples, workers)
+    if isinstance(out, str):
+        from agents.commands.arguments import require_directory
+
+        out = require_directory(out, "out")
     started = time.perf_counter()
     regime = _regime(env_kwargs)
     env_kwargs = {**regime, **({} if family is None else {"family": family})}
@@ -258,8 +288,9 @@ on stderr).
     agents, agent_roles = _agents([s for s in specs if s.kind in PLAYED], env_id, scoring, {*rules, "oracle", "oracle-full"})
     given = None if plants is None else _given_plants(plants, structure)
     count = f"{n} test plants" if given is None else f"{len(given)} given plants"
-    print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
     plants = _plants(family, structure, n, benchmark, given)
+    _first_episode(env, plants[0][2], _episode_seeds(plants, seed)[0])
+    print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
 
     out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)

@@ -19,8 +19,10 @@ trained agent, and of the rules and the oracle once per environment, on the held
     failure:
       max_failures: 1                 # retries of a failed trial before it is reported as failed
 
-The rules of ``configs/`` hold: ``yaml.safe_load`` into frozen dataclasses, an unknown key is an
-error that names it, paths are relative to the directory the command runs in.  Each training
+The rules of ``configs/`` hold: ``yaml.safe_load`` into frozen dataclasses (within the limits of
+:mod:`agents.yaml_input`), an unknown key is an error that names it, paths are relative to the
+directory the command runs in.  At most :data:`agents.limits.MAX_SEEDS` seeds per group,
+:data:`agents.limits.MAX_TEST_PLANTS` test plants and :data:`agents.limits.MAX_RESAMPLES` resamples.  Each training
 config is resolved and validated here (:func:`agents.training.config.validate`), with its overrides and the
 trial's seed, and ``evaluation.policies`` parsed for each environment as ``deadtime evaluate`` would,
 so that a bad config or a misspelled policy fails the sweep before any trial starts.
@@ -34,9 +36,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from agents.limits import MAX_RESAMPLES, MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
 from agents.training.config import TrainConfig, load_config
+from agents.yaml_input import load_yaml_file
 
 __all__ = ["Evaluation", "Failure", "SweepConfig", "Trial", "TrialGroup", "evaluation_directory", "load_sweep"]
 
@@ -162,9 +164,12 @@ def _seeds(value: Any, where: str) -> tuple[int, ...]:
         if "count" not in value:
             raise ValueError(f"{where} needs 'count' (and optionally 'first')")
         first = _integer(value.get("first", 0), f"{where}.first", 0)
-        return tuple(range(first, first + _integer(value["count"], f"{where}.count", 1)))
+        count = _integer(value["count"], f"{where}.count", 1)
+        require_at_most(count, MAX_SEEDS, f"{where}.count")
+        return tuple(range(first, first + count))
     if not isinstance(value, list) or not value:
         raise ValueError(f"{where} must be a non-empty list of seeds or {{first, count}}, got {value!r}")
+    require_at_most(len(value), MAX_SEEDS, f"the number of {where}")
     seeds = tuple(_integer(item, f"{where}[{i}]", 0) for i, item in enumerate(value))
     if len(set(seeds)) != len(seeds):
         raise ValueError(f"{where} repeats a seed: {list(seeds)}")
@@ -191,10 +196,16 @@ def _evaluation(data: Any) -> Evaluation:
     policies = _strings(data["policies"], "evaluation.policies") if "policies" in data else Evaluation.policies
     return Evaluation(
         policies=policies,
-        n=_integer(data.get("n", Evaluation.n), "evaluation.n", 1),
+        n=_at_most(_integer(data.get("n", Evaluation.n), "evaluation.n", 1), MAX_TEST_PLANTS, "evaluation.n"),
         seed=_integer(data.get("seed", Evaluation.seed), "evaluation.seed", 0),
-        resamples=_integer(data.get("resamples", Evaluation.resamples), "evaluation.resamples", 1),
+        resamples=_at_most(_integer(data.get("resamples", Evaluation.resamples), "evaluation.resamples", 1),
+                           MAX_RESAMPLES, "evaluation.resamples"),
     )
+
+
+def _at_most(value: int, limit: int, where: str) -> int:
+    require_at_most(value, limit, where)
+    return value
 
 
 def load_sweep(path: str | Path) -> SweepConfig:
@@ -208,10 +219,7 @@ def load_sweep(path: str | Path) -> SweepConfig:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"--config {path}: no such file")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        raise ValueError(f"{path} is not valid YAML: {error}") from None
+    data = load_yaml_file(path)
     data = _mapping(data if data is not None else {}, str(path), ("name", "env_kwargs", "trials", "evaluation", "failure"))
     name = data.get("name", path.stem)
     if not isinstance(name, str) or not name:

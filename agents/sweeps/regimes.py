@@ -37,7 +37,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
+
+from agents.limits import MAX_EVAL_EPISODES, MAX_RESAMPLES, require_at_most
+from agents.yaml_input import load_yaml_file
 
 __all__ = ["add_arguments", "behaviour", "compare_regimes", "run"]
 
@@ -50,13 +52,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--x", required=True, help="the env_kwargs key on the plot's axis, e.g. noise_std")
     parser.add_argument("--compare", default="", help="A,B[,C...]: the paired difference mean(A) - mean(B) for each B, "
                         "A an agent label, B an agent label, a rule or a procedure")
-    parser.add_argument("--behaviour", type=int, default=0, help="replay each agent on this many validation plants")
-    parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (default 2000)")
+    parser.add_argument("--behaviour", type=int, default=0,
+                        help=f"replay each agent on this many validation plants (at most {MAX_EVAL_EPISODES})")
+    parser.add_argument("--resamples", type=int, default=2000, help=f"bootstrap resamples (default 2000, at most {MAX_RESAMPLES})")
     parser.add_argument("--out", required=True, help="output directory")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime regimes``; bad input is a ValueError (one line, exit status 2)."""
+    from agents.commands.arguments import require_directory
+
+    require_directory(args.out)
+    require_at_most(args.behaviour, MAX_EVAL_EPISODES, "--behaviour")
+    require_at_most(args.resamples, MAX_RESAMPLES, "--resamples")
     compare = tuple(item for item in args.compare.split(",") if item)
     if compare and len(compare) < 2:
         raise ValueError(f"--compare must name an agent label and what to compare it with, A,B[,C...], got {args.compare!r}")
@@ -79,7 +87,7 @@ def _regime(directory: Path) -> tuple[str, dict[str, Any]]:
     path = directory / "sweep.yaml"
     if not path.is_file():
         raise ValueError(f"{directory}: not the output directory of a sweep (no sweep.yaml)")
-    data = yaml.safe_load(path.read_text()) or {}
+    data = load_yaml_file(path) or {}
     if not data.get("env_kwargs"):
         raise ValueError(f"{path}: sets no env_kwargs, so it is no regime")
     return str(data.get("name", directory.name)), dict(data["env_kwargs"])

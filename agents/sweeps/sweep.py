@@ -43,6 +43,7 @@ import shlex
 import sys
 from pathlib import Path
 
+from agents.limits import MAX_RESAMPLES, MAX_SEEDS, MAX_TEST_PLANTS
 from agents.sweeps.config import load_sweep
 
 __all__ = ["add_arguments", "run"]
@@ -50,7 +51,10 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime sweep``."""
-    parser.add_argument("--config", required=True, help="a sweep file (sweeps/NAME.yaml)")
+    parser.add_argument("--config", required=True,
+                        help=f"a sweep file (sweeps/NAME.yaml).  Limits (agents/limits.py): at most {MAX_SEEDS} seeds per "
+                        f"group, evaluation.n <= {MAX_TEST_PLANTS}, evaluation.resamples <= {MAX_RESAMPLES}, and those of "
+                        "deadtime train for each config")
     parser.add_argument("--out", required=True, help="the sweep's directory (runs, evaluations, summary)")
     parser.add_argument("--address", help="a Ray cluster's address (default: RAY_ADDRESS, else a new local instance); "
                         "a token for its authentication is taken from ~/.ray/auth_token, RAY_AUTH_TOKEN or "
@@ -61,6 +65,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``deadtime sweep``: check the sweep, run it, print the summary."""
+    from agents.commands.arguments import require_directory
+
+    require_directory(args.out)
     sweep = load_sweep(args.config)
     try:
         from agents.sweeps.run import run_sweep

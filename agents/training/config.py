@@ -13,10 +13,13 @@ entry::
 
 Precedence: the schema's defaults < the file's ``default`` entry < the entry of the environment id <
 command-line overrides ``key=value`` (dotted keys reach into the mapping fields, e.g.
-``hyperparameters.n_steps=32`` or ``env_kwargs.noise_std=0.02``; each value is parsed with
-``yaml.safe_load``).  Mappings merge key by key; every other value replaces.  An unknown key anywhere
-is a ``ValueError`` that names it.  Numbers in exponent form that YAML 1.1 reads as strings
-(``1e5``, ``3e-4``) are read as numbers in the integer fields and the hyperparameters.
+``hyperparameters.n_steps=32`` or ``env_kwargs.noise_std=0.02``; each value is parsed as YAML).
+Mappings merge key by key; every other value replaces.  An unknown key anywhere is a ``ValueError``
+that names it, with the closest known key if one is close: the top of a file holds only ``default``
+and entries keyed by registered environment ids.  Files and override values are read within the
+limits of :mod:`agents.yaml_input` (nesting, aliases), the sizes within :mod:`agents.limits`.
+Numbers in exponent form that YAML 1.1 reads as strings (``1e5``, ``3e-4``) are read as numbers in
+the integer fields and the hyperparameters.
 Hyperparameters and policy keyword arguments are checked against the stable-baselines3
 constructors by :func:`validate` (which imports stable-baselines3, so it is called when training,
 not when this module is imported).
@@ -28,6 +31,7 @@ A run directory's ``config.yaml`` holds one resolved config (the fields below at
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import inspect
 import re
 from collections.abc import Mapping, Sequence
@@ -36,13 +40,15 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-import yaml
+from agents.limits import MAX_ENVS, MAX_EVAL_EPISODES, require_at_most
+from agents.yaml_input import load_yaml, load_yaml_file
 
 __all__ = [
     "ALGORITHMS",
     "MAPPING_FIELDS",
     "TrainConfig",
     "apply_overrides",
+    "did_you_mean",
     "frozen_mapping",
     "load_config",
     "merge",
@@ -161,6 +167,8 @@ class TrainConfig:
                 value = int(value)
                 object.__setattr__(self, name, value)
             require_field(isinstance(value, int) and not isinstance(value, bool) and value >= low, name, f"an integer >= {low}", value)
+        require_at_most(self.n_envs, MAX_ENVS, "n_envs")
+        require_at_most(self.n_eval_episodes, MAX_EVAL_EPISODES, "n_eval_episodes")
         for name in ("normalize", "normalize_reward", "progress_bar"):
             require_field(isinstance(getattr(self, name), bool), name, "true or false", getattr(self, name))
         require_field(self.vec_env in VEC_ENVS, "vec_env", " or ".join(VEC_ENVS), self.vec_env)
@@ -198,7 +206,7 @@ class TrainConfig:
         known = [f.name for f in dataclasses.fields(cls)]
         for key in data:
             if key not in known:
-                raise ValueError(f"unknown config key {key!r} in {where} (known keys: {', '.join(known)})")
+                raise ValueError(f"unknown config key {key!r} in {where}{did_you_mean(key, known)} (known keys: {', '.join(known)})")
         missing = [f.name for f in dataclasses.fields(cls)
                    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING and f.name not in data]
         if missing:
@@ -215,6 +223,16 @@ def yaml_number(value: Any) -> Any:
     if isinstance(value, str) and _EXPONENT_NUMBER.fullmatch(value.strip()):
         return float(value)
     return value
+
+
+def did_you_mean(key: Any, known: Sequence[str]) -> str:
+    """``" (did you mean 'total_timesteps'?)"`` for the known name closest to a misspelled ``key``, or ``""``.
+
+    >>> did_you_mean("total_timestep", ["seed", "total_timesteps"]), did_you_mean("xyz", ["seed"])
+    (" (did you mean 'total_timesteps'?)", '')
+    """
+    close = difflib.get_close_matches(str(key), list(known), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def require_field(condition: bool, name: str, what: str, value: Any) -> None:
@@ -243,15 +261,13 @@ def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def parse_override(text: str) -> tuple[list[str], Any]:
-    """``"hyperparameters.n_steps=32"`` -> ``(["hyperparameters", "n_steps"], 32)`` (value by ``yaml.safe_load``)."""
+    """``"hyperparameters.n_steps=32"`` -> ``(["hyperparameters", "n_steps"], 32)`` (the value read as YAML,
+    :func:`agents.yaml_input.load_yaml`)."""
     key, sep, raw = text.partition("=")
     path = key.strip().split(".")
     if not sep or not all(path):
         raise ValueError(f"override {text!r} must be key=value (dotted keys for nesting, e.g. hyperparameters.n_steps=32)")
-    try:
-        value = yaml.safe_load(raw) if raw.strip() else None
-    except yaml.YAMLError as error:
-        raise ValueError(f"override {text!r}: the value is not valid YAML ({error.__class__.__name__})") from None
+    value = load_yaml(raw, f"the value of override {key.strip()!r}") if raw.strip() else None
     return path, value
 
 
@@ -299,10 +315,7 @@ def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence
         On an unreadable file, an unknown key (named), or an invalid value (named).
     """
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        raise ValueError(f"{path} is not valid YAML: {error}") from None
+    data = load_yaml_file(path)
     if data is None:
         data = {}
     if not isinstance(data, Mapping):
@@ -313,8 +326,7 @@ def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence
         default = data.get("default") or {}
         if not isinstance(default, Mapping):
             raise ValueError(f"{path}: 'default' must be a mapping")
-        if "env_id" in data and "default" in data:
-            raise ValueError(f"unknown config key 'env_id' at the top of {path} (put it under 'default')")
+        _check_top_level(data, path)
         chosen = env_id or _override_value(overrides, "env_id") or default.get("env_id")
         if chosen is None:
             raise ValueError(f"no environment id: pass --env or set env_id in the 'default' entry of {path}")
@@ -332,6 +344,28 @@ def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence
     if env_id is not None:
         resolved["env_id"] = env_id
     return schema.from_dict(resolved, where=str(path))
+
+
+def _check_top_level(data: Mapping[str, Any], path: Path) -> None:
+    """The top of a zoo-style file holds ``default`` and entries keyed by registered environment ids;
+    anything else (a misspelled id, a config key that belongs under ``default``) is refused, named."""
+    import gymnasium
+
+    import envs  # noqa: F401  (registers the DeadTime ids)
+
+    from agents.training.learned_rule_config import LearnedRuleConfig
+
+    fields = list(dict.fromkeys(f.name for schema in (TrainConfig, LearnedRuleConfig) for f in dataclasses.fields(schema)))
+    for key in data:
+        if key == "default" or (isinstance(key, str) and key in gymnasium.registry):
+            continue
+        if key in fields:
+            raise ValueError(f"unknown config key {key!r} at the top of {path} (put it under 'default')")
+        close = difflib.get_close_matches(str(key), fields, n=1)
+        hint = f" (did you mean {close[0]!r}, under 'default'?)" if close else did_you_mean(
+            key, ["default", *sorted(k for k in gymnasium.registry if k.startswith("DeadTime/"))])
+        raise ValueError(f"unknown config key {key!r} at the top of {path}{hint}: the top holds 'default' and "
+                         "entries keyed by registered environment ids")
 
 
 def _schema(algorithm: Any) -> type:
@@ -363,8 +397,8 @@ def validate(config: TrainConfig) -> None:
     the keys, then the values (:mod:`agents.training.hyperparameters`).
 
     Imports stable-baselines3 (hence torch) and the environment's module.  The values of
-    ``env_kwargs`` are checked by the environment itself when ``deadtime train`` builds it, before
-    anything is written.
+    ``env_kwargs`` are checked by the environment itself: one is made and reset with the training
+    seed (and ``deadtime train`` builds them all before anything is written).
 
     A learned-rule config (:class:`agents.training.learned_rule_config.LearnedRuleConfig`) has no
     stable-baselines3 keys: its ``env_kwargs`` are checked, and the environment is made to check that
@@ -382,6 +416,7 @@ def validate(config: TrainConfig) -> None:
 
         _validate_env_kwargs(config)
         check_environment(config).close()
+        _probe_environment(config)
         return
     import stable_baselines3
 
@@ -406,8 +441,38 @@ def validate(config: TrainConfig) -> None:
 
     check_hyperparameters(config.algorithm, config.hyperparameters, config.n_envs)
     check_policy_kwargs(config.policy_kwargs)
+    _validate_device(config.device)
     _validate_env_kwargs(config)
     _validate_native(config)
+    _probe_environment(config)
+
+
+def _validate_device(device: str) -> None:
+    """``auto`` (stable-baselines3's choice) or a device torch can name (``cpu``, ``cuda``, ``cuda:1``)."""
+    import torch
+
+    if device == "auto":
+        return
+    try:
+        torch.device(device)
+    except (RuntimeError, TypeError, ValueError):
+        raise ValueError(f"device must be auto or a torch device such as cpu, cuda or cuda:0, got {device!r}") from None
+
+
+def _probe_environment(config: TrainConfig) -> None:
+    """Make one environment and reset it with the training seed: ``env_kwargs`` values that only an
+    episode uses (a family's config, a render mode) are refused here, before anything is written."""
+    from agents.environments import make_env
+
+    env = None
+    try:
+        env = make_env(config.env_id, config.env_kwargs)
+        env.reset(seed=config.seed)
+    except (ValueError, TypeError, KeyError, AssertionError, OverflowError) as error:
+        raise ValueError(f"env_kwargs: refused by {config.env_id}: {error or error.__class__.__name__}") from None
+    finally:
+        if env is not None:
+            env.close()
 
 
 def _validate_native(config: TrainConfig) -> None:

@@ -20,6 +20,8 @@ from collections.abc import Callable, Mapping
 from numbers import Real
 from typing import Any
 
+from agents.limits import MAX_BUFFER_SIZE, MAX_LAYER_WIDTH, MAX_LAYERS, require_at_most
+
 __all__ = ["check_hyperparameters", "check_policy_kwargs", "schedule"]
 
 Check = Callable[[Any], bool]
@@ -121,6 +123,11 @@ def check_hyperparameters(algorithm: str, hyperparameters: Mapping[str, Any], n_
             raise ValueError(f"hyperparameters.{key} cannot be set from a config (it takes a Python class)")
         if key in rules and not rules[key][0](value):
             raise ValueError(f"hyperparameters.{key} must be {rules[key][1]}, got {value!r}")
+    for key in ("buffer_size", "batch_size"):
+        if key in hyperparameters:
+            require_at_most(hyperparameters[key], MAX_BUFFER_SIZE, f"hyperparameters.{key}")
+    if isinstance(hyperparameters.get("n_steps"), int):  # the rollout buffer holds n_steps * n_envs transitions
+        require_at_most(hyperparameters["n_steps"] * n_envs, MAX_BUFFER_SIZE, "hyperparameters.n_steps * n_envs")
     if "train_freq" in hyperparameters:
         _check_train_freq(hyperparameters["train_freq"], n_envs)
     if "action_noise" in hyperparameters:
@@ -174,12 +181,21 @@ def check_policy_kwargs(policy_kwargs: Mapping[str, Any]) -> None:
                 and set(net_arch) <= {"pi", "vf", "qf"}):
             raise ValueError(f"policy_kwargs.net_arch must be a list of layer sizes >= 1 or {{pi: [...], vf|qf: [...]}}, "
                              f"got {net_arch!r}")
+    if net_arch is not None:
+        _check_network_size(net_arch)
     rules = {"n_critics": _integer(1), "log_std_init": _number(), "ortho_init": _boolean(),
              "share_features_extractor": _boolean(), "normalize_images": _boolean(), "squash_output": _boolean(),
              "use_expln": _boolean(), "full_std": _boolean(), "optimizer_kwargs": ((lambda v: isinstance(v, Mapping)), "a mapping")}
     for key, (check, what) in rules.items():
         if key in policy_kwargs and not check(policy_kwargs[key]):
             raise ValueError(f"policy_kwargs.{key} must be {what}, got {policy_kwargs[key]!r}")
+
+
+def _check_network_size(net_arch: Any) -> None:
+    """At most :data:`agents.limits.MAX_LAYERS` hidden layers of at most :data:`agents.limits.MAX_LAYER_WIDTH` units."""
+    for layers in net_arch.values() if isinstance(net_arch, Mapping) else [net_arch]:
+        require_at_most(len(layers), MAX_LAYERS, "the number of hidden layers of policy_kwargs.net_arch")
+        require_at_most(max(layers, default=0), MAX_LAYER_WIDTH, "a layer of policy_kwargs.net_arch")
 
 
 def _is_layers(value: Any) -> bool:

@@ -15,7 +15,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from agents.training.config import frozen_mapping, plain_value, require_field, yaml_number
+from agents.limits import MAX_EVAL_EPISODES
+from agents.training.config import did_you_mean, frozen_mapping, plain_value, require_field, yaml_number
 
 __all__ = ["LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS"]
 
@@ -75,7 +76,7 @@ class LearnedRuleConfig:
         object.__setattr__(self, "algorithm", LEARNED_RULE)
         require_field(isinstance(self.env_id, str) and bool(self.env_id), "env_id", "a non-empty string", self.env_id)
         for name, low, high in (("seed", 0, math.inf), ("training_plants", 10, MAX_TRAINING_PLANTS),
-                                ("validation_plants", 1, math.inf)):
+                                ("validation_plants", 1, MAX_EVAL_EPISODES)):
             value = yaml_number(getattr(self, name))
             if isinstance(value, float) and value.is_integer():
                 value = int(value)
@@ -106,7 +107,7 @@ class LearnedRuleConfig:
         known = [f.name for f in dataclasses.fields(cls)]
         for key in data:
             if key not in known:
-                raise ValueError(f"unknown config key {key!r} in {where} (known keys of a {LEARNED_RULE} config: "
+                raise ValueError(f"unknown config key {key!r} in {where}{did_you_mean(key, known)} (known keys of a {LEARNED_RULE} config: "
                                  f"{', '.join(known)})")
         missing = [name for name in ("algorithm", "env_id") if name not in data]
         if missing:

@@ -86,11 +86,11 @@ def is_learned_rule(path: str | Path) -> bool:
         return False
     if (path / MANIFEST).is_file():
         return True
-    try:
-        import yaml
+    from agents.yaml_input import load_yaml_file
 
-        config = yaml.safe_load((path / "config.yaml").read_text())
-    except (OSError, ValueError, yaml.YAMLError):
+    try:
+        config = load_yaml_file(path / "config.yaml")
+    except (OSError, ValueError):
         return False
     return isinstance(config, dict) and str(config.get("algorithm", "")).lower() == "learned-rule"
 

@@ -53,6 +53,7 @@ from typing import TYPE_CHECKING, Any
 import yaml
 
 from agents.environments import make_env
+from agents.limits import MAX_BUFFER_SIZE, MAX_ENVS, MAX_EVAL_EPISODES, MAX_LAYER_WIDTH, MAX_LAYERS, MAX_NESTING, MAX_YAML_NODES
 from agents.runtime import git_commit, versions
 from agents.training.config import TrainConfig, load_config, validate
 from agents.training.learned_rule_config import LearnedRuleConfig
@@ -71,7 +72,11 @@ _OPTIMIZERS = {"adam": "Adam", "adamw": "AdamW", "rmsprop": "RMSprop", "sgd": "S
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime train``."""
     parser.add_argument("--config", help="a YAML config (configs/<algorithm>.yaml, or a run's config.yaml); "
-                        "optional with --resume --out DIR")
+                        f"optional with --resume --out DIR.  Limits (agents/limits.py): n_envs <= {MAX_ENVS}, "
+                        f"n_eval_episodes <= {MAX_EVAL_EPISODES}, hyperparameters.buffer_size, batch_size and n_steps * n_envs "
+                        f"<= {MAX_BUFFER_SIZE}, "
+                        f"policy_kwargs.net_arch at most {MAX_LAYERS} layers of {MAX_LAYER_WIDTH} units, "
+                        f"nesting <= {MAX_NESTING} levels, <= {MAX_YAML_NODES} values with aliases expanded")
     parser.add_argument("--env", help="environment id (selects the config's entry; default the config's env_id)")
     parser.add_argument("--out", help="run directory (default: the config's output_dir, else runs/<algo>-<env>-s<seed>)")
     parser.add_argument("--resume", action="store_true", help="continue the run in the run directory from its latest checkpoint")

@@ -27,6 +27,7 @@ or the SOPDT model from identification), the MSP rules the two-parameter ``integ
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -510,5 +511,7 @@ def get_rule(name: str) -> Rule:
     """The rule called ``name``; an unknown name is a ValueError that says where the names are."""
     try:
         return RULES[name]
-    except KeyError:
-        raise ValueError(f"unknown rule {name!r}; `deadtime tune --list` names the {len(RULES)} rules") from None
+    except (KeyError, TypeError):  # TypeError: a name that cannot be a key (a list)
+        close = difflib.get_close_matches(str(name), list(RULES), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValueError(f"unknown rule {name!r}{hint}; `deadtime tune --list` names the {len(RULES)} rules") from None

@@ -14,10 +14,10 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from envs.analysis._robustness_kernels import packed_margins
-from envs.systems.controllers import Controller
+from envs.systems.controllers import Controller, controller_from_dict
 from envs.analysis.loop_transfer import loop_packed
 from envs.analysis.performance import IAEResult, iae
-from envs.systems.plants import Plant
+from envs.systems.plants import Plant, as_plant
 from envs.analysis.robustness import Margins
 from envs.threads import single_threaded
 
@@ -106,7 +106,16 @@ def _strictly_proper(plant: Plant) -> bool:
 
 @single_threaded
 def analyze(plant: Plant, controller: Controller) -> LoopAnalysis:
-    """Robustness and IAE of the loop; the IAE of an unstable loop is infinite without simulating."""
+    """Robustness and IAE of the loop; the IAE of an unstable loop is infinite without simulating.
+
+    ``plant`` may be given in any form :func:`envs.systems.plants.as_plant` takes, ``controller`` as
+    its JSON object (:func:`envs.systems.controllers.controller_from_dict`).
+    """
+    plant = as_plant(plant)
+    if isinstance(controller, dict):
+        controller = controller_from_dict(controller)
+    if not isinstance(controller, Controller):
+        raise ValueError(f"controller must be a PID, SeriesPID, FPPI or MSP (or its JSON object), got {type(controller).__name__}")
     margins = plant_margins(plant, controller)
     if not margins.stable:
         return LoopAnalysis(margins, IAEResult(math.inf, math.inf, True, 0.0, math.nan))

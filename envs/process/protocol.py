@@ -15,7 +15,8 @@ it at the operating point first (:mod:`envs.process.procedure`).  Nothing here i
 torch: a process and everything run on it are numerics.
 
 :func:`check_process` validates an object against the protocol (every attribute present, numbers
-finite, the limits ordered, the operating input inside them), naming what is wrong.
+finite, the limits ordered, the operating input inside them), naming what is wrong;
+:func:`check_load_step` a load step against the load input's range.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from typing import Protocol, runtime_checkable
 
 from envs.validation import require_number
 
-__all__ = ["Process", "Units", "check_process", "ProcessStopped"]
+__all__ = ["Process", "Units", "check_load_step", "check_process", "ProcessStopped"]
 
 
 @dataclass(frozen=True)
@@ -68,6 +69,10 @@ class Process(Protocol):
         units (non-zero).
     load_step : float
         The step of the load input in the load test, in load units (non-zero).
+    load_limits : (float, float) or None, optional
+        The range of the load input, if it saturates (an attribute a process may leave out; None: no
+        limit).  The load test steps the load from 0 to ``load_step``, which must lie in this range:
+        beyond it the load saturates while the cost is still divided by the requested step.
     load_gain : float or None, optional
         The static gain from the load to the output, if known (an attribute a process may leave out): the load test's cost is normalized
         by ``|load_gain load_step|``, as the environments' by ``|K|`` for a unit load at the plant
@@ -126,6 +131,7 @@ def check_process(process: object) -> Process:
         require_number(getattr(process, name), f"process.{name}", nonzero=True)
     if getattr(process, "load_gain", None) is not None:
         require_number(process.load_gain, "process.load_gain", nonzero=True)
+    check_load_step(process, process.load_step, "process.load_step")
     limits = process.input_limits
     if not (isinstance(limits, tuple | list) and len(limits) == 2):
         raise ValueError(f"process.input_limits must be a pair (low, high), got {limits!r}")
@@ -139,3 +145,22 @@ def check_process(process: object) -> Process:
         raise ValueError(f"process.settling_time {process.settling_time:g} must be at least 15 sample times "
                          f"({15 * process.sample_time:g}): a steady-state window is a fifth of it, of at least 3 samples")
     return process
+
+
+def check_load_step(process: object, load_step: float, name: str = "load_step") -> float:
+    """``load_step`` if it is a non-zero number inside the process's ``load_limits`` (if it has any).
+
+    Raises
+    ------
+    ValueError
+        e.g. ``"load_step 200 is outside the load input's range [0, 100] (% heater 2)"``.
+    """
+    load_step = require_number(load_step, name, nonzero=True)
+    limits = getattr(process, "load_limits", None)
+    if limits is not None:
+        low, high = (float(v) for v in limits)
+        if not low <= load_step <= high:
+            units = getattr(getattr(process, "units", None), "load", "")
+            raise ValueError(f"{name} {load_step:g} is outside the load input's range [{low:g}, {high:g}]"
+                             f"{f' ({units})' if units else ''}: the load would saturate")
+    return load_step

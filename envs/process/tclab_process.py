@@ -78,6 +78,8 @@ class TCLabProcess:
 
     name = "tclab"
     input_limits = (0.0, 100.0)
+    load_limits = (0.0, 100.0)
+    """Heater 2, % (the emulator clips it): the load test's step must lie in it."""
     load_gain = 100.0 / 5720.0 / 0.35
     """degC per % of heater 2 at steady state, from the emulator's equations: ``P2/5720`` degC/s per %
     into ``H2``, losses ``1/20`` to ambient and ``1/100`` between the heaters, so ``H1 = H2/6`` and

@@ -66,6 +66,7 @@ __all__ = [
     "BenchmarkConfig",
     "MixtureConfig",
     "benchmark_plants",
+    "check_family_config",
     "sample_plant",
     "sample_plants",
 ]
@@ -496,9 +497,22 @@ def sample_plant(family: str, rng: np.random.Generator, config: object = None) -
     return _sample_random(rng, config)
 
 
+def check_family_config(family: str, config: object, name: str = "family_config") -> object:
+    """``config`` if it is None or the config class of ``family`` (:func:`sample_plant`), else a
+    ``ValueError`` naming ``name``: ``"family_config must be a FopdtConfig for family 'fopdt', got int"``."""
+    if config is None:
+        return None
+    try:
+        return _config_for(family, config)
+    except TypeError:
+        expected = _CONFIGS[family].__name__
+        raise ValueError(f"{name} must be a {expected} for family {family!r}, got {type(config).__name__}") from None
+
+
 def sample_plants(family: str, n: int, seed: int, config: object = None) -> list[Plant]:
     """``n`` plants of ``family`` from ``numpy.random.default_rng(seed)``; see :func:`sample_plant`."""
-    if n < 0:
-        raise ValueError(f"n must be >= 0, got {n!r}")
+    for name, value in (("n", n), ("seed", seed)):
+        if not isinstance(value, int | np.integer) or isinstance(value, bool) or value < 0:
+            raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
     rng = np.random.default_rng(seed)
     return [sample_plant(family, rng, config) for _ in range(n)]

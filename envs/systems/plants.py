@@ -13,6 +13,7 @@ functions of the coefficients, see :meth:`Plant.taylor_coefficients`.
 from __future__ import annotations
 
 import math
+import reprlib
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Sequence
@@ -22,7 +23,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-__all__ = ["Plant", "StateSpace", "as_plant", "NEGLIGIBLE_DEAD_TIME", "GAIN_RANGE", "TIME_SCALE_RANGE"]
+__all__ = ["Plant", "StateSpace", "as_plant", "NEGLIGIBLE_DEAD_TIME", "GAIN_RANGE", "MAX_COEFFICIENTS", "TIME_SCALE_RANGE"]
 
 GAIN_RANGE = (1e-12, 1e12)
 """The documented range of ``|K|`` (static or velocity gain): everything downstream is gain
@@ -31,6 +32,12 @@ refused (``num``), e.g. coefficients of 1e300 whose products overflow (issue 12.
 TIME_SCALE_RANGE = (1e-12, 1e12)
 """The documented range of the time scale :meth:`Plant.step_time_scale` (``T_ar``), in the plant's
 own time unit; outside it a plant is refused (``den``)."""
+
+MAX_COEFFICIENTS = 101
+"""The documented largest plant: at most this many coefficients in ``num`` and in ``den`` (order 100;
+the lag chains of the plant families reach order 10).  Larger ones are refused (``num``, ``den``): the
+poles' computation grows with the cube of the order (3,000 coefficients take half a minute, 6,000
+over two), so a plant of millions would never finish."""
 
 NEGLIGIBLE_DEAD_TIME = 1e-4
 """Closed-loop simulations (experiments and IAE) take a dead time below this fraction of
@@ -57,23 +64,37 @@ def _read_only(state_space: StateSpace) -> StateSpace:
 
 
 def _as_coefficients(values: Any, field: str) -> tuple[float, ...]:
+    if isinstance(values, list | tuple | np.ndarray) and len(values) > MAX_COEFFICIENTS:
+        raise ValueError(f"{field} must have at most {MAX_COEFFICIENTS} coefficients (the documented limit, "
+                         f"envs.systems.plants.MAX_COEFFICIENTS), got {len(values)}")
     if type(values) is tuple and values and all(isinstance(v, float) and math.isfinite(v) for v in values):  # usual
         for k, v in enumerate(values):
             if v != 0.0:
                 return tuple(float(c) for c in values[k:])
         raise ValueError(f"{field} must not be all zero")
-    try:
-        array = np.asarray(values, dtype=float).ravel()
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{field} must be a list of numbers, got {values!r}") from None
+    array = _numbers(values, field)
     if array.size == 0:
         raise ValueError(f"{field} must not be empty")
     if not np.all(np.isfinite(array)):
-        raise ValueError(f"{field} must be finite numbers, got {values!r}")
+        raise ValueError(f"{field} must be finite numbers, got {reprlib.repr(values)}")
     nonzero = np.flatnonzero(array)
     if nonzero.size == 0:
         raise ValueError(f"{field} must not be all zero")
     return tuple(float(v) for v in array[nonzero[0]:])
+
+
+def _numbers(values: Any, field: str) -> np.ndarray:
+    """``values`` as a flat float array; booleans and strings, which numpy would convert, are refused."""
+    items = values if isinstance(values, list | tuple) else [values]
+    if any(isinstance(v, bool | str | bytes | np.bool_) for v in items):
+        raise ValueError(f"{field} must be a list of numbers, got {reprlib.repr(values)}")
+    try:
+        array = np.asarray(values)
+        if array.dtype.kind not in "iufO":  # O: e.g. Fraction or sympy numbers, converted by float()
+            raise TypeError
+        return array.astype(float).ravel()
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{field} must be a list of numbers, got {reprlib.repr(values)}") from None
 
 
 def _roots(coefficients: np.ndarray) -> np.ndarray:
@@ -227,6 +248,8 @@ class Plant:
         num = _as_coefficients(self.num, "num")
         den = _as_coefficients(self.den, "den")
         try:
+            if isinstance(self.dead_time, bool | str | bytes):  # numbers to float(), not to Python
+                raise TypeError
             dead_time = float(self.dead_time)
         except (TypeError, ValueError, OverflowError):
             raise ValueError(f"dead_time must be a number, got {self.dead_time!r}") from None
@@ -333,7 +356,7 @@ class Plant:
             if not isinstance(value, list | tuple) or not all(
                 isinstance(v, int | float) and not isinstance(v, bool) for v in value
             ):
-                raise ValueError(f"plant.{key} must be a list of numbers, got {value!r}")
+                raise ValueError(f"plant.{key} must be a list of numbers, got {reprlib.repr(value)}")
         dead_time = data["delay"]
         if not isinstance(dead_time, int | float) or isinstance(dead_time, bool):
             raise ValueError(f"plant.delay must be a number, got {dead_time!r}")

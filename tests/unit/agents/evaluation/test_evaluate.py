@@ -177,9 +177,9 @@ def test_rerun_is_served_from_the_cache_and_workers_agree(capsys, tmp_path, monk
     [
         (["--env", "DeadTime/Nope-v0", "--policies", "oracle"], "unknown environment 'DeadTime/Nope-v0'"),
         (["--env", FAST_ENV, "--policies", "oracle,no-such-rule"], "unknown rule 'no-such-rule'"),
-        (["--env", FAST_ENV, "--policies", "oracle", "--n", "0"], "--n must be a positive integer, got 0"),
-        (["--env", FAST_ENV, "--policies", "oracle", "--resamples", "0"], "--resamples must be positive"),
-        (["--env", FAST_ENV, "--policies", "oracle", "--workers", "0"], "--workers must be positive"),
+        (["--env", FAST_ENV, "--policies", "oracle", "--n", "0"], "--n must be an integer >= 1, got 0"),
+        (["--env", FAST_ENV, "--policies", "oracle", "--resamples", "0"], "--resamples must be an integer >= 1, got 0"),
+        (["--env", FAST_ENV, "--policies", "oracle", "--workers", "0"], "--workers must be an integer >= 1, got 0"),
         (["--env", FAST_ENV, "--policies", "runs/none/model.zip"], "runs/none/model.zip"),
         (["--env", FAST_ENV, "--policies", "a=README.md"], "README.md is not a stable-baselines3 model"),
     ],

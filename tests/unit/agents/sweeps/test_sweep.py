@@ -178,14 +178,15 @@ def test_without_ray_the_command_names_the_extra(tmp_path: Path, monkeypatch: py
 
 @pytest.mark.slow
 def test_a_failing_trial_is_reported_by_name_and_the_others_summarized(tmp_path: Path) -> None:
-    """An environment argument the environment refuses fails its trial when the trial builds it (after
-    its retry); the sweep goes on and summarizes the trial that worked."""
+    """A trial that fails when it runs (here its validation plant set, which only the trial builds) fails
+    after its retry; the sweep goes on and summarizes the trial that worked.  (An environment argument
+    the environment refuses is refused before any trial starts: tests/unit/agents/test_hostile_input.py.)"""
     quick = ("[total_timesteps=200, eval_freq=100, n_eval_episodes=4, checkpoint_freq=100, "
              "hyperparameters.learning_starts=100, hyperparameters.gradient_steps=1")
     path = _sweep_file(tmp_path, f"""
 trials:
   - {{label: bad, config: {REPO / 'configs' / 'sac.yaml'}, envs: [DeadTime/PID-v0], seeds: [0],
-     overrides: {quick}, env_kwargs.noise_std=-1]}}
+     overrides: {quick}, eval_family=nonsense]}}
   - {{label: good, config: {REPO / 'configs' / 'sac.yaml'}, envs: [DeadTime/PID-v0], seeds: [0], overrides: {quick}]}}
 evaluation: {{policies: [all-rules, oracle], n: 3, resamples: 100}}
 failure: {{max_failures: 1}}
@@ -194,9 +195,11 @@ failure: {{max_failures: 1}}
                            "--json"], cwd=REPO, env=_environment(), capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     summary = json.loads(done.stdout)
-    assert summary["failed"] == {"bad-PID-v0-s0": "ValueError: env_kwargs: refused by DeadTime/PID-v0: noise_std must be >= 0, got -1.0"}
+    assert list(summary["failed"]) == ["bad-PID-v0-s0"]
+    assert summary["failed"]["bad-PID-v0-s0"].startswith("ValueError: eval_family: refused by the validation plant set: "
+                                                         "unknown plant family 'nonsense'")
     assert [p["name"] for p in summary["envs"][0]["policies"] if p["kind"] == "agent"] == ["good"]
-    assert "trial bad-PID-v0-s0 failed: ValueError: env_kwargs: refused" in done.stderr
+    assert "trial bad-PID-v0-s0 failed: ValueError: eval_family: refused" in done.stderr
 
 
 @pytest.mark.parametrize("path", sorted((REPO / "sweeps").glob("*.yaml")), ids=lambda p: p.name)
