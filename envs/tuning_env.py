@@ -37,12 +37,12 @@ from envs.episode import (
     start_fixed,
 )
 from envs.episode_options import AMPLITUDE_RANGE, EpisodeOptions
-from envs.systems.families import FAMILIES, sample_plant
+from envs.systems.families import FAMILIES, check_family_config, sample_plant
 from envs.systems.plants import Plant, as_plant
 from envs.identification.procedure import Identification, ProcedureFailed
 from envs.threads import single_threaded
 from envs.analysis.scoring import FEASIBLE_CAP, VIOLATION_BAND, VIOLATION_COSTS, Constraints, CostWeights, Score, score
-from envs.validation import require_number
+from envs.validation import require_number, require_real_array
 
 # The kind of plant each family of :mod:`envs.systems.families` draws (True: integrating), checked when the
 # environment is made; ``benchmark`` draws either, as its config says (a draw of the other kind is
@@ -163,7 +163,7 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"unknown plant family {self.family!r}; valid families: {', '.join(FAMILIES)}")
         if self.family in _FAMILY_KINDS and _FAMILY_KINDS[self.family] != self.integrating:
             raise ValueError(self._wrong_family_kind(_FAMILY_KINDS[self.family]))
-        self.family_config = family_config
+        self.family_config = check_family_config(self.family, family_config)
         self.noise_std = require_number(noise_std, "noise_std", nonnegative=True)
         self.constraints = _dataclass_argument(constraints, Constraints, "constraints") if constraints is not None else self.default_constraints()
         if self.constraints.violation_cost != violation_cost:
@@ -341,8 +341,6 @@ class DeadTimeTuningEnv(gym.Env):
         if self._done:
             raise RuntimeError("step() called on a finished episode; call reset() first")
         action = self._checked_action(action)
-        if not np.all(np.isfinite(action)):
-            raise ValueError(f"action must be finite, got {action.tolist()}")
         action = np.clip(action, -1.0, 1.0)
         if self.mode == "fixed" and self.identification is None:  # the seeds' procedure failed on a given plant
             return self._no_design({"identified": False})
@@ -378,13 +376,11 @@ class DeadTimeTuningEnv(gym.Env):
     def _checked_action(self, action: Any) -> np.ndarray:
         """The action as float64 of the action space's shape (a number for a one-component action);
         a boolean, complex or non-numeric array, or another shape, is a ``ValueError`` naming it."""
-        raw = np.asarray(action)
-        if raw.dtype.kind not in "fiu":
-            raise ValueError(f"action must be real numbers, got {raw.dtype} values")
+        raw = require_real_array(action, "action")
         shape = self.action_space.shape
         if raw.shape != shape and not (shape == (1,) and raw.shape == ()):
             raise ValueError(f"action must have shape {shape}, got {raw.shape}")
-        return raw.astype(np.float64).reshape(shape)
+        return raw.reshape(shape)
 
     def _plan(self, first_action: float, second_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         """``experiments="plan"``: the procedure's two experiments at the plan's amplitudes (the closed-loop

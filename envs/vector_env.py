@@ -50,6 +50,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from envs.threads import single_threaded
+from envs.validation import require_real_array
 from envs.tuning_env import OBSERVATION_BOUND, DeadTimeTuningEnv, FPPIEnv, MSPEnv, PIDEnv
 
 __all__ = ["DeadTimeVectorEnv", "PIDVectorEnv", "FPPIVectorEnv", "MSPVectorEnv"]
@@ -110,6 +111,8 @@ class DeadTimeVectorEnv(VectorEnv):
     def _slot_seeds(self, seed: int | list[int | None] | None) -> list[int | None]:
         if seed is None:
             return [None] * self.num_envs
+        if isinstance(seed, bool) or not isinstance(seed, int | np.integer | list | tuple):
+            raise ValueError(f"seed must be None, an integer >= 0 or a list of one per slot, got {seed!r}")
         if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
             return [int(seed) + i for i in range(self.num_envs)]
         seeds = list(seed)
@@ -142,11 +145,9 @@ class DeadTimeVectorEnv(VectorEnv):
 
     def _parameter_actions(self, actions: Any) -> np.ndarray:
         """The actions' design parameter coordinates, validated and clipped as one array."""
-        values = np.asarray(actions, dtype=np.float64)
+        values = require_real_array(actions, "actions")  # booleans, complex numbers and text refused; finite
         if values.shape not in ((self.num_envs, 1), (self.num_envs,)):
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {values.shape}")
-        if not np.all(np.isfinite(values)):
-            raise ValueError(f"actions must be finite, got {values.reshape(-1).tolist()}")
         return np.clip(values.reshape(self.num_envs), -1.0, 1.0)
 
     def _observe(self) -> np.ndarray:
