@@ -52,7 +52,7 @@ __all__ = ["add_arguments", "evaluate", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime evaluate``."""
-    parser.add_argument("--env", required=True, help="environment id, e.g. DeadTime/PID-v0")
+    parser.add_argument("--env", required=True, help="environment id, e.g. DeadTime/PID-v3")
     parser.add_argument(
         "--policies", required=True,
         help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH (loading an "

@@ -1,4 +1,4 @@
-"""Compile and cache the numba kernels: ``python -m envs.warmup`` (``make install`` runs it).
+"""Compile and cache the numba kernels: ``python -m agents.warmup`` (``make install`` runs it).
 
 The kernels are compiled on their first call and cached beside their modules (``cache=True``), so
 the first episode of a new installation waits for the compiler (most of a minute) and later ones
