@@ -308,7 +308,7 @@ class DeadTimeTuningEnv(gym.Env):
         return plant
 
     def _start(self, plant: Plant, given: bool = False) -> None:
-        """Start on ``plant``.  A drawn plant whose seeds' procedure fails (fixed mode) raises, and is drawn
+        """Start on ``plant``.  A drawn plant whose procedure fails (fixed mode) raises, and is drawn
         again; a given one, with ``measured_observation``, starts an episode that can only end without a
         design (:meth:`_no_design`), its failed steps charged and observed."""
         if plant.integrating != self.integrating:
@@ -342,7 +342,7 @@ class DeadTimeTuningEnv(gym.Env):
             raise RuntimeError("step() called on a finished episode; call reset() first")
         action = self._checked_action(action)
         action = np.clip(action, -1.0, 1.0)
-        if self.mode == "fixed" and self.identification is None:  # the seeds' procedure failed on a given plant
+        if self.mode == "fixed" and self.identification is None:  # the procedure failed on a given plant
             return self._no_design({"identified": False})
         if self.mode == "plan" and not self._design_pending:
             return self._plan(float(action[0]), float(action[1]))

@@ -187,7 +187,7 @@ def evaluate_plant(
             if results[name] is not None:
                 continue
             if not identified:
-                results[name] = PolicyResult.failed(ValueError("the seeds' procedure identified no usable model"), experiment_time)
+                results[name] = PolicyResult.failed(ValueError("the identification procedure identified no usable model"), experiment_time)
             elif name in ("oracle", "oracle-full"):
                 results[name], off = _oracle_result(env, name == "oracle-full", experiment_time)
                 mismatch = max(mismatch, off) if name == "oracle" else mismatch
