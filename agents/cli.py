@@ -51,7 +51,7 @@ COMMANDS: dict[str, Command] = {
         "The controller an analytic rule gives for a plant or a model, and its analysis. Exit status 3 "
         "(after one line on stderr) when the loop is unstable or outside the constraints (Ms <= 2 except for the MSP, "
         "delay margin >= 0.2 L) on the plant, or the rule's T_r is degenerate (below its floor times L_n)."),
-    "reproduce": Command("agents.commands.reproduce", "the seeds' tables and figures beside their computed twins", None),
+    "reproduce": Command("agents.commands.reproduce", "the source papers' tables and figures beside their computed twins", None),
     "train": _described("agents.training.train", "train an agent from a YAML config"),
     "evaluate": _described("agents.evaluation.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
     "bench": _described("agents.bench.bench", "measure the speed and accuracy of the scoring and the environments"),

@@ -1,4 +1,4 @@
-"""``deadtime process``: the seeds' procedure, the rules, the oracle and agents on a real process.
+"""``deadtime process``: the identification procedure, the rules, the oracle and agents on a real process.
 
 ``--process tclab`` is the TCLab emulator (:class:`envs.process.tclab_process.TCLabProcess`);
 ``--process module:factory`` calls ``factory()`` of an importable module (the working directory is

@@ -1,4 +1,4 @@
-"""``deadtime reproduce``: the seeds' tables and figures (:mod:`baselines.reproduction.reproduce`)."""
+"""``deadtime reproduce``: the source papers' tables and figures (:mod:`baselines.reproduction.reproduce`)."""
 
 from __future__ import annotations
 
