@@ -228,13 +228,11 @@ def evidence_from_identification(
     second = "pulse" if identification.integrating else "open-loop-step"
     counts = tuple(int(name in ("closed-loop-step", second)) for name in evidence.experiments)
     results = {"closed-loop-step": identification.closed_loop, second: identification.open_loop}
-    measured = {}
-    if options.measured:
-        noise_std = noise_level(identification.closed_loop.output)
-        measured = {"noise_estimate": noise_std}
+    sigma = noise_level(identification.closed_loop.output) if options.measured else noise_std
+    measured = {"noise_estimate": sigma} if options.measured else {}
     return replace(
         evidence, counts=counts, results=results, experiment_time=identification.experiment_time,
-        noise_ratio=noise_std / amplitude, experiment_deviation=identification.experiment_deviation, **measured,
+        noise_ratio=sigma / amplitude, experiment_deviation=identification.experiment_deviation, **measured,
     )  # fmt: skip
 
 

@@ -33,13 +33,11 @@ def best_plan(env_id: str, kwargs: dict[str, Any], plants: int = VALIDATION_PLAN
 
     env = make_env(env_id, kwargs)
     chosen = validation_plants(env, plants)
-    costs: dict[str, float] = {}
-    for first, second in itertools.product(PLAN_GRID, PLAN_GRID):
-        plan = PlanRule(first, second)
-        result = validate_policy(lambda observation: plan.predict(observation)[0], env, len(chosen), chosen)
-        costs[plan.name] = result.mean_cost
-    name = min(costs, key=lambda n: (costs[n], PlanRule(*map(float, n.split("-")[1:])).first))
-    best = PlanRule(*map(float, name.split("-")[1:]))
+    plans = [PlanRule(first, second) for first, second in itertools.product(PLAN_GRID, PLAN_GRID)]
+    costs = {plan.name: validate_policy(lambda observation, plan=plan: plan.predict(observation)[0], env, len(chosen),
+                                        chosen).mean_cost for plan in plans}
+    best = min(plans, key=lambda plan: (costs[plan.name], plan.first))
+    name = best.name
     print(f"plan-best on {env_id}: {best.name} (validation mean cost {costs[name]:.4g} on {len(chosen)} plants; "
           f"plan-1-1 {costs['plan-1-1']:.4g})", file=sys.stderr, flush=True)
     return best, costs
