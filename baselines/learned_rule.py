@@ -6,8 +6,9 @@ observation an agent sees, in the agent's own action coordinate.  The oracle's p
 edge of the feasible set (often on the ``Ms <= 2`` cliff), so a regression that is right on average
 violates the constraints on about half of the plants; the rule therefore adds a constant *margin*
 to the predicted action, towards the conservative side (larger ``mu`` or ``T_r``), chosen with the
-regression on validation plants to minimize their mean cost (:func:`select`).  If the learned
-rule matches the agents, reinforcement learning was not needed.
+regression on validation plants to minimize their mean cost (:func:`select`), optionally among the
+margins whose violation rate is certified below a target (section "Certified margins").  If the
+learned rule matches the agents, reinforcement learning was not needed.
 
 This module is the numerics only (numpy and scikit-learn): the regressions (:data:`MODEL_KINDS`,
 :func:`fit_regression`), the rule (:class:`LearnedRule`) and the choice of model and margin given
@@ -31,6 +32,28 @@ Model kinds
     of the plants like this one, i.e. a conservative fit before any margin, more conservative where
     the oracle's action is harder to predict.  On the three fixed-mode environments it needs a
     smaller margin and costs less than ``boosting`` with its best margin.
+
+Certified margins
+-----------------
+The margin of least validation cost lets a few validation plants violate when that is cheaper on
+average.  Given a target violation rate ``alpha`` and a confidence ``1 - delta``, :func:`select`
+chooses only among the margins whose violation rate on new plants is at most ``alpha`` with
+probability at least ``1 - delta`` over the draw of the validation plants: the *Learn then Test*
+calibration (Angelopoulos, Bates, Candes, Jordan and Lei, "Learn then Test: Calibrating Predictive
+Algorithms to Achieve Risk Control", arXiv:2110.01052, 2021; the same calibration is MAPIE's
+``risk_control`` with a fixed-sequence FWER method).  Each candidate
+``(kind, margin)`` is a null hypothesis "its violation rate exceeds ``alpha``", tested with the exact
+binomial p-value of its ``k`` violations on ``n`` validation plants, ``P(Binomial(n, alpha) <= k)``
+(the p-value of a 0/1 loss; rejecting at level ``delta`` is the same as the one-sided
+Clopper-Pearson upper bound ``violation_bound(k, n, 1 - delta) <= alpha``).  Per kind the margins are
+tested from the largest down, stopping at the first that fails (fixed-sequence testing, Bauer,
+Stat. Med. 10, 1991; it needs no ordering of the violation rates to be valid), at level ``delta / K`` for ``K`` kinds (Bonferroni): every margin certified so
+is then below the target simultaneously, so choosing among them by validation cost keeps the
+promise.  The promise is about the environment's plant distribution and noise, from which the
+validation plants are exchangeable draws, not about any single plant.  When no candidate is
+certified (too few validation plants for the target: with ``k = 0`` the bound is
+``1 - delta**(1/n)``, so ``alpha = 1%`` at 95% needs ``n >= 299`` for one kind), :func:`select`
+returns the candidate of fewest violations (then least cost) and says that it is uncertified.
 """
 
 from __future__ import annotations
@@ -41,7 +64,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MODEL_KINDS", "QUANTILE", "LearnedRule", "Selection", "fit_regression", "select"]
+__all__ = ["MODEL_KINDS", "QUANTILE", "LearnedRule", "Selection", "Validated", "fit_regression", "select",
+           "violation_bound"]
 
 MODEL_KINDS: tuple[str, ...] = ("ridge-quadratic", "boosting", "quantile-boosting")
 """The regressions of :func:`fit_regression` (module docstring, "Model kinds")."""
@@ -62,7 +86,7 @@ BOOSTING = {"max_iter": 200, "learning_rate": 0.05, "max_leaf_nodes": 15, "min_s
 rate and larger leaves, for about a thousand noisy training plants)."""
 
 
-def _regressor(kind: str, seed: int) -> Any:
+def _regressor(kind: str, seed: int, quantile: float) -> Any:
     from sklearn.ensemble import HistGradientBoostingRegressor
     from sklearn.linear_model import RidgeCV
     from sklearn.pipeline import make_pipeline
@@ -74,11 +98,12 @@ def _regressor(kind: str, seed: int) -> Any:
     if kind == "boosting":
         return HistGradientBoostingRegressor(loss="squared_error", random_state=seed, **BOOSTING)
     if kind == "quantile-boosting":
-        return HistGradientBoostingRegressor(loss="quantile", quantile=QUANTILE, random_state=seed, **BOOSTING)
+        return HistGradientBoostingRegressor(loss="quantile", quantile=quantile, random_state=seed, **BOOSTING)
     raise ValueError(f"model kind must be one of {', '.join(MODEL_KINDS)}, got {kind!r}")
 
 
-def fit_regression(kind: str, observations: np.ndarray, actions: np.ndarray, seed: int = 0) -> Any:
+def fit_regression(kind: str, observations: np.ndarray, actions: np.ndarray, seed: int = 0,
+                   quantile: float = QUANTILE) -> Any:
     """A fitted scikit-learn regressor of ``kind`` from ``observations`` to ``actions``.
 
     Parameters
@@ -92,12 +117,14 @@ def fit_regression(kind: str, observations: np.ndarray, actions: np.ndarray, see
     seed : int
         ``random_state`` of the trees (they draw nothing at random without early stopping or
         subsampling; set for definiteness).
+    quantile : float
+        The quantile that ``quantile-boosting`` estimates (0 < quantile < 1; the other kinds ignore it).
 
     Raises
     ------
     ValueError
-        For an unknown kind, arrays of mismatched or wrong shape, fewer than 2 plants, or a
-        non-finite value.
+        For an unknown kind, arrays of mismatched or wrong shape, fewer than 2 plants, a
+        non-finite value, or a quantile outside (0, 1).
     """
     observations = np.asarray(observations, dtype=float)
     actions = np.asarray(actions, dtype=float)
@@ -107,9 +134,11 @@ def fit_regression(kind: str, observations: np.ndarray, actions: np.ndarray, see
         raise ValueError(f"a regression needs at least 2 training plants, got {observations.shape[0]}")
     if not (np.all(np.isfinite(observations)) and np.all(np.isfinite(actions))):
         raise ValueError("observations and actions must be finite")
+    if not 0 < quantile < 1:
+        raise ValueError(f"quantile must lie strictly between 0 and 1, got {quantile!r}")
     from threadpoolctl import threadpool_limits
 
-    model = _regressor(kind, seed)
+    model = _regressor(kind, seed, quantile)
     with threadpool_limits(1):
         model.fit(observations, actions)
     return model
@@ -180,26 +209,83 @@ class LearnedRule:
         return LearnedRule(self.kind, self.model, float(margin), self.direction, self.low, self.high, self.observation_size)
 
 
+def violation_bound(violations: int, plants: int, confidence: float) -> float:
+    """The one-sided Clopper-Pearson upper bound on a violation rate (Clopper and Pearson, Biometrika 26, 1934).
+
+    The rate ``p`` with ``P(Binomial(plants, p) <= violations) = 1 - confidence``: a rate above it
+    would have given at most ``violations`` in ``plants`` with probability below ``1 - confidence``
+    (``1.0`` when every plant violates).
+
+    Raises
+    ------
+    ValueError
+        For counts that are not ``0 <= violations <= plants``, ``plants >= 1``, or a confidence
+        outside (0, 1).
+    """
+    if not (isinstance(plants, int | np.integer) and isinstance(violations, int | np.integer) and 0 <= violations <= plants
+            and plants >= 1):
+        raise ValueError(f"violations and plants must be integers with 0 <= violations <= plants and plants >= 1, "
+                         f"got {violations!r} and {plants!r}")
+    if not 0 < confidence < 1:
+        raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}")
+    if violations == plants:
+        return 1.0
+    from scipy.stats import beta
+
+    return float(beta.ppf(confidence, violations + 1, plants - violations))
+
+
+@dataclass(frozen=True)
+class Validated:
+    """What :func:`select` needs of one candidate on the validation plants: its mean cost, how many
+    plants it violated a constraint on, of how many."""
+
+    mean_cost: float
+    violations: int
+    plants: int
+
+
 @dataclass(frozen=True)
 class Selection:
-    """The chosen rule and the validation costs it was chosen by.
+    """The chosen rule and the validation results it was chosen by.
 
-    ``costs[kind][i]`` is the mean validation cost of ``kind`` with ``margins[i]``.
+    ``costs[kind][i]`` is the mean validation cost of ``kind`` with ``margins[i]`` and
+    ``violations[kind][i]`` its number of violating plants (of ``plants``).  With a
+    ``violation_target``, ``certified[kind][i]`` says whether that candidate's violation rate was
+    certified below the target (module docstring, "Certified margins") and ``is_certified`` whether the
+    chosen one was; without a target both are empty / None.
     """
 
     rule: LearnedRule
     margins: tuple[float, ...]
     costs: Mapping[str, tuple[float, ...]]
+    violations: Mapping[str, tuple[int, ...]] = field(default_factory=dict)
+    plants: int = 0
+    violation_target: float | None = None
+    confidence: float | None = None
+    certified: Mapping[str, tuple[bool, ...]] = field(default_factory=dict)
+    is_certified: bool | None = None
+
+
+def _certified(violations: Sequence[int], margins: Sequence[float], plants: int, target: float, confidence: float) -> list[bool]:
+    """Fixed-sequence testing of one kind's margins, from the largest down (module docstring)."""
+    certified = [False] * len(margins)
+    for i in sorted(range(len(margins)), key=lambda j: -margins[j]):
+        if violation_bound(int(violations[i]), plants, confidence) > target:
+            break
+        certified[i] = True
+    return certified
 
 
 def select(
-    rules: Sequence[LearnedRule], margins: Sequence[float], validation_cost: Callable[[LearnedRule], float]
+    rules: Sequence[LearnedRule], margins: Sequence[float], validate: Callable[[LearnedRule], Validated], *,
+    violation_target: float | None = None, confidence: float = 0.95,
 ) -> Selection:
-    """The rule and margin of the lowest validation cost.
+    """The rule and margin of the lowest validation cost, among the certified ones if a target is given.
 
     Every rule of ``rules`` (one per model kind, any margin) is tried with every margin; ties go to
-    the larger margin (the safer rule), then to the earlier kind.  Only ``validation_cost`` sees
-    plants: the choice is made on whatever plants it plays, which must be validation plants.
+    the larger margin (the safer rule), then to the earlier kind.  Only ``validate`` sees plants: the
+    choice is made on whatever plants it plays, which must be validation plants.
 
     Parameters
     ----------
@@ -207,13 +293,19 @@ def select(
         The fitted candidates, distinct kinds.
     margins : sequence of float
         The margins to try (>= 0).
-    validation_cost : callable
-        The mean cost of a rule on the validation plants.
+    validate : callable
+        A rule's :class:`Validated` on the validation plants (the same plants for every rule).
+    violation_target : float or None
+        The violation rate ``alpha`` to certify (0 < alpha < 1), or None to choose by cost alone.
+    confidence : float
+        ``1 - delta``, the probability over the validation plants with which the certified rates
+        hold (module docstring, "Certified margins").
 
     Raises
     ------
     ValueError
-        For no rule or no margin, a repeated kind, or a negative margin.
+        For no rule or no margin, a repeated kind, a negative margin, a target or confidence outside
+        (0, 1), or candidates validated on different numbers of plants.
     """
     kinds = [rule.kind for rule in rules]
     if not rules or not len(margins):
@@ -223,8 +315,28 @@ def select(
     margins = tuple(float(m) for m in margins)
     if any(not (np.isfinite(m) and m >= 0) for m in margins):
         raise ValueError(f"margins must be finite numbers >= 0, got {list(margins)}")
-    costs = {rule.kind: tuple(float(validation_cost(rule.with_margin(m))) for m in margins) for rule in rules}
-    candidates = [(costs[rule.kind][i], -margin, position, i)
-                  for position, rule in enumerate(rules) for i, margin in enumerate(margins)]
-    _, _, position, i = min(candidates)
-    return Selection(rules[position].with_margin(margins[i]), margins, costs)
+    if violation_target is not None and not 0 < violation_target < 1:
+        raise ValueError(f"violation_target must lie strictly between 0 and 1 or be None, got {violation_target!r}")
+    if not 0 < confidence < 1:
+        raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}")
+    results = {rule.kind: [validate(rule.with_margin(m)) for m in margins] for rule in rules}
+    plants = {result.plants for found in results.values() for result in found}
+    if len(plants) != 1:
+        raise ValueError(f"every candidate must be validated on the same number of plants, got {sorted(plants)}")
+    n = plants.pop()
+    costs = {kind: tuple(float(r.mean_cost) for r in found) for kind, found in results.items()}
+    violations = {kind: tuple(int(r.violations) for r in found) for kind, found in results.items()}
+    candidates = [(position, i) for position in range(len(rules)) for i in range(len(margins))]
+    certified: dict[str, tuple[bool, ...]] = {}
+    if violation_target is not None:
+        level = 1.0 - (1.0 - confidence) / len(rules)
+        certified = {kind: tuple(_certified(violations[kind], margins, n, violation_target, level)) for kind in kinds}
+        passed = [(p, i) for p, i in candidates if certified[kinds[p]][i]]
+        if not passed:
+            fewest = min(violations[kind][i] for kind in kinds for i in range(len(margins)))
+            passed = [(p, i) for p, i in candidates if violations[kinds[p]][i] == fewest]
+        candidates = passed
+    position, i = min(candidates, key=lambda c: (costs[kinds[c[0]]][c[1]], -margins[c[1]], c[0]))
+    return Selection(rules[position].with_margin(margins[i]), margins, costs, violations, n,
+                     violation_target, confidence if violation_target is not None else None, certified,
+                     certified[kinds[position]][i] if certified else None)

@@ -20,7 +20,10 @@ oracle's action, with a safety margin.  A fit, in the run directory:
 2. **Regressions**: each model kind of ``models`` is fitted to all training plants.
 3. **Model and margin** on the validation plants (``validation_plants`` of the fixed validation
    set, played as ``deadtime train`` validates an agent: :mod:`agents.training.validation`): every
-   kind with every margin of ``margins``; the lowest mean cost wins (:func:`baselines.learned_rule.select`).
+   kind with every margin of ``margins``; the lowest mean cost wins (:func:`baselines.learned_rule.select`),
+   among the candidates whose violation rate is certified to be at most ``violation_target`` with
+   ``violation_confidence`` when a target is set (Learn then Test; ``baselines.learned_rule``,
+   "Certified margins").
    The plants played are recorded in ``validation_plants.json``.  No test plant is ever drawn.
 4. ``learned_rule.pkl`` and its manifest ``learned_rule.json``
    (:mod:`agents.training.learned_rule_policy`), ``evaluations.json`` (the chosen rule's validation,
@@ -34,8 +37,8 @@ conservative side of the action (larger ``mu`` or ``T_r``) is read from ``parame
 in every training episode and must not change.
 
 ``--resume`` continues from the cached labels; ``training_plants`` (more plants: the first ones are
-the same), ``validation_plants``, ``margins``, ``models``, ``output_dir`` and ``progress_bar`` may
-differ from the saved config (the model is then fitted again), the environment and the seed may not.
+the same), ``validation_plants``, ``margins``, ``models``, ``quantile``, ``violation_target``,
+``violation_confidence``, ``output_dir`` and ``progress_bar`` may differ from the saved config (the model is then fitted again), the environment and the seed may not.
 """
 
 from __future__ import annotations
@@ -58,7 +61,7 @@ from agents.training.learned_rule_config import MAX_TRAINING_PLANTS, LearnedRule
 if TYPE_CHECKING:
     from agents.training.train import TrainResult
 
-__all__ = ["CHUNK", "TRAINING_SEED", "check_environment", "fit", "run", "training_seed"]
+__all__ = ["CHUNK", "TRAINING_SEED", "certification_line", "check_environment", "fit", "run", "training_seed"]
 
 TRAINING_SEED = 10_000_000
 """Reset seed of training plant ``k`` of config seed ``s``: ``TRAINING_SEED + s * MAX_TRAINING_PLANTS + k``
@@ -67,7 +70,8 @@ TRAINING_SEED = 10_000_000
 CHUNK = 50
 """Training plants per cached file of labels."""
 
-_RESUMABLE_CHANGES = {"training_plants", "validation_plants", "margins", "models", "output_dir", "progress_bar"}
+_RESUMABLE_CHANGES = {"training_plants", "validation_plants", "margins", "models", "quantile", "violation_target",
+                      "violation_confidence", "output_dir", "progress_bar"}
 
 
 def training_seed(seed: int, index: int) -> int:
@@ -200,26 +204,30 @@ class _Remembered:
 def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], run_dir: Path) -> tuple[Any, Any, Any]:
     """Fit every model kind, then choose kind and margin on the validation plants: ``(selection, validation, plants)``."""
     from agents.training.validation import VALIDATION_SEED, validate_policy, validation_plants
-    from baselines.learned_rule import LearnedRule, fit_regression, select
+    from baselines.learned_rule import LearnedRule, Validated, fit_regression, select
 
     observations = np.array([record["observation"] for record in records])
     actions = np.array([record["action"] for record in records])
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
     direction = _directions(records)
-    rules = [LearnedRule(kind, _Remembered(fit_regression(kind, observations, actions, config.seed)), 0.0, direction, low,
-                         high, observations.shape[1]) for kind in config.models]
+    rules = [LearnedRule(kind, _Remembered(fit_regression(kind, observations, actions, config.seed, config.quantile)), 0.0,
+                         direction, low, high, observations.shape[1]) for kind in config.models]
     plants = validation_plants(env, config.validation_plants)
     if plants is not None:
         write_json(run_dir / "validation_plants.json",
                    [{"seed": VALIDATION_SEED + k, "plant": plant.to_dict()} for k, plant in enumerate(plants)])
     results: dict[tuple[str, float], Any] = {}
 
-    def validation_cost(rule: Any) -> float:
+    def validate(rule: Any) -> Validated:
         result = validate_policy(rule.predict, env, config.validation_plants, plants, len(records))
         results[(rule.kind, rule.margin)] = result
-        return result.mean_cost
+        if result.violation_rate is None and config.violation_target is not None:
+            raise ValueError(f"violation_target: {config.env_id} reports no feasibility (info['feasible']) to certify")
+        violations = round((result.violation_rate or 0.0) * len(result.costs))
+        return Validated(result.mean_cost, violations, len(result.costs))
 
-    selection = select(rules, config.margins, validation_cost)
+    selection = select(rules, config.margins, validate, violation_target=config.violation_target,
+                       confidence=config.violation_confidence)
     chosen = dataclasses.replace(selection.rule, model=selection.rule.model.model)
     return dataclasses.replace(selection, rule=chosen), results[(chosen.kind, chosen.margin)], plants
 
@@ -305,9 +313,10 @@ def _write_outputs(config: LearnedRuleConfig, run_dir: Path, selection: Any, val
         "env_id": config.env_id, "env_kwargs": dict(config.env_kwargs), "seed": config.seed, "kind": rule.kind,
         "margin": rule.margin, "direction": rule.direction, "action_bounds": [rule.low, rule.high],
         "observation_size": rule.observation_size, "training_plants": config.training_plants,
-        "validation_plants": config.validation_plants, "commit": provenance["commit"],
+        "validation_plants": config.validation_plants, "quantile": config.quantile, "commit": provenance["commit"],
         "validation": {"margins": list(selection.margins), "mean_cost": {k: list(v) for k, v in selection.costs.items()},
-                       "chosen": chosen},
+                       "violations": {k: list(v) for k, v in selection.violations.items()}, "chosen": chosen},
+        "certification": _certification(selection),
     })
     write_json(run_dir / "evaluations.json", [chosen])
     write_json(run_dir / "run.json", {
@@ -318,6 +327,35 @@ def _write_outputs(config: LearnedRuleConfig, run_dir: Path, selection: Any, val
         "seconds": {key: round(value, 3) for key, value in seconds.items()},
         "finished_at": datetime.now(UTC).isoformat(timespec="seconds"),
     })
+
+
+def _certification(selection: Any) -> dict[str, Any] | None:
+    """The manifest's record of the violation certificate (None without a target)."""
+    from baselines.learned_rule import violation_bound
+
+    if selection.violation_target is None:
+        return None
+    rule = selection.rule
+    violations = selection.violations[rule.kind][selection.margins.index(rule.margin)]
+    level = 1.0 - (1.0 - selection.confidence) / len(selection.costs)  # Bonferroni over the kinds, as select tests
+    return {"violation_target": selection.violation_target, "confidence": selection.confidence,
+            "method": "learn-then-test, fixed sequence from the largest margin, Bonferroni over kinds",
+            "certified": selection.is_certified, "violations": violations, "plants": selection.plants,
+            "violation_bound": violation_bound(violations, selection.plants, level),
+            "certified_margins": {k: [m for m, ok in zip(selection.margins, v) if ok] for k, v in selection.certified.items()}}
+
+
+def certification_line(certification: dict[str, Any] | None) -> str:
+    """One line on the certificate of a fitted rule ('' without a target)."""
+    if not certification:
+        return ""
+    share = f"{certification['violations']} of {certification['plants']} validation plants violate"
+    if certification["certified"]:
+        return (f"certified: violation rate <= {certification['violation_target']:.3g} with confidence "
+                f"{certification['confidence']:.3g} ({share})")
+    return (f"NOT certified: no margin of the list has a violation rate <= {certification['violation_target']:.3g} with "
+            f"confidence {certification['confidence']:.3g}; chosen the fewest violations ({share}); add larger margins or "
+            f"more validation plants")
 
 
 # ----------------------------------------------------------------------------------- command line
@@ -337,5 +375,7 @@ def run(config: LearnedRuleConfig, *, resume: bool, command: str) -> int:
     print(f"{result.num_timesteps} training plants ({result.session_steps} labelled by the oracle in this session, "
           f"{result.train_seconds:.1f} s); chosen {rule['kind']} with margin {rule['margin']:g}: "
           f"validation mean cost {result.best_cost:.6g}")
+    if rule.get("certification"):
+        print(certification_line(rule["certification"]))
     print(f"learned rule: {result.run_dir / 'learned_rule.json'} (deadtime evaluate --policies learned={result.run_dir})")
     return 0

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from agents.limits import MAX_EVAL_EPISODES
+from baselines.learned_rule import QUANTILE
 from agents.training.config import did_you_mean, frozen_mapping, plain_value, require_field, yaml_number
 
 __all__ = ["LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS"]
@@ -53,6 +54,17 @@ class LearnedRuleConfig:
         The safety margins to try (action units, >= 0, distinct).
     models : sequence of str
         The model kinds to try (:data:`baselines.learned_rule.MODEL_KINDS`, distinct).
+    quantile : float
+        The quantile that ``quantile-boosting`` estimates (0 < q < 1; default
+        :data:`baselines.learned_rule.QUANTILE`).
+    violation_target : float or None
+        If set (0 < alpha < 1), the kind and margin are chosen only among those whose violation rate on
+        new plants is certified to be at most this, with ``violation_confidence``, from the validation
+        plants (:func:`baselines.learned_rule.select`, "Certified margins"); null chooses by mean
+        validation cost alone.
+    violation_confidence : float
+        The probability (0 < c < 1) over the draw of the validation plants with which the certified
+        rate holds.
     output_dir : str or None
         Run directory; default ``runs/learned-rule-<env name>-s<seed>``.
     progress_bar : bool
@@ -67,6 +79,9 @@ class LearnedRuleConfig:
     validation_plants: int = 500
     margins: tuple[float, ...] = DEFAULT_MARGINS
     models: tuple[str, ...] = ("boosting", "quantile-boosting")
+    quantile: float = QUANTILE
+    violation_target: float | None = None
+    violation_confidence: float = 0.95
     output_dir: str | None = None
     progress_bar: bool = True
 
@@ -88,6 +103,8 @@ class LearnedRuleConfig:
         object.__setattr__(self, "env_kwargs", frozen_mapping(self.env_kwargs))
         object.__setattr__(self, "margins", _margins(self.margins))
         object.__setattr__(self, "models", _models(self.models))
+        for name, optional in (("quantile", False), ("violation_target", True), ("violation_confidence", False)):
+            object.__setattr__(self, name, _fraction(name, getattr(self, name), optional))
         require_field(self.output_dir is None or (isinstance(self.output_dir, str) and bool(self.output_dir)), "output_dir",
                  "a non-empty string or null", self.output_dir)
         require_field(isinstance(self.progress_bar, bool), "progress_bar", "true or false", self.progress_bar)
@@ -113,6 +130,16 @@ class LearnedRuleConfig:
         if missing:
             raise ValueError(f"{where} is missing the required key(s) {', '.join(missing)}")
         return cls(**data)
+
+
+def _fraction(name: str, value: Any, optional: bool) -> float | None:
+    """A number strictly between 0 and 1 (or None where ``optional``), as a float."""
+    value = yaml_number(value)
+    if optional and value is None:
+        return None
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and 0 < value < 1
+    require_field(ok, name, "a number strictly between 0 and 1" + (" or null" if optional else ""), value)
+    return float(value)
 
 
 def _margins(value: Any) -> tuple[float, ...]:

@@ -8,7 +8,7 @@ from statistics import NormalDist
 import numpy as np
 import pytest
 
-from baselines.learned_rule import MODEL_KINDS, QUANTILE, LearnedRule, fit_regression, select
+from baselines.learned_rule import MODEL_KINDS, QUANTILE, LearnedRule, Validated, fit_regression, select, violation_bound
 
 
 def _data(n: int = 400, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -70,13 +70,92 @@ def test_select_takes_the_lowest_validation_cost_and_ties_go_to_the_larger_margi
     rules = [_rule(), LearnedRule("boosting", _rule().model, 0.0, 1.0, -1.0, 1.0, 3)]
     seen = []
 
-    def cost(rule: LearnedRule) -> float:
+    def cost(rule: LearnedRule) -> Validated:
         seen.append((rule.kind, rule.margin))
-        return {("ridge-quadratic", 0.1): 1.0, ("boosting", 0.2): 1.0}.get((rule.kind, rule.margin), 2.0)
+        return Validated({("ridge-quadratic", 0.1): 1.0, ("boosting", 0.2): 1.0}.get((rule.kind, rule.margin), 2.0), 3, 100)
 
     selection = select(rules, [0.0, 0.1, 0.2], cost)
     assert (selection.rule.kind, selection.rule.margin) == ("boosting", 0.2)
     assert len(seen) == 6 and selection.costs["ridge-quadratic"] == (2.0, 1.0, 2.0)
+    assert selection.is_certified is None and selection.violations["boosting"] == (3, 3, 3)
+
+
+def _validated(costs: dict[float, float], violations: dict[float, int], plants: int = 500):
+    return lambda rule: Validated(costs[rule.margin], violations[rule.margin], plants)
+
+
+def test_a_violation_target_restricts_the_choice_to_the_certified_margins() -> None:
+    """500 plants at 95%: 0 or 1 violation certifies 1% (bounds 0.6% and 0.94%), 2 does not (1.25%)."""
+    margins = [0.0, 0.1, 0.2, 0.3]
+    costs = {0.0: 1.0, 0.1: 1.1, 0.2: 1.2, 0.3: 1.3}
+    violations = {0.0: 9, 0.1: 2, 0.2: 1, 0.3: 0}
+    free = select([_rule()], margins, _validated(costs, violations))
+    assert free.rule.margin == 0.0 and free.is_certified is None
+    held = select([_rule()], margins, _validated(costs, violations), violation_target=0.01)
+    assert held.rule.margin == 0.2 and held.is_certified
+    assert held.certified["ridge-quadratic"] == (False, False, True, True)
+
+
+def test_fixed_sequence_testing_stops_at_the_first_margin_that_fails() -> None:
+    """A cheap small margin with no violations below a failing one is not certified: the sequence from the
+    largest margin down stopped at the failure (testing it anyway would spend the error budget twice)."""
+    margins = [0.0, 0.1, 0.2]
+    costs, violations = {0.0: 1.0, 0.1: 2.0, 0.2: 3.0}, {0.0: 0, 0.1: 5, 0.2: 0}
+    held = select([_rule()], margins, _validated(costs, violations), violation_target=0.01)
+    assert held.rule.margin == 0.2 and held.certified["ridge-quadratic"] == (False, False, True)
+
+
+def test_without_a_certified_margin_the_fewest_violations_are_chosen_and_said_so() -> None:
+    margins = [0.0, 0.1, 0.2]
+    costs, violations = {0.0: 1.0, 0.1: 2.0, 0.2: 1.5}, {0.0: 9, 0.1: 4, 0.2: 4}
+    held = select([_rule()], margins, _validated(costs, violations), violation_target=0.01)
+    assert (held.rule.margin, held.is_certified) == (0.2, False)
+
+
+def test_bonferroni_over_kinds_needs_more_plants() -> None:
+    """One violation-free kind on 300 plants certifies 1% at 95% (bound 0.994%); two kinds test each at
+    97.5%, where 0 of 300 bounds the rate by 1.22% only."""
+    costs, violations = {0.0: 1.0}, {0.0: 0}
+    one = select([_rule()], [0.0], _validated(costs, violations, 300), violation_target=0.01)
+    two = select([_rule(), LearnedRule("boosting", _rule().model, 0.0, 1.0, -1.0, 1.0, 3)], [0.0],
+                 _validated(costs, violations, 300), violation_target=0.01)
+    assert one.is_certified and not two.is_certified
+
+
+@pytest.mark.parametrize("plants", [1, 7, 60, 300, 500, 1000])
+@pytest.mark.parametrize("confidence", [0.9, 0.95, 0.99])
+def test_the_clopper_pearson_bound_is_the_exact_binomial_test(plants: int, confidence: float) -> None:
+    """Independent check of :func:`violation_bound` (the beta quantile) against scipy's exact binomial test:
+    the bound ``u`` has ``P(Binomial(n, u) <= k) = 1 - confidence``, so the one-sided test of ``p >= r``
+    rejects at level ``1 - confidence`` exactly for the rates ``r`` above ``u``.  The beta quantile is
+    accurate to ~1e-12 here, so rates 1e-6 apart on either side of it decide the test correctly."""
+    from scipy.stats import binom, binomtest
+
+    for violations in sorted({0, 1, plants // 3, plants - 1} - {plants}):
+        bound = violation_bound(violations, plants, confidence)
+        assert binom.cdf(violations, plants, bound) == pytest.approx(1 - confidence, rel=1e-7)
+        for rate, rejected in ((bound + 1e-6, True), (bound - 1e-6, False)):
+            if 0 < rate < 1:
+                p_value = binomtest(violations, plants, rate, alternative="less").pvalue
+                assert (p_value <= 1 - confidence) == rejected
+    assert violation_bound(plants, plants, confidence) == 1.0
+    assert violation_bound(0, plants, confidence) == pytest.approx(1 - (1 - confidence) ** (1 / plants), rel=1e-10)
+
+
+def test_the_certificate_holds_on_simulated_validation_sets() -> None:
+    """The promise itself, simulated: rules whose true violation rates fall with the margin; on 2000 draws
+    of 500 validation plants, the chosen rule's true rate exceeds 1% in at most 5% of draws (binomial
+    sampling error of that share over 2000 draws: sd 0.5%, so the bound is 5% + 3 sd)."""
+    rng = np.random.default_rng(0)
+    margins = np.linspace(0, 0.5, 11)
+    true_rates = 0.04 * np.exp(-8 * margins)  # 4% at no margin, below 1% from 0.2 on
+    failures, rule = 0, _rule()
+    for _ in range(2000):
+        counts = dict(zip(margins.tolist(), rng.binomial(500, true_rates).tolist()))
+        costs = {m: 1.0 + m for m in margins.tolist()}
+        chosen = select([rule], margins.tolist(), _validated(costs, counts), violation_target=0.01)
+        failures += bool(true_rates[margins.tolist().index(chosen.rule.margin)] > 0.01) and bool(chosen.is_certified)
+    assert failures / 2000 <= 0.05 + 3 * np.sqrt(0.05 * 0.95 / 2000)
 
 
 @pytest.mark.parametrize(
@@ -88,10 +167,16 @@ def test_select_takes_the_lowest_validation_cost_and_ties_go_to_the_larger_margi
         (lambda: fit_regression("boosting", np.full((4, 3), np.inf), np.zeros(4)), "must be finite"),
         (lambda: _rule(-0.1), "margin must be"),
         (lambda: _rule(0.0, 0.5), "direction must be"),
-        (lambda: select([_rule()], [-0.1], lambda r: 0.0), "margins must be"),
-        (lambda: select([_rule(), _rule()], [0.0], lambda r: 0.0), "distinct"),
+        (lambda: select([_rule()], [-0.1], lambda r: Validated(0.0, 0, 1)), "margins must be"),
+        (lambda: select([_rule(), _rule()], [0.0], lambda r: Validated(0.0, 0, 1)), "distinct"),
+        (lambda: select([_rule()], [0.0], lambda r: Validated(0.0, 0, 1), violation_target=1.0), "violation_target must"),
+        (lambda: select([_rule()], [0.0], lambda r: Validated(0.0, 0, 1), confidence=0.0), "confidence must"),
+        (lambda: select([_rule()], [0.0, 0.1], lambda r: Validated(0.0, 0, 1 + int(10 * r.margin))), "same number"),
+        (lambda: violation_bound(3, 2, 0.95), "violations and plants"),
+        (lambda: fit_regression("quantile-boosting", *_data(), quantile=1.0), "quantile must"),
     ],
-    ids=["kind", "shape", "too-few", "non-finite", "negative-margin", "direction", "select-margin", "select-kinds"],
+    ids=["kind", "shape", "too-few", "non-finite", "negative-margin", "direction", "select-margin", "select-kinds",
+         "target", "confidence", "plants", "bound-counts", "quantile"],
 )
 def test_bad_input_is_a_value_error(call, message: str) -> None:
     with pytest.raises(ValueError, match=message):

@@ -158,6 +158,35 @@ def test_an_interrupted_fit_resumes_from_its_cached_labels(fitted: dict, tmp_pat
     assert "already holds this learned rule" in capsys.readouterr().out
 
 
+def test_a_violation_target_certifies_the_margin_on_resume_without_new_labels(fitted: dict, tmp_path: Path,
+                                                                              capsys, monkeypatch) -> None:
+    """The certificate is a choice on the validation plants only: a resume with a target reuses the labels.
+    On 4 validation plants, two kinds each tested at 97.5%, 0 violations bound the rate by 60.2% and 1 by
+    80.6%: a target of 0.7 certifies a kind's margins from the largest down while they have no violation,
+    and 0.01 certifies none and says so."""
+    from agents.training import learned_rule
+
+    monkeypatch.setattr(learned_rule, "CHUNK", CHUNK)
+    run_dir = tmp_path / "run"
+    shutil.copytree(fitted["run_dir"], run_dir)
+    capsys.readouterr()
+    assert _train(run_dir, "violation_target=0.7", resume=True) == 0
+    out = capsys.readouterr().out
+    assert "(0 labelled by the oracle in this session" in out
+    manifest = json.loads((run_dir / "learned_rule.json").read_text())
+    certificate, violations = manifest["certification"], manifest["validation"]["violations"]
+    assert certificate["plants"] == 4 and certificate["violation_target"] == 0.7
+    for kind, counts in violations.items():  # margins [0, 0.1, 0.2]: certified from the largest while violation-free
+        free = next((i for i in range(len(counts)) if all(c == 0 for c in counts[i:])), len(counts))
+        assert certificate["certified_margins"][kind] == [0.0, 0.1, 0.2][free:]
+    assert certificate["certified"] == any(certificate["certified_margins"].values())
+    assert ("certified: violation rate <= 0.7" if certificate["certified"] else "NOT certified") in out
+    assert _train(run_dir, "violation_target=0.01", resume=True) == 0
+    out = capsys.readouterr().out
+    assert "NOT certified: no margin of the list" in out
+    assert json.loads((run_dir / "learned_rule.json").read_text())["certification"]["certified"] is False
+
+
 def test_a_run_directory_is_not_fitted_twice_without_resume(fitted: dict, capsys) -> None:
     assert _train(fitted["run_dir"]) == 2
     assert "already holds a run; pass --resume" in capsys.readouterr().err
@@ -181,6 +210,9 @@ BAD = [
     ("env_kwargs.experiments=agent", "env_kwargs: the learned rule needs a one-component action"),
     ("env_kwargs.noise_std=-1", "env_kwargs: refused by DeadTime/FPPI-v0: noise_std must be >= 0"),
     ("env_kwargs.nois_std=1", "unknown env_kwargs key 'nois_std'"),
+    ("violation_target=1", "violation_target must be a number strictly between 0 and 1 or null"),
+    ("violation_confidence=0", "violation_confidence must be a number strictly between 0 and 1"),
+    ("quantile=1.5", "quantile must be a number strictly between 0 and 1"),
 ]
 
 
