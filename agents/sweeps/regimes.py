@@ -21,7 +21,8 @@ seeds) and environment.  Sweeps of the same regime are merged: their agent group
 * with ``--behaviour N``: what each agent group does, replayed on the first ``N`` validation plants
   (never the test plants) in its regime: the experiments it chooses and how many, their amplitudes,
   the experiments its commit completes, the experiment time and production deviation, and its design
-  action (the residual around the base rule).
+  action (the residual around the base rule).  A learned rule (``learned_rule.json``) is replayed as
+  an agent: in fixed mode it chooses no experiment, its plan (``env_kwargs.plan``) completes them.
 
 Writes ``regimes.md``, ``regimes.json`` and ``regimes.png`` (cost against ``--x`` per policy, one panel
 per value of the regimes' other arguments) into ``--out``.
@@ -200,13 +201,14 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
     episodes of every seed, with the spread of the per-seed means.
     """
     from agents.environments import make_env
+    from agents.training.learned_rule_policy import is_learned_rule, load_learned_rule
     from agents.training.policies import load_policy
     from envs.systems.plant_sets import plant_set
 
     chosen: Counter = Counter()
     amplitudes, commit_amplitudes, per_seed_counts, per_seed_time, actions, deviations, completed = [], [], [], [], [], [], []
     for path in runs:
-        policy = load_policy(path)
+        policy = load_learned_rule(path) if is_learned_rule(path) else load_policy(path)
         env = make_env(policy.env_id, {**dict(policy.env_kwargs or {}), **env_kwargs})
         counts, times = [], []
         for index, plant in enumerate(plant_set(env.unwrapped.family, "validation", plants)):

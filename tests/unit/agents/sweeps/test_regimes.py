@@ -100,6 +100,23 @@ def test_behaviour_of_a_scripted_agent(monkeypatch: pytest.MonkeyPatch) -> None:
     assert found["experiment_deviation"] > 0
 
 
+def test_behaviour_of_a_learned_rule_on_a_plan(tmp_path: Path) -> None:
+    """A learned rule (fixed mode) chooses no experiment; its plan completes the structure's two, at the
+    plan's amplitudes; its design actions are its own predictions."""
+    from agents.training.learned_rule_policy import load_learned_rule
+
+    config = Path(__file__).resolve().parents[4] / "configs" / "learned_plan.yaml"
+    run_dir = tmp_path / "rule"
+    words = ["train", "--config", str(config), "--env", "DeadTime/FPPI-v3", "--out", str(run_dir), "training_plants=12",
+             "validation_plants=4", "margins=[0.0, 0.1]", "progress_bar=false", "env_kwargs.plan=[0.3, 3]"]
+    assert _run(*words)[0] == 0
+    found = behaviour([run_dir], {"noise_std": 0.05}, plants=3)
+    assert found["experiments_chosen"] == 0.0 and found["experiments_completed_by_commit"] == 2.0
+    assert found["share_of_chosen"] == {} and found["amplitude_quartiles"] == []
+    rule = load_learned_rule(run_dir)
+    assert found["design_action_quartiles"][0] >= float(rule.rule.low) and found["seeds"] == 1
+
+
 def _run(*args: str) -> tuple[int, str, str]:
     out, err = io.StringIO(), io.StringIO()
     with redirect_stdout(out), redirect_stderr(err):
