@@ -1,0 +1,54 @@
+"""The violation rates of learned groups on the test plants, pooled over their seeds, with exact intervals:
+the after-the-fact check of a certified margin (``baselines/learned_rule.py``, "Certified margins").
+
+    python tests/tools/certificate_check.py sweeps/certified_noise10_time sweeps/agent_mode_noise10_time ...
+
+Per sweep, environment and agent group (``<label>-<env>-s<seed>``): the test episodes of all seeds, how
+many violated a constraint (``feasible`` false, failures included), the pooled rate with its two-sided
+95% Clopper-Pearson interval (``scipy.stats.binomtest``), and how many seeds violated on any of their
+test plants (on 50 plants a seed whose rate is exactly 1% shows a violation with probability 39.5%).  The test plants
+are the same for every seed, so the pooled count is not a sum of independent draws: the interval is a
+description of the pooled rate, not a test of each seed's promise.  Prints a Markdown table.
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+from scipy.stats import binomtest
+
+GROUP = re.compile(r"^(?P<label>.+)-(?P<env>[A-Z]+-v\d+)-s(?P<seed>\d+)$")
+
+
+def group_counts(sweep: Path) -> dict[tuple[str, str], list[tuple[int, int]]]:
+    """``(env, label) -> [(violations, episodes) per seed]`` on the test plants of a sweep's evaluations."""
+    found: dict[tuple[str, str], list[tuple[int, int]]] = defaultdict(list)
+    for path in sorted(sweep.glob("eval/*/*/per_plant.csv")):
+        match = GROUP.match(path.parent.name)
+        if not match:
+            continue
+        with path.open(newline="") as handle:
+            rows = [row for row in csv.DictReader(handle) if row["subset"] == "test" and row["policy"] == "agent"]
+        found[(match["env"], match["label"])].append((sum(row["feasible"] != "True" for row in rows), len(rows)))
+    return found
+
+
+def table(sweeps: list[Path]) -> str:
+    lines = ["| sweep | env | group | seeds | test episodes | violations | rate [95% interval] | seeds with a violation |",
+             "|---|---|---|---|---|---|---|---|"]
+    for sweep in sweeps:
+        for (env, label), seeds in sorted(group_counts(sweep).items()):
+            violations, episodes = sum(v for v, _ in seeds), sum(n for _, n in seeds)
+            interval = binomtest(violations, episodes).proportion_ci(confidence_level=0.95, method="exact")
+            above = sum(v > 0 for v, _ in seeds)
+            lines.append(f"| {sweep.name} | {env} | {label} | {len(seeds)} | {episodes} | {violations} | {violations / episodes:.1%} "
+                         f"[{interval.low:.1%}, {interval.high:.1%}] | {above} |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(table([Path(arg) for arg in sys.argv[1:]]))
