@@ -1,6 +1,6 @@
 """The documented upper limits of what ``deadtime`` accepts, in one place.
 
-Each limit is far above honest use (the defaults and the README's runs stay orders of magnitude
+Each limit is far above honest use (the defaults and the documented runs stay orders of magnitude
 below) and low enough that a value just under it still runs in bounded time and memory; a value
 above is refused before anything is computed or written, in one line naming the field and the
 limit (exit status 2 on the command line).  The help texts quote these constants.

@@ -23,7 +23,7 @@ is global, then local, in ``log`` of the relative parameter:
 Infeasible parameters are not simulated (:func:`~envs.analysis.scoring.score` skips the IAE), so they cost
 only the frequency-domain analysis.  A search costs at most ``grid`` + :data:`REFINEMENT_EVALUATIONS`
 + 2 scorings; loops with many unstable closed-loop poles (the PID on Ingimundarson's stable P6) are
-the slowest to analyse (the times measured are in the README's Performance section).
+the slowest to analyse (the times measured are in docs/performance.md).
 
 Binding constraint
 ------------------

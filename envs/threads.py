@@ -14,7 +14,7 @@ So the public entry points (``Env.reset`` and ``Env.step``, :func:`envs.analysis
 the duration of the call and restores the user's setting afterwards, so the rest of the user's
 process (say, a large matrix product of their own) keeps its threads.  Where every BLAS library
 already runs one thread (the command line, ``OPENBLAS_NUM_THREADS=1``) nothing is done; otherwise a
-call pays for setting and restoring the limit (a few percent of an episode; README, "Threads").
+call pays for setting and restoring the limit (a few percent of an episode; docs/environments/overview.md, "Threads").
 
 The limit is process-wide, as BLAS's thread count is: nested calls set it once, and concurrent
 Python threads share one limit that the last of them to leave restores.

@@ -71,7 +71,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--family", help="plant family of the test set (default: the environment's)")
     parser.add_argument("--env-kwargs", help="a JSON object of environment arguments (or a file of one) that set the "
                         "regime every policy is scored in, e.g. '{\"noise_std\": 0.1}'; not 'experiments'")
-    parser.add_argument("--no-benchmark", action="store_true", help="leave out the seeds' benchmark batch")
+    parser.add_argument("--no-benchmark", action="store_true", help="leave out the papers' benchmark batch")
     parser.add_argument("--resamples", type=int, default=2000, help=f"bootstrap resamples (default 2000, at most {MAX_RESAMPLES})")
     parser.add_argument("--no-plots", action="store_true", help="write the tables only")
     parser.add_argument("--workers", type=int, default=1,

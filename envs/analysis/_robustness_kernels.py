@@ -36,7 +36,7 @@ Design:
   a loop on the boundary; ``tests/unit/fast_paths/test_fast_paths.py`` compares both on a few hundred loops.
   :func:`envs.analysis.robustness.assemble_margins` builds the :class:`~envs.analysis.robustness.Margins` of both.
 * Compilation: 11 functions (and 11 small ones inlined into them), compiled once and cached on
-  disk by numba (README, "Performance", for the times).  Scalar loops instead of numpy functions (``sort``,
+  disk by numba (docs/performance.md for the times).  Scalar loops instead of numpy functions (``sort``,
   fancy indexing, ``max``), each of which would add its own compilation; no call of a compiled
   function on a literal argument (which numba would compile once more for that literal).
 """

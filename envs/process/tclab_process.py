@@ -34,7 +34,7 @@ Real hardware is the same class interface (``tclab.TCLab()`` over USB: ``T1``, `
 ``close``), in real time: an adapter for it is this class with ``reset`` turning the heaters off
 and waiting for the kit to cool (it cannot return to ambient otherwise, and the seed does nothing)
 and ``apply`` waiting one sample time of real time (``time.sleep``, or ``tclab.clock``) instead of
-calling ``update(t)``.  It is a few lines (the README shows them); it is not included because
+calling ``update(t)``.  It is a few lines (docs/real_process.md shows them); it is not included because
 nothing here can test it.
 """
 

@@ -364,7 +364,7 @@ _MODEL_FIELDS = {"fppi": {"gain", "time_constant", "dead_time"}, "msp": {"gain",
 
 
 def controller_from_dict(data: Any) -> Controller:
-    """Parse the controller JSON of ``deadtime analyze`` (see the README); errors name the field."""
+    """Parse the controller JSON of ``deadtime analyze`` (docs/command_line.md); errors name the field."""
     if not isinstance(data, dict):
         raise ValueError(f"controller must be a JSON object, got {type(data).__name__}")
     kind = data.get("type")

@@ -236,7 +236,7 @@ def test_cost_is_gain_invariant_over_the_documented_range(name, g):
     relative; the differences measured here are below 1e-12).
     At ``|K| = 1e-12`` the difference is 1e-5 to 2e-4 (measured), not rounding: something in the IAE run
     is absolute (left open, issue 12.4 follow-up); there the bound is the IAE's own error, 6e-4 (the
-    bench's largest error against the fine-step reference, README "Performance")."""
+    bench's largest error against the fine-step reference, docs/performance.md)."""
     from envs.analysis.scoring import Constraints, score
 
     plant, controller = NORMALIZED_LOOPS[name]

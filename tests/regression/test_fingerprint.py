@@ -6,7 +6,7 @@ Observations, rewards and final ``info`` of seeded episodes of every environment
 included) and ``deadtime reproduce all --json``, recorded in ``fingerprint.json`` beside this file.
 
 The check is bit for bit (floats through ``repr``, ``nan`` and ``inf`` included), which is only
-defined on the same machine and libraries (README, "Determinism, precisely"): the file records the
+defined on the same machine and libraries (docs/environments/overview.md, "Determinism, precisely"): the file records the
 machine it was written on (CPU architecture, BLAS kernel, numpy/scipy/numba versions), and on a
 machine that differs the test is skipped with the reason.  Only a deliberate, documented change of
 behaviour may rewrite the file, in its own commit::

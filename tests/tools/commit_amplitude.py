@@ -1,5 +1,5 @@
-"""The cost of committing at once at amplitude ``A`` in ``FPPI-v2``'s agent mode (the README table
-under "Environments", v2): the seeds' two steps at ``A``, then the base rule's design (action 0), on
+"""The cost of committing at once at amplitude ``A`` in ``FPPI-v2``'s agent mode (the table of
+docs/environments/overview.md, v2): the fixed procedure's two steps at ``A``, then the base rule's design (action 0), on
 the first 60 validation plants, episode seed = plant index.
 
     python tests/tools/commit_amplitude.py

@@ -10,7 +10,7 @@ mean costs of ``fppi-eq34`` and of the oracle on the identified model (``design`
 ``0.01 t_exp/T_ar`` term).  Reads private run helpers of the experiments (a tool, not an API).
 
 Usage: python tests/tools/experiment_length.py 0.01,0.05,0.1,0.2 OUT.json "detected,+4 T_ar,..."
-(the third argument: the policies whose oracle is computed, about 1 s a plant).  Results: README,
+(the third argument: the policies whose oracle is computed, about 1 s a plant).  Results: docs/numerics.md,
 "Experiment length and noise"."""
 import json, sys, math
 from dataclasses import replace

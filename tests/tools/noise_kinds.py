@@ -4,7 +4,7 @@ Episode i is ``reset(seed=i, options={"plant": test plant i})``, as ``deadtime e
 
 Usage: python tests/tools/noise_kinds.py '{"disturbances": {"drift": 0.005}}' 0.01,0.05
            [--env DeadTime/FPPI-v0] [--rule fppi-eq34] [--no-oracle]
-Results: README, "Experiments with a price, disturbances, least squares".
+Results: docs/environments/overview.md, "Experiments with a price, disturbances, least squares".
 """
 
 import argparse

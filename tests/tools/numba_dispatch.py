@@ -1,4 +1,4 @@
-"""What numba's dispatch costs per fixed-mode episode (the README, Performance, "The bit-identical bound").
+"""What numba's dispatch costs per fixed-mode episode (docs/performance.md, "The bit-identical bound").
 
 Plays fixed-mode episodes of ``DeadTime/PID-v0`` in the native vector environment (32 slots),
 records one argument tuple of every numba kernel of :mod:`envs` and how often each is called, then

@@ -2,7 +2,7 @@
 final value, in units of the noise's standard error over one window (``sigma/sqrt(n)``), and how much
 does it still change over the last window (in units of the slope test's ``sigma sqrt(12/n)``)?
 The 80 FPPI-v0 test plants, plant i with ``numpy.random.default_rng(i)``.  Usage: python
-tests/tools/steady_state_remaining.py.  Results: README, "Experiment length and noise"."""
+tests/tools/steady_state_remaining.py.  Results: docs/numerics.md, "Experiment length and noise"."""
 import numpy as np
 from envs.systems.plant_sets import plant_set
 from envs.identification.procedure import identify

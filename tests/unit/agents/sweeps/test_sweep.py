@@ -204,7 +204,7 @@ failure: {{max_failures: 1}}
 
 @pytest.mark.parametrize("path", sorted((REPO / "sweeps").glob("*.yaml")), ids=lambda p: p.name)
 def test_every_committed_sweep_file_is_valid(path: Path) -> None:
-    """The studies behind the README load and validate (each training config resolved, with its seeds)."""
+    """The studies behind docs/results.md and docs/results_history.md load and validate (each training config resolved, with its seeds)."""
     sweep = load_sweep(path)
     assert sweep.trials()
 

@@ -1,0 +1,64 @@
+"""Links in README.md and docs/ lead somewhere.
+
+Every Markdown link or image ``[text](target)`` of ``README.md`` and ``docs/**/*.md`` whose target is
+not a URL names a file or folder that exists, relative to the page; a ``#fragment`` names a heading
+of the target page (GitHub's anchors: lower case, punctuation dropped, spaces as hyphens).  Every
+repository path quoted in backticks (``docs/...``, ``sweeps/...``, ``configs/...``, ``tests/...``,
+``envs/...``, ``agents/...``, ``baselines/...`` with a file extension) exists too.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
+QUOTED_PATH = re.compile(r"`((?:docs|sweeps|configs|tests|envs|agents|baselines)/[\w./-]+\.(?:md|py|yaml|json|png|csv))`")
+
+
+def _pages() -> list[Path]:
+    return [REPO / "README.md", *sorted((REPO / "docs").rglob("*.md"))]
+
+
+def _anchors(page: Path) -> set[str]:
+    """GitHub's anchors of the headings of ``page``."""
+    anchors = set()
+    for line in page.read_text().splitlines():
+        if line.startswith("#"):
+            title = line.lstrip("#").strip().lower()
+            title = re.sub(r"[^\w\- ]", "", title)
+            anchors.add(title.replace(" ", "-"))
+    return anchors
+
+
+def _without_code_blocks(text: str) -> str:
+    return re.sub(r"```.*?```", "", text, flags=re.DOTALL)
+
+
+@pytest.mark.parametrize("page", _pages(), ids=lambda page: str(page.relative_to(REPO)))
+def test_links_lead_to_existing_files_and_headings(page: Path) -> None:
+    broken = []
+    for target in LINK.findall(_without_code_blocks(page.read_text())):
+        if re.match(r"[a-z]+:", target):
+            continue
+        path, _, fragment = target.partition("#")
+        resolved = (page.parent / path).resolve() if path else page
+        if not resolved.exists():
+            broken.append(f"{target}: no such file")
+        elif fragment and (resolved.is_dir() or fragment not in _anchors(resolved)):
+            broken.append(f"{target}: no heading #{fragment}")
+    assert broken == []
+
+
+@pytest.mark.parametrize("page", _pages(), ids=lambda page: str(page.relative_to(REPO)))
+def test_quoted_repository_paths_exist(page: Path) -> None:
+    missing = [path for path in QUOTED_PATH.findall(page.read_text()) if not (REPO / path).exists()]
+    assert missing == []
+
+
+def test_the_anchors_are_github_s() -> None:
+    assert "when-choosing-experiments-pays" in _anchors(REPO / "docs" / "results_history.md")
+    assert "terms" in _anchors(REPO / "docs" / "results.md")

@@ -1,0 +1,114 @@
+"""Each number of README.md and docs/ that a fast command or a committed summary produces, compared
+with that command's output or that summary.
+
+The demo's numbers need a training run and are not checked here (docs/training_and_evaluation.md
+marks the agent's row as varying across machines).  The ``tune`` rows are deterministic closed forms
+to the printed digits (SIMC on ``2.5 e^{-4s}/(12 s + 1)``: ``K_c = 0.6``, ``T_i = 12``; ZN's step PI
+has ``Ms = 2.566``); the ``T_r`` floors are measured by ``test_tr_floors_are_the_exact_model_delay_margin``.
+The results pages' tables are the committed ``sweeps/*/summary.md`` and ``regimes.md`` tables, and
+the README's headline table is ``tests/tools/headline_table.py``'s output for the committed
+``sweeps/agent_mode/regimes.json``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import io
+import itertools
+import json
+import re
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+from agents.cli import main
+
+REPO = Path(__file__).resolve().parents[2]
+README = (REPO / "README.md").read_text()
+DOCS = REPO / "docs"
+COMMAND_LINE = (DOCS / "command_line.md").read_text()
+RESULTS = (DOCS / "results.md").read_text() + "\n" + (DOCS / "results_history.md").read_text()
+MODEL = '{"type": "fopdt", "gain": 2.5, "time_constant": 12, "dead_time": 4}'
+INTERVAL = r"-?[\d.]+ \[-?[\d.]+, -?[\d.]+\]"
+
+
+def run(*args: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        status = main(list(args))
+    return status, out.getvalue(), err.getvalue()
+
+
+def test_the_exit_3_line_is_what_tune_prints():
+    line = re.search(r"`(deadtime tune: zn-step-pi gives [^`]*)`", COMMAND_LINE.replace("\n", " ")).group(1)
+    assert run("tune", "--rule", "zn-step-pi", "--model", MODEL)[2] == line + "\n"
+
+
+def test_the_model_only_example_runs_as_written():
+    for text in (README, COMMAND_LINE):
+        assert f"deadtime tune --rule simc-pi --model '{MODEL}' --json" in text
+    status, out, _ = run("tune", "--rule", "simc-pi", "--model", MODEL, "--json")
+    controller = json.loads(out)["controller"]
+    assert status == 0 and (controller["kp"], controller["ti"]) == (0.6, 12.0)
+
+
+def test_the_tr_floors_are_those_of_the_code():
+    from baselines.rules.tune import TR_FLOORS
+
+    assert f"`{TR_FLOORS['fppi']:g} L_n` (FPPI) or `{TR_FLOORS['msp']:g} L_n` (MSP)" in COMMAND_LINE.replace("\n", " ")
+
+
+def _committed() -> list[str]:
+    """The text of every committed ``sweeps/*/summary.md`` and ``sweeps/*/regimes.md``."""
+    sweeps = REPO / "sweeps"
+    return [path.read_text() for path in sorted(sweeps.glob("*/summary.md")) + sorted(sweeps.glob("*/regimes.md"))]
+
+
+def test_the_results_tables_are_the_committed_sweep_summaries():
+    """Every policy table of docs/results.md and docs/results_history.md is a table of a committed
+    ``sweeps/*/summary.md``, verbatim; every ``value [low, high]`` of their other tables (the
+    overview, the regimes) is in one of them or in a committed ``sweeps/*/regimes.md``
+    (``deadtime regimes``) too."""
+    summaries = _committed()
+    committed = [table for summary in summaries for table in _tables(summary)]
+    policy_tables = [t for t in _tables(RESULTS) if t.startswith("| policy | role |")]
+    assert len(policy_tables) >= 3
+    assert all(table in committed for table in policy_tables)
+    quoted = [q for t in _tables(RESULTS) if not t.startswith("| policy | role |") for q in re.findall(INTERVAL, t)]
+    assert len(quoted) >= 12
+    assert all(any(q in summary for summary in summaries) for q in quoted), [q for q in quoted if not any(q in m for m in summaries)]
+
+
+def test_the_readme_headline_table_is_the_committed_regimes():
+    """README "Results": the table is ``tests/tools/headline_table.py``'s output for the committed
+    ``sweeps/agent_mode/regimes.json``, and each of its intervals is in the committed ``regimes.md``."""
+    spec = importlib.util.spec_from_file_location("headline_table", REPO / "tests" / "tools" / "headline_table.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    expected = module.headline_table()
+    results = README[README.index("## Results"):README.index("## Documentation")]
+    assert expected in _tables(results)
+    regimes = (REPO / "sweeps" / "agent_mode" / "regimes.md").read_text()
+    quoted = re.findall(INTERVAL, expected)
+    assert len(quoted) >= 48 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
+
+
+def _tables(text: str) -> list[str]:
+    """The Markdown tables of ``text``: runs of consecutive lines that start with ``|``."""
+    return ["\n".join(lines) for is_table, lines in itertools.groupby(text.splitlines(), lambda line: line.startswith("|"))
+            if is_table]
+
+
+def test_the_tclab_model_is_what_the_procedure_identifies():
+    """docs/real_process.md: the identified heater-1 loop (seed 0), as printed."""
+    from envs.process.procedure import identify_process
+    from envs.process.tclab_process import TCLabProcess
+
+    found = identify_process(TCLabProcess(), seed=0)
+    i, relay, point = found.identification, found.relay, found.operating_point
+    section = (DOCS / "real_process.md").read_text().replace("\n", " ")
+    for printed in ("38.77 degC", f"`K_n = {i.gain:.3f} degC/%`", f"`T_ar = {i.residence_time:.0f} s`",
+                    f"`tau = {i.closed_loop.normalized_dead_time:.3f}`", f"`T_n = {i.fopdt.time_constant:.0f} s`",
+                    f"`L_n = {i.fopdt.dead_time:.1f} s`", f"`D_2 = {i.sopdt.dead_time:.1f} s`",
+                    f"`K_u = {relay.ultimate_gain:.0f} %/degC`", f"`T_u = {relay.ultimate_period:.1f} s`"):
+        assert printed in section, printed
+    assert f"{point.output:.2f}" == "38.77"
