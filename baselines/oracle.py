@@ -4,8 +4,8 @@ For a true plant, a model of it and a controller structure, :func:`oracle` searc
 parameter of the papers' designs (:mod:`envs.design`: ``mu`` of the Gorez-Klan PID, ``T_r`` of the
 FPPI or of the MSP) for the smallest cost of :func:`envs.analysis.scoring.score`, constraints
 included.  A constraint violation costs more than every feasible design and is graded by how far it
-violates, so the minimum of the cost is the constrained optimum when a feasible parameter exists, and the least-violating parameter
-otherwise: one objective serves both cases.
+violates, so the minimum of the cost is the constrained optimum when a feasible parameter exists,
+and the least-violating parameter otherwise: one objective serves both cases.
 
 Search
 ------
