@@ -124,7 +124,7 @@ def test_random_agents_are_bounded_long():
 
 
 def test_the_plant_that_hung_ppo_runs_its_relay_within_the_bound():
-    """Issue 12.2: ramp, closed-loop step, open-loop step at amplitude 10, relay at 0.1 (agent mode)."""
+    """Ramp, closed-loop step, open-loop step at amplitude 10, relay at 0.1 (agent mode)."""
     from envs.identification.relay import relay_feedback
     from envs.systems.plants import Plant
 
