@@ -1,6 +1,6 @@
 """The learned rule: a regression from the observation to the oracle's action, with a safety margin.
 
-A supervised baseline (issue 16.2): on training plants, the oracle (:func:`baselines.oracle.oracle`)
+A supervised baseline: on training plants, the oracle (:func:`baselines.oracle.oracle`)
 gives the best design parameter of each identified plant; a regression learns it from the
 observation an agent sees, in the agent's own action coordinate.  The oracle's parameter sits on the
 edge of the feasible set (often on the ``Ms <= 2`` cliff), so a regression that is right on average

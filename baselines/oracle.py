@@ -1,11 +1,11 @@
 """The oracle: the design parameter that minimizes the episode cost on the TRUE plant.
 
 For a true plant, a model of it and a controller structure, :func:`oracle` searches the one design
-parameter of SPEC "Design" (``mu`` of the Gorez-Klan PID, ``T_r`` of the FPPI or of the MSP) for
-the smallest cost of :func:`envs.analysis.scoring.score`, constraints included.  A constraint violation
-costs more than every feasible design and is graded by how far it violates, so the minimum of the
-cost is the constrained optimum when a feasible parameter exists, and the least-violating parameter
-otherwise: one objective serves both cases.
+parameter of the papers' designs (:mod:`envs.design`: ``mu`` of the Gorez-Klan PID, ``T_r`` of the
+FPPI or of the MSP) for the smallest cost of :func:`envs.analysis.scoring.score`, constraints
+included.  A constraint violation costs more than every feasible design and is graded by how far it
+violates, so the minimum of the cost is the constrained optimum when a feasible parameter exists,
+and the least-violating parameter otherwise: one objective serves both cases.
 
 Search
 ------
@@ -48,7 +48,7 @@ one, and is charged no experiment time (:func:`exact_models`):
   first moment of ``1 - y/K``), ``tau = 1 - T_a/T_ar`` (eq. 2-7) and ``theta`` from eq. 2-9;
 * FOPDT: ``T_n`` by Ingimundarson eq. 11 on the exact, noise-free open-loop unit-step response,
   ``T_n = e int_0^{T_ar} y dt/K`` (the integral by a matrix exponential), clipped as the identified
-  model is (:func:`envs.identification.models.fopdt_from_area`).  This is the model the seeds' procedure
+  model is (:func:`envs.identification.models.fopdt_from_area`).  This is the model the fixed procedure
   converges to with perfect measurements, so the full-information oracle isolates the effect of
   noise and finite experiments; ``T_n = T_a`` (moments) would change the model class as well.
 * integrating: ``K_v`` exact and ``L_n = T_ar`` of the dynamics additional to the integrator
@@ -286,7 +286,7 @@ def oracle(
     plant : Plant
         The true plant.
     identification : Identification
-        The seeds' procedure on ``plant`` (:func:`envs.identification.procedure.identify`): the PID uses its SOPDT
+        The fixed procedure on ``plant`` (:func:`envs.identification.procedure.identify`): the PID uses its SOPDT
         model, the FPPI its FOPDT model, the MSP its two-parameter model; its experiment time and
         deviation are charged, as for the rules.
     structure : {"pid", "fppi", "msp"}

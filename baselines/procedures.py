@@ -2,7 +2,7 @@
 
 They choose the experiments of an episode (the environments' ``"plan"`` and ``"agent"`` modes) and
 design with the structure's base rule (the residual action 0: ``gorez-klan-mu-2``, ``fppi-eq34``,
-``msp-eq50``; :mod:`envs.base_design`), so that against the fixed procedure (the seeds' experiments
+``msp-eq50``; :mod:`envs.base_design`), so that against the fixed procedure (the papers' experiments
 at amplitude 1 and the same rule) they measure what choosing the experiments is worth by itself.
 Each plays like a trained agent: ``predict(observation) -> (action, None)``, with ``env_kwargs`` the
 interface it needs (:func:`procedure`).

@@ -16,7 +16,7 @@ from gymnasium.envs.registration import register
 # v1: the action is a residual around the structure's base rule, and the observation has the design
 # features (envs.base_design); the plants, experiments and cost are v0's.
 _V1 = {"action": "residual", "design_features": True}
-# v2 (issue 17): v1 with experiments that have a price beyond their time: the production they disturb
+# v2: v1 with experiments that have a price beyond their time: the production they disturb
 # (weights.production, per unit of D_exp/T_ar) and an amplitude limit of 3 (agent mode); the fixed
 # mode's experiments and the rules' inputs are v1's, its cost adds the production term.  Agent mode
 # designs in a step of its own, after the commit has completed and shown the identification.

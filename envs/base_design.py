@@ -1,4 +1,4 @@
-"""The base rule of the residual action, and the design features of the observation (issue 16).
+"""The base rule of the residual action, and the design features of the observation.
 
 The ``-v1`` environments (``action="residual"``, ``design_features=True``) start the agent at a
 rule of the papers and show it what the identified models say about that rule's design.

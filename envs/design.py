@@ -1,6 +1,6 @@
 """The design step: one parameter and an identified model give the controller.
 
-These are the three designs of SPEC "Design", shared by the environments, the rules and the oracle:
+These are the three designs of the papers, shared by the environments, the rules and the oracle:
 
 * :func:`pid_design`: Gorez-Klan's series PID on the SOPDT model, parameter ``mu`` (eq. 3-11);
   the derivative filter is ``T_d/N`` with ``N = DERIVATIVE_FILTER`` (a common industrial value;
@@ -63,9 +63,9 @@ and ``T_r/L_n`` in [0.064, 3.0].  ``mu`` must reach about 30 on Ingimundarson's 
 (``0.5/(s+1) + 0.05/(s+0.1)``, lead: the PID is unstable up to ``mu`` = 13 and breaks
 ``Ms <= 2`` up to 28.5) and 105 on lag-chain plant 28 (strong lead, ``D_2 = 0.007 T_ar``: ``mu``
 scales with ``1/D_2``).  The ranges leave a factor of 2 or more beyond every optimum found.  The
-MSP's optimum under ``Ms <= 2`` is ``T_r/L_n`` of about 2.3 (SPEC: the MSP loop has ``Ms`` of
-2.2-2.4 for ``T_r/L_n <= 1``).  These are the ranges open to the agent (SPEC asks for ``mu`` up to
-8 at least).
+MSP's optimum under ``Ms <= 2`` is ``T_r/L_n`` of about 2.3 (the MSP loop has ``Ms`` of
+2.2-2.4 for ``T_r/L_n <= 1``, Ingimundarson eq. 47).  These are the ranges open to the agent (``mu``
+reaching well beyond 8).
 """
 
 

@@ -4,7 +4,7 @@ The numerics behind the environments of :mod:`envs.tuning_env`, free of Gymnasiu
 collects :class:`Evidence` (the latest result of each experiment type, counts, time spent); the
 agent sees :func:`features` of it; the design reads :func:`identification` of it.
 
-Experiments (SPEC "Experiments"; amplitudes relative to a unit change of the output, so that the
+Experiments (amplitudes relative to a unit change of the output, so that the
 noise-to-signal ratio is ``noise_std/amplitude`` whatever the plant's gain):
 
 =====================  ============================================================================
@@ -16,7 +16,7 @@ noise-to-signal ratio is ``noise_std/amplitude`` whatever the plant's gain):
 ``pulse``              (integrating plants) pulse ``a/(K_n tau_p)`` of length ``tau_p = L_n/3``:
                        ``A`` (eq. 46)
 ``relay``              relay of amplitude ``a/|K_n|``, hysteresis ``3 sigma``: ultimate gain and
-                       period (Astrom-Hagglund; beyond the seeds)
+                       period (Astrom-Hagglund; beyond the papers' procedure)
 =====================  ============================================================================
 
 ``sigma`` is the noise level.  With ``options.measured`` (the v3 environments) it is estimated from
@@ -30,7 +30,7 @@ environment's configured ``noise_std``.
 Every experiment but the first needs ``K_n`` and ``T_ar``; choosing one before a closed-loop step
 has identified them runs the closed-loop step instead.  Each type keeps its latest result.  An
 experiment whose true output leaves ``[-excursion_limit, excursion_limit]`` is stopped there: its time
-is charged and its result discarded (SPEC: "stopped and penalized").
+is charged and its result discarded: stopped and penalized.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ LEAST_SQUARES_EXPERIMENTS: tuple[str, ...] = (*STABLE_EXPERIMENTS, "prbs")
 """The experiment types with ``identification="least-squares"`` (self-regulating plants only)."""
 _SEEDS_MODEL_EXPERIMENTS = {1: ("open-loop-step", "open-loop-ramp"), 2: ("closed-loop-step",)}
 """With ``identification="least-squares"`` in agent mode, the design reads the model of the latest
-experiment that gives one: a PRBS (least squares), or these (the seeds' formulas; by the order of
+experiment that gives one: a PRBS (least squares), or these (the papers' formulas; by the order of
 the design's model: the FPPI's FOPDT model, the PID's SOPDT model)."""
 RELAY_HYSTERESIS = 3.0  # in units of the noise level sigma
 DISTURBED_ATTEMPTS = 3
@@ -180,8 +180,8 @@ class Evidence:
         environments').
     fit : RecordFit or None
         With ``options.identification == "least-squares"``: the least-squares fit the design reads
-        (fixed mode: of the seeds' open-loop step; agent mode: of the latest PRBS, unless an
-        experiment whose model the seeds' formulas give ran after it).
+        (fixed mode: of the fixed procedure's open-loop step; agent mode: of the latest PRBS, unless an
+        experiment whose model the papers' formulas give ran after it).
     experiment_deviation : float
         ``int |y| dt`` of the true output over every experiment run (aborted ones included), the
         production they disturbed (:func:`envs.identification.procedure.experiment_deviation`);
@@ -223,7 +223,7 @@ class Evidence:
 def evidence_from_identification(
     identification: Identification, noise_std: float, options: EpisodeOptions = DEFAULT_OPTIONS, amplitude: float = 1.0
 ) -> Evidence:
-    """The evidence of the seeds' procedure (:func:`envs.identification.procedure.identify`, at ``amplitude``)."""
+    """The evidence of the fixed procedure (:func:`envs.identification.procedure.identify`, at ``amplitude``)."""
     evidence = Evidence.empty(identification.integrating, options)
     second = "pulse" if identification.integrating else "open-loop-step"
     counts = tuple(int(name in ("closed-loop-step", second)) for name in evidence.experiments)
@@ -239,7 +239,7 @@ def evidence_from_identification(
 def start_fixed(
     plant: Plant, rng: np.random.Generator, noise_std: float, options: EpisodeOptions = DEFAULT_OPTIONS
 ) -> tuple[Identification, Evidence]:
-    """The fixed mode's start: the seeds' procedure (:func:`~envs.identification.procedure.identify`, at the
+    """The fixed mode's start: the fixed procedure (:func:`~envs.identification.procedure.identify`, at the
     options' amplitude, with their disturbances) and its evidence; with ``identification="least-squares"``,
     its open-loop step's record fitted too and read by the design (:func:`identification`)."""
     amplitude = options.seed_amplitude
@@ -257,7 +257,7 @@ def start_fixed(
 
 
 def failed_start(failure: ProcedureFailed, integrating: bool, options: EpisodeOptions) -> Evidence:
-    """The evidence of a fixed-mode start whose seeds' procedure identified nothing
+    """The evidence of a fixed-mode start whose fixed procedure identified nothing
     (:func:`start_fixed` raised ``failure``): its closed-loop steps, charged and failed."""
     evidence = Evidence.empty(integrating, options)
     counts = tuple(failure.attempts * (name == "closed-loop-step") for name in evidence.experiments)
@@ -267,7 +267,7 @@ def failed_start(failure: ProcedureFailed, integrating: bool, options: EpisodeOp
 
 def _latest_model(evidence: Evidence, kind: str, result, amplitude: float) -> Evidence:
     """Agent mode with least squares: the evidence after ``kind`` ran, the latest model experiment
-    deciding the design's model (a PRBS sets the fit, an experiment of the seeds' formulas clears it)."""
+    deciding the design's model (a PRBS sets the fit, an experiment of the papers' formulas clears it)."""
     if kind == "prbs":
         return _with_fit(evidence, kind, result, amplitude)
     if kind in _SEEDS_MODEL_EXPERIMENTS[evidence.options.order]:
@@ -303,7 +303,7 @@ def _design_model(found: RecordFit, order: int):
 
 
 def _least_squares_identification(found: Identification, evidence: Evidence) -> Identification:
-    """``found`` with the least-squares model in place of the seeds' (FOPDT or SOPDT, by its order),
+    """``found`` with the least-squares model in place of the papers' (FOPDT or SOPDT, by its order),
     and ``T_f_bar`` (eq. 22) of the open-loop step measured against it; unchanged without a fit."""
     if evidence.fit is None:
         return found
@@ -488,7 +488,7 @@ class IdentificationFailed(ValueError):
 def identification(
     evidence: Evidence, structure: str, plant: Plant, rng: np.random.Generator, noise_std: float, amplitude: float | None = None
 ) -> tuple[Identification, Evidence]:
-    """The identified data the design reads, completing the seeds' procedure where it is missing.
+    """The identified data the design reads, completing the fixed procedure where it is missing.
 
     The PID and the MSP need the closed-loop step; the FPPI also needs ``T_n``, from the open-loop
     step or else the ramp.  A missing experiment is run (at ``amplitude``; by default 1, or the

@@ -24,7 +24,7 @@ AMPLITUDE_RANGE = (0.1, 10.0)
 which the action's component in [-1, 1] covers on a log scale."""
 
 IDENTIFICATIONS: tuple[str, ...] = ("seeds", "least-squares")
-"""``identification`` values: the seeds' formulas (moments, areas), or the least-squares fit of
+"""``identification`` values: the papers' formulas (moments, areas), or the least-squares fit of
 Marlin section 6.4 (:mod:`envs.identification.least_squares`) of the open-loop records."""
 
 _ORDERS = {"pid": 2, "fppi": 1}  # the least-squares model each structure's design reads: SOPDT, FOPDT
@@ -56,16 +56,16 @@ class EpisodeOptions:
     identification : {"seeds", "least-squares"}
         ``"least-squares"``: records are fitted by
         :func:`~envs.identification.least_squares.least_squares_fit` (instrumental variables, dead
-        times up to the identified ``T_ar``): in fixed mode the seeds' open-loop step, whose fit the
+        times up to the identified ``T_ar``): in fixed mode the fixed procedure's open-loop step, whose fit the
         design reads; in agent mode the new experiment ``"prbs"``, and the design reads the model of
-        the latest experiment that gives one (a PRBS by least squares, or the seeds' experiments by
+        the latest experiment that gives one (a PRBS by least squares, or the papers' experiments by
         their formulas), so that the agent chooses the identification; three features are added
         (:data:`envs.episode.LEAST_SQUARES_FEATURES`).
     order : {1, 2}
         Order of the least-squares model: 1 (FOPDT, the FPPI's model) or 2 (SOPDT, the PID's).
     amplitude_limit : float
         The largest amplitude ``a`` an experiment may ask for (output units, > 0; default ``inf``):
-        agent-mode amplitudes above it are cut to it, and the seeds' procedure and the experiments
+        agent-mode amplitudes above it are cut to it, and the fixed procedure and the experiments
         a commit completes run at ``min(1, amplitude_limit)``.
     disturbances : Disturbances
         Drift and load in every experiment beyond the white noise (default none;
@@ -104,7 +104,7 @@ class EpisodeOptions:
 
     @property
     def seed_amplitude(self) -> float:
-        """The amplitude of the seeds' experiments: 1, or the amplitude limit if smaller."""
+        """The amplitude of the fixed procedure's experiments: 1, or the amplitude limit if smaller."""
         return min(1.0, self.amplitude_limit)
 
     def limited(self, amplitude: float) -> float:

@@ -215,7 +215,7 @@ class DeadTimeTuningEnv(gym.Env):
 
     @classmethod
     def default_constraints(cls) -> Constraints:
-        """``Ms <= 2`` and a delay margin of at least 0.2 times the true dead time (SPEC "Score")."""
+        """``Ms <= 2`` and a delay margin of at least 0.2 times the true dead time (docs/scoring.md)."""
         return Constraints()
 
     def base_parameter(self) -> float:
@@ -360,8 +360,8 @@ class DeadTimeTuningEnv(gym.Env):
         return self.options.limited(10.0 ** (low + 0.5 * (amplitude_action + 1.0) * (high - low)))
 
     def _identify(self, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
-        """``design_step=True``: the commit completes the identification (missing seed experiments at
-        the commit's amplitude) and shows it; the next step designs."""
+        """``design_step=True``: the commit completes the identification (the fixed procedure's missing
+        experiments at the commit's amplitude) and shows it; the next step designs."""
         amplitude = self._amplitude(amplitude_action)
         try:
             self.identification, self.evidence = identification(
@@ -591,7 +591,7 @@ _SHARED_DOC = """
     | n + 2     | the design parameter, as in the fixed mode (read when committing)            |
 
     ``experiments="plan"``: ``Box(-1, 1, (3,), float32)``: the first step reads the amplitudes of the
-    seeds' two experiments (index 0: the closed-loop step, 1: the open-loop step, or the pulse for
+    fixed procedure's two experiments (index 0: the closed-loop step, 1: the open-loop step, or the pulse for
     integrating plants; log scale over [0.1, 10] as above), runs both and shows the identification;
     the second step designs from index 2, as in the fixed mode.  A plan of amplitudes (1, 1) is the
     fixed mode's procedure, bit for bit.
@@ -629,14 +629,14 @@ _SHARED_DOC = """
 
     ## Starting State
     A plant drawn from ``family`` with ``self.np_random`` (or ``options["plant"]`` of ``reset``).
-    Fixed mode: the seeds' procedure has run (:func:`envs.identification.procedure.identify`: closed-loop step,
+    Fixed mode: the fixed procedure has run (:func:`envs.identification.procedure.identify`: closed-loop step,
     then open-loop step, or pulse for integrating plants, amplitude 1, noise ``noise_std``).
     Agent mode: nothing has run; the observation is zero.
 
     ## Episode End
     Termination: the design is committed (fixed mode: the first step; plan mode: the second; agent
     mode: the commit choice, or any step once ``budget`` experiments have run).  No truncation.  Committing with
-    missing data runs the missing seed experiments first (charged).  With ``design_step=True``
+    missing data runs the fixed procedure's missing experiments first (charged).  With ``design_step=True``
     (v2) a commit only completes the identification, at the commit action's amplitude, and returns
     it (reward 0, the observation's last entry ``design_step`` = 1, the design features filled in);
     the next step designs from its last component, whatever its choice, and ends the episode.
@@ -659,8 +659,8 @@ _SHARED_DOC = """
     | `render_mode`     | `None`                      | `"rgb_array"`: `render()` draws the experiments and the loop |
     | `action`          | `"parameter"` (v1: `"residual"`) | the design parameter's coordinate: `"parameter"`, log scale over the range; `"residual"`, log-linear from the range's ends to the base rule's ``p_0`` at 0; `"robustness"`, the ``Ms`` (delay margin for the MSP) of the loop on the model (:mod:`envs.base_design`) |
     | `design_features` | `False` (v1: `True`)        | append ``log10 p_0`` and the base design's ``Ms`` and delay margin on the other identified model (:mod:`envs.base_design`) |
-    | `identification`  | `"seeds"`                   | `"least-squares"` (PID, FPPI): fixed mode designs from the least-squares fit (Marlin 6.4) of the seeds' open-loop step; agent mode adds a PRBS fitted by least squares, and the latest model experiment decides (:mod:`envs.episode_options`) |
-    | `amplitude_limit` | `None` (none)               | largest experiment amplitude (output units, > 0): agent amplitudes are cut to it, the seeds' experiments run at `min(1, limit)` |
+    | `identification`  | `"seeds"`                   | `"least-squares"` (PID, FPPI): fixed mode designs from the least-squares fit (Marlin 6.4) of the fixed procedure's open-loop step; agent mode adds a PRBS fitted by least squares, and the latest model experiment decides (:mod:`envs.episode_options`) |
+    | `amplitude_limit` | `None` (none)               | largest experiment amplitude (output units, > 0): agent amplitudes are cut to it, the fixed procedure's experiments run at `min(1, limit)` |
     | `design_step`     | `False` (v2: `True`)        | agent mode: the commit completes and shows the identification (at the commit's amplitude), and a separate last step designs (Episode End) |
     | `violation_cost`  | `"graded"` (v3: `"bounded"`) | how a violating design is charged (Rewards; :func:`envs.analysis.scoring.violation_cost`) |
     | `measured_observation` | `False` (v3: `True`)   | the noise level estimated from the records (never the configured `noise_std`), failed experiments observed, and a failed commit charged instead of raised (Observation Space, Episode End) |
@@ -676,15 +676,14 @@ _SHARED_DOC = """
     ``agents.evaluation.oracle_info.OracleInfo`` adds ``oracle_cost`` and ``oracle_parameter``.
 
     ## Version History
-    * v0: initial version.  (Issue 14 moved the ``oracle=True`` argument out, to the wrapper
-      ``OracleInfo``, so that ``envs`` imports nothing from ``baselines``; dynamics, rewards and
-      observations unchanged.)
-    * v1 (issue 16): ``action="residual"`` and ``design_features=True``: the action is a bounded
+    * v0: initial version.  The oracle's figures come from the wrapper ``OracleInfo`` (Info), not
+      from an argument of the environment, so that ``envs`` imports nothing from ``baselines``.
+    * v1: ``action="residual"`` and ``design_features=True``: the action is a bounded
       log-correction of the structure's base rule (``gorez-klan-mu-2``, ``fppi-eq34``, ``msp-eq50``;
       action 0 is the rule), and the observation ends with three design features.  Plants,
       experiments, dynamics and cost are v0's.
-    * v2 (issue 17): v1 with a price on production: ``weights={"production": 0.05}`` (each unit of
-      ``D_exp/T_ar``, the experiments' integrated output deviation, costs 0.05: the seeds' procedure
+    * v2: v1 with a price on production: ``weights={"production": 0.05}`` (each unit of
+      ``D_exp/T_ar``, the experiments' integrated output deviation, costs 0.05: the fixed procedure
       at amplitude 1 costs about 0.5 more than in v1) and ``amplitude_limit=3`` (agent-mode
       amplitudes above 3 are cut to 3).  The fixed mode runs v1's experiments (the same
       identifications); its cost adds the production term.  Agent mode has ``design_step=True``:
@@ -698,7 +697,7 @@ _SHARED_DOC = """
       hysteresis from the noise level estimated in the closed-loop step's record, not the configured
       one; the feature ``failed_experiments``; a commit that identifies nothing is a failed experiment,
       never an exception), and ``experiment_set="design"`` (agent mode offers only the experiments
-      the structure's design reads).  Plants, the seeds' experiments and feasible costs are v2's (the
+      the structure's design reads).  Plants, the fixed mode's experiments and feasible costs are v2's (the
       relay's hysteresis follows the estimate).  The ``"plan"`` mode is new in every version.
 """
 
@@ -745,7 +744,7 @@ class MSPEnv(DeadTimeTuningEnv):
 
     Default family ``"integrating"``.  Default constraints: delay margin ``>= 0.2 L`` only, no
     ``Ms`` bound.  The MSP's own loop (eq. 47) has ``Ms`` of 2.2 to 2.4 for ``T_r/L_n <= 1`` even
-    with a perfect model (SPEC "Score"), so ``Ms <= 2`` would rule out every seed tuning (eq. 43,
+    with a perfect model, so ``Ms <= 2`` would rule out every tuning rule of the paper (eq. 43,
     eq. 50, ``T_r = T_n``) and push every design to ``T_r/L_n`` of about 2.3; the delay margin is
     the robustness measure of Ingimundarson's own analysis (eq. 40).
 """ + _SHARED_DOC

@@ -11,7 +11,7 @@ What it does per call, and why it gives the same episodes
 Each of the ``N`` slots is a plain, unwrapped instance of the single environment class: its
 arguments are validated once, and it holds the slot's generator (``np_random``) and episode.  A
 reset of the batch runs, slot by slot, exactly the single environment's reset work
-(:meth:`~envs.tuning_env.DeadTimeTuningEnv.new_episode`: the plant draw and the seeds' procedure,
+(:meth:`~envs.tuning_env.DeadTimeTuningEnv.new_episode`: the plant draw and the fixed procedure,
 whose experiments, identification and scoring are the compiled calls of :mod:`envs.simulation`,
 :mod:`envs.identification` and :mod:`envs.analysis`); a step validates, clips and maps the N actions
 as one array and commits every slot's design

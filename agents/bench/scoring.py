@@ -2,7 +2,7 @@
 
 The loops: ``per_family`` plants of each of the families ``fopdt``, ``sopdt``, ``lag-chain`` and
 ``integrating`` (:func:`envs.systems.families.sample_plants` with the bench's seed), each identified by the
-seeds' procedure (noise free, :func:`envs.identification.procedure.identify`) and given a design of
+fixed procedure (noise free, :func:`envs.identification.procedure.identify`) and given a design of
 :func:`baselines.oracle.design`: the stable plants alternately a Gorez-Klan PID (``mu = 2``) and an
 FPPI (``T_r = 0.5 T_n``), the integrating plants an MSP (``T_r = 2.5 L_n``); a parameter that
 breaks the default constraints is raised by half until the design is feasible, so that every

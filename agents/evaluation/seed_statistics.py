@@ -15,9 +15,9 @@ plants, with the same episode seeds), and the deterministic costs ``o[p]`` of th
   Here one training run (a seed) is one policy scored on every plant, so its costs on the plants are
   not independent: a good seed is good on most plants.  Resampling seeds within each plant would
   break that correlation and give intervals several times too narrow (measured on the study of
-  docs/results_history.md: 0.03 wide against a spread of 0.23 between the seeds' means on ``FPPI-v0``).  So a
-  resample draws the seeds (whole rows) and, independently, the plants (whole columns) with
-  replacement, the same plants for every policy (paired): the interval covers both the
+  docs/results_history.md: 0.03 wide against a spread of 0.23 between the per-seed means on
+  ``FPPI-v0``).  So a resample draws the seeds (whole rows) and, independently, the plants (whole
+  columns) with replacement, the same plants for every policy (paired): the interval covers both the
   seed-to-seed variation of training and the variation of the held-out plants, i.e. a claim about
   the plant distribution and not only the 59 plants drawn.  Percentile intervals (rliable's
   default), each environment on its own (the environments are the strata).

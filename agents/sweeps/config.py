@@ -14,7 +14,7 @@ trained agent, and of the rules and the oracle once per environment, on the held
         seeds: {first: 0, count: 10}  # or a list: [0, 1, 2]
     evaluation:
       policies: [all-rules, oracle]   # besides the agents; any policy of `deadtime evaluate`
-      n: 50                           # random test plants (plus the seeds' benchmark batch)
+      n: 50                           # random test plants (plus the papers' benchmark batch)
       seed: 0                         # the evaluation's episode seeds, as `deadtime evaluate --seed`
     failure:
       max_failures: 1                 # retries of a failed trial before it is reported as failed

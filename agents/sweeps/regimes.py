@@ -195,7 +195,7 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
     """What the agents of one group do on the first ``plants`` validation plants (episode seed = index).
 
     Per episode: the experiments the agent chose (its steps before the commit), those the commit
-    completed (the seeds' procedure: at the commit's amplitude with ``design_step``, else 1 or the
+    completed (the fixed procedure's: at the commit's amplitude with ``design_step``, else 1 or the
     limit), the agent's amplitudes and the commit's, the
     experiment time and deviation in true ``T_ar`` and the design action; averaged over the
     episodes of every seed, with the spread of the per-seed means.

@@ -83,8 +83,8 @@ class SnapshotWrapper(gymnasium.Wrapper):
 def _check_modules(snapshot: bytes) -> None:
     """Refuse, in one line, an environment snapshot that names modules this code no longer has.
 
-    A pickle names its classes by module path: a checkpoint written before the modules moved into
-    subpackages (issue 14; e.g. ``envs.scoring``, now ``envs.analysis.scoring``) cannot be resumed.
+    A pickle names its classes by module path: a checkpoint whose environments name a module that
+    is now elsewhere (e.g. ``envs.scoring``, now ``envs.analysis.scoring``) cannot be resumed.
     """
     try:
         pickle.loads(snapshot)  # noqa: S301  (our own checkpoint, verified by checksum)

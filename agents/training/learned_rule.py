@@ -1,4 +1,4 @@
-"""``deadtime train`` with ``algorithm: learned-rule``: fit the learned rule (issue 16.2).
+"""``deadtime train`` with ``algorithm: learned-rule``: fit the learned rule (:mod:`baselines.learned_rule`).
 
 ::
 

@@ -1,4 +1,4 @@
-"""The seeds' tables and figures beside their computed twins, one module per paper.
+"""The papers' tables and figures beside their computed twins, one module per paper.
 
 * :mod:`~baselines.reproduction.common`: the :class:`Reproduction` and :class:`Row` results;
 * :mod:`~baselines.reproduction.gorez_klan`: Gorez-Klan's model table (section 4) and mu table (section 3);

@@ -1,4 +1,4 @@
-"""``deadtime reproduce NAME|all``: the seeds' tables and figures beside their computed twins.
+"""``deadtime reproduce NAME|all``: the papers' tables and figures beside their computed twins.
 
 Each registered reproduction is a function returning a frozen
 :class:`~baselines.reproduction.common.Reproduction` (rows of case, quantity, paper value, computed

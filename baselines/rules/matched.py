@@ -22,7 +22,7 @@ rule                   parameter         design                       target    
 model of a plant with a strong lead can have ``L_n = 0``.
 
 **The model loop.**  The plant of the loop is the identified model of :class:`RuleInputs`
-(``inputs.model``): the given model (``deadtime tune --model``), or the SOPDT model of the seeds'
+(``inputs.model``): the given model (``deadtime tune --model``), or the SOPDT model of the fixed
 procedure (Gorez-Klan eq. 2-8) for a stable plant and the two-parameter model (Ingimundarson eq. 2)
 for an integrating one.  The controller is designed from the model its rule was written for (the
 SOPDT model for ``mu``, the FOPDT model for the FPPI and SIMC, the two-parameter model for the

@@ -45,8 +45,7 @@ def mu_table(value: float) -> float:
     The table spans "fast responses with a high overshoot (1.3 < mu < 2) to over-damped slow
     responses (2 < mu < 3)" (section 3).  The registry's table rules are the four columns
     (``gorez-klan-mu-1.3`` .. ``-3``); this function accepts any ``mu > 0``, since a fixed ``mu``
-    outside the table (e.g. the ``mu`` of about 4 that a plant with ``tau`` near 0.3 needs, SPEC
-    "Design") is the same kind of rule.
+    outside the table (e.g. the ``mu`` of about 4 that a plant with ``tau`` near 0.3 needs) is the same kind of rule.
 
     Parameters
     ----------

@@ -118,7 +118,7 @@ class RuleInputs:
 
     @classmethod
     def from_identification(cls, identification: Identification) -> RuleInputs:
-        """The quantities of :func:`envs.identification.procedure.identify` (the seeds' procedure)."""
+        """The quantities of :func:`envs.identification.procedure.identify` (the fixed procedure)."""
         i = identification
         model = i.integrating_model if i.integrating else i.sopdt
         if model is None:

@@ -1,6 +1,6 @@
 """``deadtime tune``: the controller a rule gives for a plant, and the analysis of its loop.
 
-Without a model the rule's inputs come from the seeds' procedure run noise-free on the plant
+Without a model the rule's inputs come from the fixed procedure run noise-free on the plant
 (:func:`envs.identification.procedure.identify`: closed-loop step, then open-loop step or pulse); with a model
 (:meth:`baselines.rules.registry.RuleInputs.from_model`) the rule reads the model, and ``T_f_bar`` (eq. 22)
 or ``A`` (eq. 46) are measured against it on the noise-free plant.  Without a plant the model is
@@ -46,7 +46,7 @@ exact model), i.e. a degenerate input, not from a design (test: ``test_tr_floors
 
 LOOP_CONSTRAINTS: dict[str, tuple[float | None, float]] = {"pid": (2.0, 0.2), "pid-series": (2.0, 0.2), "fppi": (2.0, 0.2), "msp": (None, 0.2)}
 """``(max Ms, min DM/L)`` that :meth:`Tuning.problem` checks per controller: the default
-constraints of ``PID-v0``, ``FPPI-v0`` and ``MSP-v0`` (:mod:`envs.tuning_env`, SPEC "Score")."""
+constraints of ``PID-v0``, ``FPPI-v0`` and ``MSP-v0`` (:mod:`envs.tuning_env`, docs/scoring.md)."""
 
 
 class DegenerateTuning(ValueError):

@@ -12,7 +12,7 @@ static gain (velocity gain ``K_v`` for integrating plants) and ``T_ar`` the true
 * ``J_production = D_exp/T_ar`` with ``D_exp = int |y - y_0| dt`` of the true output about its
   operating point over the experiments (output units; the experiments' amplitudes are relative to a
   unit change of the output, as the set-point step of ``J_setpoint``): the production the
-  experiments disturb (issue 17.1).
+  experiments disturb.
 
 Both IAE terms are invariant to the plant's gain and time scale.  The feasible cost is
 ``c = w_load J_load + w_setpoint J_setpoint + w_experiment J_experiment + w_production J_production``

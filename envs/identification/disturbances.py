@@ -47,8 +47,8 @@ __all__ = ["DISTURBANCE_KINDS", "LOAD_SPAN", "Disturbances", "DisturbedNoise"]
 
 DISTURBANCE_KINDS: tuple[str, ...] = ("drift", "load")
 LOAD_SPAN = 4.0
-"""The load step falls within the first ``LOAD_SPAN`` time scales ``T`` of an experiment (the seeds'
-experiments run 3 to 9 ``T``)."""
+"""The load step falls within the first ``LOAD_SPAN`` time scales ``T`` of an experiment (the fixed
+procedure's experiments run 3 to 9 ``T``)."""
 
 
 @dataclass(frozen=True)

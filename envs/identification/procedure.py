@@ -1,4 +1,4 @@
-"""The seeds' identification procedure: experiment 1, then experiment 2 (stable) or 4 (integrating).
+"""The papers' fixed identification procedure: experiment 1, then experiment 2 (stable) or 4 (integrating).
 
 Ingimundarson section 2.3 (stable plants): a closed-loop set-point step with the commissioning PI
 gives ``K_n`` and ``T_ar`` (eq. 10), with ``T_a``, ``tau``, ``theta`` and the SOPDT model of
@@ -34,7 +34,7 @@ PULSE_LENGTH = 1.0 / 3.0  # tau_p / L_n
 
 @dataclass(frozen=True)
 class Identification:
-    """Everything the seeds' procedure identifies, and what it cost.
+    """Everything the fixed procedure identifies, and what it cost.
 
     Attributes
     ----------
@@ -99,7 +99,7 @@ def identify(
     plant: Plant, rng: np.random.Generator, noise_std: float = 0.0, *, amplitude: float = 1.0, disturbances=None,
     attempts: int = 1, deviation: bool = False,
 ) -> Identification:  # fmt: skip
-    """Run the seeds' procedure on the true ``plant`` (see the module docstring).
+    """Run the fixed procedure on the true ``plant`` (see the module docstring).
 
     ``amplitude`` scales both experiments (a rise ``a`` of the output instead of 1); ``disturbances``
     (:class:`envs.identification.disturbances.Disturbances`) adds drift or load to their measurements;

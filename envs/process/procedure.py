@@ -1,4 +1,4 @@
-"""The seeds' procedure on a process: operating point, commissioning controller, experiments.
+"""The fixed identification procedure on a process: operating point, commissioning controller, experiments.
 
 On a process nobody knows the true plant, so the procedure runs as on a plant in operation, every
 experiment from the operating point and back to it, through the
@@ -29,11 +29,12 @@ experiment from the operating point and back to it, through the
    reaction curves (Marlin 6.3), by :func:`~envs.identification.open_loop_experiments.identify_open_loop_step`.
 5. **Relay** of amplitude ``setpoint_step/|K_n|`` (within the input limits) and hysteresis
    ``3 sigma`` (the environments' :data:`~envs.episode.RELAY_HYSTERESIS`) until periodic: ``K_u``,
-   ``T_u`` (:func:`~envs.identification.relay.relay_estimates`).  Beyond the seeds: it is reported, and
+   ``T_u`` (:func:`~envs.identification.relay.relay_estimates`).  Beyond the papers: it is reported, and
    the fixed procedure's observation does not read it (as in the environments' fixed mode).
 
-Least squares (issue 12/17) is not run yet.  Only self-regulating processes are handled (an
-integrating one never settles at its operating point: step 1 says so).
+The least-squares identification (:mod:`envs.identification.least_squares`) is not run on a
+process.  Only self-regulating processes are handled (an integrating one never settles at its
+operating point: step 1 says so).
 
 The :class:`~envs.identification.procedure.Identification` of steps 3-4 is what the environments'
 fixed mode identifies, with its experiment time (the two experiments' durations), so the rules
@@ -122,7 +123,7 @@ class ProcessIdentification:
     setpoint_step : float
     commissioning : Commissioning
     identification : Identification
-        The seeds' procedure (steps 3-4), as the environments' fixed mode identifies it.
+        The fixed procedure (steps 3-4), as the environments' fixed mode identifies it.
     relay : RelayResult or None
         Step 5 (None if not run).
     noise_ratio : float

@@ -64,8 +64,8 @@ def divergence_limit(gain: float) -> float:
 
     The states of a loop are of the size of its signals, and those scale with the gain: a unit load
     at the input of a plant of gain ``K`` moves its output by ``K``, a unit set-point step moves the
-    control by ``1/K`` (issue 12.4: stable loops with ``K = 1e8`` or ``1e-12`` counted as diverging).
-    Within ``[1e-4, 1e4]`` the limit is the old one, so every run there (diverging ones included,
+    control by ``1/K`` (a fixed limit would count stable loops with ``K = 1e8`` or ``1e-12`` as diverging).
+    Within ``[1e-4, 1e4]`` the limit is ``DIVERGENCE_LIMIT`` itself, so every run there (diverging ones included,
     whose abort sample the tests hold) keeps its numbers.
     """
     gain = abs(gain)

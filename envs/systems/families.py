@@ -13,7 +13,7 @@ A random plant is drawn in three independent steps, so that what varies meaningf
 
 The delay-free part is ``G0`` with time stretched so that its own residence time is
 ``(1 - f) T_ar``, and ``L = f T_ar``.  Integrating plants are ``K G0(s) e^{-Ls} / s``: ``G0`` is
-the ``1/Q(s)`` of the SPEC and ``K`` the velocity gain.
+the ``1/Q(s)`` of ``K e^{-Ls}/(s Q(s))`` (:class:`IntegratingConfig`) and ``K`` the velocity gain.
 
 =============  ======================================================  ===========================
 shape          ``G0(s)``                                               parameters (uniform)
@@ -259,7 +259,7 @@ class SopdtConfig(RandomFamilyConfig):
 
 @dataclass(frozen=True)
 class LagChainConfig(RandomFamilyConfig):
-    """``lag-chain``: higher-order and non-minimum-phase shapes of the seeds' test batches.
+    """``lag-chain``: higher-order and non-minimum-phase shapes of the papers' test batches.
 
     Shapes ``lag-n``, ``geometric``, ``nmp``, ``resonant``, ``parallel`` (module docstring),
     each with probability 1/5; ``L/T_ar`` uniform over ``(0.0, 0.8)`` (these shapes already carry
@@ -336,7 +336,7 @@ _DEFAULT_CONFIGS: dict[str, object] = {}
 
 # --------------------------------------------------------------------------- benchmark batches
 def benchmark_plants(kind: str = "all") -> dict[str, Plant]:
-    """The fixed test batches of the seeds, by name.
+    """The fixed test batches of the papers, by name.
 
     Parameters
     ----------

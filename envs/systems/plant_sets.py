@@ -11,7 +11,7 @@ reproduces, so the sets are never drawn in training, whatever seed the training 
 * ``"test"``: the held-out set of ``deadtime evaluate``, never looked at during development.
 
 The ``i``-th plant of a set does not depend on how many plants are asked for, so a set of 100 plants
-starts with the set of 10.  The seeds' benchmark batches (:func:`benchmark_set`) are evaluated
+starts with the set of 10.  The papers' benchmark batches (:func:`benchmark_set`) are evaluated
 beside the random sets.
 """
 
@@ -58,7 +58,7 @@ def plant_set(family: str, split: str, n: int, config: object = None) -> list[Pl
 
 
 def benchmark_set(structure: str) -> dict[str, Plant]:
-    """The seeds' benchmark plants for a controller structure, by name.
+    """The papers' benchmark plants for a controller structure, by name.
 
     ``"pid"`` and ``"fppi"``: Gorez-Klan P1, P2 and Ingimundarson's seven stable processes;
     ``"msp"``: Ingimundarson's eight integrating processes (see

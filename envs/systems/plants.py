@@ -28,7 +28,7 @@ __all__ = ["Plant", "StateSpace", "as_plant", "NEGLIGIBLE_DEAD_TIME", "GAIN_RANG
 GAIN_RANGE = (1e-12, 1e12)
 """The documented range of ``|K|`` (static or velocity gain): everything downstream is gain
 invariant within it (to rounding; tests/property/test_core_invariants.py); outside it a plant is
-refused (``num``), e.g. coefficients of 1e300 whose products overflow (issue 12.4)."""
+refused (``num``), e.g. coefficients of 1e300 whose products overflow."""
 TIME_SCALE_RANGE = (1e-12, 1e12)
 """The documented range of the time scale :meth:`Plant.step_time_scale` (``T_ar``), in the plant's
 own time unit; outside it a plant is refused (``den``)."""
@@ -43,8 +43,8 @@ NEGLIGIBLE_DEAD_TIME = 1e-4
 """Closed-loop simulations (experiments and IAE) take a dead time below this fraction of
 :meth:`Plant.step_time_scale` as zero (:attr:`Plant.simulation_dead_time`) instead of sampling finer
 than it: the normalized IAE changes by about ``L/T_ar`` (< 1e-4, below the method's own error of
-6e-4), while resolving it would need ``T_ar/L`` samples per residence time (issue 12.3: 1e-7 ran
-out of memory).  The frequency-domain analysis always uses the exact dead time."""
+6e-4), while resolving it would need ``T_ar/L`` samples per residence time (at 1e-7, more than
+the memory holds).  The frequency-domain analysis always uses the exact dead time."""
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Experiments with a price and disturbances (issue 17.1): the arguments ``weights.production``,
+"""Experiments with a price and disturbances: the arguments ``weights.production``,
 ``amplitude_limit`` and ``disturbances`` of the environments.
 
 Their defaults are the v0 environments bit for bit (tests/regression; here also given explicitly).
@@ -152,7 +152,7 @@ def _agent_action(size: int, choice: int, amplitude: float, design: float) -> np
 
 @pytest.mark.parametrize("structure", ["PID", "FPPI", "MSP"])
 def test_v2_agent_mode_designs_in_a_step_of_its_own(structure):
-    """v2 agent mode: the commit runs the missing seed experiments at the commit's amplitude (cut to
+    """v2 agent mode: the commit runs the fixed procedure's missing experiments at the commit's amplitude (cut to
     3) and shows them (reward 0, ``design_step`` 1, design features set); the next step designs
     from its last component, as the fixed mode would on that identification."""
     from gymnasium.utils.env_checker import check_env

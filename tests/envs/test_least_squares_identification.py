@@ -1,4 +1,4 @@
-"""The environments' least-squares identification (issue 17.2): ``identification="least-squares"``.
+"""The environments' least-squares identification: ``identification="least-squares"``.
 
 Behind the argument only: without it every episode is the v0 episode (tests/regression), and with
 ``identification="seeds"`` given explicitly too (below).
@@ -52,7 +52,7 @@ def test_seeds_given_explicitly_is_the_default(env_id, mode, play):
 
 
 def test_fixed_fppi_designs_from_the_fit_of_the_seeds_step(play):
-    """Same experiments as the seeds' procedure (same seed, same records), then the step's record fitted."""
+    """Same experiments as the fixed procedure (same seed, same records), then the step's record fitted."""
     plant = Plant(num=(2.5,), den=(12.0, 1.0), dead_time=4.0)
     seeds, fitted = gym.make("DeadTime/FPPI-v0"), gym.make("DeadTime/FPPI-v0", **LS)
     seeds.reset(seed=3, options={"plant": plant})
@@ -109,7 +109,7 @@ def test_refused(env_id, kwargs, message):
 @pytest.mark.parametrize("order", [("prbs", "open-loop-step"), ("open-loop-step", "prbs")], ids=["step-last", "prbs-last"])
 def test_agent_chooses_the_identification_by_its_latest_experiment(order, play):
     """Agent mode: the design reads the model of the latest experiment that gives one, the PRBS's by
-    least squares or the step's by the seeds' area method (eq. 11)."""
+    least squares or the step's by the papers' area method (eq. 11)."""
     env = gym.make("DeadTime/FPPI-v0", experiments="agent", **LS)
     plant = Plant.from_time_constants(1.7, (6.0, 2.0), 3.0)
     actions = [_choose(env, "closed-loop-step"), *(_choose(env, kind) for kind in order), _choose(env, None)]

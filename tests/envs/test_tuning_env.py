@@ -1,4 +1,4 @@
-"""The Gymnasium environments (issue 4): checkers, determinism, actions, reward = scored cost, invariance."""
+"""The Gymnasium environments: checkers, determinism, actions, reward = scored cost, invariance."""
 
 from __future__ import annotations
 
@@ -326,7 +326,8 @@ def test_reset_names_the_forms_of_a_plant():
 
 
 def test_a_family_of_the_wrong_kind_is_named_when_the_env_is_made():
-    """Issue 13.5: it used to say "no plant ... could be identified in 10 draws" at reset."""
+    """A family of the other kind of plant is refused by ``gym.make``, naming the family and the
+    kinds, rather than at reset after draws of plants none of which the structure can identify."""
     with pytest.raises(ValueError) as error:
         gym.make("DeadTime/PID-v0", family="integrating")
     assert str(error.value) == (

@@ -1,4 +1,4 @@
-"""The native vector environments (:mod:`envs.vector_env`, issue 19).
+"""The native vector environments (:mod:`envs.vector_env`).
 
 * Bit-identical episodes: slot ``i`` of ``gymnasium.make_vec(id, N)`` reset with seed ``s + i``
   gives, over several same-step autoresets, exactly the observations, rewards, terminations and

@@ -6,8 +6,8 @@ Actions are uniform over the action space.  Bounds asserted:
 * samples: every experiment's record has at most ``MAX_RUN_SAMPLES`` samples (the bound of the
   simulation, not a timing);
 * memory: the growth of the process's peak resident set (``resource.getrusage``) over all the
-  episodes stays below ``MEMORY_BYTES`` (a bounded run holds a few arrays of ``2**17`` floats; the
-  hang of the issue grew to 3.1 GB; tracemalloc slows the relay's Python lists tenfold, so it is not
+  episodes stays below ``MEMORY_BYTES`` (a bounded run holds a few arrays of ``2**17`` floats; without
+  the bound, the relay on the plant that hung PPO reaches 3.1 GB; tracemalloc slows the relay's Python lists tenfold, so it is not
   used);
 * time: each ``reset`` and ``step`` returns within ``STEP_SECONDS``, a generous hang detector (steps
   take milliseconds; the slowest bounded relay about 0.3 s here), not a performance claim.
@@ -124,7 +124,7 @@ def test_random_agents_are_bounded_long():
 
 
 def test_the_plant_that_hung_ppo_runs_its_relay_within_the_bound():
-    """Issue 12.2: ramp, closed-loop step, open-loop step at amplitude 10, relay at 0.1 (agent mode)."""
+    """Ramp, closed-loop step, open-loop step at amplitude 10, relay at 0.1 (agent mode)."""
     from envs.identification.relay import relay_feedback
     from envs.systems.plants import Plant
 

@@ -229,13 +229,13 @@ NORMALIZED_LOOPS = {
 @pytest.mark.parametrize("g", WIDE_GAINS)
 @pytest.mark.parametrize("name", list(NORMALIZED_LOOPS))
 def test_cost_is_gain_invariant_over_the_documented_range(name, g):
-    """Issue 12.4: the cost of one normalized loop (plant gain ``g``, controller gain ``1/g``) is the
-    same over the whole documented range ``|K|`` in [1e-12, 1e12] (``envs.systems.plants.GAIN_RANGE``); it was
-    capped at 20 from ``K = 1e8`` on, when the loop's states passed a fixed divergence limit.
+    """The cost of one normalized loop (plant gain ``g``, controller gain ``1/g``) is the
+    same over the whole documented range ``|K|`` in [1e-12, 1e12] (``envs.systems.plants.GAIN_RANGE``); a fixed
+    divergence limit on the loop's states would cap it at 20 from ``K = 1e8`` on.
     Tolerance: the IAE's own rounding across gains, as in :func:`test_gain_invariance` (1e-6
     relative; the differences measured here are below 1e-12).
     At ``|K| = 1e-12`` the difference is 1e-5 to 2e-4 (measured), not rounding: something in the IAE run
-    is absolute (left open, issue 12.4 follow-up); there the bound is the IAE's own error, 6e-4 (the
+    is absolute (not yet found); there the bound is the IAE's own error, 6e-4 (the
     bench's largest error against the fine-step reference, docs/performance.md)."""
     from envs.analysis.scoring import Constraints, score
 

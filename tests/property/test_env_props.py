@@ -1,4 +1,4 @@
-"""Property: an episode's cost does not depend on the units of the plant (issue 4, must show).
+"""Property: an episode's cost does not depend on the units of the plant.
 
 ``K G(s) e^{-Ls} -> g K G(c s) e^{-L c s}``: the experiments are sized for a unit rise of the output
 and run on a grid proportional to the identified ``T_ar``, and the cost is made dimensionless with

@@ -1,4 +1,4 @@
-"""A fingerprint of the numbers a refactor must not change (issue 14's first step).
+"""A fingerprint of the numbers a refactor must not change.
 
 Observations, rewards and final ``info`` of seeded episodes of every environment id in both modes
 (random actions from a seeded generator in agent mode), and the outputs of ``deadtime analyze

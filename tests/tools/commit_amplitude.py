@@ -29,7 +29,7 @@ def mean_cost(noise: float, production: float, amplitude: float, plants: list) -
         env.reset(seed=index, options={"plant": plant})
         action = np.full(env.action_space.shape, -1.0, dtype=np.float32)
         action[0], action[-2], action[-1] = 1.0, amplitude_action(amplitude), 0.0
-        env.step(action)  # the commit: the seeds' steps at the amplitude
+        env.step(action)  # the commit: the fixed procedure's steps at the amplitude
         costs.append(env.step(action)[4]["cost"])  # the design at the base rule
     return float(np.mean(costs))
 

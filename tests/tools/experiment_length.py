@@ -1,7 +1,7 @@
-"""Issue 17: why the seeds' procedure takes less experiment time as noise grows, and whether it should not.
+"""Why the fixed procedure takes less experiment time as noise grows, and whether it should not.
 
 For each of the 80 FPPI-v0 test plants (``plant_set("stable", "test", 80)``, plant i with
-``numpy.random.default_rng(i)``, as ``identify`` draws its noise) and each noise level: the seeds'
+``numpy.random.default_rng(i)``, as ``identify`` draws its noise) and each noise level: the fixed
 procedure with the library's stopping rule ("detected", checked equal to ``identify``), and the SAME
 noisy runs (the same noise samples, continued) cut later: k more windows of ``T_ar`` after each
 experiment's stop, at the stop of the noise-free run, or the closed-loop step only extended.

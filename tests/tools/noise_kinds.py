@@ -1,4 +1,4 @@
-"""Issue 17: the 80 test plants of an environment in fixed mode under environment arguments: experiment
+"""The 80 test plants of an environment in fixed mode under environment arguments: experiment
 time and deviation (in true T_ar), and the mean costs of a rule and of the oracle on the identified model.
 Episode i is ``reset(seed=i, options={"plant": test plant i})``, as ``deadtime evaluate --seed 0`` plays it.
 

@@ -1,4 +1,4 @@
-"""Issue 17: at the sample where each of the seeds' experiments stops, how far is the TRUE output from its
+"""At the sample where each of the fixed procedure's experiments stops, how far is the TRUE output from its
 final value, in units of the noise's standard error over one window (``sigma/sqrt(n)``), and how much
 does it still change over the last window (in units of the slope test's ``sigma sqrt(12/n)``)?
 The 80 FPPI-v0 test plants, plant i with ``numpy.random.default_rng(i)``.  Usage: python

@@ -1,4 +1,4 @@
-"""``deadtime analyze`` and ``deadtime tune`` at the edges (issue 12.3, 12.4): dead times of 1e-6 to
+"""``deadtime analyze`` and ``deadtime tune`` at the edges: dead times of 1e-6 to
 1e-12 of the plant's time scale, gains of 1e-12 to 1e12, coefficients up to 1e300.
 
 Each row gives a result (exit 0, one JSON object) or one line on stderr with exit 2 naming the field,
@@ -72,7 +72,7 @@ def test_tiny_dead_times_give_a_result(command, relative_delay):
 @pytest.mark.parametrize("gain", [1e-12, 1e-8, 1e-4, 1.0, 1e4, 1e8, 1e12])
 def test_gains_over_the_documented_range_give_the_same_normalized_figures(gain):
     """simc-pi on ``K e^{-5 s}/(10 s + 1)``: Ms and the set-point IAE do not depend on ``K``, the load IAE is
-    proportional to it (issue 12.4: null at ``K = 1e8``).  ``tune`` designs from the seeds' identification,
+    proportional to it.  ``tune`` designs from the fixed procedure's identification,
     whose run to steady state may stop at another sample when the gain's rounding moves a test across its
     threshold (measured: 2.8e-7 relative at ``K = 1e-12``, below 1e-11 elsewhere), so the tolerance is the
     identification's own accuracy, 1e-3 (``envs.identification.experiment_base.SAMPLES_PER_RESIDENCE_TIME``).  The exact

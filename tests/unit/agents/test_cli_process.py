@@ -1,12 +1,12 @@
-"""``deadtime process`` (issue 18) end to end, in process through ``agents.cli.main``.
+"""``deadtime process`` end to end, in process through ``agents.cli.main``.
 
-* The TCLab: the JSON of the issue, the files of ``--out``, the oracle ahead of the rule of its own
-  structure; and Must show 2: the IAE the command reports for a controller equals a direct
+* The TCLab: the JSON it prints, the files of ``--out``, the oracle ahead of the rule of its own
+  structure; and the IAE the command reports for a controller equals a direct
   simulation with ``tclab`` (``TCLabModel(synced=False)``, ``random.seed``), the law written out here
   again from Marlin's equations, the protocol read from the JSON.  Measured: equal to rounding
   (relative differences below 1e-12) for a PI that never saturates and for a series PID at a limit
-  18% of the time; the issue asks for 2%.
-* Must show 3 through the command: ``--process module:factory`` with a :class:`PlantProcess`
+  18% of the time; the test allows 2%.
+* The process path against the exact loop, through the command: ``--process module:factory`` with a :class:`PlantProcess`
   sampled at ``T_ar/500`` and ``--controller`` (the commissioning row) against ``deadtime analyze``:
   within 1% (measured 0.15% and 0.0%).
 * Agents: a stand-in for ``load_policy`` (the observation it receives is the environment's for the

@@ -71,7 +71,7 @@ def test_list_names_every_rule_with_its_citation():
      ("zn-ultimate-pid", INTEGRATING, 3)],
 )
 def test_tune_json_composes_with_analyze(rule, plant, status):
-    """Status 3: stable loops outside ``Ms <= 2`` (the identified SOPDT of an FOPDT plant, SPEC "Design")."""
+    """Status 3: stable loops outside ``Ms <= 2`` (the identified SOPDT of an FOPDT plant, Gorez-Klan eq. 2-8)."""
     result = tune_json(rule, plant, status=status)
     assert result["rule"] == rule and result["citation"] == RULES[rule].citation
     assert result["controller"]["type"] == RULES[rule].controller
@@ -158,12 +158,12 @@ def test_error_reaches_the_shell_without_traceback():
     assert "Traceback" not in done.stderr
 
 
-# ------------------------------------------------------------- issue 13.1/13.2: a user's own model
+# ------------------------------------------------------------- a user's own model
 USER_FOPDT = {"type": "fopdt", "gain": 2.5, "time_constant": 12, "dead_time": 4}
 
 
 def test_tune_with_a_model_only_analyses_the_model():
-    """Issue 13.1: no ``--plant``; SIMC on ``2.5 e^{-4s}/(12 s + 1)``: ``K_c = T/(K 2 L) = 0.6``,
+    """No ``--plant``; SIMC on ``2.5 e^{-4s}/(12 s + 1)``: ``K_c = T/(K 2 L) = 0.6``,
     ``T_i = min(T, 8 L) = 12`` (Skogestad 2003), analysed on that FOPDT (python-control-free closed
     form: the loop is ``e^{-4s}/(8 s)``, gain margin ``2 pi/2 = pi``)."""
     result = tune_json("simc-pi", None, USER_FOPDT)
@@ -183,8 +183,8 @@ EXACT_FOPDT_PROBLEMS = {
 
 @pytest.mark.parametrize("rule", [name for name, r in RULES.items() if r.controller in ("pid", "pid-series") and r.plants != "integrating"])
 def test_every_pid_rule_on_an_exact_fopdt_model_closes_a_stable_loop_or_exits_3(rule):
-    """Issue 13.2: the model is read in the rule's own form (no moment-fitted SOPDT: ``simc-pid``,
-    ``haalman-pid`` and the ``mu`` rules used to close loops with 4-6 unstable poles here); a
+    """The model is read in the rule's own form (no moment-fitted SOPDT, on which ``simc-pid``,
+    ``haalman-pid`` and the ``mu`` rules would close loops with 4-6 unstable poles here); a
     stable loop outside ``Ms <= 2`` exits 3 naming the constraint."""
     problem = EXACT_FOPDT_PROBLEMS.get(rule)
     status, out, err = run("tune", "--rule", rule, "--model", json.dumps(USER_FOPDT), "--json")
@@ -265,7 +265,7 @@ def test_tune_takes_a_transfer_function_and_delay_or_a_dict():
     assert by_tf.analysis.margins.ms == by_dict.analysis.margins.ms
 
 
-# ------------------------------------------------------------------ issue 13.5: messages made exact
+# ------------------------------------------------------------------ exact messages
 @pytest.mark.parametrize(
     "args, line",
     [
@@ -282,7 +282,7 @@ def test_messages_are_exact(args, line):
 
 
 def test_analysis_offers_the_flat_names_of_the_json():
-    """Issue 13.3: ``t.analysis.ms`` as the JSON's ``ms`` (was only ``t.analysis.margins.ms``)."""
+    """``t.analysis.ms`` as the JSON's ``ms`` (as well as ``t.analysis.margins.ms``)."""
     from baselines.rules.tune import tune
 
     analysis = tune("simc-pi", model=USER_FOPDT).analysis
@@ -292,7 +292,7 @@ def test_analysis_offers_the_flat_names_of_the_json():
 
 
 def test_a_users_envs_folder_shadowing_ours_is_one_line(tmp_path):
-    """Issue 13.8: an ``envs/`` folder earlier on ``sys.path`` (here by PYTHONPATH) is named."""
+    """An ``envs/`` folder earlier on ``sys.path`` (here by PYTHONPATH) is named."""
     (tmp_path / "envs").mkdir()
     (tmp_path / "envs" / "__init__.py").write_text("")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(REPO)])}

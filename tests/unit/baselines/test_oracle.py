@@ -40,7 +40,8 @@ def structures(plant: Plant) -> list[str]:
 
 
 def rule_controllers(identification, structure: str) -> dict:
-    """The fixed rules of SPEC "Baselines" on the identified quantities."""
+    """The papers' fixed rules on the identified quantities (Gorez-Klan's ``mu`` table, Ingimundarson's
+    PPI, eq. 28-29, 34, 43 and 50)."""
     if structure == "pid":
         return {f"mu={mu}": pid_design(identification.sopdt, mu) for mu in (1.3, 1.5, 2.0, 3.0)}
     if structure == "fppi":
@@ -54,7 +55,7 @@ def rule_controllers(identification, structure: str) -> dict:
     if identification.pulse_area < abs(k) * l:
         rules["eq43"] = msp_eq43(k, l, identification.pulse_area)
     # Matausek-Micic (T_r = T_n) needs the lag of the dynamics additional to the integrator, which
-    # the seeds' procedure does not identify: not compared.
+    # the fixed procedure does not identify: not compared.
     return rules
 
 
@@ -251,7 +252,7 @@ RANDOM = [
 @pytest.mark.slow
 @pytest.mark.parametrize("family, seed", RANDOM)
 def test_oracle_is_not_worse_than_any_rule_on_random_noisy_plants(family, seed):
-    """The must-show on random plants, with 1 % measurement noise in the experiments: the rules and
+    """The oracle ahead of every rule on random plants, with 1 % measurement noise in the experiments: the rules and
     the oracle see the same identified model, so no rule may beat the oracle."""
     plant = sample_plants(family, 1, seed)[0]
     identification = identify(plant, np.random.default_rng(seed), noise_std=0.01)

@@ -1,4 +1,4 @@
-"""The per-process oracle (issue 18): the Gorez-Klan ``mu`` searched with process runs.
+"""The per-process oracle: the Gorez-Klan ``mu`` searched with process runs.
 
 On a process the cost is known only by running it (:func:`envs.process.scoring.process_score`: the
 set-point and load tests on the process, the constraints on the identified model).  The oracle's

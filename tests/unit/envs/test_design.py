@@ -1,4 +1,4 @@
-"""The design maps of envs/design.py against the closed forms of the seeds.
+"""The design maps of envs/design.py against the closed forms of the papers.
 
 * Gorez-Klan eq. 3-12: on its own SOPDT model the PID gives the loop ``e^{-D2 s}/(mu D2 s)``, here
   times the derivative filter ``1/(T2 s/N + 1)``.

@@ -1,5 +1,5 @@
 """``deadtime evaluate`` end to end: a tiny run through the command line, its outputs, the cache,
-an agent through the loading hook, bad input, and (slow) the issue's must-show line: with
+an agent through the loading hook, bad input, and (slow) the oracle's line: with
 ``all-rules,oracle`` the oracle is ahead of every rule (by mean cost; of its own structure plant by plant), with no
 violation."""
 
@@ -195,7 +195,8 @@ def test_bad_input_is_one_line_and_exit_2(capsys, tmp_path, argv, message):
 @pytest.mark.slow
 @pytest.mark.parametrize("env_id, structure", [("DeadTime/PID-v0", "pid"), ("DeadTime/FPPI-v0", "fppi"), ("DeadTime/MSP-v0", "msp")])
 def test_oracle_is_ahead_of_every_rule_of_its_structure_without_violations(capsys, tmp_path, env_id, structure):
-    """The must-show line of issue 4, on the random test set and the seeds' benchmark batch."""
+    """The oracle's mean cost is below every rule's, without violations, on the random test set and the
+    papers' benchmark batch."""
     code = main(["evaluate", "--env", env_id, "--policies", "all-rules,oracle", "--n", "3", "--seed", "0",
                  "--out", str(tmp_path), "--json", "--no-plots"])  # fmt: skip
     captured = capsys.readouterr()
@@ -221,7 +222,7 @@ def test_episode_seeds_do_not_depend_on_n():
     assert _episode_seeds(large, 5) == [5, 6, 7, 5 + BENCHMARK_SEED_OFFSET, 6 + BENCHMARK_SEED_OFFSET]
 
 
-# ------------------------------------------------------------------ issue 13: the user's plants, messages
+# ------------------------------------------------------------------ the user's plants, messages
 USER_PLANTS = [{"num": [2.5], "den": [12.0, 1.0], "delay": 4.0}, {"num": [1.0], "den": [2.0, 3.0, 1.0], "delay": 1.0}]
 
 

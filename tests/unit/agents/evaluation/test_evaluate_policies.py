@@ -28,7 +28,7 @@ def test_violation_cost_is_the_scorings():
         ("pid", ["gorez-klan-mu-1.3", "gorez-klan-mu-1.5", "gorez-klan-mu-2", "gorez-klan-mu-3", "gorez-klan-pm-60", "gorez-klan-gm-3",
                  "gorez-klan-ms1.4", "gorez-klan-ms1.6", "gorez-klan-ms1.8"]),
         ("fppi", ["fppi-eq28", "fppi-eq34", "ppi-kappa1", "fppi-ms1.4", "fppi-ms1.6", "fppi-ms1.8"]),
-        ("msp", ["msp-eq43", "msp-eq50", "msp-tr-tn", "msp-dm0.3", "msp-dm0.5", "msp-dm0.7"]),  # issue 16.1: matched rules
+        ("msp", ["msp-eq43", "msp-eq50", "msp-tr-tn", "msp-dm0.3", "msp-dm0.5", "msp-dm0.7"]),  # with the matched rules
     ],
 )
 def test_own_structure_rules(structure, own):

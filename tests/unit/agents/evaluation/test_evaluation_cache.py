@@ -1,6 +1,6 @@
 """The per-plant cache of ``deadtime evaluate`` (agents.evaluation.run.Cache) shared by concurrent runs.
 
-Issue 13.5: two evaluations on one ``--out`` wrote every cache line twice.  Two processes put the
+Two evaluations on one ``--out`` must not write a cache line twice.  Two processes put the
 same results, in opposite orders, into one file; every ``(key, policy)`` must be on file once and
 read back equal.
 """

@@ -1,4 +1,4 @@
-"""The response figures of ``deadtime evaluate`` (agents.evaluation.plots), issue 13.4: a diverged
+"""The response figures of ``deadtime evaluate`` (agents.evaluation.plots): a diverged
 or off-scale loop is clipped and marked, and the axes follow the loops that stay on scale."""
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ def _mean(costs: np.ndarray, plants: np.ndarray) -> np.ndarray:
 
 
 def test_seeds_are_resampled_whole() -> None:
-    """A seed that is better on every plant stays better on every plant: the interval is the seeds' spread.
+    """A seed that is better on every plant stays better on every plant: the interval is the spread between the seeds.
 
     Two seeds of means 1 and 3: a resample's mean is 1, 2 or 3 with probabilities 1/4, 1/2, 1/4.
     """

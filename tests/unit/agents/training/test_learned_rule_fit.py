@@ -1,4 +1,4 @@
-"""The learned rule through ``deadtime train`` and ``deadtime evaluate`` (issue 16.2).
+"""The learned rule through ``deadtime train`` and ``deadtime evaluate``.
 
 A small fit (FPPI-v0, whose oracle is the cheapest: 12 training plants, 4 validation plants, two
 model kinds, three margins) runs once, through the command line, with the fixed *test* plant set

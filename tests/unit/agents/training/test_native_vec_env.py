@@ -1,4 +1,4 @@
-"""``vec_env: native``: stable-baselines3's ``VecEnv`` over the native vector environment (issue 19).
+"""``vec_env: native``: stable-baselines3's ``VecEnv`` over the native vector environment.
 
 * The adapter gives what SB3's ``DummyVecEnv`` of ``Monitor``-wrapped single environments gives
   for the same seeds and actions: observations, rewards, dones, the final cost,

@@ -1,7 +1,7 @@
-"""The robustness-matched rules (baselines.rules.matched, issue 16.1).
+"""The robustness-matched rules (baselines.rules.matched).
 
 * On the model, each matched rule's loop meets its target to 1e-3 (relative), on plants of every
-  family and on the seeds' benchmark plants (noise-free procedure), or says why not (bracket end,
+  family and on the papers' benchmark plants (noise-free procedure), or says why not (bracket end,
   refusal) as its module documents.
 * On exact FOPDT models, SIMC's ``Ms``-matched ``tau_c`` agrees with an independent computation:
   a dense grid over ``tau_c`` with ``Ms`` from python-control's ``frequency_response`` of the

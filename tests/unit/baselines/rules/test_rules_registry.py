@@ -1,7 +1,7 @@
 """The registry of every rule (baselines.rules.registry): names, citations, inputs, and each rule's numbers.
 
 Every rule designs a controller on a benchmark plant (envs.systems.families.benchmark_plants) from the
-seeds' noise-free procedure; the ``mu`` and ``T_r`` rules equal the design maps of envs.design at
+noise-free fixed procedure; the ``mu`` and ``T_r`` rules equal the design maps of envs.design at
 their parameter, and their parameters are checked against the source (Gorez-Klan section 3,
 Ingimundarson Tables 1 and 2, eq. 34, 43, 50); the PI/PID rules are the pid_registry rules
 (their formulas are tested in test_pid_rules.py).
@@ -50,7 +50,7 @@ MSP_RULES = ("msp-eq43", "msp-eq50", "msp-tr-tn")
 
 @pytest.fixture(scope="module")
 def benchmark_inputs() -> dict[str, RuleInputs]:
-    """The rule inputs of every benchmark plant, by the seeds' noise-free procedure (~2.5 s)."""
+    """The rule inputs of every benchmark plant, by the noise-free fixed procedure (~2.5 s)."""
     return {name: RuleInputs.from_identification(identify(plant, np.random.default_rng(0)))
             for name, plant in benchmark_plants().items()}
 
@@ -232,7 +232,7 @@ def test_rules_name_the_missing_input():
 
 # --------------------------------------------------------------------------- RuleInputs.from_model
 def test_from_fopdt_model_is_the_sopdt_model_with_no_second_lag():
-    """Issue 13.2: a given FOPDT model is not re-fitted by moments (eq. 2-8 would give the SOPDT
+    """A given FOPDT model is not re-fitted by moments (eq. 2-8 would give the SOPDT
     ``sopdt_from_moments(2.0, 10.0, 0.4)``, dead time 1.31 instead of 4)."""
     model = FOPDTModel(gain=2.0, time_constant=6.0, dead_time=4.0)
     inputs = RuleInputs.from_model(model)

@@ -2,7 +2,7 @@
 
 Cross-checks:
 
-* the seeds' closed forms: for the FPPI the integrated load error is ``-(T_r + T_f + L_n) K_n``
+* the papers' closed forms: for the FPPI the integrated load error is ``-(T_r + T_f + L_n) K_n``
   (Ingimundarson eq. 24, by the final value theorem, so it holds for any self-regulating plant) and
   the nominal set-point response is ``e^{-L_n s}/(T_r s + 1)`` (eq. 15), whose IAE is ``L_n + T_r``;
   the same set-point IAE for the nominal MSP (eq. 37); the integrated load error of a PI(D) is

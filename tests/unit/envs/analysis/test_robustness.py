@@ -500,9 +500,9 @@ def test_phase_margin_is_python_controls_smallest_in_magnitude_over_three_crosso
 
 @pytest.mark.parametrize("delay", [0.0, 1e-4])
 def test_ms_is_never_reported_below_one(delay):
-    """Issue 13.5: ``P = 1/(s + 1)``, PI ``kp = 0.5, ti = 1``, so ``L = 0.5 e^{-Ls}/s``: ``|S| < 1`` at
-    every finite frequency of the delay-free loop and ``sup |S| = 1`` (reached as ``w -> inf``; it
-    was reported as 0.99911).  With ``L = 1e-4`` the peak sits beyond the grid's end (``|L| < 0.02``):
+    """``P = 1/(s + 1)``, PI ``kp = 0.5, ti = 1``, so ``L = 0.5 e^{-Ls}/s``: ``|S| < 1`` at
+    every finite frequency of the delay-free loop and ``sup |S| = 1`` (reached as ``w -> inf``; never
+    reported below it, as 0.99911).  With ``L = 1e-4`` the peak sits beyond the grid's end (``|L| < 0.02``):
     Ms is within 2% (python-control on a Pade model gives 1.00013)."""
     margins = plant_margins(Plant.from_time_constants(1.0, [1.0], delay), PID(0.5, 1.0))
     assert 1.0 <= margins.ms <= 1 / 0.98

@@ -1,4 +1,4 @@
-"""Disturbances beyond white noise (envs.identification.disturbances, issue 17.1): drift and load.
+"""Disturbances beyond white noise (envs.identification.disturbances): drift and load.
 
 Cross-checks: the white part of the noise is the v0 noise sample for sample; the load seen in the
 measurement of a closed-loop step equals the loop simulated with the load at the plant input (the

@@ -151,7 +151,7 @@ def noisy_fits():
 
 
 def test_known_fopdt_within_two_percent_at_one_percent_noise(noisy_fits):
-    """Must-show of issue 17: K, tau, theta within 2% at 1% noise, on every one of 40 seeds (400 seeds
+    """K, tau, theta within 2% at 1% noise, on every one of 40 seeds (400 seeds
     measured: largest errors 0.15%, 0.84%, 1.6%); and no bias (the mean within 4 standard errors)."""
     fits, _ = noisy_fits
     errors = fits / np.array(NOISY) - 1.0
@@ -233,7 +233,7 @@ def test_instrumental_variables_reports_an_unstable_fit_as_infinite():
 
 def test_the_search_finds_the_exhaustive_optimum_on_the_seeds_step_records():
     """The alternating search (a few fits) against fitting every dead time, on the open-loop steps of
-    the seeds' procedure (1% noise) of validation plants: the same dead time (measured: 80 of 80
+    the fixed procedure (1% noise) of validation plants: the same dead time (measured: 80 of 80
     test plants for FOPDT fits; at 10% noise 75 of 80, the others within 4% of the criterion)."""
     from envs.identification.procedure import identify
     from envs.systems.plant_sets import plant_set

@@ -1,4 +1,4 @@
-"""The seeds' identification procedure (envs/identification/procedure.py) on the benchmark plants.
+"""The papers' fixed identification procedure (envs/identification/procedure.py) on the benchmark plants.
 
 * Noise-free, experiment 1 recovers the exact ``K`` (``K_v``) and ``T_ar`` (``L_n``) of the plant:
   measured errors are below ``1e-4`` (the residue of the steady-state detection and the sampled

@@ -1,4 +1,4 @@
-"""The two process adapters (issue 18): the project's plants and the TCLab emulator.
+"""The two process adapters: the project's plants and the TCLab emulator.
 
 * ``PlantProcess`` samples a plant with the exact simulation: an input held sample by sample gives
   the samples of :func:`envs.simulation.delay_systems.open_loop_response` (the same zero-order-hold

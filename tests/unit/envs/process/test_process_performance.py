@@ -1,6 +1,6 @@
-"""A controller's tests on a process (issue 18, Must show 3 and the NaN case).
+"""A controller's tests on a process: against the exact loop, and the NaN case.
 
-Must show 3: on a :class:`PlantProcess` the set-point and load IAE of the process path equal
+On a :class:`PlantProcess` the set-point and load IAE of the process path equal
 ``deadtime analyze``'s (:func:`envs.analysis.loop_analysis.analyze`, the continuous loop simulated
 exactly) for the same plant and controller.  The process path runs the controller as a discrete
 law, its output held over each sample: an extra delay of about half a sample (and the derivative's

@@ -1,4 +1,4 @@
-"""The seeds' procedure on a process (issue 18), against the simulated experiments and an
+"""The fixed procedure on a process, against the simulated experiments and an
 independent least-squares fit.
 
 * On a :class:`PlantProcess` the procedure identifies what the environments' procedure
@@ -6,18 +6,18 @@ independent least-squares fit.
   arithmetic on records sampled by a discrete loop instead of the continuous one.  The difference is
   the sampling's: the input is a staircase whose trapezoidal area is shifted by half a sample, so
   ``T_ar`` moves by about ``dt/2`` (``T_ar/400``); the tolerances are 1% (``K`` exact to 1e-6).
-* Must show 1, the TCLab heater-1 loop: operating point 30 % (38.8 degC), closed-loop step of 10 degC,
+* The TCLab heater-1 loop: operating point 30 % (38.8 degC), closed-loop step of 10 degC,
   open-loop step of 16.7 % (10 degC/K_n); the identified FOPDT (Ingimundarson eq. 11) against a
   least-squares fit of ``K h (1 - exp(-(t - L)/T))`` (``scipy.optimize.curve_fit``) to the same
   open-loop step's record.  Measured over seeds 0-2, ``|identified - fit|/fit``: ``K`` 0.51%, ``T``
-  5.9%, ``L`` 22% (``L_n`` 16.9-18.0 s against 14.2-14.7 s).  The dead time misses the issue's 10%
+  5.9%, ``L`` 22% (``L_n`` 16.9-18.0 s against 14.2-14.7 s).  The dead time misses a 10% tolerance
   because of the sensor's 0.3223 degC quantization (floor): the measured deviations carry a bias of
   up to a quantization step that depends on where the levels fall, and it moves the closed-loop
   ``T_ar`` to 152 s (157.6 s for the emulator's linear equations), of which ``L_n = T_ar - T_n`` is
   a small difference.  With the quantizer removed from the emulator (its noise kept) the same
   comparison gives 0.17%, 2.1% and 8.4%; on the emulator's exact linear equations eq. 11 and least
   squares differ by 1.3% (``T``) and 5.4% (``L``): two definitions of an apparent dead time.
-  Both comparisons are tested at the issue's 10% where it holds (``K``, ``T``; all three
+  Both comparisons are tested at 10% where it holds (``K``, ``T``; all three
   without the quantizer), and the dead time with the quantizer at the 25% that bounds what was
   measured.
 * Bad input: limits that a step would leave, a process that never settles, a measurement that is

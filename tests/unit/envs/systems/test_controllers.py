@@ -9,7 +9,7 @@ Cross-checks:
 * each controller's state-space ``block()`` against those transfer functions;
 * the closed loop ``closed_loop(plant, controller)`` (inputs r, l, n; outputs y, u, e) against
   the closed-form ``S``, ``P S``, ``T`` built from ``loop_response`` and ``reference_response``;
-* the seeds' closed forms: the nominal set-point response ``e^{-L_n s}/(T_r s + 1)`` of the FPPI
+* the papers' closed forms: the nominal set-point response ``e^{-L_n s}/(T_r s + 1)`` of the FPPI
   (eq. 15) and the MSP (eq. 37), the MSP loop with a dead-time error (eq. 47), the Gorez-Klan
   model loop ``e^{-D_2 s}/(mu D_2 s)`` (eq. 3-12);
 * ``controller_from_dict`` refuses bad input with a ValueError naming the field.

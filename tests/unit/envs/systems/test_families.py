@@ -1,4 +1,4 @@
-"""Plant families: determinism, documented ranges, and the benchmark batches of the seeds.
+"""Plant families: determinism, documented ranges, and the benchmark batches of the papers.
 
 Benchmark references: Gorez-Klan section 4 (eq. 4-15, 4-16 and the table of FOPDT/SOPDT
 parameters), Ingimundarson section 4.4 (stable processes) and section 5.3 / Table 2 (integrating).
