@@ -19,7 +19,7 @@ from agents.evaluation.stats import INTERVAL_FIELDS, PolicyStats
 
 __all__ = ["SUBSET_TITLES", "markdown_table", "results_json", "summary_table", "write_tables"]
 
-SUBSET_TITLES = {"all": "All plants", "test": "Random held-out test set", "benchmark": "The seeds' benchmark batch"}
+SUBSET_TITLES = {"all": "All plants", "test": "Random held-out test set", "benchmark": "The papers' benchmark batch"}
 _COLUMNS = ("mean_cost", "median_cost", "violation_rate", "failure_rate", "experiment_time", "regret", "gap_closure")
 
 

@@ -90,7 +90,7 @@ def _check_modules(snapshot: bytes) -> None:
         pickle.loads(snapshot)  # noqa: S301  (our own checkpoint, verified by checksum)
     except ModuleNotFoundError as error:
         raise ValueError(f"the checkpoint's environments name the module {error.name!r}, which this version does not "
-                         "have (modules moved in issue 14): resume it with the commit in the run's config.yaml, or "
+                         "have (its modules were moved since): resume it with the commit in the run's config.yaml, or "
                          "start a new run") from None
 
 

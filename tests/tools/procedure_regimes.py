@@ -59,7 +59,7 @@ def run(runs: Path, out: Path) -> None:
     lines = ["# Experiment procedures against the fixed procedure", "",
              "Mean cost on 59 held-out plants (50 test plants and the benchmark batch; MSP 58); differences paired on "
              "the plants, 95% percentile bootstrap intervals (negative: the procedure is better).  `plan-1-1` is the "
-             "fixed procedure (the seeds' experiments at amplitude 1) designing with the structure's base rule; every "
+             "fixed procedure (the fixed procedure's experiments at amplitude 1) designing with the structure's base rule; every "
              "procedure designs with that rule.", "",
              "| regime | oracle | best rule | plan-1-1 | plan-best (plan) | amplitude-rule | plan-best - plan-1-1 | "
              "amplitude-rule - plan-1-1 | plan-best - best rule |", "|---|---|---|---|---|---|---|---|---|"]

@@ -100,5 +100,5 @@ def test_a_missing_file_is_named_as_it_is(tmp_path: Path) -> None:
 
 def test_a_checkpoint_of_the_old_module_paths_is_refused_in_one_line():
     """A snapshot that names an old module path, ``envs.scoring`` (now ``envs.analysis.scoring``)."""
-    with pytest.raises(ValueError, match=r"module 'envs\.scoring'.*issue 14"):
+    with pytest.raises(ValueError, match=r"module 'envs\.scoring'.*moved since"):
         _check_modules(b"cenvs.scoring\nScore\n.")
