@@ -1,11 +1,11 @@
 """Agents, rules and oracles on the DeadTime environments: training, evaluation, sweeps, ``deadtime``.
 
 Importing ``agents`` applies the thread defaults of the command line
-(:func:`agents.runtime.single_thread_defaults`: one thread for OpenBLAS, OpenMP -- torch's CPU
-threads among them --, MKL and numba, wherever the environment does not set the variable), so that
-a script that trains through stable-baselines3's own API or calls :func:`evaluate` runs as fast as
-``deadtime`` does: the networks and matrices here are tiny, and torch's default of one thread per
-core made training about 9 times slower on 2 cores.  The defaults take effect only for the
+(:func:`agents.runtime.single_thread_defaults`: one thread for OpenBLAS, OpenMP, MKL and numba,
+wherever the environment does not set the variable; torch's CPU threads follow ``MKL_NUM_THREADS``,
+else ``OMP_NUM_THREADS``), so that a script that trains through stable-baselines3's own API or
+calls :func:`evaluate` runs as fast as ``deadtime`` does: the networks and matrices here are tiny,
+and more threads make them slower, not faster (README, "Threads").  The defaults take effect only for the
 libraries imported after ``agents``; if torch was imported first and runs more than one thread of
 its own choosing, one ``RuntimeWarning`` says how to get the defaults.
 
@@ -24,20 +24,23 @@ from agents.runtime import single_thread_defaults
 
 __all__ = ["evaluate"]
 
+_TORCH_THREADS = ("MKL_NUM_THREADS", "OMP_NUM_THREADS")
+"""The variables torch's CPU thread count follows, the first set one."""
+
 
 def _apply_thread_defaults() -> None:
     """:func:`single_thread_defaults`, and one warning if torch was imported before with threads the
     user did not choose."""
-    chosen = "OMP_NUM_THREADS" in os.environ
+    chosen = any(name in os.environ for name in _TORCH_THREADS)
     single_thread_defaults()
     torch = sys.modules.get("torch")
     if chosen or torch is None or not hasattr(torch, "get_num_threads") or torch.get_num_threads() <= 1:
         return
     warnings.warn(
         f"torch was imported before agents and runs {torch.get_num_threads()} threads, which makes training and "
-        "evaluating the small networks here several times slower; import agents first, set OMP_NUM_THREADS=1 "
-        "before starting Python, or call torch.set_num_threads(1) (set OMP_NUM_THREADS to keep torch's threads "
-        "and silence this)",
+        "evaluating the small networks here several times slower; import agents first or call "
+        "torch.set_num_threads(1) (setting MKL_NUM_THREADS or OMP_NUM_THREADS before starting Python keeps "
+        "torch's threads and silences this)",
         RuntimeWarning,
         stacklevel=3,
     )
