@@ -30,6 +30,10 @@ of ``envs`` and ``baselines``, so results of other code are recomputed, not reus
 checksum, so a line edited or damaged is recomputed too (said in one line; :mod:`agents.evaluation.cache`).
 ``--workers N`` scores the rules and oracles in ``N`` processes (the oracle's search dominates; its
 time per plant is in the README's Performance section); results do not depend on it.
+
+From Python, :func:`evaluate` (also ``agents.evaluate``) takes the same options as keywords, and
+policies given in Python beside the strings: callables ``observation -> action`` and objects with
+stable-baselines3's ``predict``.  Without ``out`` it writes nothing and returns the table.
 """
 
 from __future__ import annotations
