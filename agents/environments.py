@@ -40,8 +40,8 @@ def require_registered(env_id: str, name: str = "environment") -> None:
     import gymnasium
 
     known = known_env_ids()
-    if isinstance(env_id, str) and env_id in gymnasium.registry:
-        return
+    if isinstance(env_id, str) and (env_id in gymnasium.registry or ":" in env_id):
+        return  # "module:Id-v0": gymnasium imports the module, which registers the id, and reports on it itself
     lowered = {key.lower(): key for key in known}
     close = difflib.get_close_matches(str(env_id).lower(), list(lowered), n=1)
     hint = f" (did you mean {lowered[close[0]]!r}?)" if close else ""
@@ -57,7 +57,7 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle
     _check_make_arguments(env_kwargs or {})
     try:
         env = gymnasium.make(env_id, **dict(env_kwargs or {}))
-    except gymnasium.error.Error as error:  # e.g. a deprecated version
+    except (gymnasium.error.Error, ImportError) as error:  # a deprecated version; "module:Id-v0" of no such module
         raise ValueError(f"environment {env_id!r}: {error}") from None
     except TypeError as error:  # an argument the environment does not take (its constructor's message names it)
         raise ValueError(f"environment arguments of {env_id}: {error}") from None

@@ -496,7 +496,10 @@ def _validate_env_kwargs(config: TrainConfig) -> None:
     from agents.environments import require_registered
 
     require_registered(config.env_id, "env_id")
-    spec = gymnasium.spec(config.env_id)
+    try:
+        spec = gymnasium.spec(config.env_id)
+    except (gymnasium.error.Error, ImportError) as error:  # "module:Id-v0" of a module that fails or registers no such id
+        raise ValueError(f"env_id {config.env_id!r}: {error}") from None
     entry_point = spec.entry_point
     if isinstance(entry_point, str):
         from gymnasium.envs.registration import load_env_creator

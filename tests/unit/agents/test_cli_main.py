@@ -53,6 +53,14 @@ def test_a_misspelled_environment_names_the_closest(capsys, tmp_path, monkeypatc
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_module_prefixed_id_is_left_to_gymnasium_and_its_failure_is_one_line(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    line = _one_line(capsys, ["evaluate", "--env", "no_such_module:Foo-v0", "--policies", "oracle", "--out", "out"])
+    assert line.startswith("deadtime evaluate: error: environment 'no_such_module:Foo-v0': No module named 'no_such_module'")
+    assert "env_id 'no_such_module:Foo-v0'" in _one_line(capsys, ["train", "--config", SAC, "--env", "no_such_module:Foo-v0"])
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_misspelled_rule_names_the_closest(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     plant = '{"num": [1], "den": [10, 1], "delay": 5}'
