@@ -37,7 +37,7 @@ reproduce: $(STAMP)
 	$(BIN)/deadtime reproduce all
 
 # The tests run in TEST_WORKERS processes (pytest-xdist; `make test TEST_WORKERS=auto` takes one per
-# core, TEST_WORKERS=0 runs them in this one).  `make test` runs every test not marked slow (a few
+# core, TEST_WORKERS=0 runs them all in one process).  `make test` runs every test not marked slow (a few
 # minutes on 2 cores); `make test-slow` the ones marked slow (training and resuming agents, Ray
 # sweeps, the oracle against every rule on every benchmark plant); `make test-all` both.  CI
 # (.ci/run) runs `make test`, then `make test-slow`.  A module's tests stay in one process
@@ -53,6 +53,7 @@ test-slow: $(STAMP)
 
 test-all: test test-slow
 
+# the same as `make test`
 test-fast: test
 
 clean:
