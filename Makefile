@@ -13,7 +13,7 @@ export OMP_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export NUMBA_NUM_THREADS ?= 1
 
-.PHONY: demo reproduce test test-fast install clean
+.PHONY: demo reproduce test test-slow test-all test-fast install clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -36,11 +36,25 @@ demo: $(STAMP)
 reproduce: $(STAMP)
 	$(BIN)/deadtime reproduce all
 
-test: $(STAMP)
-	$(BIN)/python -m pytest -q tests
+# The tests run in TEST_WORKERS processes (pytest-xdist; `make test TEST_WORKERS=auto` takes one per
+# core, TEST_WORKERS=0 runs them all in one process).  `make test` runs every test not marked slow (a few
+# minutes on 2 cores); `make test-slow` the ones marked slow (training and resuming agents, Ray
+# sweeps, the oracle against every rule on every benchmark plant); `make test-all` both.  CI
+# (.ci/run) runs `make test`, then `make test-slow`.  A module's tests stay in one process
+# (--dist loadscope), so a module's expensive fixture (a trained agent, a sweep) is made once.
+TEST_WORKERS ?= 2
+PYTEST := $(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadscope
 
-test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow" tests
+test: $(STAMP)
+	$(PYTEST) -m "not slow" tests
+
+test-slow: $(STAMP)
+	$(PYTEST) -m slow tests
+
+test-all: test test-slow
+
+# the same as `make test`
+test-fast: test
 
 clean:
 	rm -rf $(VENV) build *.egg-info

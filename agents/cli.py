@@ -11,7 +11,8 @@ functions of ``envs`` and ``baselines`` (packages that know nothing of the comma
 
 Bad input anywhere (a ``ValueError``, ``OverflowError`` or ``OSError``) prints one line naming what is
 wrong and exits with status 2; no traceback.  Ctrl-C prints one line and exits with status 130
-(:data:`INTERRUPTED`).  An error with an ``exit_status`` attribute exits with
+(:data:`INTERRUPTED`).  A reader of the standard output that has gone (``| head``) ends the command
+quietly with status 141 (:data:`BROKEN_PIPE`).  An error with an ``exit_status`` attribute exits with
 that status instead.  ``deadtime tune`` exits with status 3 (:data:`agents.commands.tune.LOOP_PROBLEM`)
 when the rule's loop is unstable or outside the constraints on the plant, or the rule's ``T_r`` is
 degenerate (:mod:`baselines.rules.tune`), after one line on stderr saying so.
@@ -20,38 +21,50 @@ degenerate (:mod:`baselines.rules.tune`), after one line on stderr saying so.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from importlib import import_module
 from pathlib import Path
 from typing import Callable, NamedTuple, Sequence
 
-__all__ = ["COMMANDS", "Command", "INTERRUPTED", "main", "shadowed_package"]
+__all__ = ["BROKEN_PIPE", "COMMANDS", "Command", "INTERRUPTED", "main", "shadowed_package"]
 
 INTERRUPTED = 130
 """Exit status after Ctrl-C (128 + SIGINT, as a shell reports a process it interrupted)."""
 
+BROKEN_PIPE = 141
+"""Exit status when the reader of the standard output has gone (128 + SIGPIPE, as a shell reports a
+process that wrote into a closed pipe); nothing is printed."""
+
 
 class Command(NamedTuple):
-    """A subcommand: its module (``add_arguments``/``run``), its one-line help and its ``--help`` description."""
+    """A subcommand: its module (``add_arguments``/``run``), its one-line help (``deadtime --help``) and
+    its ``--help`` description (at least one sentence)."""
 
     module: str
     help: str
-    description: str | None
+    description: str
 
 
 def _described(module: str, text: str) -> Command:
-    """A subcommand whose ``--help`` description is its one-line help."""
-    return Command(module, text, text)
+    """A subcommand whose ``--help`` description is its one-line help, as a sentence."""
+    return Command(module, text, f"{text[0].upper()}{text[1:]}.")
 
 
 COMMANDS: dict[str, Command] = {
-    "analyze": Command("agents.commands.analyze", "robustness and IAE of a plant-controller loop", None),
+    "analyze": Command(
+        "agents.commands.analyze", "robustness and IAE of a plant-controller loop",
+        "The robustness (stability, Ms, Mt, gain, phase and delay margins) and the IAE of load and set-point "
+        "responses of the loop of a plant and a controller, both given as JSON."),
     "tune": Command(
         "agents.commands.tune", "the controller an analytic rule gives for a plant, and its analysis",
         "The controller an analytic rule gives for a plant or a model, and its analysis. Exit status 3 "
         "(after one line on stderr) when the loop is unstable or outside the constraints (Ms <= 2 except for the MSP, "
         "delay margin >= 0.2 L) on the plant, or the rule's T_r is degenerate (below its floor times L_n)."),
-    "reproduce": Command("agents.commands.reproduce", "the source papers' tables and figures beside their computed twins", None),
+    "reproduce": Command(
+        "agents.commands.reproduce", "the source papers' tables and figures beside their computed twins",
+        "Compute the source papers' tables and figures (one by name, or all) and print them beside the published "
+        "values; the figures are written as PNG files."),
     "train": _described("agents.training.train", "train an agent from a YAML config"),
     "evaluate": _described("agents.evaluation.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
     "bench": _described("agents.bench.bench", "measure the speed and accuracy of the scoring and the environments"),
@@ -117,6 +130,18 @@ def shadowed_package() -> str | None:
     return None
 
 
+def _reader_gone() -> int:
+    """:data:`BROKEN_PIPE`, quietly, once the reader of the standard output has gone (``deadtime tune
+    --list | head -2``): the rest of the output goes to ``os.devnull``, so that Python's final flush
+    does not report the pipe again (the Python documentation's note on SIGPIPE)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # a standard output without a file descriptor (captured)
+        pass
+    return BROKEN_PIPE
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``deadtime`` with ``argv`` (default: ``sys.argv[1:]``) and return the exit status."""
     from agents.runtime import single_thread_defaults
@@ -129,7 +154,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser, handlers = _parser()
     args = parser.parse_args(argv)
     try:
-        return handlers[args.command](args)
+        status = handlers[args.command](args)
+        sys.stdout.flush()  # a reader gone (`| head`) shows here, not at exit
+        return status
+    except BrokenPipeError:
+        return _reader_gone()
     except (ValueError, OverflowError, OSError) as error:  # CommandError is a ValueError
         status = getattr(error, "exit_status", 2)
         print(f"deadtime {args.command}: {'error: ' if status == 2 else ''}{error}", file=sys.stderr)

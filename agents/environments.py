@@ -2,9 +2,10 @@
 
 :func:`make_env` registers the DeadTime ids first (a worker process, spawned, has not imported
 ``envs``), makes the environment with its keyword arguments, refuses an unknown id in one line
-naming the known ones (and ``gymnasium.make``'s own arguments of the wrong type, and a
-``render_mode`` the environment cannot render itself), and with ``oracle=True`` adds the oracle's
-figures to the final ``info`` (:class:`agents.evaluation.oracle_info.OracleInfo`).
+naming the closest and the known ones (:func:`require_registered`; also ``gymnasium.make``'s own
+arguments of the wrong type, and a ``render_mode`` the environment cannot render itself), and with
+``oracle=True`` adds the oracle's figures to the final ``info``
+(:class:`agents.evaluation.oracle_info.OracleInfo`).
 """
 
 from __future__ import annotations
@@ -12,7 +13,39 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["make_env"]
+__all__ = ["known_env_ids", "make_env", "require_registered"]
+
+
+def known_env_ids() -> list[str]:
+    """The registered DeadTime ids, sorted."""
+    import gymnasium
+
+    import envs  # noqa: F401  (registers the DeadTime ids)
+
+    return sorted(key for key in gymnasium.registry if key.startswith("DeadTime/"))
+
+
+def require_registered(env_id: str, name: str = "environment") -> None:
+    """Refuse an id that is not registered with Gymnasium, in one line naming the closest DeadTime id
+    (letter case ignored) and the known ones.
+
+    Raises
+    ------
+    ValueError
+        ``unknown environment 'DeadTime/PID-v9' (did you mean 'DeadTime/PID-v3'?); known: ...``
+        (``name`` in place of ``environment``).
+    """
+    import difflib
+
+    import gymnasium
+
+    known = known_env_ids()
+    if isinstance(env_id, str) and (env_id in gymnasium.registry or ":" in env_id):
+        return  # "module:Id-v0": gymnasium imports the module, which registers the id, and reports on it itself
+    lowered = {key.lower(): key for key in known}
+    close = difflib.get_close_matches(str(env_id).lower(), list(lowered), n=1)
+    hint = f" (did you mean {lowered[close[0]]!r}?)" if close else ""
+    raise ValueError(f"unknown {name} {env_id!r}{hint}; known: {', '.join(known) or 'none'}")
 
 
 def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle: bool = False) -> Any:
@@ -20,14 +53,12 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None, *, oracle
     unknown id; wrapped in ``OracleInfo`` if ``oracle``."""
     import gymnasium
 
-    import envs  # noqa: F401  (registers the DeadTime ids)
-
+    require_registered(env_id)
     _check_make_arguments(env_kwargs or {})
     try:
         env = gymnasium.make(env_id, **dict(env_kwargs or {}))
-    except gymnasium.error.Error as error:
-        known = sorted(k for k in gymnasium.registry if k.startswith("DeadTime/"))
-        raise ValueError(f"unknown environment {env_id!r} ({error}); known: {', '.join(known) or 'none'}") from None
+    except (gymnasium.error.Error, ImportError) as error:  # a deprecated version; "module:Id-v0" of no such module
+        raise ValueError(f"environment {env_id!r}: {error}") from None
     except TypeError as error:  # an argument the environment does not take (its constructor's message names it)
         raise ValueError(f"environment arguments of {env_id}: {error}") from None
     _check_render_mode(env, env_id, env_kwargs)

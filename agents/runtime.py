@@ -4,9 +4,11 @@
   (:data:`THREAD_VARIABLES`), unless the user says otherwise: the matrices here are tiny, and
   OpenBLAS's threads made ``scipy.linalg.expm`` about 10 times slower on 2 cores (measured by
   ``deadtime bench``); parallelism comes from vectorized environments, ``--workers`` and Ray trials
-  instead.  The variables take effect only if set before numpy is imported: ``deadtime`` sets their
-  defaults first thing (:func:`single_thread_defaults`), and child processes (the bench's child,
-  Ray's workers) get them in their environment.  This is the one place that defines them; the
+  instead; torch's CPU threads (``OMP_NUM_THREADS``) likewise, for the small networks here.  The
+  variables take effect only if set before numpy (torch, numba) is imported: importing ``agents``
+  sets their defaults first thing (:func:`single_thread_defaults`; :mod:`agents` warns once if torch
+  came first), and so do ``deadtime`` and every script that imports ``agents``; child processes (the
+  bench's child, Ray's workers) get them in their environment.  This is the one place that defines them; the
   ``Makefile`` exports the same four with the same default (``make test`` sets them before pytest
   starts), and ``tests/unit/agents/test_runtime.py`` holds the two lists equal.
 * **Provenance.**  The git commit of this code (:func:`git_commit`, ``-dirty`` with uncommitted

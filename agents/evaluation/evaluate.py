@@ -30,6 +30,10 @@ of ``envs`` and ``baselines``, so results of other code are recomputed, not reus
 checksum, so a line edited or damaged is recomputed too (said in one line; :mod:`agents.evaluation.cache`).
 ``--workers N`` scores the rules and oracles in ``N`` processes (the oracle's search dominates; its
 time per plant is in the README's Performance section); results do not depend on it.
+
+From Python, :func:`evaluate` (also ``agents.evaluate``) takes the same options as keywords, and
+policies given in Python beside the strings: callables ``observation -> action`` and objects with
+stable-baselines3's ``predict``.  Without ``out`` it writes nothing and returns the table.
 """
 
 from __future__ import annotations
@@ -38,7 +42,7 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from numbers import Integral
 from pathlib import Path
 from typing import Any
@@ -139,42 +143,64 @@ def _given_plants(given: Any, structure: str) -> list[Any]:
     return plants
 
 
-def _agents(specs: list, env_id: str, scoring: dict[str, Any], taken: set[str]) -> tuple[dict[str, tuple[Any, Any, str]], dict[str, str]]:
-    """Each agent (or learned rule) with the environment it plays and its cache identity; and the
-    role of each in the tables.
+def _agents(specs: list, python: dict[str, Any], env_id: str, scoring: dict[str, Any],
+            taken: set[str]) -> tuple[dict[str, tuple[Any, Any, str | None]], dict[str, str]]:  # fmt: skip
+    """Each agent, learned rule, procedure and Python policy with the environment it plays and its cache
+    identity (None for a Python policy: not cached); and the role of each in the tables.
 
-    The agent's environment takes the agent's own keyword arguments (``experiments``, budget: its
+    A policy's environment takes the policy's own keyword arguments (``experiments``, budget: its
     interface) but the evaluation's scoring (``scoring``: constraints, weights, noise), so that every
     policy is scored the same way.
     """
-    import os
-
     from agents.evaluation.policies import ROLES, load_agent
 
-    agents: dict[str, tuple[Any, Any, str]] = {}
+    agents: dict[str, tuple[Any, Any, str | None]] = {}
     roles: dict[str, str] = {}
     for spec in specs:
         name, policy = load_agent(spec)
         if name in taken or name in agents:
             raise ValueError(f"policy name {name!r} of agent {spec.path!r} is taken; name it with NAME=PATH")
-        trained_on = getattr(policy, "env_id", None)
-        if trained_on is not None and trained_on != env_id:
-            raise ValueError(f"agent {spec.path!r} was trained on {trained_on}, not {env_id}")
+        _check_trained_on(policy, env_id, f"agent {spec.path!r}")
         kwargs = {**dict(getattr(policy, "env_kwargs", None) or {}), **scoring}
         if spec.kind == "procedure" and spec.name == "plan-best":
             from agents.evaluation.plan_search import best_plan
 
             policy, _ = best_plan(env_id, kwargs)
-        path = str(getattr(policy, "path", spec.path))
-        stamp = os.path.getmtime(path) if os.path.exists(path) else 0.0
-        source = f"procedure:{policy.name}" if spec.kind == "procedure" else os.path.abspath(path)
-        identity = f"agent|{source}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
-        env = make_env(env_id, kwargs)
-        if hasattr(policy, "bind"):  # a procedure that reads the observation by its feature names
-            policy.bind(env.unwrapped.feature_names, env.unwrapped.experiment_names)
-        agents[name] = (policy, env, identity)
+        agents[name] = (policy, _played_env(policy, env_id, kwargs), _identity(spec, policy, kwargs))
         roles[name] = ROLES[spec.kind]
+    for name, policy in python.items():
+        if name in taken or name in agents:
+            raise ValueError(f"policy name {name!r} is taken (a rule, an oracle or another policy); give it another name")
+        _check_trained_on(policy, env_id, f"policy {name!r}")
+        kwargs = {**dict(getattr(policy, "env_kwargs", None) or {}), **scoring}
+        agents[name] = (policy, _played_env(policy, env_id, kwargs), None)
+        roles[name] = ROLES["agent"]
     return agents, roles
+
+
+def _check_trained_on(policy: Any, env_id: str, what: str) -> None:
+    """Refuse a policy that says it was trained on another environment (its ``env_id``)."""
+    trained_on = getattr(policy, "env_id", None)
+    if isinstance(trained_on, str) and trained_on != env_id:
+        raise ValueError(f"{what} was trained on {trained_on}, not {env_id}")
+
+
+def _identity(spec: Any, policy: Any, kwargs: dict[str, Any]) -> str:
+    """The cache identity of a loaded policy: its file (and modification time) or procedure, and its regime."""
+    import os
+
+    path = str(getattr(policy, "path", spec.path))
+    stamp = os.path.getmtime(path) if os.path.exists(path) else 0.0
+    source = f"procedure:{policy.name}" if spec.kind == "procedure" else os.path.abspath(path)
+    return f"agent|{source}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
+
+
+def _played_env(policy: Any, env_id: str, kwargs: dict[str, Any]) -> Any:
+    """The environment a policy plays, bound to the policy if it reads the observation by feature names."""
+    env = make_env(env_id, kwargs)
+    if hasattr(policy, "bind"):  # a procedure that reads the observation by its feature names
+        policy.bind(env.unwrapped.feature_names, env.unwrapped.experiment_names)
+    return env
 
 
 def _regime(env_kwargs: Any) -> dict[str, Any]:
@@ -231,10 +257,10 @@ def _episode_seeds(plants: list[tuple[str, str, Any]], seed: int) -> list[int]:
 # --------------------------------------------------------------------------- the run
 def evaluate(
     env_id: str,
-    policies: str,
-    n: int,
-    seed: int,
-    out: Path | str,
+    policies: str | Sequence[Any] | Mapping[str, Any],
+    n: int = 50,
+    seed: int = 0,
+    out: Path | str | None = None,
     *,
     family: str | None = None,
     benchmark: bool = True,
@@ -245,15 +271,47 @@ def evaluate(
     env_kwargs: dict[str, Any] | None = None,
     warn: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
-    """Evaluate ``policies`` on ``env_id``'s held-out plants and write the outputs into ``out``.
+    """Evaluate ``policies`` on ``env_id``'s held-out plants; with ``out``, write the outputs there.
 
-    Returns the ``results.json`` object.  See the module docstring.  ``plants``, a list of plants
-    in any form :func:`envs.systems.plants.as_plant` takes, replaces the ``n`` random test plants.
-    ``env_kwargs``, environment arguments (noise, weights, amplitude limit, ...), set the regime: the
-    rules and oracles play the environment made with them, and every agent is scored in them (over
-    its own ``env_kwargs``); they are part of the cache key and of ``results.json``.  ``warn`` takes
-the one line that says which lines of ``cache.jsonl`` were dropped and recomputed (default: printed
-on stderr).
+    Returns the ``results.json`` object (see the module docstring): ``result["policies"]`` holds one
+    row per policy (name, role, mean and median cost, violation and failure rates, regret, gap
+    closure, ``ci95`` intervals), sorted by mean cost.  Without ``out`` nothing is written (no
+    tables, plots or cache)::
+
+        from agents.evaluation.evaluate import evaluate
+
+        result = evaluate("DeadTime/PID-v3", ["simc-pi", "oracle", {"mine": lambda observation: [0.0]}],
+                          n=5, benchmark=False)
+        for row in result["policies"]:
+            print(row["name"], row["role"], row["mean_cost"], row["regret"])
+
+    Parameters
+    ----------
+    env_id : str
+        A registered environment id, e.g. ``DeadTime/PID-v3``.
+    policies : str, list or mapping
+        ``--policies``' comma-separated string, or a list whose items are such strings, Python
+        policies (a callable ``observation -> action``, or an object with stable-baselines3's
+        ``predict``, such as a model just trained) and mappings of names to Python policies
+        (:func:`agents.evaluation.policies.split_policies`).  A Python policy plays like an agent,
+        in the environment's own mode unless it has ``env_kwargs`` (e.g.
+        ``CallablePolicy(name, function, {"experiments": "agent"})``); its results are not cached.
+    n, seed : int
+        ``--n`` random test plants (from 1) and the seed (>= 0) of the episodes and the bootstrap.
+    out : Path or str, optional
+        The output directory (``--out``); None writes nothing.
+    plants : list, optional
+        Plants in any form :func:`envs.systems.plants.as_plant` takes; they replace the ``n`` random
+        test plants.
+    env_kwargs : dict, optional
+        Environment arguments (noise, weights, amplitude limit, ...) that set the regime: the rules and
+        oracles play the environment made with them, and every agent is scored in them (over its own
+        ``env_kwargs``); they are part of the cache key and of ``results.json``.
+    warn : callable, optional
+        Takes the one line that says which lines of ``cache.jsonl`` were dropped and recomputed
+        (default: printed on stderr).
+
+    The other arguments are the options of ``deadtime evaluate`` of the same names.
 
     Raises
     ------
@@ -262,15 +320,26 @@ on stderr).
         from 1 to its limit (:mod:`agents.limits`), ``seed`` not an integer >= 0, or an agent that cannot
         be loaded; all before ``out`` is created.
     """
-    import numpy as np
-
-    from agents.evaluation.policies import PLAYED, own_rules, parse_policies
+    from agents.evaluation.policies import split_policies
 
     _check_sizes(n, seed, resamples, workers)
     if isinstance(out, str):
         from agents.commands.arguments import require_directory
 
         out = require_directory(out, "out")
+    text, python = split_policies(policies)
+    return _evaluate(env_id, text, python, int(n), seed, out, family=family, benchmark=benchmark, resamples=resamples,
+                     plots=plots, workers=workers, plants=plants, env_kwargs=env_kwargs, warn=warn or _print_warning)
+
+
+def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, seed: int, out: Path | None, *,
+              family: str | None, benchmark: bool, resamples: int, plots: bool, workers: int, plants: list | None,
+              env_kwargs: dict[str, Any] | None, warn: Callable[[str], None]) -> dict[str, Any]:  # fmt: skip
+    """:func:`evaluate` of checked sizes: the policy strings ``text`` and the Python policies ``python``."""
+    import numpy as np
+
+    from agents.evaluation.policies import PLAYED, own_rules, parse_policies
+
     started = time.perf_counter()
     regime = _regime(env_kwargs)
     env_kwargs = {**regime, **({} if family is None else {"family": family})}
@@ -278,24 +347,28 @@ on stderr).
     unwrapped = env.unwrapped
     structure = unwrapped.structure
     family = family or getattr(unwrapped, "family", None) or ("integrating" if structure == "msp" else "stable")
-    specs = parse_policies(policies, structure)
+    specs = [] if text is None else parse_policies(text, structure)
     listed_rules = [s.name for s in specs if s.kind == "rule"]
     own = own_rules(structure)
     rules = listed_rules + [name for name in own if name not in listed_rules]
     scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **env_kwargs}
     if hasattr(unwrapped, "noise_std"):
         scoring["noise_std"] = unwrapped.noise_std
-    agents, agent_roles = _agents([s for s in specs if s.kind in PLAYED], env_id, scoring, {*rules, "oracle", "oracle-full"})
+    agents, agent_roles = _agents([s for s in specs if s.kind in PLAYED], python, env_id, scoring,
+                                  {*rules, "oracle", "oracle-full"})
     given = None if plants is None else _given_plants(plants, structure)
     count = f"{n} test plants" if given is None else f"{len(given)} given plants"
     plants = _plants(family, structure, n, benchmark, given)
     _first_episode(env, plants[0][2], _episode_seeds(plants, seed)[0])
-    print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''} into {out}", file=sys.stderr, flush=True)
+    into = "" if out is None else f" into {out}"
+    print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''}{into}", file=sys.stderr, flush=True)
 
-    out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)
-    results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, out, full, workers,
-                                                 warn or _print_warning)
+    cache = None if out is None else out / "cache.jsonl"
+    results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, cache, full, workers,
+                                                 warn)
     means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
     best_rule = min(own, key=lambda name: (means[name], name))
     shown = [s.name for s in specs if s.kind not in PLAYED] + list(agents)
@@ -316,10 +389,12 @@ on stderr).
         "wall_time_s": round(elapsed, 2),
         **({"env_kwargs": regime} if regime else {}),
     }
-    from agents.evaluation.report import write_tables
+    from agents.evaluation.report import results_json, write_tables
 
+    if out is None:
+        return results_json(env_id, n, seed, subsets, roles, extra)
     notes = _notes(best_rule, own) + _failure_notes(results, plants)
-    result = write_tables(out, env_id, int(n), seed, subsets, roles, extra, per_plant, notes)
+    result = write_tables(out, env_id, n, seed, subsets, roles, extra, per_plant, notes)
     if plots:
         _plots(out, env_id, plants, results, shown, roles, best_rule, list(agents), unwrapped.constraints)
     return result
@@ -334,14 +409,15 @@ def _score_plants(
     seed: int,
     rules: list[str],
     agents: dict,
-    out: Path,
+    cache_path: Path | None,
     full: bool,
     workers: int,
     warn: Callable[[str], None],
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], float]:
     """Every policy on every plant (with a progress bar): results, ``per_plant.csv`` rows, and the
     largest difference between the oracle's own cost and the environment's for its optimum.
-    ``regime``, the evaluation's ``--env-kwargs``, is part of each plant's cache key.
+    ``regime``, the evaluation's ``--env-kwargs``, is part of each plant's cache key; the cache is
+    ``cache_path``, or kept in memory only if it is None.
 
     With ``workers > 1`` the rules and oracles run in that many processes first (into the cache);
     the agents then run in this process.  ``warn`` gets the cache's :meth:`~agents.evaluation.cache.Cache.note`.
@@ -350,7 +426,7 @@ def _score_plants(
 
     from agents.evaluation.run import Cache, evaluate_plant, fill_cache_in_parallel, plant_key
 
-    cache = Cache(out / "cache.jsonl")
+    cache = Cache(cache_path)
     seeds = _episode_seeds(plants, seed)
     family = env.unwrapped.family
     environment = env_id if not regime else f"{env_id} {json.dumps(regime, sort_keys=True, default=str)}"

@@ -25,16 +25,23 @@ A policy is one of
   fixed procedure), ``plan-best`` (the plan of the least mean cost on the validation plants in the
   evaluation's regime: :mod:`agents.evaluation.plan_search`) or ``amplitude-rule`` (Marlin's
   signal-to-noise guideline from the measured noise).  It plays like an agent, in its own mode, and has the role ``procedure``.
+
+From Python (:func:`agents.evaluation.evaluate.evaluate`), the policies may also be a list whose items
+are such strings, Python policies or mappings of names to Python policies (:func:`split_policies`).  A
+Python policy is a callable ``observation -> action`` (:class:`CallablePolicy`) or an object with
+stable-baselines3's ``predict(observation, deterministic=True)`` (a model trained in the same
+session); it plays like an agent, with the role ``agent``.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["PLAYED", "ROLES", "STRUCTURE_CONTROLLER", "TRAINED", "PolicySpec", "applicable_rules", "load_agent", "own_rules",
-           "parse_policies"]
+__all__ = ["PLAYED", "ROLES", "STRUCTURE_CONTROLLER", "TRAINED", "CallablePolicy", "PolicySpec", "applicable_rules", "load_agent",
+           "own_rules", "parse_policies", "split_policies"]
 
 STRUCTURE_CONTROLLER = {"pid": "pid-series", "fppi": "fppi", "msp": "msp"}
 """The controller type of each environment structure's design (the rules of its own structure)."""
@@ -61,6 +68,76 @@ class PolicySpec:
     name: str
     kind: str
     path: str | None = None
+
+
+@dataclass(frozen=True)
+class CallablePolicy:
+    """A policy given in Python: ``function(observation) -> action``, played like an agent.
+
+    ``env_kwargs`` are the arguments of the environment it plays (e.g. ``{"experiments": "agent"}``
+    for the agent mode; default the environment's own), under the evaluation's regime.
+    """
+
+    name: str
+    function: Callable[[Any], Any]
+    env_kwargs: Mapping[str, Any] | None = None
+
+    def predict(self, observation: Any, deterministic: bool = True) -> tuple[Any, None]:
+        """``(function(observation), None)``, the form of stable-baselines3's ``predict``."""
+        return self.function(observation), None
+
+
+_POLICY_FORMS = ("a policy name (rule, all-rules, oracle, agent path, ...), a callable observation -> action, "
+                 "an object with predict(observation, deterministic=True), or a mapping of names to those two")
+
+
+def _python_policy(policy: Any, name: str) -> Any:
+    """``policy`` ready to play: an object with ``predict`` as it is, a callable in a :class:`CallablePolicy`."""
+    return policy if hasattr(policy, "predict") else CallablePolicy(name, policy)
+
+
+def _own_name(policy: Any, position: int) -> str:
+    """The name of a Python policy given without one: its ``name`` or ``__name__`` (not ``<lambda>``),
+    else ``policy-<position>``."""
+    for attribute in ("name", "__name__"):
+        name = getattr(policy, attribute, None)
+        if isinstance(name, str) and name and not name.startswith("<"):
+            return name
+    return f"policy-{position}"
+
+
+def split_policies(policies: Any) -> tuple[str | None, dict[str, Any]]:
+    """The policy strings of ``policies`` joined by commas (None if none), and its Python policies by name.
+
+    ``policies`` is a comma-separated string (``--policies``), a mapping of names to Python policies,
+    or a list of strings, Python policies and such mappings (module docstring).
+
+    Raises
+    ------
+    ValueError
+        For an item of another kind, a name that is not a non-empty string, or a name given twice.
+    """
+    if isinstance(policies, str):
+        return policies, {}
+    items = [policies] if isinstance(policies, Mapping) else policies
+    if not isinstance(items, list | tuple) or not items:
+        raise ValueError(f"policies must be a non-empty string or list: {_POLICY_FORMS}; got {policies!r}")
+    texts: list[str] = []
+    python: dict[str, Any] = {}
+    for index, item in enumerate(items):
+        if isinstance(item, str):
+            texts.append(item)
+            continue
+        named = item.items() if isinstance(item, Mapping) else [(_own_name(item, index), item)]
+        for name, policy in named:
+            if not isinstance(name, str) or not name.strip() or "," in name:
+                raise ValueError(f"policies[{index}]: a policy's name must be a non-empty string without commas, got {name!r}")
+            if name in python:
+                raise ValueError(f"policy name {name!r} is given twice; name the policies with a mapping {{name: policy}}")
+            if not (callable(policy) or hasattr(policy, "predict")):
+                raise ValueError(f"policies[{index}] must be {_POLICY_FORMS}; got {type(policy).__name__}")
+            python[name] = _python_policy(policy, name)
+    return (",".join(texts) if texts else None), python
 
 
 def applicable_rules(structure: str) -> list[str]:
@@ -92,11 +169,12 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
     Raises
     ------
     ValueError
-        For an empty list or an unknown rule (the message names it).  Agent paths are checked
+        For an empty list or an unknown rule or policy (the message names it and the closest
+        name).  Agent paths are checked
         when loaded (:func:`load_agent`).
     """
     from baselines.procedures import is_procedure, procedure
-    from baselines.rules.registry import RULES, get_rule
+    from baselines.rules.registry import RULES
 
     items = [item.strip() for item in text.split(",")]
     if not text.strip() or any(not item for item in items):
@@ -121,11 +199,28 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
             kind = "learned-rule" if is_learned_rule(path) else "agent"
             specs.append(PolicySpec(name, kind, path))  # name "" -> the policy's own name
         else:
-            get_rule(item)  # raises: unknown rule, naming it
+            _unknown(item)
     unique: dict[tuple[str, str | None], PolicySpec] = {}
     for spec in specs:
         unique.setdefault((spec.name, spec.path), spec)
     return list(unique.values())
+
+
+_KEYWORDS = ("all-rules", "oracle", "oracle-full", "plan-best", "amplitude-rule")
+"""The policy names that are not rules (besides ``plan-A1-A2`` and paths)."""
+
+
+def _unknown(item: str) -> None:
+    """Refuse a policy that is neither a rule nor any other kind, naming the closest name."""
+    import difflib
+
+    from baselines.rules.registry import RULES, get_rule
+
+    close = difflib.get_close_matches(item, [*_KEYWORDS, *RULES], n=1)
+    if close and close[0] in _KEYWORDS:
+        raise ValueError(f"unknown policy {item!r} (did you mean {close[0]!r}?): policies are rule names, "
+                         f"{', '.join(_KEYWORDS)}, plan-A1-A2 or agent paths")
+    get_rule(item)  # raises: unknown rule, naming the closest
 
 
 def load_agent(spec: PolicySpec) -> tuple[str, Any]:

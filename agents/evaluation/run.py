@@ -161,9 +161,10 @@ def evaluate_plant(
         The episode seed (``--seed`` plus the plant's index).
     rules : list of str
         Rule names.
-    agents : dict of str to (policy, env, str)
+    agents : dict of str to (policy, env, str or None)
         Each agent with the environment it plays and its cache identity (path and modification
-        time, so that a retrained agent is not served stale results).
+        time, so that a retrained agent is not served stale results); None for a policy given in
+        Python, whose results are never cached (its code has no identity to key them on).
     cache : Cache
     key : str
         The episode's :func:`plant_key`.
@@ -195,10 +196,11 @@ def evaluate_plant(
                 results[name] = _rule_result(env, name, experiment_time)
             cache.put(key, name, results[name])
     for name, (policy, agent_env, identity) in agents.items():
-        result = cache.get(key, identity)
+        result = None if identity is None else cache.get(key, identity)
         if result is None:
             result = _agent_result(agent_env, policy, seed, plant)
-            cache.put(key, identity, result)
+            if identity is not None:
+                cache.put(key, identity, result)
         results[name] = result
     return results, mismatch  # type: ignore[return-value]
 

@@ -493,12 +493,13 @@ def _validate_native(config: TrainConfig) -> None:
 def _validate_env_kwargs(config: TrainConfig) -> None:
     import gymnasium
 
-    if config.env_id.startswith("DeadTime/"):
-        import envs  # noqa: F401  (registers the DeadTime ids)
+    from agents.environments import require_registered
+
+    require_registered(config.env_id, "env_id")
     try:
         spec = gymnasium.spec(config.env_id)
-    except gymnasium.error.Error as error:
-        raise ValueError(f"env_id {config.env_id!r} is not a registered environment ({error})") from None
+    except (gymnasium.error.Error, ImportError) as error:  # "module:Id-v0" of a module that fails or registers no such id
+        raise ValueError(f"env_id {config.env_id!r}: {error}") from None
     entry_point = spec.entry_point
     if isinstance(entry_point, str):
         from gymnasium.envs.registration import load_env_creator

@@ -37,11 +37,9 @@ def make_native_vec_env(env_id: str, n_envs: int, env_kwargs: dict[str, Any] | N
     """``n_envs`` environments of ``env_id`` in its native vector environment, as an SB3 ``VecEnv``."""
     import gymnasium
 
-    import envs  # noqa: F401  (registers the DeadTime ids)
+    from agents.environments import require_registered
 
-    if env_id not in gymnasium.registry:
-        known = sorted(k for k in gymnasium.registry if k.startswith("DeadTime/"))
-        raise ValueError(f"unknown environment {env_id!r}; known: {', '.join(known) or 'none'}")
+    require_registered(env_id)
     if gymnasium.spec(env_id).vector_entry_point is None:
         raise ValueError(f"vec_env: {env_id} has no native vector environment (vector_entry_point); use dummy or subproc")
     vector = gymnasium.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **dict(env_kwargs or {}))

@@ -2,7 +2,7 @@
 
 Usage::
 
-    deadtime train --config configs/ppo.yaml [--env ID] [--out DIR] [--resume] [key=value ...]
+    deadtime train --config configs/ppo.yaml [--env ID] [--out DIR] [--seed N] [--resume] [key=value ...]
 
 The resolved config (see :mod:`agents.training.config` for the precedence) is printed and saved as
 ``<run>/config.yaml`` with the command, git commit and package versions; ``<run>/run.json`` records
@@ -24,8 +24,8 @@ the file.  SIGINT or SIGTERM writes a checkpoint at the next rollout boundary an
 without ``--config``); a config that differs from the saved one is refused, except for
 ``total_timesteps`` (which may be raised to extend a run), ``output_dir`` and ``progress_bar``.
 
-Reproducibility: one seed drives ``set_random_seed``, the algorithm and the environments
-(environment ``i`` gets ``seed + i``); torch runs single-threaded with deterministic algorithms.  The
+Reproducibility: one seed (the config's ``seed``, or ``--seed N``, the same as the override ``seed=N``)
+drives ``set_random_seed``, the algorithm and the environments (environment ``i`` gets ``seed + i``); torch runs single-threaded with deterministic algorithms.  The
 same config and seed give the same agent, interrupted and resumed or not.
 
 The config is checked (:func:`agents.training.config.validate`) and the environments and the model are built
@@ -61,7 +61,7 @@ from agents.training.learned_rule_config import LearnedRuleConfig
 if TYPE_CHECKING:
     from agents.training.checkpoints import Checkpoint
 
-__all__ = ["TrainResult", "add_arguments", "run", "train"]
+__all__ = ["TrainResult", "add_arguments", "run", "train", "with_seed"]
 
 # Keys that may differ between a run's saved config and the one given on --resume.
 _RESUMABLE_CHANGES = {"total_timesteps", "output_dir", "progress_bar"}
@@ -79,6 +79,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         f"nesting <= {MAX_NESTING} levels, <= {MAX_YAML_NODES} values with aliases expanded")
     parser.add_argument("--env", help="environment id (selects the config's entry; default the config's env_id)")
     parser.add_argument("--out", help="run directory (default: the config's output_dir, else runs/<algo>-<env>-s<seed>)")
+    parser.add_argument("--seed", type=int, help="the training seed, an integer >= 0 (the same as the override seed=N; "
+                        "default the config's)")
     parser.add_argument("--resume", action="store_true", help="continue the run in the run directory from its latest checkpoint")
     parser.add_argument("overrides", nargs="*", metavar="key=value",
                         help="config overrides, dotted keys for nesting (e.g. hyperparameters.n_steps=32 seed=3)")
@@ -96,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         config_path = Path(args.config)
         if not config_path.is_file():
             raise ValueError(f"--config {args.config}: no such file")
-    config = load_config(config_path, env_id=args.env, overrides=args.overrides)
+    config = load_config(config_path, env_id=args.env, overrides=with_seed(args.overrides, args.seed))
     if args.out is not None:
         config = dataclasses.replace(config, output_dir=args.out)
     command = shlex.join(_command_from(args))
@@ -123,9 +125,28 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def with_seed(overrides: Sequence[str], seed: int | None) -> list[str]:
+    """``overrides`` with ``seed=SEED`` of ``--seed`` appended (none if ``seed`` is None).
+
+    Raises
+    ------
+    ValueError
+        If an override sets another seed (``--seed 3 seed=4``), naming both.
+    """
+    if seed is None:
+        return list(overrides)
+    from agents.training.config import parse_override
+
+    for text in overrides:
+        path, value = parse_override(text)
+        if path == ["seed"] and (type(value) is not int or value != seed):
+            raise ValueError(f"--seed {seed} and the override {text.strip()!r} disagree; give the seed once")
+    return [*overrides, f"seed={seed}"]
+
+
 def _command_from(args: argparse.Namespace) -> list[str]:
     words = ["deadtime", "train"]
-    for option in ("config", "env", "out"):
+    for option in ("config", "env", "out", "seed"):
         if getattr(args, option) is not None:
             words += [f"--{option}", str(getattr(args, option))]
     return words + (["--resume"] if args.resume else []) + list(args.overrides)

@@ -143,7 +143,8 @@ def _check(file: Path, compute) -> None:
 
 
 @pytest.mark.slow
-def test_numbers_are_bit_identical_to_the_fingerprint() -> None:
+def test_numbers_are_bit_identical_to_the_fingerprint(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # `reproduce all` writes figures/ into the working directory (recorded as relative paths)
     _check(FILE, fingerprint)
 
 

@@ -66,7 +66,7 @@ def test_a_damaged_record_is_named_before_the_resume_starts(started: Path, name:
 
 @pytest.mark.parametrize(
     ("policies", "message"),
-    [("[all-rules, oracel]", "evaluation.policies: unknown rule 'oracel'"),
+    [("[all-rules, oracel]", "evaluation.policies: unknown policy 'oracel' (did you mean 'oracle'?)"),
      ("[all-rules]", "evaluation.policies must include 'oracle'"),
      ("[oracle, oracle-full]", "evaluation.policies must include at least one rule of DeadTime/PID-v0")],
     ids=["misspelled", "no-oracle", "no-rule"],
