@@ -5,7 +5,7 @@ Importing ``agents`` applies the thread defaults of the command line
 wherever the environment does not set the variable; torch's CPU threads follow ``MKL_NUM_THREADS``,
 else ``OMP_NUM_THREADS``), so that a script that trains through stable-baselines3's own API or
 calls :func:`evaluate` runs as fast as ``deadtime`` does: the networks and matrices here are tiny,
-and more threads make them slower, not faster (README, "Threads").  The defaults take effect only for the
+and more threads make them slower, not faster (docs/environments/overview.md, "Threads").  The defaults take effect only for the
 libraries imported after ``agents``; if torch was imported first and runs more than one thread of
 its own choosing, one ``RuntimeWarning`` says how to get the defaults.
 

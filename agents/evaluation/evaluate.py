@@ -7,7 +7,7 @@
 
 Plants: the fixed held-out test set ``envs.systems.plant_sets.plant_set(family, "test", n)`` (or the user's
 own, ``--plants FILE``: a JSON list of plants, labelled ``user-0``, ``user-1``, ...) and, unless
-``--no-benchmark``, the seeds' benchmark batch of the environment's structure
+``--no-benchmark``, the papers' benchmark batch of the environment's structure
 (``envs.systems.plant_sets.benchmark_set``).  Each plant is played in one episode, reset with seed
 ``--seed + i`` for test plant ``i`` and ``--seed + 1000000 + j`` for benchmark plant ``j`` (so that
 no seed depends on ``--n``): the noise of its identification is the same for every policy.
@@ -29,7 +29,7 @@ rule's median- and largest-regret plants, and each agent's median-regret plant),
 of ``envs`` and ``baselines``, so results of other code are recomputed, not reused, and each line a
 checksum, so a line edited or damaged is recomputed too (said in one line; :mod:`agents.evaluation.cache`).
 ``--workers N`` scores the rules and oracles in ``N`` processes (the oracle's search dominates; its
-time per plant is in the README's Performance section); results do not depend on it.
+time per plant is in docs/performance.md); results do not depend on it.
 
 From Python, :func:`evaluate` (also ``agents.evaluate``) takes the same options as keywords, and
 policies given in Python beside the strings: callables ``observation -> action`` and objects with

@@ -20,7 +20,7 @@ A policy is one of
   its ``learned_rule.json``; :mod:`agents.training.learned_rule`), recognized by its files and loaded
   by ``agents.training.learned_rule_policy.load_learned_rule``.  It plays like an agent (one action
   from the observation) and has the role ``learned rule`` in the tables;
-* a procedure of :mod:`baselines.procedures`: ``plan-A1-A2`` (the seeds' two experiments at
+* a procedure of :mod:`baselines.procedures`: ``plan-A1-A2`` (the fixed procedure's two experiments at
   amplitudes ``A1`` and ``A2`` for every plant, then the structure's base rule; ``plan-1-1`` is the
   fixed procedure), ``plan-best`` (the plan of the least mean cost on the validation plants in the
   evaluation's regime: :mod:`agents.evaluation.plan_search`) or ``amplitude-rule`` (Marlin's

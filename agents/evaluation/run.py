@@ -1,7 +1,7 @@
 """Scoring every policy on one plant, the way ``deadtime evaluate`` does, with a resumable cache.
 
 One plant, one episode: the environment (``experiments="fixed"``) is reset once with the plant and
-the seed ``seed + index``, which runs the seeds' identification procedure with its noise; then
+the seed ``seed + index``, which runs the fixed identification procedure with its noise; then
 
 * a rule designs from :meth:`baselines.rules.registry.RuleInputs.from_identification` of that identification
   and is scored by the environment's own ``score_controller`` (its constraints, weights and
@@ -182,7 +182,7 @@ def evaluate_plant(
     mismatch = 0.0
     if any(result is None for result in results.values()):
         env.reset(seed=seed, options={"plant": plant})
-        identified = env.unwrapped.identification is not None  # (v3: None when the seeds' procedure failed)
+        identified = env.unwrapped.identification is not None  # (v3: None when the fixed procedure failed)
         experiment_time = env.unwrapped.evidence.experiment_time / plant.residence_time
         for name in wanted:
             if results[name] is not None:
