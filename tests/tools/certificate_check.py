@@ -6,7 +6,9 @@ the after-the-fact check of a certified margin (``baselines/learned_rule.py``, "
 Per sweep, environment and agent group (``<label>-<env>-s<seed>``): the test episodes of all seeds, how
 many violated a constraint (``feasible`` false, failures included), the pooled rate with its two-sided
 95% Clopper-Pearson interval (``scipy.stats.binomtest``), and how many seeds violated on any of their
-test plants (on 50 plants a seed whose rate is exactly 1% shows a violation with probability 39.5%).  The test plants
+test plants (on 50 plants a seed whose rate is exactly 1% shows a violation with probability 39.5%);
+where the sweep folder holds the fits' manifests (``runs/*/learned_rule.json``), how many seeds' margins
+were certified and the range of their margins.  The test plants
 are the same for every seed, so the pooled count is not a sum of independent draws: the interval is a
 description of the pooled rate, not a test of each seed's promise.  Prints a Markdown table.
 """
@@ -14,6 +16,7 @@ description of the pooled rate, not a test of each seed's promise.  Prints a Mar
 from __future__ import annotations
 
 import csv
+import json
 import re
 import sys
 from collections import defaultdict
@@ -37,16 +40,27 @@ def group_counts(sweep: Path) -> dict[tuple[str, str], list[tuple[int, int]]]:
     return found
 
 
+def certified(sweep: Path, env: str, label: str) -> str:
+    """``"k of n (margins a-b)"`` from the fits' manifests, ``-`` where there are none or no target."""
+    found = [json.loads(path.read_text()) for path in sorted(sweep.glob(f"runs/{label}-{env}-s*/learned_rule.json"))]
+    found = [m for m in found if m.get("certification")]
+    if not found:
+        return "-"
+    margins = [m["margin"] for m in found]
+    return (f"{sum(bool(m['certification']['certified']) for m in found)} of {len(found)} "
+            f"(margins {min(margins):g}-{max(margins):g})")
+
+
 def table(sweeps: list[Path]) -> str:
-    lines = ["| sweep | env | group | seeds | test episodes | violations | rate [95% interval] | seeds with a violation |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = ["| sweep | env | group | seeds | test episodes | violations | rate [95% interval] | seeds with a violation "
+             "| seeds certified |", "|---|---|---|---|---|---|---|---|---|"]
     for sweep in sweeps:
         for (env, label), seeds in sorted(group_counts(sweep).items()):
             violations, episodes = sum(v for v, _ in seeds), sum(n for _, n in seeds)
             interval = binomtest(violations, episodes).proportion_ci(confidence_level=0.95, method="exact")
             above = sum(v > 0 for v, _ in seeds)
             lines.append(f"| {sweep.name} | {env} | {label} | {len(seeds)} | {episodes} | {violations} | {violations / episodes:.1%} "
-                         f"[{interval.low:.1%}, {interval.high:.1%}] | {above} |")
+                         f"[{interval.low:.1%}, {interval.high:.1%}] | {above} | {certified(sweep, env, label)} |")
     return "\n".join(lines)
 
 

@@ -3,7 +3,9 @@ its summary and ``deadtime regimes`` from (no models, no caches, no controllers)
 
     python tests/tools/commit_sweep.py runs/agent_mode_noise10_time sweeps/agent_mode_noise10_time
 
-Copies ``sweep.yaml``, ``sessions.json``, each trial's ``evaluations.json`` (its validation) and every
+Copies ``sweep.yaml``, ``sessions.json``, each trial's ``evaluations.json`` (its validation) and, for a
+learned rule, its manifest ``learned_rule.json`` (kind, margin, validation costs and violations per
+margin, the certificate; not the model it describes), and every
 evaluation's ``results.json`` and ``per_plant.csv`` (without the controllers' JSON and the error text;
 a trial's rows of its agent only, the rules' and the oracle's being those of the baselines),
 then writes the summary from the copy with this checkout's code (``summary.{md,csv,json}`` and plots).
@@ -34,7 +36,7 @@ def copy(source: Path, target: Path) -> None:
     target.mkdir(parents=True, exist_ok=True)
     for name in ("sweep.yaml", "sessions.json"):
         shutil.copy2(source / name, target / name)
-    for path in sorted((source / "runs").glob("*/evaluations.json")):
+    for path in sorted((source / "runs").glob("*/evaluations.json")) + sorted((source / "runs").glob("*/learned_rule.json")):
         (target / "runs" / path.parent.name).mkdir(parents=True, exist_ok=True)
         shutil.copy2(path, target / "runs" / path.parent.name / path.name)
     for path in sorted((source / "eval").glob("*/*/per_plant.csv")):
