@@ -72,12 +72,13 @@ def run(args: argparse.Namespace) -> int:
     if args.behaviour < 0 or args.resamples <= 0:
         raise ValueError("--behaviour must be >= 0 and --resamples > 0")
     result = compare_regimes([Path(p) for p in args.sweeps], args.x, compare, args.behaviour, args.resamples)
+    text = markdown(result)  # before anything is written: the three files come from one result or none
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "regimes.json").write_text(json.dumps(result, indent=2) + "\n")
-    (out / "regimes.md").write_text(markdown(result))
+    (out / "regimes.md").write_text(text)
     plot(result, out / "regimes.png")
-    print(markdown(result))
+    print(text)
     print(f"wrote {out / 'regimes.md'} (and .json, .png)", file=sys.stderr)
     return 0
 
@@ -261,7 +262,7 @@ def _label(regime: dict[str, Any]) -> str:
 def markdown(result: dict[str, Any]) -> str:
     """``regimes.md``: the regimes' table, every policy's mean cost per regime, and the behaviour."""
     regimes = result["regimes"]
-    agents = list(regimes[0]["agents_to_rules"])
+    agents = list(dict.fromkeys(label for r in regimes for label in r["agents_to_rules"]))  # a group may miss a regime
     compare = regimes[0].get("differences", [])
     head = ["regime", "env", "oracle", "best rule", *agents]
     head += [f"{d['first']} - {d['second']}" for d in compare]
@@ -271,13 +272,13 @@ def markdown(result: dict[str, Any]) -> str:
     for r in regimes:
         costs = r["mean_cost"]
         cells = [_label(r), r["env"], _cell(costs["oracle"]), f"`{r['best_rule']}` {_cell(costs[r['best_rule']])}"]
-        cells += [_cell(costs[label]) for label in agents]
+        cells += [_cell(costs[label]) if label in costs else "-" for label in agents]
         cells += [_cell(d["estimate"]) for d in r.get("differences", [])]
-        cells += [_cell(r["agents_to_rules"][label]["best_rule"]) for label in agents]
-        for label in agents:
-            found = r["agents_to_rules"][label]
-            cells.append("yes" if found["beats_every_rule"] else
-                         f"no (`{found['least_beaten_rule']}`: {_cell(found['least_beaten_difference'])})")
+        found = r["agents_to_rules"]
+        cells += [_cell(found[label]["best_rule"]) if label in found else "-" for label in agents]
+        cells += ["-" if label not in found else "yes" if found[label]["beats_every_rule"] else
+                  f"no (`{found[label]['least_beaten_rule']}`: {_cell(found[label]['least_beaten_difference'])})"
+                  for label in agents]
         lines.append("| " + " | ".join(cells) + " |")
     names = sorted({name for r in regimes for name in r["mean_cost"]}, key=lambda n: regimes[0]["mean_cost"].get(n, [0])[0])
     lines += ["", "## Every policy's mean cost", "", "| policy | " + " | ".join(_label(r) for r in regimes) + " |",

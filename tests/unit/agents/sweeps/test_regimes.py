@@ -153,6 +153,27 @@ def test_a_directory_that_is_no_sweep_is_named(tmp_path: Path) -> None:
     assert status == 2 and "not the output directory of a sweep" in err
 
 
+def test_a_group_present_in_some_regimes_only_gets_dashes_elsewhere(tmp_path: Path) -> None:
+    """A follow-up group run in one regime only: its columns are '-' in the others, not an error."""
+    import shutil
+
+    from agents.sweeps.regimes import markdown
+
+    first = _sweep(tmp_path, 0.1, 0.0)
+    other = _sweep(tmp_path, 0.01, 0.0)
+    follow = tmp_path / "follow"
+    shutil.copytree(first, follow)
+    env = follow / "eval" / "FPPI-v2"
+    for seed in range(3):
+        shutil.rmtree(env / f"fixed-FPPI-v2-s{seed}")
+        (env / f"chooser-FPPI-v2-s{seed}").rename(env / f"longer-FPPI-v2-s{seed}")
+    (follow / "sweep.yaml").write_text((first / "sweep.yaml").read_text().replace("name: n0.1", "name: follow"))
+    text = markdown(compare_regimes([other, first, follow], "noise_std", ("chooser", "fixed"), resamples=100))
+    rows = [line for line in text.splitlines() if line.startswith("| noise_std=")][:2]
+    assert "longer" in text.splitlines()[4] and len(rows) == 2
+    assert sum(" - |" in row for row in rows) == 1
+
+
 def test_sweeps_of_one_regime_are_merged(tmp_path: Path) -> None:
     """A follow-up sweep in the same regime adds its agent groups beside the first's (same rules);
     the paired difference compares groups of the two sweeps."""
