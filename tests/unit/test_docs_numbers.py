@@ -78,6 +78,25 @@ def test_the_results_tables_are_the_committed_sweep_summaries():
     assert all(any(q in summary for summary in summaries) for q in quoted), [q for q in quoted if not any(q in m for m in summaries)]
 
 
+def test_every_interval_of_the_v3_study_pages_is_committed():
+    """docs/agent_mode.md and docs/results.md, prose and tables: every ``value [low, high]`` is in a
+    committed ``sweeps/*/summary.md`` or ``sweeps/*/regimes.md``, as printed there (no rounding of
+    one's own); the pooled test violation rates of the certified groups are
+    ``tests/tools/certificate_check.py``'s."""
+    summaries = _committed()
+    for page in ("agent_mode.md", "results.md"):
+        quoted = re.findall(INTERVAL, (DOCS / page).read_text())
+        assert len(quoted) >= 15, page
+        assert all(any(q in summary for summary in summaries) for q in quoted), [q for q in quoted if not any(q in m for m in summaries)]
+    spec = importlib.util.spec_from_file_location("certificate_check", REPO / "tests" / "tools" / "certificate_check.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    rates = [row.split(" | ")[6] for row in module.table([REPO / "sweeps" / "certified_noise10_time",
+                                                          REPO / "sweeps" / "certified_noise10_production"]).splitlines()[2:]]
+    page = (DOCS / "agent_mode.md").read_text()
+    assert len(rates) == 6 and all(rate in page for rate in rates), rates
+
+
 def test_the_readme_headline_table_is_the_committed_regimes():
     """README "Results": the table is ``tests/tools/headline_table.py``'s output for the committed
     ``sweeps/agent_mode/regimes.json``, and each of its intervals is in the committed ``regimes.md``."""
