@@ -29,6 +29,18 @@ def _number(x: float | None, digits: int = 3) -> str:
     return f"{x:.{digits}g}" if abs(x) < 1000 else f"{x:.0f}"
 
 
+def _percent(x: float | None) -> str:
+    """A share as a percentage with one decimal (violation and failure rates, as the sweep summaries
+    print them)."""
+    return "-" if x is None or not math.isfinite(x) else f"{100 * x:.1f}%"
+
+
+def _percent_with_interval(value: float, interval: list[float] | None) -> str:
+    if interval is None or not all(math.isfinite(v) for v in interval):
+        return _percent(value)
+    return f"{_percent(value)} [{_percent(interval[0])}, {_percent(interval[1])}]"
+
+
 def _with_interval(value: float, interval: list[float] | None) -> str:
     if interval is None or not all(math.isfinite(v) for v in interval):
         return _number(value)
@@ -48,7 +60,7 @@ def markdown_table(stats: list[PolicyStats], roles: dict[str, str]) -> str:
         lines.append(
             f"| {name} | {role} | {_with_interval(s.mean_cost, s.ci95.get('mean_cost'))} "
             f"| {_with_interval(s.median_cost, s.ci95.get('median_cost'))} "
-            f"| {_with_interval(s.violation_rate, s.ci95.get('violation_rate'))} | {_number(s.failure_rate)} "
+            f"| {_percent_with_interval(s.violation_rate, s.ci95.get('violation_rate'))} | {_percent(s.failure_rate)} "
             f"| {_number(s.experiment_time)} | {_with_interval(s.regret, s.ci95.get('regret'))} "
             f"| {_with_interval(s.gap_closure, s.ci95.get('gap_closure'))} |"
         )
@@ -124,6 +136,7 @@ def summary_table(result: dict[str, Any]) -> str:
         f"{'policy':24s} {'role':22s} {'mean':>8s} {'median':>8s} {'viol.':>6s} {'regret':>8s} {'gap cl.':>8s}",
     ]
     for p in result["policies"]:
-        cells = [_number(p[k]) for k in ("mean_cost", "median_cost", "violation_rate", "regret", "gap_closure")]
+        cells = [_number(p["mean_cost"]), _number(p["median_cost"]), _percent(p["violation_rate"]), _number(p["regret"]),
+                 _number(p["gap_closure"])]
         lines.append(f"{p['name']:24s} {p['role']:22s} {cells[0]:>8s} {cells[1]:>8s} {cells[2]:>6s} {cells[3]:>8s} {cells[4]:>8s}")
     return "\n".join(lines)
