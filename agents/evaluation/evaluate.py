@@ -135,7 +135,12 @@ def _given_plants(given: Any, structure: str) -> list[Any]:
     if len(given) > MAX_TEST_PLANTS:
         raise ValueError(f"--plants must hold at most {MAX_TEST_PLANTS} plants (the documented limit, agents/limits.py), "
                          f"got {len(given)}")
-    plants = [as_plant(value, f"--plants[{i}]") for i, value in enumerate(given)]
+    plants = []
+    for i, value in enumerate(given):
+        try:
+            plants.append(as_plant(value, f"--plants[{i}]"))
+        except ValueError as error:
+            raise ValueError(f"--plants[{i}]: {error}" if not str(error).startswith("--plants[") else str(error)) from None
     for i, plant in enumerate(plants):
         if plant.integrating != (structure == "msp"):
             kind = "integrating" if structure == "msp" else "self-regulating"

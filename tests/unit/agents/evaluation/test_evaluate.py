@@ -250,8 +250,12 @@ def test_plants_file_is_the_test_set_and_no_plots_says_so(capsys, tmp_path):
         ('{"num": [1]}', "deadtime evaluate: error: --plants must be a non-empty JSON list of plants, got dict"),
         ('[{"num": [1], "den": [1, 0], "delay": 1}]',
          "deadtime evaluate: error: --plants[0] must be a self-regulating plant for this environment"),
+        ('[{"num": [1], "den": [10, 1], "delay": 5}, {"num": [1], "den": [-10, 1], "delay": 5}]',
+         "deadtime evaluate: error: --plants[1]: plant.den has an unstable pole at s=0.1: the plant must be stable or "
+         "integrating"),
+        ('[{"num": [1], "den": [10, 1]}]', "deadtime evaluate: error: --plants[0]: plant is missing key 'delay'"),
     ],
-    ids=["missing-file", "not-a-list", "wrong-kind"],
+    ids=["missing-file", "not-a-list", "wrong-kind", "unstable-second", "missing-key"],
 )
 def test_bad_plants_are_one_line_and_exit_2(capsys, tmp_path, plants, line):
     code = main(["evaluate", "--env", "DeadTime/PID-v0", "--policies", "simc-pi", "--plants", plants, "--out", str(tmp_path)])
