@@ -474,7 +474,7 @@ def _roles(shown: list[str], agents: dict[str, str], best_rule: str, listed_rule
     roles = {name: "rule" for name in shown}
     roles.update(agents)
     roles.update({name: name for name in ("oracle", "oracle-full") if name in shown})
-    roles[best_rule] = "best rule" if best_rule in listed_rules else "best rule (reference)"
+    roles[best_rule] = "best rule of the structure" if best_rule in listed_rules else "best rule of the structure (reference)"
     return roles
 
 

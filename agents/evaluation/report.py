@@ -132,11 +132,11 @@ def write_tables(
 def summary_table(result: dict[str, Any]) -> str:
     """A compact plain-text table of ``results.json`` (all plants) for the terminal."""
     lines = [
-        f"{result['env']}: {result.get('plants', result['n'])} plants, seed {result['seed']}, best rule {result.get('best_rule')}",
-        f"{'policy':24s} {'role':22s} {'mean':>8s} {'median':>8s} {'viol.':>6s} {'regret':>8s} {'gap cl.':>8s}",
+        f"{result['env']}: {result.get('plants', result['n'])} plants, seed {result['seed']}, best rule of the structure {result.get('best_rule')}",
+        f"{'policy':24s} {'role':28s} {'mean':>8s} {'median':>8s} {'viol.':>6s} {'regret':>8s} {'gap cl.':>8s}",
     ]
     for p in result["policies"]:
         cells = [_number(p["mean_cost"]), _number(p["median_cost"]), _percent(p["violation_rate"]), _number(p["regret"]),
                  _number(p["gap_closure"])]
-        lines.append(f"{p['name']:24s} {p['role']:22s} {cells[0]:>8s} {cells[1]:>8s} {cells[2]:>6s} {cells[3]:>8s} {cells[4]:>8s}")
+        lines.append(f"{p['name']:24s} {p['role']:28s} {cells[0]:>8s} {cells[1]:>8s} {cells[2]:>6s} {cells[3]:>8s} {cells[4]:>8s}")
     return "\n".join(lines)
