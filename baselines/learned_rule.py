@@ -65,7 +65,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["MODEL_KINDS", "QUANTILE", "LearnedRule", "Selection", "Validated", "fit_regression", "select",
-           "violation_bound"]
+           "kind_confidence", "violation_bound"]
 
 MODEL_KINDS: tuple[str, ...] = ("ridge-quadratic", "boosting", "quantile-boosting")
 """The regressions of :func:`fit_regression` (module docstring, "Model kinds")."""
@@ -267,6 +267,12 @@ class Selection:
     is_certified: bool | None = None
 
 
+def kind_confidence(confidence: float, kinds: int) -> float:
+    """The confidence at which each of ``kinds`` model kinds is tested so that all hold together with
+    ``confidence`` (Bonferroni)."""
+    return 1.0 - (1.0 - confidence) / kinds
+
+
 def _certified(violations: Sequence[int], margins: Sequence[float], plants: int, target: float, confidence: float) -> list[bool]:
     """Fixed-sequence testing of one kind's margins, from the largest down (module docstring)."""
     certified = [False] * len(margins)
@@ -329,7 +335,7 @@ def select(
     candidates = [(position, i) for position in range(len(rules)) for i in range(len(margins))]
     certified: dict[str, tuple[bool, ...]] = {}
     if violation_target is not None:
-        level = 1.0 - (1.0 - confidence) / len(rules)
+        level = kind_confidence(confidence, len(rules))
         certified = {kind: tuple(_certified(violations[kind], margins, n, violation_target, level)) for kind in kinds}
         passed = [(p, i) for p, i in candidates if certified[kinds[p]][i]]
         if not passed:

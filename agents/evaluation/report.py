@@ -35,16 +35,10 @@ def _percent(x: float | None) -> str:
     return "-" if x is None or not math.isfinite(x) else f"{100 * x:.1f}%"
 
 
-def _percent_with_interval(value: float, interval: list[float] | None) -> str:
+def _with_interval(value: float, interval: list[float] | None, cell=_number) -> str:
     if interval is None or not all(math.isfinite(v) for v in interval):
-        return _percent(value)
-    return f"{_percent(value)} [{_percent(interval[0])}, {_percent(interval[1])}]"
-
-
-def _with_interval(value: float, interval: list[float] | None) -> str:
-    if interval is None or not all(math.isfinite(v) for v in interval):
-        return _number(value)
-    return f"{_number(value)} [{_number(interval[0])}, {_number(interval[1])}]"
+        return cell(value)
+    return f"{cell(value)} [{cell(interval[0])}, {cell(interval[1])}]"
 
 
 def markdown_table(stats: list[PolicyStats], roles: dict[str, str]) -> str:
@@ -60,7 +54,7 @@ def markdown_table(stats: list[PolicyStats], roles: dict[str, str]) -> str:
         lines.append(
             f"| {name} | {role} | {_with_interval(s.mean_cost, s.ci95.get('mean_cost'))} "
             f"| {_with_interval(s.median_cost, s.ci95.get('median_cost'))} "
-            f"| {_percent_with_interval(s.violation_rate, s.ci95.get('violation_rate'))} | {_percent(s.failure_rate)} "
+            f"| {_with_interval(s.violation_rate, s.ci95.get('violation_rate'), _percent)} | {_percent(s.failure_rate)} "
             f"| {_number(s.experiment_time)} | {_with_interval(s.regret, s.ci95.get('regret'))} "
             f"| {_with_interval(s.gap_closure, s.ci95.get('gap_closure'))} |"
         )

@@ -331,13 +331,13 @@ def _write_outputs(config: LearnedRuleConfig, run_dir: Path, selection: Any, val
 
 def _certification(selection: Any) -> dict[str, Any] | None:
     """The manifest's record of the violation certificate (None without a target)."""
-    from baselines.learned_rule import violation_bound
+    from baselines.learned_rule import kind_confidence, violation_bound
 
     if selection.violation_target is None:
         return None
     rule = selection.rule
     violations = selection.violations[rule.kind][selection.margins.index(rule.margin)]
-    level = 1.0 - (1.0 - selection.confidence) / len(selection.costs)  # Bonferroni over the kinds, as select tests
+    level = kind_confidence(selection.confidence, len(selection.costs))  # as select tested each kind
     return {"violation_target": selection.violation_target, "confidence": selection.confidence,
             "method": "learn-then-test, fixed sequence from the largest margin, Bonferroni over kinds",
             "certified": selection.is_certified, "violations": violations, "plants": selection.plants,

@@ -153,14 +153,11 @@ def test_a_directory_that_is_no_sweep_is_named(tmp_path: Path) -> None:
     assert status == 2 and "not the output directory of a sweep" in err
 
 
-def test_a_group_present_in_some_regimes_only_gets_dashes_elsewhere(tmp_path: Path) -> None:
-    """A follow-up group run in one regime only: its columns are '-' in the others, not an error."""
+def _follow_up(first: Path, tmp_path: Path) -> tuple[Path, Path]:
+    """A follow-up sweep ``follow`` of ``first``'s regime whose only group is ``longer`` (``first``'s
+    ``chooser`` renamed), and its environment's evaluation folder."""
     import shutil
 
-    from agents.sweeps.regimes import markdown
-
-    first = _sweep(tmp_path, 0.1, 0.0)
-    other = _sweep(tmp_path, 0.01, 0.0)
     follow = tmp_path / "follow"
     shutil.copytree(first, follow)
     env = follow / "eval" / "FPPI-v2"
@@ -168,6 +165,16 @@ def test_a_group_present_in_some_regimes_only_gets_dashes_elsewhere(tmp_path: Pa
         shutil.rmtree(env / f"fixed-FPPI-v2-s{seed}")
         (env / f"chooser-FPPI-v2-s{seed}").rename(env / f"longer-FPPI-v2-s{seed}")
     (follow / "sweep.yaml").write_text((first / "sweep.yaml").read_text().replace("name: n0.1", "name: follow"))
+    return follow, env
+
+
+def test_a_group_present_in_some_regimes_only_gets_dashes_elsewhere(tmp_path: Path) -> None:
+    """A follow-up group run in one regime only: its columns are '-' in the others, not an error."""
+    from agents.sweeps.regimes import markdown
+
+    first = _sweep(tmp_path, 0.1, 0.0)
+    other = _sweep(tmp_path, 0.01, 0.0)
+    follow, env = _follow_up(first, tmp_path)
     text = markdown(compare_regimes([other, first, follow], "noise_std", ("chooser", "fixed"), resamples=100))
     rows = [line for line in text.splitlines() if line.startswith("| noise_std=")][:2]
     assert "longer" in text.splitlines()[4] and len(rows) == 2
@@ -177,16 +184,8 @@ def test_a_group_present_in_some_regimes_only_gets_dashes_elsewhere(tmp_path: Pa
 def test_sweeps_of_one_regime_are_merged(tmp_path: Path) -> None:
     """A follow-up sweep in the same regime adds its agent groups beside the first's (same rules);
     the paired difference compares groups of the two sweeps."""
-    import shutil
-
     first = _sweep(tmp_path, 0.1, 0.0)
-    follow = tmp_path / "follow"
-    shutil.copytree(first, follow)
-    env = follow / "eval" / "FPPI-v2"
-    for seed in range(3):
-        shutil.rmtree(env / f"fixed-FPPI-v2-s{seed}")
-        (env / f"chooser-FPPI-v2-s{seed}").rename(env / f"longer-FPPI-v2-s{seed}")
-    (follow / "sweep.yaml").write_text((first / "sweep.yaml").read_text().replace("name: n0.1", "name: follow"))
+    follow, env = _follow_up(first, tmp_path)
     result = compare_regimes([first, follow], "noise_std", ("longer", "fixed"), resamples=100)
     [regime] = result["regimes"]
     assert regime["sweep"] == "n0.1 + follow" and set(regime["agents_to_rules"]) == {"fixed", "chooser", "longer"}
