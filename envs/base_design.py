@@ -43,7 +43,10 @@ model, and the design solves for the parameter (:func:`robustness_parameter`, th
 (their loops checked on the SOPDT model), the delay margin in ``L_n`` for the MSP (on the
 two-parameter model; its ``Ms`` is not monotone in ``T_r``).  ``a = +1`` is the most robust target.
 A target the parameter range cannot meet gives the range's least aggressive end; one met even at
-its aggressive end gives that end.
+its aggressive end gives that end.  The inverse (:func:`robustness_action`, the action of a given
+parameter, as the learned rule's labels need) is the target equal to the figure of that parameter's
+own model loop: where the figure is monotone in the parameter, ``robustness_parameter`` of it gives
+the parameter back; where it is not, the least aggressive parameter of the same figure.
 
 Design features
 ---------------
@@ -65,7 +68,7 @@ from __future__ import annotations
 import math
 
 from envs.analysis.loop_analysis import plant_margins
-from envs.analysis.matching import match_parameter
+from envs.analysis.matching import loop_figure, match_parameter
 from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.identification.models import IntegratingModel
 from envs.identification.procedure import Identification
@@ -83,6 +86,7 @@ __all__ = [
     "fppi_time_constant",
     "residual_parameter",
     "residual_action",
+    "robustness_action",
     "robustness_parameter",
     "robustness_target",
 ]
@@ -204,21 +208,43 @@ def robustness_target(structure: str, action: float) -> float:
     return aggressive * (robust / aggressive) ** ((a + 1.0) / 2.0)
 
 
+def _robustness_loop(structure: str, identification: Identification):
+    """``(design model, model the loop is closed around, scale of the relative parameter, figure's unit)``."""
+    model = {"pid": identification.sopdt, "fppi": identification.fopdt, "msp": identification.integrating_model}[structure]
+    loop_model = identification.integrating_model if structure == "msp" else identification.sopdt
+    unit = model.dead_time if ROBUSTNESS_TARGETS[structure][0] == "delay_margin" else 1.0
+    return model, loop_model, relative_scale(structure, model), unit
+
+
 def robustness_parameter(structure: str, identification: Identification, action: float) -> float:
     """The relative parameter whose loop on the identified model meets :func:`robustness_target`."""
     figure = ROBUSTNESS_TARGETS[structure][0]
-    model = {"pid": identification.sopdt, "fppi": identification.fopdt, "msp": identification.integrating_model}[structure]
-    loop_model = identification.integrating_model if structure == "msp" else identification.sopdt
-    scale = relative_scale(structure, model)
+    model, loop_model, scale, unit = _robustness_loop(structure, identification)
     low, high = PARAMETER_RANGES[structure]
     try:
         found = match_parameter(
             lambda p: design(structure, model, p), loop_model.plant(), figure, robustness_target(structure, action),
-            (low * scale, high * scale), scale=model.dead_time if figure == "delay_margin" else 1.0,
+            (low * scale, high * scale), scale=unit,
         )
     except ValueError:  # missed even at the least aggressive end: the most robust design there is
         return high
     return _clip_to_range(structure, found.parameter / scale)
+
+
+def robustness_action(structure: str, identification: Identification, parameter: float) -> float:
+    """The robustness action whose target is the figure of ``parameter``'s model loop, clipped to ``[-1, 1]``.
+
+    ``a = 2 log(figure/aggressive)/log(robust/aggressive) - 1``, the inverse of
+    :func:`robustness_target`; an unstable model loop (``Ms`` infinite, delay margin 0) is the
+    aggressive end ``-1``.
+    """
+    figure, aggressive, robust = ROBUSTNESS_TARGETS[structure]
+    model, loop_model, scale, unit = _robustness_loop(structure, identification)
+    relative = _clip_to_range(structure, require_number(parameter, "parameter", positive=True))
+    value = loop_figure(loop_model.plant(), design(structure, model, relative * scale), figure, unit)
+    if not (math.isfinite(value) and value > 0):
+        return -1.0
+    return min(max(2.0 * math.log(value / aggressive) / math.log(robust / aggressive) - 1.0, -1.0), 1.0)
 
 
 def check_model(structure: str, identification: Identification):

@@ -23,6 +23,7 @@ from envs.base_design import (
     design_features,
     residual_action,
     residual_parameter,
+    robustness_action,
     robustness_parameter,
 )
 from envs.design import PARAMETER_RANGES, design, relative_scale
@@ -245,9 +246,10 @@ class DeadTimeTuningEnv(gym.Env):
         return math.exp(low + 0.5 * (a + 1.0) * (high - low))
 
     def action_from_parameter(self, parameter: float) -> float:
-        """Inverse of :meth:`parameter_from_action` (clipped to [-1, 1]); not defined for the robustness action."""
+        """Inverse of :meth:`parameter_from_action` (clipped to [-1, 1]); for the robustness action, the
+        target equal to the parameter's own model-loop figure (:func:`envs.base_design.robustness_action`)."""
         if self.action_coordinates == "robustness":
-            raise ValueError("action_from_parameter: the robustness action has no closed-form inverse (the model's figure need not be monotone)")
+            return robustness_action(self.structure, self._identified(), parameter)
         if self.action_coordinates == "residual":
             return residual_action(self.structure, self.base_parameter(), parameter)
         low, high = (math.log(v) for v in self.parameter_range)

@@ -102,8 +102,9 @@ def run_directory(config: LearnedRuleConfig) -> Path:
 
 # ----------------------------------------------------------------------------------- labels
 def _direction(unwrapped: Any, low: float, high: float) -> float:
-    """``+1`` if the parameter grows with the action in this episode, else ``-1``."""
-    return 1.0 if unwrapped.parameter_from_action(high) > unwrapped.parameter_from_action(low) else -1.0
+    """``+1`` if the parameter grows with the action in this episode, ``-1`` if it falls, ``0`` if both ends
+    of the action give the same parameter (the robustness action where no target is met in the range)."""
+    return float(np.sign(unwrapped.parameter_from_action(high) - unwrapped.parameter_from_action(low)))
 
 
 def _label(env: Any, seed: int, index: int) -> dict[str, Any]:
@@ -180,7 +181,7 @@ def _labels_kept(config: LearnedRuleConfig, run_dir: Path) -> int:
 
 # ----------------------------------------------------------------------------------- the fit
 def _directions(records: list[dict[str, Any]]) -> float:
-    found = {record["direction"] for record in records}
+    found = {record["direction"] for record in records} - {0.0}
     if len(found) != 1:
         raise ValueError("the environment's conservative direction of the action (from parameter_from_action) changes "
                          "between episodes; the learned rule's margin needs one direction")

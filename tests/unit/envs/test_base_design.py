@@ -136,8 +136,40 @@ def test_robustness_action_meets_its_target_on_the_model():
                 controller = design("fppi", found.fopdt, p * found.fopdt.time_constant)
                 assert loop_figure(found.sopdt.plant(), controller, "ms") == pytest.approx(target, abs=1e-3)
         assert parameters == sorted(parameters)
-    with pytest.raises(ValueError, match="the robustness action has no closed-form inverse"):
-        env.action_from_parameter(1.0)
+
+
+@pytest.mark.parametrize("structure", list(V1))
+def test_robustness_action_inverts_the_robustness_parameter(structure):
+    """action_from_parameter(p) is the target of p's own model-loop figure: the parameter it gives back has
+    that figure (to the root find's 1e-12 in log p, so 1e-6 relative is loose) and is the least aggressive
+    such parameter (>= p); a parameter whose model loop is unstable is the aggressive end -1."""
+    from envs.analysis.matching import loop_figure
+    from envs.base_design import ROBUSTNESS_TARGETS, _robustness_loop
+
+    env = gym.make(V1[structure], action="robustness").unwrapped
+    name = structure
+    figure = ROBUSTNESS_TARGETS[name][0]
+    low, high = PARAMETER_RANGES[name]
+    checked = 0
+    for seed in range(4):
+        env.reset(seed=seed)
+        model, loop_model, scale, unit = _robustness_loop(name, env.identification)
+
+        def value(p):
+            return loop_figure(loop_model.plant(), design(name, model, p * scale), figure, unit)
+
+        for p in np.geomspace(low, high, 9)[1:-1]:
+            a = env.action_from_parameter(p)
+            assert -1.0 <= a <= 1.0
+            if not math.isfinite(value(p)) or value(p) == 0:
+                assert a == -1.0
+            elif -1.0 < a < 1.0:
+                back = env.parameter_from_action(a)
+                assert back >= p * (1 - 1e-9)
+                if low < back < high:
+                    assert value(back) == pytest.approx(value(p), rel=1e-6)
+                    checked += 1
+    assert checked >= 8
 
 
 @pytest.mark.parametrize("structure", list(V1))
