@@ -197,9 +197,9 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
 
     Per episode: the experiments the agent chose (its steps before the commit), those the commit
     completed (the fixed procedure's: at the commit's amplitude with ``design_step``, else 1 or the
-    limit), the agent's amplitudes and the commit's, the
-    experiment time and deviation in true ``T_ar`` and the design action; averaged over the
-    episodes of every seed, with the spread of the per-seed means.
+    limit), the agent's amplitudes and the commit's, the plan's two amplitudes (the plan mode's first
+    step, or the fixed mode's ``plan``), the experiment time and deviation in true ``T_ar`` and the
+    design action; averaged over the episodes of every seed, with the spread of the per-seed means.
     """
     from agents.environments import make_env
     from agents.training.learned_rule_policy import is_learned_rule, load_learned_rule
@@ -208,18 +208,25 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
 
     chosen: Counter = Counter()
     amplitudes, commit_amplitudes, per_seed_counts, per_seed_time, actions, deviations, completed = [], [], [], [], [], [], []
+    plans = []
     for path in runs:
         policy = load_learned_rule(path) if is_learned_rule(path) else load_policy(path)
         env = make_env(policy.env_id, {**dict(policy.env_kwargs or {}), **env_kwargs})
         counts, times = [], []
         for index, plant in enumerate(plant_set(env.unwrapped.family, "validation", plants)):
             observation, _ = env.reset(seed=index, options={"plant": plant})
+            if env.unwrapped.plan is not None:  # the fixed mode with a plan: the same amplitudes on every plant
+                plans.append(env.unwrapped.plan)
             steps = 0
             while True:
                 action, _ = policy.predict(observation, deterministic=True)
                 observation, _, terminated, _, info = env.step(action)
+                if "amplitudes" in info:  # plan mode's first step: the plan the agent chose for this plant
+                    plans.append(info["amplitudes"])
                 if terminated:
                     break
+                if "amplitudes" in info:
+                    continue
                 if "experiment" not in info:  # design_step: the commit completed the identification
                     commit_amplitudes.append(info["amplitude"])
                     continue
@@ -247,6 +254,8 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
         "experiment_time_range": [min(per_seed_time), max(per_seed_time)],
         "experiment_deviation": float(np.nanmean(deviations)) if np.isfinite(deviations).any() else None,
         "design_action_quartiles": [float(q) for q in np.quantile(actions, [0.25, 0.5, 0.75])],
+        "plan_amplitude_quartiles": ([[float(q) for q in np.quantile(column, [0.25, 0.5, 0.75])] for column in np.asarray(plans).T]
+                                     if plans else []),
     }
 
 
@@ -288,18 +297,19 @@ def markdown(result: dict[str, Any]) -> str:
     if any("behaviour" in r for r in regimes):
         lines += ["", "## What the agents do (validation plants)", "",
                   "| regime | agents | experiments chosen (seed range) | completed by the commit | share of the chosen | "
-                  "amplitude quartiles | commit's amplitude quartiles | experiment time T_ar (seed range) | D_exp/T_ar | "
-                  "design action quartiles |",
-                  "|---|---|---|---|---|---|---|---|---|---|"]
+                  "amplitude quartiles | commit's amplitude quartiles | plan's amplitude quartiles (closed-loop step; second) | "
+                  "experiment time T_ar (seed range) | D_exp/T_ar | design action quartiles |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in regimes:
             for label, b in r.get("behaviour", {}).items():
                 share = ", ".join(f"{k} {v:.0%}" for k, v in b["share_of_chosen"].items()) or "-"
                 amplitude = ", ".join(f"{v:.2g}" for v in b["amplitude_quartiles"]) or "-"
                 commit = ", ".join(f"{v:.2g}" for v in b["commit_amplitude_quartiles"]) or "-"
+                plan = "; ".join(", ".join(f"{v:.2g}" for v in q) for q in b.get("plan_amplitude_quartiles", [])) or "-"
                 deviation = "-" if b["experiment_deviation"] is None else f"{b['experiment_deviation']:.2f}"
                 lines.append(
                     f"| {_label(r)} | {label} | {b['experiments_chosen']:.2f} ({b['experiments_chosen_range'][0]:.2f}-"
-                    f"{b['experiments_chosen_range'][1]:.2f}) | {b['experiments_completed_by_commit']:.2f} | {share} | {amplitude} | {commit} | "
+                    f"{b['experiments_chosen_range'][1]:.2f}) | {b['experiments_completed_by_commit']:.2f} | {share} | {amplitude} | {commit} | {plan} | "
                     f"{b['experiment_time']:.1f} ({b['experiment_time_range'][0]:.1f}-{b['experiment_time_range'][1]:.1f}) | "
                     f"{deviation} | {', '.join(f'{v:+.2f}' for v in b['design_action_quartiles'])} |")
     return "\n".join(lines) + "\n"

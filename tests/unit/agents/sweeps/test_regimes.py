@@ -115,6 +115,33 @@ def test_behaviour_of_a_learned_rule_on_a_plan(tmp_path: Path) -> None:
     assert found["share_of_chosen"] == {} and found["amplitude_quartiles"] == []
     rule = load_learned_rule(run_dir)
     assert found["design_action_quartiles"][0] >= float(rule.rule.low) and found["seeds"] == 1
+    assert found["plan_amplitude_quartiles"] == [[0.3, 0.3, 0.3], [3.0, 3.0, 3.0]]
+
+
+class _Planner:
+    """Plan mode on MSP-v3: the plan (log scale over [0.1, 10]: a = -1 is 0.1, a = 0 is 1), then the design a = 0.25."""
+
+    env_id = "DeadTime/MSP-v3"
+    env_kwargs = {"experiments": "plan"}  # noqa: RUF012
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def predict(self, observation, deterministic=True):
+        self.calls += 1
+        return (np.array([0.0, -1.0, 0.0], dtype=np.float32) if self.calls % 2 else np.array([0.0, 0.0, 0.25], dtype=np.float32)), None
+
+
+def test_behaviour_of_a_plan_mode_agent(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The plan mode's first step is the plan (its amplitudes per plant), not a chosen experiment; the design
+    action is the last component of the second step."""
+    import agents.training.policies
+
+    monkeypatch.setattr(agents.training.policies, "load_policy", lambda path: _Planner())
+    found = behaviour([Path("a")], {"noise_std": 0.01}, plants=3)
+    assert found["experiments_chosen"] == 0.0 and found["experiments_completed_by_commit"] == 2.0
+    assert found["plan_amplitude_quartiles"] == [[pytest.approx(1.0)] * 3, [pytest.approx(0.1)] * 3]
+    assert found["design_action_quartiles"] == [0.25, 0.25, 0.25]
 
 
 def _run(*args: str) -> tuple[int, str, str]:
