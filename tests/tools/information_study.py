@@ -1,8 +1,8 @@
 """Information or learning?  The learned rule with the true plant's parameters against the observation alone.
 
-    python tests/tools/information_study.py RUN [N]
+    python tests/tools/information_study.py RUN... [--plants N] [--out FILE]
 
-``RUN`` is a learned-rule fit (``deadtime train --config configs/learned_plan.yaml ...``), whose cached
+Each ``RUN`` is a learned-rule fit (``deadtime train --config configs/learned_plan.yaml ...``), whose cached
 training labels (``dataset/``) are reused.  Two regressions of the oracle's action, the same quantile
 trees (``baselines.learned_rule.fit_regression``, ``quantile-boosting``, the fit's quantile and seed):
 
@@ -15,14 +15,21 @@ Each gets the fit's margins; the margin of least mean cost is chosen on the firs
 validation plants (default 600) and both are reported on the second half, with the oracle's cost on
 those plants.  If the privileged rule closes most of the gap to the oracle and the observed one
 cannot, the missing information is about the plant, not the learner.  The test plants are never drawn.
-Prints one Markdown table.
+
+Per run, the per-plant costs of the second half go to ``FILE`` (JSON; default ``information.json``),
+which a later call extends (a run already in it is not played again: interrupted, the study resumes).
+Prints per environment, over its runs (seeds): each rule's mean cost, ``privileged - observed``
+paired on the plants and the seeds (bootstrap 95% interval over both,
+:func:`agents.evaluation.seed_statistics.paired_difference` of the per-seed differences), and the share
+of the observed rule's gap to the oracle that the privileged rule closes.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
-import sys
+import os
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +43,8 @@ def privileged(plant) -> list[float]:
             dead_time / (dead_time + residence), second / residence**2]
 
 
-def main(run: Path, count: int = 600) -> str:
+def study(run: Path, count: int = 600) -> dict:
+    """One run's study: the chosen margins and the per-plant costs of the second half."""
     from agents.evaluation.oracle_info import oracle_info
     from agents.training.config import load_config
     from agents.training.learned_rule import check_environment
@@ -53,7 +61,7 @@ def main(run: Path, count: int = 600) -> str:
     plants = validation_plants(env, count)
     choose, report = plants[: count // 2], plants[count // 2:]
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
-    direction = records[0]["direction"]
+    direction = next(r["direction"] for r in records if r["direction"] != 0)
     models = {"observed": fit_regression("quantile-boosting", observations, actions, config.seed, config.quantile),
               "privileged": fit_regression("quantile-boosting", np.hstack([observations, extra]), actions, config.seed,
                                            config.quantile)}
@@ -69,20 +77,56 @@ def main(run: Path, count: int = 600) -> str:
     def play(name: str, margin: float, subset: list) -> object:
         return validate_policy(rule(name, margin), env, len(subset), subset)
 
-    lines = ["| rule | margin (chosen on the first half) | mean cost, second half | violations, second half |",
-             "|---|---|---|---|"]
+    found = {"env": config.env_id, "env_kwargs": dict(config.env_kwargs), "seed": config.seed, "plants": len(report)}
     for name in models:
         margin = min(config.margins, key=lambda m: (play(name, m, choose).mean_cost, -m))
         result = play(name, margin, report)
-        lines.append(f"| {name} | {margin:g} | {result.mean_cost:.3f} | {round(result.violation_rate * len(report))} "
-                     f"of {len(report)} |")
+        found[name] = {"margin": margin, "costs": list(result.costs), "violations": round(result.violation_rate * len(report))}
     oracle = []
     for k, plant in enumerate(report):  # validate_policy's episode seeds: VALIDATION_SEED + index in the subset
         env.reset(seed=VALIDATION_SEED + k, options={"plant": plant})
         oracle.append(oracle_info(env.unwrapped)["oracle_cost"])
-    lines.append(f"| oracle | - | {np.mean(oracle):.3f} | - |")
+    found["oracle"] = {"costs": oracle}
+    return found
+
+
+def table(results: dict[str, dict]) -> str:
+    """The Markdown table of the module docstring, one row per environment and regime."""
+    from agents.evaluation.seed_statistics import paired_difference
+
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for found in results.values():
+        groups.setdefault((found["env"], json.dumps(found["env_kwargs"], sort_keys=True)), []).append(found)
+    lines = ["| environment | seeds | plants | observed | privileged | oracle | privileged - observed [95%] | "
+             "gap to the oracle closed | violations observed, privileged |", "|---|---|---|---|---|---|---|---|---|"]
+    for (env, _), runs in sorted(groups.items()):
+        costs = {name: np.array([r[name]["costs"] for r in runs]) for name in ("observed", "privileged", "oracle")}
+        means = {name: float(c.mean()) for name, c in costs.items()}
+        difference = paired_difference(costs["privileged"] - costs["observed"], np.zeros((1, costs["oracle"].shape[1])))
+        closed = (means["observed"] - means["privileged"]) / (means["observed"] - means["oracle"])
+        lines.append(
+            f"| `{env}` | {len(runs)} | {costs['oracle'].shape[1]} | {means['observed']:.3f} | {means['privileged']:.3f} | "
+            f"{means['oracle']:.3f} | {difference[0]:.3g} [{difference[1]:.3g}, {difference[2]:.3g}] | {closed:.0%} | "
+            f"{sum(r['observed']['violations'] for r in runs)}, {sum(r['privileged']['violations'] for r in runs)} "
+            f"of {costs['oracle'].size} |")
     return "\n".join(lines)
 
 
+def main(argv: list[str] | None = None) -> str:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("runs", nargs="+", type=Path)
+    parser.add_argument("--plants", type=int, default=600)
+    parser.add_argument("--out", type=Path, default=Path("information.json"))
+    args = parser.parse_args(argv)
+    results = json.loads(args.out.read_text()) if args.out.is_file() else {}
+    for run in args.runs:
+        if run.name not in results:
+            results[run.name] = study(run, args.plants)
+            partial = args.out.with_suffix(".partial")
+            partial.write_text(json.dumps(results))
+            os.replace(partial, args.out)
+    return table({name: found for name, found in results.items() if name in {run.name for run in args.runs}})
+
+
 if __name__ == "__main__":
-    print(main(Path(sys.argv[1]), int(sys.argv[2]) if len(sys.argv) > 2 else 600))
+    print(main())
