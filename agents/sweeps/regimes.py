@@ -21,8 +21,10 @@ seeds) and environment.  Sweeps of the same regime are merged: their agent group
 * with ``--behaviour N``: what each agent group does, replayed on the first ``N`` validation plants
   (never the test plants) in its regime: the experiments it chooses and how many, their amplitudes,
   the experiments its commit completes, the experiment time and production deviation, and its design
-  action (the residual around the base rule).  A learned rule (``learned_rule.json``) is replayed as
-  an agent: in fixed mode it chooses no experiment, its plan (``env_kwargs.plan``) completes them.
+  action (in the action's coordinate); in plan mode, the two amplitudes it plans per plant.  A learned
+  rule (``learned_rule.json``) is replayed as an agent: in fixed mode it chooses no experiment, its
+  plan (``env_kwargs.plan``) completes them.  Groups whose runs are not on disk (a committed summary)
+  are left out of the behaviour.
 
 Writes ``regimes.md``, ``regimes.json`` and ``regimes.png`` (cost against ``--x`` per policy, one panel
 per value of the regimes' other arguments) into ``--out``.
@@ -184,7 +186,8 @@ def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = 
                              f"(groups: {', '.join(found['agents'])})")
         entry = _entry(found["rules"], found["agents"], compare, resamples)
         if plants:
-            entry["behaviour"] = {label: behaviour(group, found["env_kwargs"], plants) for label, group in found["runs"].items()}
+            entry["behaviour"] = {label: behaviour(group, found["env_kwargs"], plants) for label, group in found["runs"].items()
+                                  if all(path.is_dir() for path in group)}  # a committed summary keeps no runs to replay
         regimes.append({"sweep": " + ".join(found["sweeps"]), "env": env, "env_kwargs": found["env_kwargs"], **entry})
     regimes.sort(key=lambda r: (r["env"], json.dumps({k: v for k, v in r["env_kwargs"].items() if k != x}, sort_keys=True),
                                 r["env_kwargs"][x]))
