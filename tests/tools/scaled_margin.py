@@ -38,7 +38,7 @@ def main(run: Path, plants_count: int) -> None:
     env = check_environment(config)
     plants = validation_plants(env, plants_count)
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
-    direction = records[0]["direction"]
+    direction = next(r["direction"] for r in records if r["direction"] != 0)
     upper = fit_regression("quantile-boosting", observations, actions, config.seed, 0.9)
     lower = fit_regression("quantile-boosting", observations, actions, config.seed, 0.1)
     mean_spread = float(np.mean(np.maximum(upper.predict(observations) - lower.predict(observations), 1e-3)))
