@@ -187,7 +187,7 @@ def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = 
         entry = _entry(found["rules"], found["agents"], compare, resamples)
         if plants:
             entry["behaviour"] = {label: behaviour(group, found["env_kwargs"], plants) for label, group in found["runs"].items()
-                                  if all(path.is_dir() for path in group)}  # a committed summary keeps no runs to replay
+                                  if all(map(_replayable, group))}
         regimes.append({"sweep": " + ".join(found["sweeps"]), "env": env, "env_kwargs": found["env_kwargs"], **entry})
     regimes.sort(key=lambda r: (r["env"], json.dumps({k: v for k, v in r["env_kwargs"].items() if k != x}, sort_keys=True),
                                 r["env_kwargs"][x]))
@@ -195,6 +195,14 @@ def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = 
 
 
 # ------------------------------------------------------------------------------- behaviour
+REPLAYED = ("learned_rule.pkl", "best_model.zip", "model.zip")
+"""The model files of a run that :func:`behaviour` can replay (a committed summary keeps none)."""
+
+
+def _replayable(run: Path) -> bool:
+    return any((run / name).is_file() for name in REPLAYED)
+
+
 def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict[str, Any]:
     """What the agents of one group do on the first ``plants`` validation plants (episode seed = index).
 

@@ -219,3 +219,13 @@ def test_sweeps_of_one_regime_are_merged(tmp_path: Path) -> None:
     (env / "baselines" / "per_plant.csv").write_text((env / "baselines" / "per_plant.csv").read_text().replace("rule-a", "rule-c"))
     with pytest.raises(ValueError, match="rules' costs differ"):
         compare_regimes([first, follow], "noise_std")
+
+
+def test_groups_without_models_are_left_out_of_the_behaviour(tmp_path: Path) -> None:
+    """A committed summary keeps its runs' evaluations, not their models: nothing to replay, no error."""
+    sweeps = [_sweep(tmp_path, noise, 0.0) for noise in (0.01, 0.1)]
+    for sweep in sweeps:
+        for trial in (sweep / "eval").glob("*/*"):
+            (sweep / "runs" / trial.name).mkdir(parents=True, exist_ok=True)
+    result = compare_regimes(sweeps, "noise_std", (), plants=3, resamples=100)
+    assert [r["behaviour"] for r in result["regimes"]] == [{}, {}]
