@@ -307,10 +307,10 @@ def markdown(result: dict[str, Any]) -> str:
         lines.append(f"| {name} | " + " | ".join(f"{r['mean_cost'][name][0]:.3f}" if name in r["mean_cost"] else "-" for r in regimes) + " |")
     if any("behaviour" in r for r in regimes):
         lines += ["", "## What the agents do (validation plants)", "",
-                  "| regime | agents | experiments chosen (seed range) | completed by the commit | share of the chosen | "
+                  "| regime | env | agents | experiments chosen (seed range) | completed by the commit | share of the chosen | "
                   "amplitude quartiles | commit's amplitude quartiles | plan's amplitude quartiles (closed-loop step; second) | "
                   "experiment time T_ar (seed range) | D_exp/T_ar | design action quartiles |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in regimes:
             for label, b in r.get("behaviour", {}).items():
                 share = ", ".join(f"{k} {v:.0%}" for k, v in b["share_of_chosen"].items()) or "-"
@@ -319,7 +319,7 @@ def markdown(result: dict[str, Any]) -> str:
                 plan = "; ".join(", ".join(f"{v:.2g}" for v in q) for q in b.get("plan_amplitude_quartiles", [])) or "-"
                 deviation = "-" if b["experiment_deviation"] is None else f"{b['experiment_deviation']:.2f}"
                 lines.append(
-                    f"| {_label(r)} | {label} | {b['experiments_chosen']:.2f} ({b['experiments_chosen_range'][0]:.2f}-"
+                    f"| {_label(r)} | {r['env']} | {label} | {b['experiments_chosen']:.2f} ({b['experiments_chosen_range'][0]:.2f}-"
                     f"{b['experiments_chosen_range'][1]:.2f}) | {b['experiments_completed_by_commit']:.2f} | {share} | {amplitude} | {commit} | {plan} | "
                     f"{b['experiment_time']:.1f} ({b['experiment_time_range'][0]:.1f}-{b['experiment_time_range'][1]:.1f}) | "
                     f"{deviation} | {', '.join(f'{v:+.2f}' for v in b['design_action_quartiles'])} |")
