@@ -1,13 +1,17 @@
 """The headline table of README.md ("Results"), generated from the committed agent-mode study.
 
     python tests/tools/headline_table.py [sweeps/agent_mode/regimes.json]
+    python tests/tools/headline_table.py --rl [sweeps/rl_plan/regimes.json]
 
 prints the Markdown table: one row per regime of ``sweeps/agent_mode/regimes.json`` (written by
 ``deadtime regimes``), the structure, noise and production price, the oracle's and the best rule's
 mean cost, the learned plan's with its violation rate, and the same for the learned plan with a
 certified margin (``learned-plan-cert``) with its paired difference to the best rule.
+With ``--rl``, the two tables of the RL agent in plan mode from ``sweeps/rl_plan/regimes.json``
+(:func:`rl_plan_table`: its costs and paired differences; :func:`behaviour_table`: what it and the
+certified learned plan do on validation plants).
 Intervals are 95% bootstrap intervals as in ``regimes.md``, formatted the same way (3 significant
-digits).  ``tests/unit/test_docs_numbers.py`` holds the README's table equal to this output.
+digits).  ``tests/unit/test_docs_numbers.py`` holds the README's tables equal to this output.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import sys
 from pathlib import Path
 
 REGIMES = Path(__file__).resolve().parents[2] / "sweeps" / "agent_mode" / "regimes.json"
+RL_REGIMES = REGIMES.parents[1] / "rl_plan" / "regimes.json"
 STRUCTURES = ("PID", "FPPI", "MSP")
 HEADER = ("| structure | noise | production price | oracle | best rule | learned plan | its violations "
           "| certified learned plan | its violations | certified - best rule |")
@@ -27,16 +32,20 @@ def _cell(values: list[float]) -> str:
     return f"{values[0]:.3g} [{values[1]:.3g}, {values[2]:.3g}]"
 
 
+def _order(regime: dict) -> tuple:
+    kwargs = regime["env_kwargs"]
+    return (STRUCTURES.index(regime["env"].split("-")[0]), kwargs["noise_std"], kwargs["weights"]["production"])
+
+
+def _head(header: str) -> list[str]:
+    return [header, "|" + "---|" * header.count(" | ") + "---|"]
+
+
 def headline_table(path: Path = REGIMES) -> str:
     """The README's headline table, from a ``regimes.json``."""
     regimes = json.loads(path.read_text())["regimes"]
-
-    def order(regime: dict) -> tuple:
-        kwargs = regime["env_kwargs"]
-        return (STRUCTURES.index(regime["env"].split("-")[0]), kwargs["noise_std"], kwargs["weights"]["production"])
-
-    lines = [HEADER, "|" + "---|" * HEADER.count(" | ") + "---|"]
-    for regime in sorted(regimes, key=order):
+    lines = _head(HEADER)
+    for regime in sorted(regimes, key=_order):
         kwargs, best = regime["env_kwargs"], regime["best_rule"]
         costs = regime["mean_cost"]
         certified = regime["agents_to_rules"]["learned-plan-cert"]["best_rule"]
@@ -50,5 +59,55 @@ def headline_table(path: Path = REGIMES) -> str:
     return "\n".join(lines)
 
 
+RL_HEADER = ("| structure | noise | production price | best rule | `plan-best` | learned plan | SAC plan | its violations "
+             "| SAC plan - best rule | SAC plan - `plan-best` | SAC plan - `plan-1-1` | SAC plan - learned plan |")
+
+
+def rl_plan_table(path: Path = RL_REGIMES) -> str:
+    """SAC in plan mode (``sac-plan``) against the best rule, the best single plan, the fixed procedure and
+    the learned plan, one row per regime of a ``regimes.json`` made with ``--compare sac-plan,...``."""
+    lines = _head(RL_HEADER)
+    for regime in sorted(json.loads(path.read_text())["regimes"], key=_order):
+        kwargs, best, costs = regime["env_kwargs"], regime["best_rule"], regime["mean_cost"]
+        differences = {d["second"]: d["estimate"] for d in regime["differences"]}
+        lines.append(" | ".join((
+            f"| `{regime['env'].split('-')[0]}`", f"{100 * kwargs['noise_std']:g}%", f"{kwargs['weights']['production']:g}",
+            f"`{best}` {_cell(costs[best])}", _cell(costs["plan-best"]), _cell(costs["learned-plan"]), _cell(costs["sac-plan"]),
+            f"{100 * regime['violation_rate']['sac-plan']:.1f}%", _cell(regime["agents_to_rules"]["sac-plan"]["best_rule"]),
+            _cell(differences["plan-best"]), _cell(differences["plan-1-1"]), f"{_cell(differences['learned-plan'])} |",
+        )))
+    return "\n".join(lines)
+
+
+BEHAVIOUR_HEADER = ("| structure | noise | production price | policy | closed-loop step amplitude | second experiment amplitude "
+                    "| experiment time (`T_ar`) | design action |")
+BEHAVIOUR_NAMES = {"sac-plan": "SAC plan", "learned-plan-cert": "certified learned plan"}
+
+
+def behaviour_table(path: Path = RL_REGIMES) -> str:
+    """The plans and designs of SAC in plan mode and of the (certified) learned plan on 50 validation plants:
+    quartiles over seeds and plants, as ``deadtime regimes --behaviour`` records them."""
+    lines = _head(BEHAVIOUR_HEADER)
+
+    def quartiles(values: list[float]) -> str:
+        return ", ".join(f"{v:.2g}" for v in values)
+
+    for regime in sorted(json.loads(path.read_text())["regimes"], key=_order):
+        kwargs = regime["env_kwargs"]
+        for label, name in BEHAVIOUR_NAMES.items():
+            found = regime["behaviour"][label]
+            first, second = found["plan_amplitude_quartiles"]
+            lines.append(" | ".join((
+                f"| `{regime['env'].split('-')[0]}`", f"{100 * kwargs['noise_std']:g}%", f"{kwargs['weights']['production']:g}",
+                name, quartiles(first), quartiles(second), f"{found['experiment_time']:.1f}",
+                f"{', '.join(f'{v:+.2f}' for v in found['design_action_quartiles'])} |",
+            )))
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
-    print(headline_table(Path(sys.argv[1]) if len(sys.argv) > 1 else REGIMES))
+    if sys.argv[1:2] == ["--rl"]:
+        source = Path(sys.argv[2]) if len(sys.argv) > 2 else RL_REGIMES
+        print(rl_plan_table(source) + "\n\n" + behaviour_table(source))
+    else:
+        print(headline_table(Path(sys.argv[1]) if len(sys.argv) > 1 else REGIMES))
