@@ -21,7 +21,9 @@ which a later call extends (a run already in it is not played again: interrupted
 Prints per environment, over its runs (seeds): each rule's mean cost, ``privileged - observed``
 paired on the plants and the seeds (bootstrap 95% interval over both,
 :func:`agents.evaluation.seed_statistics.paired_difference` of the per-seed differences), and the share
-of the observed rule's gap to the oracle that the privileged rule closes.
+of the observed rule's gap to the oracle that the privileged rule closes; and each rule's gap split
+into its part on the episodes it designs within the constraints and its part on those it violates
+(cost ``>= VIOLATION_COST``), both per seed-plant pair, so that they add up to the gap.
 """
 
 from __future__ import annotations
@@ -90,6 +92,14 @@ def study(run: Path, count: int = 600) -> dict:
     return found
 
 
+def _split(costs: np.ndarray, oracle: np.ndarray) -> str:
+    """``a + b``: the mean excess over the oracle from the feasible episodes and from the violating ones."""
+    from agents.evaluation.seed_statistics import VIOLATION_COST
+
+    excess, violating = costs - oracle, costs >= VIOLATION_COST
+    return f"{np.where(violating, 0.0, excess).mean():.3f} + {np.where(violating, excess, 0.0).mean():.3f}"
+
+
 def table(results: dict[str, dict]) -> str:
     """The Markdown table of the module docstring, one row per environment and regime."""
     from agents.evaluation.seed_statistics import paired_difference
@@ -98,7 +108,8 @@ def table(results: dict[str, dict]) -> str:
     for found in results.values():
         groups.setdefault((found["env"], json.dumps(found["env_kwargs"], sort_keys=True)), []).append(found)
     lines = ["| environment | seeds | plants | observed | privileged | oracle | privileged - observed [95%] | "
-             "gap to the oracle closed | violations observed, privileged |", "|---|---|---|---|---|---|---|---|---|"]
+             "gap to the oracle closed | violations observed, privileged | gap observed: feasible + violating "
+             "| gap privileged: feasible + violating |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for (env, _), runs in sorted(groups.items()):
         costs = {name: np.array([r[name]["costs"] for r in runs]) for name in ("observed", "privileged", "oracle")}
         means = {name: float(c.mean()) for name, c in costs.items()}
@@ -108,7 +119,7 @@ def table(results: dict[str, dict]) -> str:
             f"| `{env}` | {len(runs)} | {costs['oracle'].shape[1]} | {means['observed']:.3f} | {means['privileged']:.3f} | "
             f"{means['oracle']:.3f} | {difference[0]:.3g} [{difference[1]:.3g}, {difference[2]:.3g}] | {closed:.0%} | "
             f"{sum(r['observed']['violations'] for r in runs)}, {sum(r['privileged']['violations'] for r in runs)} "
-            f"of {costs['oracle'].size} |")
+            f"of {costs['oracle'].size} | {_split(costs['observed'], costs['oracle'])} | {_split(costs['privileged'], costs['oracle'])} |")
     return "\n".join(lines)
 
 
