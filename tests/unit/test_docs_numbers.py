@@ -58,9 +58,25 @@ def test_the_tr_floors_are_those_of_the_code():
 
 
 def _committed() -> list[str]:
-    """The text of every committed ``sweeps/*/summary.md`` and ``sweeps/*/regimes.md``."""
+    """The text of every committed ``sweeps/*/summary.md``, ``sweeps/*/regimes.md`` and ``sweeps/*/information.md``."""
     sweeps = REPO / "sweeps"
-    return [path.read_text() for path in sorted(sweeps.glob("*/summary.md")) + sorted(sweeps.glob("*/regimes.md"))]
+    return [path.read_text() for name in ("summary.md", "regimes.md", "information.md") for path in sorted(sweeps.glob(f"*/{name}"))]
+
+
+def _tool(name: str):
+    """A module of ``tests/tools``."""
+    spec = importlib.util.spec_from_file_location(name, REPO / "tests" / "tools" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_information_table_is_its_per_plant_costs():
+    """``sweeps/fixed_mode_v3/information.md``: the table ``tests/tools/information_study.py`` makes of the
+    committed per-plant costs (``information.json``)."""
+    folder = REPO / "sweeps" / "fixed_mode_v3"
+    table = _tool("information_study").table(json.loads((folder / "information.json").read_text()))
+    assert table in _tables((folder / "information.md").read_text())
 
 
 def test_the_results_tables_are_the_committed_sweep_summaries():
