@@ -127,6 +127,19 @@ def test_the_readme_headline_table_is_the_committed_regimes():
     assert len(quoted) >= 48 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
 
 
+def test_the_readme_rl_tables_are_the_committed_regimes():
+    """README "Results": the RL agent's table and what it does are ``tests/tools/headline_table.py --rl``'s
+    output for the committed ``sweeps/rl_plan/regimes.json``; each interval is in a committed ``regimes.md``
+    or ``summary.md`` (the procedures' costs are in the sweeps' summaries)."""
+    module = _tool("headline_table")
+    results = _tables(README[README.index("## Results"):README.index("## Documentation")])
+    costs, behaviour = module.rl_plan_table(), module.behaviour_table()
+    assert costs in results and behaviour in results
+    committed = _committed()
+    quoted = re.findall(INTERVAL, costs)
+    assert len(quoted) >= 48 and all(any(q in text for text in committed) for q in quoted), quoted
+
+
 def _tables(text: str) -> list[str]:
     """The Markdown tables of ``text``: runs of consecutive lines that start with ``|``."""
     return ["\n".join(lines) for is_table, lines in itertools.groupby(text.splitlines(), lambda line: line.startswith("|"))
