@@ -61,7 +61,8 @@ from agents.training.learned_rule_config import MAX_TRAINING_PLANTS, LearnedRule
 if TYPE_CHECKING:
     from agents.training.train import TrainResult
 
-__all__ = ["CHUNK", "TRAINING_SEED", "certification_line", "check_environment", "fit", "run", "training_seed"]
+__all__ = ["CHUNK", "TRAINING_SEED", "cached_labels", "certification_line", "check_environment", "fit", "label_direction",
+           "run", "training_seed"]
 
 TRAINING_SEED = 10_000_000
 """Reset seed of training plant ``k`` of config seed ``s``: ``TRAINING_SEED + s * MAX_TRAINING_PLANTS + k``
@@ -180,7 +181,13 @@ def _labels_kept(config: LearnedRuleConfig, run_dir: Path) -> int:
 
 
 # ----------------------------------------------------------------------------------- the fit
-def _directions(records: list[dict[str, Any]]) -> float:
+def cached_labels(run_dir: Path) -> list[dict[str, Any]]:
+    """Every labelled training plant cached in a fit's ``dataset/``, in order (for analyses of a finished fit)."""
+    return [record for path in sorted((run_dir / "dataset").glob("training-*.json")) for record in json.loads(path.read_text())]
+
+
+def label_direction(records: list[dict[str, Any]]) -> float:
+    """The conservative direction of the action shared by the labelled episodes (those where it is defined)."""
     found = {record["direction"] for record in records} - {0.0}
     if len(found) != 1:
         raise ValueError("the environment's conservative direction of the action (from parameter_from_action) changes "
@@ -210,7 +217,7 @@ def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], 
     observations = np.array([record["observation"] for record in records])
     actions = np.array([record["action"] for record in records])
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
-    direction = _directions(records)
+    direction = label_direction(records)
     rules = [LearnedRule(kind, _Remembered(fit_regression(kind, observations, actions, config.seed, config.quantile)), 0.0,
                          direction, low, high, observations.shape[1]) for kind in config.models]
     plants = validation_plants(env, config.validation_plants)

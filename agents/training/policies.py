@@ -35,7 +35,7 @@ import numpy as np
 from agents.training.config import ALGORITHMS, TrainConfig, load_config
 from agents.training.manifest import verify_agent_files
 
-__all__ = ["LoadedPolicy", "load_policy", "resolve_model_path"]
+__all__ = ["MODEL_FILES", "LoadedPolicy", "load_policy", "resolve_model_path"]
 
 
 @dataclass(frozen=True)
@@ -84,11 +84,15 @@ class LoadedPolicy:
         return {} if self.config is None else dict(self.config.env_kwargs)
 
 
+MODEL_FILES = ("best_model.zip", "model.zip")
+"""The model files of a training run directory, in the order :func:`resolve_model_path` takes them."""
+
+
 def resolve_model_path(path: str | Path) -> Path:
     """The model file of a run directory (``best_model.zip``, else ``model.zip``) or of a ``.zip`` path."""
     path = Path(path)
     if path.is_dir():
-        found = next((path / name for name in ("best_model.zip", "model.zip") if (path / name).is_file()), None)
+        found = next((path / name for name in MODEL_FILES if (path / name).is_file()), None)
         if found is None:
             raise ValueError(f"{path} holds no best_model.zip or model.zip (is it a deadtime train run directory?)")
         path = found

@@ -49,13 +49,13 @@ def study(run: Path, count: int = 600) -> dict:
     """One run's study: the chosen margins and the per-plant costs of the second half."""
     from agents.evaluation.oracle_info import oracle_info
     from agents.training.config import load_config
-    from agents.training.learned_rule import check_environment
+    from agents.training.learned_rule import cached_labels, check_environment, label_direction
     from agents.training.validation import VALIDATION_SEED, validate_policy, validation_plants
     from baselines.learned_rule import fit_regression
     from envs.systems.plants import Plant
 
     config = load_config(run / "config.yaml")
-    records = [r for path in sorted((run / "dataset").glob("training-*.json")) for r in json.loads(path.read_text())]
+    records = cached_labels(run)
     observations = np.array([r["observation"] for r in records])
     extra = np.array([privileged(Plant.from_dict(r["plant"])) for r in records])
     actions = np.array([r["action"] for r in records])
@@ -63,7 +63,7 @@ def study(run: Path, count: int = 600) -> dict:
     plants = validation_plants(env, count)
     choose, report = plants[: count // 2], plants[count // 2:]
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
-    direction = next(r["direction"] for r in records if r["direction"] != 0)
+    direction = label_direction(records)
     models = {"observed": fit_regression("quantile-boosting", observations, actions, config.seed, config.quantile),
               "privileged": fit_regression("quantile-boosting", np.hstack([observations, extra]), actions, config.seed,
                                            config.quantile)}

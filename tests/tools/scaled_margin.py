@@ -16,7 +16,6 @@ Romano, Patterson and Candès, NeurIPS 2019).  The test plants are never drawn.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -27,18 +26,18 @@ MARGINS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.7, 1.0)
 
 def main(run: Path, plants_count: int) -> None:
     from agents.training.config import load_config
-    from agents.training.learned_rule import check_environment
+    from agents.training.learned_rule import cached_labels, check_environment, label_direction
     from agents.training.validation import validate_policy, validation_plants
     from baselines.learned_rule import fit_regression
 
     config = load_config(run / "config.yaml")
-    records = [r for path in sorted((run / "dataset").glob("training-*.json")) for r in json.loads(path.read_text())]
+    records = cached_labels(run)
     observations = np.array([r["observation"] for r in records])
     actions = np.array([r["action"] for r in records])
     env = check_environment(config)
     plants = validation_plants(env, plants_count)
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
-    direction = next(r["direction"] for r in records if r["direction"] != 0)
+    direction = label_direction(records)
     upper = fit_regression("quantile-boosting", observations, actions, config.seed, 0.9)
     lower = fit_regression("quantile-boosting", observations, actions, config.seed, 0.1)
     mean_spread = float(np.mean(np.maximum(upper.predict(observations) - lower.predict(observations), 1e-3)))

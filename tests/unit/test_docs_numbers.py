@@ -104,9 +104,7 @@ def test_every_interval_of_the_v3_study_pages_is_committed():
         quoted = re.findall(INTERVAL, (DOCS / page).read_text())
         assert len(quoted) >= 15, page
         assert all(any(q in summary for summary in summaries) for q in quoted), [q for q in quoted if not any(q in m for m in summaries)]
-    spec = importlib.util.spec_from_file_location("certificate_check", REPO / "tests" / "tools" / "certificate_check.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _tool("certificate_check")
     certified = sorted(path for path in (REPO / "sweeps").glob("certified_noise*") if path.is_dir())
     rates = [row.split(" | ")[6] for row in module.table(certified).splitlines()[2:]]
     page = (DOCS / "agent_mode.md").read_text()
@@ -116,10 +114,7 @@ def test_every_interval_of_the_v3_study_pages_is_committed():
 def test_the_readme_headline_table_is_the_committed_regimes():
     """README "Results": the table is ``tests/tools/headline_table.py``'s output for the committed
     ``sweeps/agent_mode/regimes.json``, and each of its intervals is in the committed ``regimes.md``."""
-    spec = importlib.util.spec_from_file_location("headline_table", REPO / "tests" / "tools" / "headline_table.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    expected = module.headline_table()
+    expected = _tool("headline_table").headline_table()
     results = README[README.index("## Results"):README.index("## Documentation")]
     assert expected in _tables(results)
     regimes = (REPO / "sweeps" / "agent_mode" / "regimes.md").read_text()
