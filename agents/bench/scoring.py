@@ -11,7 +11,7 @@ reference (:mod:`agents.bench.reference`) and to the fine-step reference (:mod:`
 
 Every timed pass is warm: our kernels are compiled, and the references have run once untimed (the
 first pass of the python-control way imports its modules: about 0.9 s of its 2.4 s on the 20 loops
-here, which the bench counted until 2026-12-02 and which made its speed-up about 1.7x too large).
+here, which, counted, would make the speed-up about 1.7x too large).
 """
 
 from __future__ import annotations
