@@ -5,6 +5,7 @@ Imported only when a sweep runs (Ray is an optional extra, ``pip install -e '.[s
 
 from __future__ import annotations
 
+import logging
 import os
 import pickle
 import sys
@@ -203,6 +204,8 @@ def _restored(storage: Path) -> Any:
         print(f"deadtime sweep: cannot restore {path}: {problem}; running its trials again as a new Tune "
               "experiment, each resuming its run directory", file=sys.stderr)
         return None
+    # Tune warns about every trial without metrics: those not started before the interruption, not failures
+    logging.getLogger("ray.tune.analysis.experiment_analysis").setLevel(logging.ERROR)
     try:
         return tune.Tuner.restore(str(path), trainable=_trainable(), resume_unfinished=True, restart_errored=True)
     except (ImportError, AttributeError, pickle.UnpicklingError) as error:

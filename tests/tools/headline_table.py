@@ -2,6 +2,7 @@
 
     python tests/tools/headline_table.py [sweeps/agent_mode/regimes.json]
     python tests/tools/headline_table.py --rl [sweeps/rl_plan/regimes.json]
+    python tests/tools/headline_table.py --fixed [sweeps/fixed_mode_v3/regimes.json]
 
 prints the Markdown table: one row per regime of ``sweeps/agent_mode/regimes.json`` (written by
 ``deadtime regimes``), the structure, noise and production price, the oracle's and the best rule's
@@ -10,6 +11,9 @@ certified margin (``learned-plan-cert``) with its paired difference to the best 
 With ``--rl``, the two tables of the RL agent in plan mode from ``sweeps/rl_plan/regimes.json``
 (:func:`rl_plan_table`: its costs and paired differences; :func:`behaviour_table`: what it and the
 certified learned plan do on validation plants).
+With ``--fixed``, the fixed mode's table from ``sweeps/fixed_mode_v3/regimes.json`` (:func:`fixed_table`:
+the paired differences of the learned designs of :data:`FIXED_POLICIES` to the best rule, each with its
+violation rate).
 Intervals are 95% bootstrap intervals as in ``regimes.md``, formatted the same way (3 significant
 digits).  ``tests/unit/test_docs_numbers.py`` holds the README's tables equal to this output.
 """
@@ -22,6 +26,7 @@ from pathlib import Path
 
 REGIMES = Path(__file__).resolve().parents[2] / "sweeps" / "agent_mode" / "regimes.json"
 RL_REGIMES = REGIMES.parents[1] / "rl_plan" / "regimes.json"
+FIXED_REGIMES = REGIMES.parents[1] / "fixed_mode_v3" / "regimes.json"
 STRUCTURES = ("PID", "FPPI", "MSP")
 HEADER = ("| structure | noise | production price | oracle | best rule | learned plan | its violations "
           "| certified learned plan | its violations | certified - best rule |")
@@ -105,8 +110,27 @@ def behaviour_table(path: Path = RL_REGIMES) -> str:
     return "\n".join(lines)
 
 
+FIXED_POLICIES = {"learned-fixed": "learned design", "learned-fixed-cert-3000": "certified, 3000 plants",
+                  "learned-fixed-robustness": "learned, robustness action", "sac-robustness": "SAC, robustness action"}
+FIXED_HEADER = "| structure | oracle | best rule | " + " | ".join(f"{name} - best rule" for name in FIXED_POLICIES.values()) + " |"
+
+
+def fixed_table(path: Path = FIXED_REGIMES) -> str:
+    """The fixed mode at v3's default regime: per structure, the oracle, the best rule and each of
+    :data:`FIXED_POLICIES`' paired difference to the best rule with its violation rate."""
+    lines = _head(FIXED_HEADER)
+    for regime in sorted(json.loads(path.read_text())["regimes"], key=_order):
+        best, costs, rates = regime["best_rule"], regime["mean_cost"], regime["violation_rate"]
+        cells = [f"| `{regime['env'].split('-')[0]}`", _cell(costs["oracle"]), f"`{best}` {_cell(costs[best])}"]
+        cells += [f"{_cell(regime['agents_to_rules'][label]['best_rule'])}, {100 * rates[label]:.1f}%" for label in FIXED_POLICIES]
+        lines.append(" | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["--rl"]:
+    if sys.argv[1:2] == ["--fixed"]:
+        print(fixed_table(Path(sys.argv[2]) if len(sys.argv) > 2 else FIXED_REGIMES))
+    elif sys.argv[1:2] == ["--rl"]:
         source = Path(sys.argv[2]) if len(sys.argv) > 2 else RL_REGIMES
         print(rl_plan_table(source) + "\n\n" + behaviour_table(source))
     else:

@@ -135,6 +135,16 @@ def test_the_readme_rl_tables_are_the_committed_regimes():
     assert len(quoted) >= 48 and all(any(q in text for text in committed) for q in quoted), quoted
 
 
+def test_the_readme_fixed_mode_table_is_the_committed_regimes():
+    """README "Results": the fixed mode's table is ``tests/tools/headline_table.py --fixed``'s output for
+    the committed ``sweeps/fixed_mode_v3/regimes.json``, and each of its intervals is in its ``regimes.md``."""
+    expected = _tool("headline_table").fixed_table()
+    assert expected in _tables(README[README.index("## Results"):README.index("## Documentation")])
+    regimes = (REPO / "sweeps" / "fixed_mode_v3" / "regimes.md").read_text()
+    quoted = re.findall(INTERVAL, expected)
+    assert len(quoted) == 18 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
+
+
 def _tables(text: str) -> list[str]:
     """The Markdown tables of ``text``: runs of consecutive lines that start with ``|``."""
     return ["\n".join(lines) for is_table, lines in itertools.groupby(text.splitlines(), lambda line: line.startswith("|"))
