@@ -171,21 +171,22 @@ def training_data(env: Any, config: LearnedRuleConfig, run_dir: Path) -> tuple[l
     return records, labelled
 
 
-def _labels_kept(config: LearnedRuleConfig, run_dir: Path) -> int:
-    """How many training plants' labels the run directory holds (for the line after an interruption)."""
-    kept = 0
+def cached_labels(config: LearnedRuleConfig, run_dir: Path) -> list[dict[str, Any]]:
+    """The labelled training plants of ``config`` that the run directory's ``dataset/`` holds, in order
+    (of a finished fit: every one it was fitted on)."""
+    records: list[dict[str, Any]] = []
     for first in range(0, config.training_plants, CHUNK):
         seeds = [training_seed(config.seed, k) for k in range(first, min(first + CHUNK, config.training_plants))]
-        kept += len(_cached_chunk(_chunk_path(run_dir, first), seeds))
-    return kept
+        records += _cached_chunk(_chunk_path(run_dir, first), seeds)
+    return records
+
+
+def _labels_kept(config: LearnedRuleConfig, run_dir: Path) -> int:
+    """How many training plants' labels the run directory holds (for the line after an interruption)."""
+    return len(cached_labels(config, run_dir))
 
 
 # ----------------------------------------------------------------------------------- the fit
-def cached_labels(run_dir: Path) -> list[dict[str, Any]]:
-    """Every labelled training plant cached in a fit's ``dataset/``, in order (for analyses of a finished fit)."""
-    return [record for path in sorted((run_dir / "dataset").glob("training-*.json")) for record in json.loads(path.read_text())]
-
-
 def label_direction(records: list[dict[str, Any]]) -> float:
     """The conservative direction of the action shared by the labelled episodes (those where it is defined)."""
     found = {record["direction"] for record in records} - {0.0}

@@ -46,17 +46,30 @@ def _head(header: str) -> list[str]:
     return [header, "|" + "---|" * header.count(" | ") + "---|"]
 
 
+def _regimes(path: Path) -> list[dict]:
+    """The regimes of a ``regimes.json``, by structure, noise and production price."""
+    return sorted(json.loads(path.read_text())["regimes"], key=_order)
+
+
+def _structure(regime: dict) -> str:
+    return f"`{regime['env'].split('-')[0]}`"
+
+
+def _regime_cells(regime: dict) -> tuple[str, str, str]:
+    """The structure, the noise level and the production price of a regime's row."""
+    kwargs = regime["env_kwargs"]
+    return _structure(regime), f"{100 * kwargs['noise_std']:g}%", f"{kwargs['weights']['production']:g}"
+
+
 def headline_table(path: Path = REGIMES) -> str:
     """The README's headline table, from a ``regimes.json``."""
-    regimes = json.loads(path.read_text())["regimes"]
     lines = _head(HEADER)
-    for regime in sorted(regimes, key=_order):
-        kwargs, best = regime["env_kwargs"], regime["best_rule"]
-        costs = regime["mean_cost"]
+    for regime in _regimes(path):
+        best, costs = regime["best_rule"], regime["mean_cost"]
         certified = regime["agents_to_rules"]["learned-plan-cert"]["best_rule"]
         rates = regime["violation_rate"]
         lines.append(" | ".join((
-            f"| `{regime['env'].split('-')[0]}`", f"{100 * kwargs['noise_std']:g}%", f"{kwargs['weights']['production']:g}",
+            "| " + " | ".join(_regime_cells(regime)),
             _cell(costs["oracle"]), f"`{best}` {_cell(costs[best])}", _cell(costs["learned-plan"]),
             f"{100 * rates['learned-plan']:.1f}%", _cell(costs["learned-plan-cert"]), f"{100 * rates['learned-plan-cert']:.1f}%",
             f"{_cell(certified)} |",
@@ -72,11 +85,11 @@ def rl_plan_table(path: Path = RL_REGIMES) -> str:
     """SAC in plan mode (``sac-plan``) against the best rule, the best single plan, the fixed procedure and
     the learned plan, one row per regime of a ``regimes.json`` made with ``--compare sac-plan,...``."""
     lines = _head(RL_HEADER)
-    for regime in sorted(json.loads(path.read_text())["regimes"], key=_order):
-        kwargs, best, costs = regime["env_kwargs"], regime["best_rule"], regime["mean_cost"]
+    for regime in _regimes(path):
+        best, costs = regime["best_rule"], regime["mean_cost"]
         differences = {d["second"]: d["estimate"] for d in regime["differences"]}
         lines.append(" | ".join((
-            f"| `{regime['env'].split('-')[0]}`", f"{100 * kwargs['noise_std']:g}%", f"{kwargs['weights']['production']:g}",
+            "| " + " | ".join(_regime_cells(regime)),
             f"`{best}` {_cell(costs[best])}", _cell(costs["plan-best"]), _cell(costs["learned-plan"]), _cell(costs["sac-plan"]),
             f"{100 * regime['violation_rate']['sac-plan']:.1f}%", _cell(regime["agents_to_rules"]["sac-plan"]["best_rule"]),
             _cell(differences["plan-best"]), _cell(differences["plan-1-1"]), f"{_cell(differences['learned-plan'])} |",
@@ -97,13 +110,12 @@ def behaviour_table(path: Path = RL_REGIMES) -> str:
     def quartiles(values: list[float]) -> str:
         return ", ".join(f"{v:.2g}" for v in values)
 
-    for regime in sorted(json.loads(path.read_text())["regimes"], key=_order):
-        kwargs = regime["env_kwargs"]
+    for regime in _regimes(path):
         for label, name in BEHAVIOUR_NAMES.items():
             found = regime["behaviour"][label]
             first, second = found["plan_amplitude_quartiles"]
             lines.append(" | ".join((
-                f"| `{regime['env'].split('-')[0]}`", f"{100 * kwargs['noise_std']:g}%", f"{kwargs['weights']['production']:g}",
+                "| " + " | ".join(_regime_cells(regime)),
                 name, quartiles(first), quartiles(second), f"{found['experiment_time']:.1f}",
                 f"{', '.join(f'{v:+.2f}' for v in found['design_action_quartiles'])} |",
             )))
@@ -119,9 +131,9 @@ def fixed_table(path: Path = FIXED_REGIMES) -> str:
     """The fixed mode at v3's default regime: per structure, the oracle, the best rule and each of
     :data:`FIXED_POLICIES`' paired difference to the best rule with its violation rate."""
     lines = _head(FIXED_HEADER)
-    for regime in sorted(json.loads(path.read_text())["regimes"], key=_order):
+    for regime in _regimes(path):
         best, costs, rates = regime["best_rule"], regime["mean_cost"], regime["violation_rate"]
-        cells = [f"| `{regime['env'].split('-')[0]}`", _cell(costs["oracle"]), f"`{best}` {_cell(costs[best])}"]
+        cells = [f"| {_structure(regime)}", _cell(costs["oracle"]), f"`{best}` {_cell(costs[best])}"]
         cells += [f"{_cell(regime['agents_to_rules'][label]['best_rule'])}, {100 * rates[label]:.1f}%" for label in FIXED_POLICIES]
         lines.append(" | ".join(cells) + " |")
     return "\n".join(lines)

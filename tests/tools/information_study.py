@@ -55,7 +55,7 @@ def study(run: Path, count: int = 600) -> dict:
     from envs.systems.plants import Plant
 
     config = load_config(run / "config.yaml")
-    records = cached_labels(run)
+    records = cached_labels(config, run)
     observations = np.array([r["observation"] for r in records])
     extra = np.array([privileged(Plant.from_dict(r["plant"])) for r in records])
     actions = np.array([r["action"] for r in records])

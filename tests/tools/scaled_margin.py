@@ -31,7 +31,7 @@ def main(run: Path, plants_count: int) -> None:
     from baselines.learned_rule import fit_regression
 
     config = load_config(run / "config.yaml")
-    records = cached_labels(run)
+    records = cached_labels(config, run)
     observations = np.array([r["observation"] for r in records])
     actions = np.array([r["action"] for r in records])
     env = check_environment(config)

@@ -24,6 +24,7 @@ from agents.cli import main
 
 REPO = Path(__file__).resolve().parents[2]
 README = (REPO / "README.md").read_text()
+README_RESULTS = README[README.index("## Results"):README.index("## Documentation")]
 DOCS = REPO / "docs"
 COMMAND_LINE = (DOCS / "command_line.md").read_text()
 RESULTS = (DOCS / "results.md").read_text() + "\n" + (DOCS / "results_history.md").read_text()
@@ -115,8 +116,7 @@ def test_the_readme_headline_table_is_the_committed_regimes():
     """README "Results": the table is ``tests/tools/headline_table.py``'s output for the committed
     ``sweeps/agent_mode/regimes.json``, and each of its intervals is in the committed ``regimes.md``."""
     expected = _tool("headline_table").headline_table()
-    results = README[README.index("## Results"):README.index("## Documentation")]
-    assert expected in _tables(results)
+    assert expected in _tables(README_RESULTS)
     regimes = (REPO / "sweeps" / "agent_mode" / "regimes.md").read_text()
     quoted = re.findall(INTERVAL, expected)
     assert len(quoted) >= 48 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
@@ -127,7 +127,7 @@ def test_the_readme_rl_tables_are_the_committed_regimes():
     output for the committed ``sweeps/rl_plan/regimes.json``; each interval is in a committed ``regimes.md``
     or ``summary.md`` (the procedures' costs are in the sweeps' summaries)."""
     module = _tool("headline_table")
-    results = _tables(README[README.index("## Results"):README.index("## Documentation")])
+    results = _tables(README_RESULTS)
     costs, behaviour = module.rl_plan_table(), module.behaviour_table()
     assert costs in results and behaviour in results
     committed = _committed()
@@ -139,7 +139,7 @@ def test_the_readme_fixed_mode_table_is_the_committed_regimes():
     """README "Results": the fixed mode's table is ``tests/tools/headline_table.py --fixed``'s output for
     the committed ``sweeps/fixed_mode_v3/regimes.json``, and each of its intervals is in its ``regimes.md``."""
     expected = _tool("headline_table").fixed_table()
-    assert expected in _tables(README[README.index("## Results"):README.index("## Documentation")])
+    assert expected in _tables(README_RESULTS)
     regimes = (REPO / "sweeps" / "fixed_mode_v3" / "regimes.md").read_text()
     quoted = re.findall(INTERVAL, expected)
     assert len(quoted) == 18 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
