@@ -15,10 +15,10 @@ description of the pooled rate, not a test of each seed's promise.  Prints a Mar
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
 import re
-import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -65,4 +65,6 @@ def table(sweeps: list[Path]) -> str:
 
 
 if __name__ == "__main__":
-    print(table([Path(arg) for arg in sys.argv[1:]]))
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("sweeps", type=Path, nargs="+", help="committed or finished sweep directories")
+    print(table(parser.parse_args().sweeps))

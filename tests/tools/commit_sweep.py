@@ -13,10 +13,10 @@ then writes the summary from the copy with this checkout's code (``summary.{md,c
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
 import shutil
-import sys
 from pathlib import Path
 
 from agents.sweeps.config import load_sweep
@@ -51,4 +51,8 @@ def copy(source: Path, target: Path) -> None:
 
 
 if __name__ == "__main__":
-    copy(Path(sys.argv[1]), Path(sys.argv[2]))
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("source", type=Path, help="the finished sweep's output directory")
+    parser.add_argument("target", type=Path, help="the directory to commit, under sweeps/")
+    args = parser.parse_args()
+    copy(args.source, args.target)

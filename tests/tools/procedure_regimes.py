@@ -13,9 +13,9 @@ plant of every regime).  ``plan-best`` is chosen on validation plants, never on 
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -95,4 +95,8 @@ def run(runs: Path, out: Path) -> None:
 
 
 if __name__ == "__main__":
-    run(Path(sys.argv[1]), Path(sys.argv[2]))
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("runs", type=Path, help="the evaluations' directory (resumable)")
+    parser.add_argument("out", type=Path, help="where procedures.md and per_plant_costs.csv go")
+    args = parser.parse_args()
+    run(args.runs, args.out)

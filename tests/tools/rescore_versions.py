@@ -14,9 +14,9 @@ changed.
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -63,4 +63,8 @@ def table(first: Path, second: Path) -> str:
 
 
 if __name__ == "__main__":
-    print(table(Path(sys.argv[1]), Path(sys.argv[2])))
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("first", type=Path, help="the evaluation under the first version")
+    parser.add_argument("second", type=Path, help="the same plants' evaluation under the second version")
+    args = parser.parse_args()
+    print(table(args.first, args.second))

@@ -16,7 +16,7 @@ Romano, Patterson and Candès, NeurIPS 2019).  The test plants are never drawn.
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -56,4 +56,8 @@ def main(run: Path, plants_count: int) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), int(sys.argv[2]))
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", type=Path, help="a learned rule's run directory (with its cached labels)")
+    parser.add_argument("plants", type=int, help="how many validation plants to play")
+    args = parser.parse_args()
+    main(args.run, args.plants)
