@@ -15,7 +15,9 @@ seeds) and environment.  Sweeps of the same regime are merged: their agent group
   over seeds and plants, the rules and the oracle over plants);
 * the paired differences of an agent group to other policies (``--compare A,B[,C...]``: ``mean(A) -
   mean(B)`` for each, ``B`` an agent group, a rule or a procedure of :mod:`baselines.procedures`; each
-  group's seeds resampled on their own, the plants together) and of every agent group to every rule;
+  group's seeds resampled on their own, the plants together; where an environment lacks ``A`` or a
+  ``B``, as a follow-up sweep on some structures only, that difference is left out there) and of
+  every agent group to every rule;
   a group *beats every rule* where each of those intervals lies below 0 (the procedures are not rules:
   they are compared by ``--compare``, and the best rule is the best of the rules);
 * with ``--behaviour N``: what each agent group does, replayed on the first ``N`` validation plants
@@ -175,16 +177,24 @@ def _merged(directories: list[Path], x: str) -> dict[tuple[str, str], dict[str, 
     return found
 
 
+def _check_compare(merged: dict[tuple[str, str], dict[str, Any]], compare: tuple[str, ...]) -> None:
+    """Refuse a ``--compare`` name that no regime has (a misspelling); a name that some environments
+    lack (a follow-up sweep on some structures only) is compared where it is."""
+    groups = {label for found in merged.values() for label in found["agents"]}
+    names = groups | {name for found in merged.values() for name in found["rules"]}
+    missing = [label for label in compare[:1] if label not in groups] + [name for name in compare[1:] if name not in names]
+    if missing:
+        raise ValueError(f"no agent group, rule or procedure {missing[0]!r} in any regime (groups: {', '.join(sorted(groups))})")
+
+
 def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = (), plants: int = 0, resamples: int = 2000) -> dict[str, Any]:
     """The ``regimes.json`` object of the module docstring."""
     regimes = []
-    for (_, env), found in _merged(directories, x).items():
-        missing = [label for label in compare[:1] if label not in found["agents"]]
-        missing += [name for name in compare[1:] if name not in found["agents"] and name not in found["rules"]]
-        if missing:
-            raise ValueError(f"{', '.join(found['sweeps'])}: no agent group, rule or procedure {missing[0]!r} "
-                             f"(groups: {', '.join(found['agents'])})")
-        entry = _entry(found["rules"], found["agents"], compare, resamples)
+    merged = _merged(directories, x)
+    _check_compare(merged, compare)
+    for (_, env), found in merged.items():
+        here = tuple(name for name in compare if name in found["agents"] or name in found["rules"])
+        entry = _entry(found["rules"], found["agents"], here if compare[:1] == here[:1] else (), resamples)
         if plants:
             entry["behaviour"] = {label: behaviour(group, found["env_kwargs"], plants) for label, group in found["runs"].items()
                                   if all(map(_replayable, group))}
@@ -283,9 +293,9 @@ def markdown(result: dict[str, Any]) -> str:
     """``regimes.md``: the regimes' table, every policy's mean cost per regime, and the behaviour."""
     regimes = result["regimes"]
     agents = list(dict.fromkeys(label for r in regimes for label in r["agents_to_rules"]))  # a group may miss a regime
-    compare = regimes[0].get("differences", [])
+    pairs = list(dict.fromkeys((d["first"], d["second"]) for r in regimes for d in r.get("differences", [])))
     head = ["regime", "env", "oracle", "best rule", *agents]
-    head += [f"{d['first']} - {d['second']}" for d in compare]
+    head += [f"{first} - {second}" for first, second in pairs]
     head += [f"{label} - best rule" for label in agents] + [f"{label} beats every rule" for label in agents]
     lines = ["# Regimes", "", "Mean cost [95% interval]; differences are paired on the plants (negative: the first is better).", "",
              "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -293,14 +303,15 @@ def markdown(result: dict[str, Any]) -> str:
         costs = r["mean_cost"]
         cells = [_label(r), r["env"], _cell(costs["oracle"]), f"`{r['best_rule']}` {_cell(costs[r['best_rule']])}"]
         cells += [_cell(costs[label]) if label in costs else "-" for label in agents]
-        cells += [_cell(d["estimate"]) for d in r.get("differences", [])]
+        differences = {(d["first"], d["second"]): d["estimate"] for d in r.get("differences", [])}
+        cells += [_cell(differences[pair]) if pair in differences else "-" for pair in pairs]
         found = r["agents_to_rules"]
         cells += [_cell(found[label]["best_rule"]) if label in found else "-" for label in agents]
         cells += ["-" if label not in found else "yes" if found[label]["beats_every_rule"] else
                   f"no (`{found[label]['least_beaten_rule']}`: {_cell(found[label]['least_beaten_difference'])})"
                   for label in agents]
         lines.append("| " + " | ".join(cells) + " |")
-    names = sorted({name for r in regimes for name in r["mean_cost"]}, key=lambda n: regimes[0]["mean_cost"].get(n, [0])[0])
+    names = sorted({name for r in regimes for name in r["mean_cost"]}, key=lambda n: (regimes[0]["mean_cost"].get(n, [0])[0], n))
     lines += ["", "## Every policy's mean cost", "", "| policy | " + " | ".join(_label(r) for r in regimes) + " |",
               "|" + "---|" * (len(regimes) + 1)]
     for name in names:

@@ -229,3 +229,21 @@ def test_groups_without_models_are_left_out_of_the_behaviour(tmp_path: Path) -> 
             (sweep / "runs" / trial.name).mkdir(parents=True, exist_ok=True)
     result = compare_regimes(sweeps, "noise_std", (), plants=3, resamples=100)
     assert [r["behaviour"] for r in result["regimes"]] == [{}, {}]
+
+
+def test_a_compare_group_of_some_regimes_is_compared_where_it_is(tmp_path: Path) -> None:
+    """``--compare`` led by a follow-up group of one regime: the differences there, none elsewhere (the
+    markdown's cells '-'), and the figures equal to those of that regime alone."""
+    from agents.sweeps.regimes import markdown
+
+    first = _sweep(tmp_path, 0.1, 0.0)
+    other = _sweep(tmp_path, 0.01, 0.0)
+    follow, _ = _follow_up(first, tmp_path)
+    result = compare_regimes([other, first, follow], "noise_std", ("longer", "fixed", "rule-a"), resamples=100)
+    without, within = result["regimes"]
+    assert "differences" not in without
+    alone = compare_regimes([first, follow], "noise_std", ("longer", "fixed", "rule-a"), resamples=100)["regimes"][0]
+    assert within["differences"] == alone["differences"] and len(within["differences"]) == 2
+    header, _, row_without, row_within = markdown(result).splitlines()[4:8]
+    assert "longer - fixed | longer - rule-a" in header
+    assert row_without.count(" - |") >= 2 and "longer" in header and row_within.count(" - |") == 0
