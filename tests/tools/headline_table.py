@@ -123,18 +123,21 @@ def behaviour_table(path: Path = RL_REGIMES) -> str:
 
 
 FIXED_POLICIES = {"learned-fixed": "learned design", "learned-fixed-cert-3000": "certified, 3000 plants",
+                  "learned-fixed-cert-10000": "certified, 10000 plants",
                   "learned-fixed-robustness": "learned, robustness action", "sac-robustness": "SAC, robustness action"}
 FIXED_HEADER = "| structure | oracle | best rule | " + " | ".join(f"{name} - best rule" for name in FIXED_POLICIES.values()) + " |"
 
 
 def fixed_table(path: Path = FIXED_REGIMES) -> str:
     """The fixed mode at v3's default regime: per structure, the oracle, the best rule and each of
-    :data:`FIXED_POLICIES`' paired difference to the best rule with its violation rate."""
+    :data:`FIXED_POLICIES`' paired difference to the best rule with its violation rate ("-" where a
+    policy was not trained on the structure)."""
     lines = _head(FIXED_HEADER)
     for regime in _regimes(path):
         best, costs, rates = regime["best_rule"], regime["mean_cost"], regime["violation_rate"]
         cells = [f"| {_structure(regime)}", _cell(costs["oracle"]), f"`{best}` {_cell(costs[best])}"]
-        cells += [f"{_cell(regime['agents_to_rules'][label]['best_rule'])}, {100 * rates[label]:.1f}%" for label in FIXED_POLICIES]
+        found = regime["agents_to_rules"]
+        cells += [f"{_cell(found[label]['best_rule'])}, {100 * rates[label]:.1f}%" if label in found else "-" for label in FIXED_POLICIES]
         lines.append(" | ".join(cells) + " |")
     return "\n".join(lines)
 
