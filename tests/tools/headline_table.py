@@ -124,7 +124,8 @@ def behaviour_table(path: Path = RL_REGIMES) -> str:
 
 FIXED_POLICIES = {"learned-fixed": "learned design", "learned-fixed-cert-3000": "certified, 3000 plants",
                   "learned-fixed-cert-10000": "certified, 10000 plants",
-                  "learned-fixed-robustness": "learned, robustness action", "sac-robustness": "SAC, robustness action"}
+                  "learned-fixed-robustness": "learned, robustness action", "sac-fixed": "SAC, residual action",
+                  "sac-robustness": "SAC, robustness action"}
 FIXED_HEADER = "| structure | oracle | best rule | " + " | ".join(f"{name} - best rule" for name in FIXED_POLICIES.values()) + " |"
 
 

@@ -142,7 +142,7 @@ def test_the_readme_fixed_mode_table_is_the_committed_regimes():
     assert expected in _tables(README_RESULTS)
     regimes = (REPO / "sweeps" / "fixed_mode_v3" / "regimes.md").read_text()
     quoted = re.findall(INTERVAL, expected)
-    assert len(quoted) == 19 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
+    assert len(quoted) == 22 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
 
 
 def _tables(text: str) -> list[str]:
