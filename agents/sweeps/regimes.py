@@ -193,8 +193,9 @@ def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = 
     merged = _merged(directories, x)
     _check_compare(merged, compare)
     for (_, env), found in merged.items():
-        here = tuple(name for name in compare if name in found["agents"] or name in found["rules"])
-        entry = _entry(found["rules"], found["agents"], here if compare[:1] == here[:1] else (), resamples)
+        others = tuple(name for name in compare[1:] if name in found["agents"] or name in found["rules"])
+        here = (compare[0], *others) if compare and compare[0] in found["agents"] else ()
+        entry = _entry(found["rules"], found["agents"], here, resamples)
         if plants:
             entry["behaviour"] = {label: behaviour(group, found["env_kwargs"], plants) for label, group in found["runs"].items()
                                   if all(map(_replayable, group))}
