@@ -17,7 +17,9 @@ oracle's action, with a safety margin.  A fit, in the run directory:
    ``dataset/training-<first>.json``, :data:`CHUNK` plants a file, each written atomically when
    complete: an interrupted fit resumes (``--resume``) from the files written, so at most one file
    of oracle searches is lost.
-2. **Regressions**: each model kind of ``models`` is fitted to all training plants.
+2. **Regressions**: each model kind of ``models`` is fitted to all training plants; with
+   ``margin_scale: spread`` also the two quantile trees that scale the margin per plant
+   (:func:`baselines.learned_rule.fit_spread`).
 3. **Model and margin** on the validation plants (``validation_plants`` of the fixed validation
    set, played as ``deadtime train`` validates an agent: :mod:`agents.training.validation`): every
    kind with every margin of ``margins``; the lowest mean cost wins (:func:`baselines.learned_rule.select`),
@@ -37,7 +39,7 @@ conservative side of the action (larger ``mu`` or ``T_r``) is read from ``parame
 in every training episode and must not change.
 
 ``--resume`` continues from the cached labels; ``training_plants`` (more plants: the first ones are
-the same), ``validation_plants``, ``margins``, ``models``, ``quantile``, ``violation_target``,
+the same), ``validation_plants``, ``margins``, ``margin_scale``, ``models``, ``quantile``, ``violation_target``,
 ``violation_confidence``, ``output_dir`` and ``progress_bar`` may differ from the saved config (the model is then fitted again), the environment and the seed may not.
 """
 
@@ -71,7 +73,7 @@ TRAINING_SEED = 10_000_000
 CHUNK = 50
 """Training plants per cached file of labels."""
 
-_RESUMABLE_CHANGES = {"training_plants", "validation_plants", "margins", "models", "quantile", "violation_target",
+_RESUMABLE_CHANGES = {"training_plants", "validation_plants", "margins", "margin_scale", "models", "quantile", "violation_target",
                       "violation_confidence", "output_dir", "progress_bar"}
 
 
@@ -213,14 +215,18 @@ class _Remembered:
 def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], run_dir: Path) -> tuple[Any, Any, Any]:
     """Fit every model kind, then choose kind and margin on the validation plants: ``(selection, validation, plants)``."""
     from agents.training.validation import VALIDATION_SEED, validate_policy, validation_plants
-    from baselines.learned_rule import LearnedRule, Validated, fit_regression, select
+    from baselines.learned_rule import LearnedRule, Validated, fit_regression, fit_spread, select
 
     observations = np.array([record["observation"] for record in records])
     actions = np.array([record["action"] for record in records])
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
     direction = label_direction(records)
+    spread = None
+    if config.margin_scale == "spread":
+        fitted = fit_spread(observations, actions, config.seed, config.quantile)
+        spread = dataclasses.replace(fitted, upper=_Remembered(fitted.upper), lower=_Remembered(fitted.lower))
     rules = [LearnedRule(kind, _Remembered(fit_regression(kind, observations, actions, config.seed, config.quantile)), 0.0,
-                         direction, low, high, observations.shape[1]) for kind in config.models]
+                         direction, low, high, observations.shape[1], spread) for kind in config.models]
     plants = validation_plants(env, config.validation_plants)
     if plants is not None:
         write_json(run_dir / "validation_plants.json",
@@ -237,7 +243,8 @@ def _select(env: Any, config: LearnedRuleConfig, records: list[dict[str, Any]], 
 
     selection = select(rules, config.margins, validate, violation_target=config.violation_target,
                        confidence=config.violation_confidence)
-    chosen = dataclasses.replace(selection.rule, model=selection.rule.model.model)
+    chosen = dataclasses.replace(selection.rule, model=selection.rule.model.model, spread=None if spread is None else
+                                 dataclasses.replace(spread, upper=spread.upper.model, lower=spread.lower.model))
     return dataclasses.replace(selection, rule=chosen), results[(chosen.kind, chosen.margin)], plants
 
 
@@ -304,7 +311,10 @@ def _existing_run(config: LearnedRuleConfig, run_dir: Path, resume: bool) -> Tra
         evaluations = json.loads((run_dir / "evaluations.json").read_text())
     except (OSError, ValueError):
         return None
-    if record.get("status") != "finished" or record.get("config") != {**config.to_dict(), "output_dir": None, "progress_bar": None}:
+    saved_config = record.get("config")
+    if isinstance(saved_config, dict):  # a fit from before the key had a constant margin
+        saved_config = {"margin_scale": "constant", **saved_config}
+    if record.get("status") != "finished" or saved_config != {**config.to_dict(), "output_dir": None, "progress_bar": None}:
         return None
     cost = float(evaluations[-1]["mean_cost"])
     return TrainResult(run_dir=run_dir, num_timesteps=config.training_plants, session_steps=0, train_seconds=0.0,
@@ -320,7 +330,7 @@ def _write_outputs(config: LearnedRuleConfig, run_dir: Path, selection: Any, val
     chosen = {key: value for key, value in validation.to_dict().items() if key != "costs"}
     save_learned_rule(run_dir, rule, {
         "env_id": config.env_id, "env_kwargs": dict(config.env_kwargs), "seed": config.seed, "kind": rule.kind,
-        "margin": rule.margin, "direction": rule.direction, "action_bounds": [rule.low, rule.high],
+        "margin": rule.margin, "margin_scale": rule.margin_scale, "direction": rule.direction, "action_bounds": [rule.low, rule.high],
         "observation_size": rule.observation_size, "training_plants": config.training_plants,
         "validation_plants": config.validation_plants, "quantile": config.quantile, "commit": provenance["commit"],
         "validation": {"margins": list(selection.margins), "mean_cost": {k: list(v) for k, v in selection.costs.items()},
@@ -382,7 +392,8 @@ def run(config: LearnedRuleConfig, *, resume: bool, command: str) -> int:
         return 130
     rule = json.loads((result.run_dir / "learned_rule.json").read_text())
     print(f"{result.num_timesteps} training plants ({result.session_steps} labelled by the oracle in this session, "
-          f"{result.train_seconds:.1f} s); chosen {rule['kind']} with margin {rule['margin']:g}: "
+          f"{result.train_seconds:.1f} s); chosen {rule['kind']} with margin {rule['margin']:g}"
+          f"{' (scaled by the spread)' if rule.get('margin_scale') == 'spread' else ''}: "
           f"validation mean cost {result.best_cost:.6g}")
     if rule.get("certification"):
         print(certification_line(rule["certification"]))

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from agents.limits import MAX_EVAL_EPISODES
-from baselines.learned_rule import QUANTILE
+from baselines.learned_rule import MARGIN_SCALES, QUANTILE
 from agents.training.config import did_you_mean, frozen_mapping, plain_value, require_field, yaml_number
 
 __all__ = ["LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS"]
@@ -52,6 +52,10 @@ class LearnedRuleConfig:
         Plants of the fixed validation set on which the model kind and the margin are chosen.
     margins : sequence of float
         The safety margins to try (action units, >= 0, distinct).
+    margin_scale : str
+        ``constant`` (the margin as it is) or ``spread`` (scaled per plant by the width of the
+        ``quantile``/``1 - quantile`` band of two quantile trees, mean 1 over the training plants;
+        :mod:`baselines.learned_rule`, "Margin scales").
     models : sequence of str
         The model kinds to try (:data:`baselines.learned_rule.MODEL_KINDS`, distinct).
     quantile : float
@@ -78,6 +82,7 @@ class LearnedRuleConfig:
     training_plants: int = 1000
     validation_plants: int = 500
     margins: tuple[float, ...] = DEFAULT_MARGINS
+    margin_scale: str = "constant"
     models: tuple[str, ...] = ("boosting", "quantile-boosting")
     quantile: float = QUANTILE
     violation_target: float | None = None
@@ -102,9 +107,12 @@ class LearnedRuleConfig:
                  "env_kwargs", "a mapping with string keys", self.env_kwargs)
         object.__setattr__(self, "env_kwargs", frozen_mapping(self.env_kwargs))
         object.__setattr__(self, "margins", _margins(self.margins))
+        require_field(self.margin_scale in MARGIN_SCALES, "margin_scale", f"one of {', '.join(MARGIN_SCALES)}", self.margin_scale)
         object.__setattr__(self, "models", _models(self.models))
         for name, optional in (("quantile", False), ("violation_target", True), ("violation_confidence", False)):
             object.__setattr__(self, name, _fraction(name, getattr(self, name), optional))
+        require_field(self.margin_scale == "constant" or self.quantile != 0.5, "quantile",
+                      "other than 0.5 with margin_scale: spread (the band between quantile and 1 - quantile)", self.quantile)
         require_field(self.output_dir is None or (isinstance(self.output_dir, str) and bool(self.output_dir)), "output_dir",
                  "a non-empty string or null", self.output_dir)
         require_field(isinstance(self.progress_bar, bool), "progress_bar", "true or false", self.progress_bar)

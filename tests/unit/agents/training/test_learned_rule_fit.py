@@ -187,6 +187,32 @@ def test_a_violation_target_certifies_the_margin_on_resume_without_new_labels(fi
     assert json.loads((run_dir / "learned_rule.json").read_text())["certification"]["certified"] is False
 
 
+def test_a_spread_margin_refits_on_resume_and_replays_its_validation(fitted: dict, tmp_path: Path, capsys, monkeypatch) -> None:
+    """``margin_scale: spread`` is a choice after the labels: the resume reuses them, fits the two quantile
+    trees, records the scale in the manifest, and the saved rule plays its validation cost exactly."""
+    from agents.environments import make_env
+    from agents.training import learned_rule
+    from agents.training.learned_rule_policy import load_learned_rule
+    from agents.training.validation import validate_policy
+    from envs.systems.plants import as_plant
+
+    monkeypatch.setattr(learned_rule, "CHUNK", CHUNK)
+    run_dir = tmp_path / "run"
+    shutil.copytree(fitted["run_dir"], run_dir)
+    capsys.readouterr()
+    assert _train(run_dir, "margin_scale=spread", resume=True) == 0
+    assert "(0 labelled by the oracle in this session" in capsys.readouterr().out
+    policy = load_learned_rule(run_dir)
+    assert policy.manifest["margin_scale"] == "spread" and policy.rule.spread is not None
+    observations = np.array([r["observation"] for r in _records(run_dir)])
+    assert abs(float(np.mean(policy.rule.spread.scale(observations))) - 1.0) < 1e-12
+    plants = [as_plant(v["plant"]) for v in json.loads((run_dir / "validation_plants.json").read_text())]
+    result = validate_policy(lambda o: policy.predict(o)[0], make_env(ENV, policy.env_kwargs), len(plants), plants)
+    assert result.mean_cost == json.loads((run_dir / "evaluations.json").read_text())[-1]["mean_cost"]
+    assert _train(run_dir, "margin_scale=spread", resume=True) == 0
+    assert "already holds this learned rule" in capsys.readouterr().out
+
+
 def test_a_run_directory_is_not_fitted_twice_without_resume(fitted: dict, capsys) -> None:
     assert _train(fitted["run_dir"]) == 2
     assert "already holds a run; pass --resume" in capsys.readouterr().err
@@ -213,13 +239,15 @@ BAD = [
     ("violation_target=1", "violation_target must be a number strictly between 0 and 1 or null"),
     ("violation_confidence=0", "violation_confidence must be a number strictly between 0 and 1"),
     ("quantile=1.5", "quantile must be a number strictly between 0 and 1"),
+    ("margin_scale=wide", "margin_scale must be one of constant, spread"),
+    ("margin_scale=spread; quantile=0.5", "quantile must be other than 0.5 with margin_scale: spread"),
 ]
 
 
 @pytest.mark.parametrize(("override", "message"), BAD, ids=[o for o, _ in BAD])
 def test_bad_config_values_get_one_line_naming_the_key(tmp_path: Path, capsys, override: str, message: str) -> None:
     run_dir = tmp_path / "run"
-    assert _train(run_dir, override) == 2
+    assert _train(run_dir, *override.split("; ")) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"deadtime train: error: {message}"), lines
     assert not run_dir.exists()
