@@ -37,7 +37,7 @@ Model kinds
 Margin scales
 -------------
 The margin is added as it is (``margin_scale="constant"``), or scaled per plant by the width of the
-conformal quantile band of the oracle's action (``"spread"``): the ``q`` and ``1 - q`` quantile trees
+quantile band of the oracle's action (``"spread"``): the ``q`` and ``1 - q`` quantile trees
 (:data:`QUANTILE` by default) give ``w(x) = max(|q_hi(x) - q_lo(x)|, SPREAD_FLOOR)``, divided by its
 mean over the training plants, so that the margin is ``margin * w(x) / mean(w)`` (:class:`Spread`): large
 where the oracle's action is hard to predict from the observation, small where it is not.  This is the
