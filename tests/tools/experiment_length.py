@@ -9,7 +9,7 @@ Prints identification errors against the noise-free procedure, ``T_f_bar/T_n`` (
 mean costs of ``fppi-eq34`` and of the oracle on the identified model (``design``: without the
 ``0.01 t_exp/T_ar`` term).  Reads private run helpers of the experiments (a tool, not an API).
 
-Usage: python tests/tools/experiment_length.py 0.01,0.05,0.1,0.2 OUT.json "detected,+4 T_ar,..."
+Usage: python tests/tools/experiment_length.py 0.01,0.05,0.1,0.2 [OUT.json, default experiment_length.json] "detected,+4 T_ar,..."
 (the third argument: the policies whose oracle is computed, about 1 s a plant).  Results: docs/numerics.md,
 "Experiment length and noise"."""
 import json, sys, math
@@ -107,7 +107,7 @@ for i, plant in enumerate(plants):
                              tn=ident.fopdt.time_constant / ref.fopdt.time_constant - 1,
                              tf=ident.mismatch_time / ref.fopdt.time_constant, tf_ref=ref.mismatch_time / ref.fopdt.time_constant,
                              cost=total, design_cost=design))
-json.dump(rows, open(sys.argv[2] if len(sys.argv) > 2 else "/tmp/lsq/inv/extend.json", "w"))
+json.dump(rows, open(sys.argv[2] if len(sys.argv) > 2 else "experiment_length.json", "w"))
 import collections
 for noise in noises:
     for name in policies:

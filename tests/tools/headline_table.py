@@ -21,7 +21,6 @@ digits).  ``tests/unit/test_docs_numbers.py`` holds the README's tables equal to
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 REGIMES = Path(__file__).resolve().parents[2] / "sweeps" / "agent_mode" / "regimes.json"
@@ -150,11 +149,23 @@ def fixed_table(path: Path = FIXED_REGIMES) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":
-    if sys.argv[1:2] == ["--fixed"]:
-        print(fixed_table(Path(sys.argv[2]) if len(sys.argv) > 2 else FIXED_REGIMES))
-    elif sys.argv[1:2] == ["--rl"]:
-        source = Path(sys.argv[2]) if len(sys.argv) > 2 else RL_REGIMES
+def main() -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description="Print a table of README.md's Results from a committed regimes.json.")
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument("--rl", action="store_true", help="the RL agent in plan mode (default source sweeps/rl_plan)")
+    which.add_argument("--fixed", action="store_true", help="the fixed mode (default source sweeps/fixed_mode_v3)")
+    parser.add_argument("regimes", nargs="?", type=Path, help="a regimes.json written by deadtime regimes")
+    args = parser.parse_args()
+    if args.fixed:
+        print(fixed_table(args.regimes or FIXED_REGIMES))
+    elif args.rl:
+        source = args.regimes or RL_REGIMES
         print(rl_plan_table(source) + "\n\n" + behaviour_table(source))
     else:
-        print(headline_table(Path(sys.argv[1]) if len(sys.argv) > 1 else REGIMES))
+        print(headline_table(args.regimes or REGIMES))
+
+
+if __name__ == "__main__":
+    main()
