@@ -3,6 +3,7 @@
     python tests/tools/headline_table.py [sweeps/agent_mode/regimes.json]
     python tests/tools/headline_table.py --rl [sweeps/rl_plan/regimes.json]
     python tests/tools/headline_table.py --fixed [sweeps/fixed_mode_v3/regimes.json]
+    python tests/tools/headline_table.py --own [sweeps/own_plan/regimes.json]
 
 prints the Markdown table: one row per regime of ``sweeps/agent_mode/regimes.json`` (written by
 ``deadtime regimes``), the structure, noise and production price, the oracle's and the best rule's
@@ -14,6 +15,9 @@ certified learned plan do on validation plants).
 With ``--fixed``, the fixed mode's table from ``sweeps/fixed_mode_v3/regimes.json`` (:func:`fixed_table`:
 the paired differences of the learned designs of :data:`FIXED_POLICIES` to the best rule, each with its
 violation rate).
+With ``--own``, the certified learned plan with the plan chosen for the learned design from
+``sweeps/own_plan/regimes.json`` (:func:`own_plan_table`: against the best rule and against the same
+learner on the base rule's plan).
 Intervals are 95% bootstrap intervals as in ``regimes.md``, formatted the same way (3 significant
 digits).  ``tests/unit/test_docs_numbers.py`` holds the README's tables equal to this output.
 """
@@ -26,6 +30,7 @@ from pathlib import Path
 REGIMES = Path(__file__).resolve().parents[2] / "sweeps" / "agent_mode" / "regimes.json"
 RL_REGIMES = REGIMES.parents[1] / "rl_plan" / "regimes.json"
 FIXED_REGIMES = REGIMES.parents[1] / "fixed_mode_v3" / "regimes.json"
+OWN_REGIMES = REGIMES.parents[1] / "own_plan" / "regimes.json"
 STRUCTURES = ("PID", "FPPI", "MSP")
 HEADER = ("| structure | noise | production price | oracle | best rule | learned plan | its violations "
           "| certified learned plan | its violations | certified - best rule |")
@@ -149,6 +154,41 @@ def fixed_table(path: Path = FIXED_REGIMES) -> str:
     return "\n".join(lines)
 
 
+OWN = "learned-plan-own-3000"
+OWN_HEADER = ("| structure | noise | production price | best rule | certified, `plan-best`'s plan | certified, own plan "
+              "| its plan | its violations | own plan - best rule | own plan - `plan-best`'s plan |")
+
+
+def _own_plan(regime: dict) -> str:
+    """The plan of ``learned-plan-own-3000`` in a regime, from its seed-0 run's manifest in the committed sweep."""
+    for sweep in regime["sweep"].split(" + "):
+        manifest = REGIMES.parents[1] / sweep / "runs" / f"{OWN}-{regime['env']}-s0" / "learned_rule.json"
+        if manifest.is_file():
+            return str(json.loads(manifest.read_text())["env_kwargs"]["plan"])
+    raise FileNotFoundError(f"no run of {OWN} on {regime['env']} among the sweeps {regime['sweep']}")
+
+
+def own_plan_table(path: Path = OWN_REGIMES) -> str:
+    """The certified learned plan with the plan chosen for the learned design (``learned-plan-own-3000``)
+    against the best rule and against ``learned-plan-cert-3000`` (the same learner on the base rule's
+    best plan), one row per regime of a ``regimes.json`` where it was trained."""
+    lines = _head(OWN_HEADER)
+    for regime in _regimes(path):
+        costs = regime["mean_cost"]
+        if OWN not in costs:
+            continue
+        best = regime["best_rule"]
+        differences = {d["second"]: d["estimate"] for d in regime["differences"] if d["first"] == OWN}
+        base = differences.get("learned-plan-cert-3000")
+        lines.append(" | ".join((
+            "| " + " | ".join(_regime_cells(regime)), f"`{best}` {_cell(costs[best])}",
+            _cell(costs["learned-plan-cert-3000"]) if "learned-plan-cert-3000" in costs else "-", _cell(costs[OWN]),
+            _own_plan(regime), f"{100 * regime['violation_rate'][OWN]:.1f}%",
+            _cell(regime["agents_to_rules"][OWN]["best_rule"]), f"{_cell(base) if base else '-'} |",
+        )))
+    return "\n".join(lines)
+
+
 def main() -> None:
     import argparse
 
@@ -156,9 +196,12 @@ def main() -> None:
     which = parser.add_mutually_exclusive_group()
     which.add_argument("--rl", action="store_true", help="the RL agent in plan mode (default source sweeps/rl_plan)")
     which.add_argument("--fixed", action="store_true", help="the fixed mode (default source sweeps/fixed_mode_v3)")
+    which.add_argument("--own", action="store_true", help="the plan chosen for the learned design (default sweeps/own_plan)")
     parser.add_argument("regimes", nargs="?", type=Path, help="a regimes.json written by deadtime regimes")
     args = parser.parse_args()
-    if args.fixed:
+    if args.own:
+        print(own_plan_table(args.regimes or OWN_REGIMES))
+    elif args.fixed:
         print(fixed_table(args.regimes or FIXED_REGIMES))
     elif args.rl:
         source = args.regimes or RL_REGIMES
