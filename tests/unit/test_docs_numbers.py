@@ -147,6 +147,16 @@ def test_the_readme_fixed_mode_table_is_the_committed_regimes():
     assert all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
 
 
+def test_the_readme_own_plan_table_is_the_committed_regimes():
+    """README "Results": the table of the plan chosen for the learned design is ``tests/tools/headline_table.py
+    --own``'s output for the committed ``sweeps/own_plan/regimes.json``; each interval is in its ``regimes.md``."""
+    expected = _tool("headline_table").own_plan_table()
+    assert expected in _tables(README_RESULTS)
+    regimes = (REPO / "sweeps" / "own_plan" / "regimes.md").read_text()
+    quoted = re.findall(INTERVAL, expected)
+    assert len(quoted) >= 8 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
+
+
 def _tables(text: str) -> list[str]:
     """The Markdown tables of ``text``: runs of consecutive lines that start with ``|``."""
     return ["\n".join(lines) for is_table, lines in itertools.groupby(text.splitlines(), lambda line: line.startswith("|"))
