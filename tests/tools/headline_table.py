@@ -27,10 +27,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-REGIMES = Path(__file__).resolve().parents[2] / "sweeps" / "agent_mode" / "regimes.json"
-RL_REGIMES = REGIMES.parents[1] / "rl_plan" / "regimes.json"
-FIXED_REGIMES = REGIMES.parents[1] / "fixed_mode_v3" / "regimes.json"
-OWN_REGIMES = REGIMES.parents[1] / "own_plan" / "regimes.json"
+SWEEPS = Path(__file__).resolve().parents[2] / "sweeps"
+REGIMES = SWEEPS / "agent_mode" / "regimes.json"
+RL_REGIMES = SWEEPS / "rl_plan" / "regimes.json"
+FIXED_REGIMES = SWEEPS / "fixed_mode_v3" / "regimes.json"
+OWN_REGIMES = SWEEPS / "own_plan" / "regimes.json"
 STRUCTURES = ("PID", "FPPI", "MSP")
 HEADER = ("| structure | noise | production price | oracle | best rule | learned plan | its violations "
           "| certified learned plan | its violations | certified - best rule |")
@@ -57,6 +58,11 @@ def _regimes(path: Path) -> list[dict]:
 
 def _structure(regime: dict) -> str:
     return f"`{regime['env'].split('-')[0]}`"
+
+
+def _differences(regime: dict, first: str) -> dict[str, list[float]]:
+    """The ``--compare`` differences ``first - B`` of a regime, by ``B``."""
+    return {d["second"]: d["estimate"] for d in regime["differences"] if d["first"] == first}
 
 
 def _regime_cells(regime: dict) -> tuple[str, str, str]:
@@ -91,7 +97,7 @@ def rl_plan_table(path: Path = RL_REGIMES) -> str:
     lines = _head(RL_HEADER)
     for regime in _regimes(path):
         best, costs = regime["best_rule"], regime["mean_cost"]
-        differences = {d["second"]: d["estimate"] for d in regime["differences"]}
+        differences = _differences(regime, "sac-plan")
         lines.append(" | ".join((
             "| " + " | ".join(_regime_cells(regime)),
             f"`{best}` {_cell(costs[best])}", _cell(costs["plan-best"]), _cell(costs["learned-plan"]), _cell(costs["sac-plan"]),
@@ -154,7 +160,7 @@ def fixed_table(path: Path = FIXED_REGIMES) -> str:
     return "\n".join(lines)
 
 
-OWN = "learned-plan-own-3000"
+OWN, BASE = "learned-plan-own-3000", "learned-plan-cert-3000"
 OWN_HEADER = ("| structure | noise | production price | best rule | certified, `plan-best`'s plan | certified, own plan "
               "| its plan | its violations | own plan - best rule | own plan - `plan-best`'s plan |")
 
@@ -162,7 +168,7 @@ OWN_HEADER = ("| structure | noise | production price | best rule | certified, `
 def _own_plan(regime: dict) -> str:
     """The plan of ``learned-plan-own-3000`` in a regime, from its seed-0 run's manifest in the committed sweep."""
     for sweep in regime["sweep"].split(" + "):
-        manifest = REGIMES.parents[1] / sweep / "runs" / f"{OWN}-{regime['env']}-s0" / "learned_rule.json"
+        manifest = SWEEPS / sweep / "runs" / f"{OWN}-{regime['env']}-s0" / "learned_rule.json"
         if manifest.is_file():
             return str(json.loads(manifest.read_text())["env_kwargs"]["plan"])
     raise FileNotFoundError(f"no run of {OWN} on {regime['env']} among the sweeps {regime['sweep']}")
@@ -170,7 +176,7 @@ def _own_plan(regime: dict) -> str:
 
 def own_plan_table(path: Path = OWN_REGIMES) -> str:
     """The certified learned plan with the plan chosen for the learned design (``learned-plan-own-3000``)
-    against the best rule and against ``learned-plan-cert-3000`` (the same learner on the base rule's
+    against the best rule and against ``learned-plan-cert-3000`` (``BASE``, the same learner on the base rule's
     best plan), one row per regime of a ``regimes.json`` where it was trained."""
     lines = _head(OWN_HEADER)
     for regime in _regimes(path):
@@ -178,11 +184,10 @@ def own_plan_table(path: Path = OWN_REGIMES) -> str:
         if OWN not in costs:
             continue
         best = regime["best_rule"]
-        differences = {d["second"]: d["estimate"] for d in regime["differences"] if d["first"] == OWN}
-        base = differences.get("learned-plan-cert-3000")
+        base = _differences(regime, OWN).get(BASE)
         lines.append(" | ".join((
             "| " + " | ".join(_regime_cells(regime)), f"`{best}` {_cell(costs[best])}",
-            _cell(costs["learned-plan-cert-3000"]) if "learned-plan-cert-3000" in costs else "-", _cell(costs[OWN]),
+            _cell(costs[BASE]) if BASE in costs else "-", _cell(costs[OWN]),
             _own_plan(regime), f"{100 * regime['violation_rate'][OWN]:.1f}%",
             _cell(regime["agents_to_rules"][OWN]["best_rule"]), f"{_cell(base) if base else '-'} |",
         )))

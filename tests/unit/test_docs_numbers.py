@@ -115,11 +115,8 @@ def test_every_interval_of_the_v3_study_pages_is_committed():
 def test_the_readme_headline_table_is_the_committed_regimes():
     """README "Results": the table is ``tests/tools/headline_table.py``'s output for the committed
     ``sweeps/agent_mode/regimes.json``, and each of its intervals is in the committed ``regimes.md``."""
-    expected = _tool("headline_table").headline_table()
-    assert expected in _tables(README_RESULTS)
-    regimes = (REPO / "sweeps" / "agent_mode" / "regimes.md").read_text()
-    quoted = re.findall(INTERVAL, expected)
-    assert len(quoted) >= 48 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
+    quoted = _readme_table_of(_tool("headline_table").headline_table(), "agent_mode")
+    assert len(quoted) >= 48
 
 
 def test_the_readme_rl_tables_are_the_committed_regimes():
@@ -139,22 +136,25 @@ def test_the_readme_fixed_mode_table_is_the_committed_regimes():
     """README "Results": the fixed mode's table is ``tests/tools/headline_table.py --fixed``'s output for
     the committed ``sweeps/fixed_mode_v3/regimes.json``, and each of its intervals is in its ``regimes.md``."""
     expected = _tool("headline_table").fixed_table()
-    assert expected in _tables(README_RESULTS)
-    regimes = (REPO / "sweeps" / "fixed_mode_v3" / "regimes.md").read_text()
-    quoted = re.findall(INTERVAL, expected)
+    quoted = _readme_table_of(expected, "fixed_mode_v3")
     cells = [cell.strip() for line in expected.splitlines()[2:] for cell in line.strip("|").split("|")[1:]]
     assert len(quoted) == sum(cell != "-" for cell in cells) >= 22  # one interval in each filled cell
-    assert all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
 
 
 def test_the_readme_own_plan_table_is_the_committed_regimes():
     """README "Results": the table of the plan chosen for the learned design is ``tests/tools/headline_table.py
     --own``'s output for the committed ``sweeps/own_plan/regimes.json``; each interval is in its ``regimes.md``."""
-    expected = _tool("headline_table").own_plan_table()
+    assert len(_readme_table_of(_tool("headline_table").own_plan_table(), "own_plan")) >= 8
+
+
+def _readme_table_of(expected: str, folder: str) -> list[str]:
+    """Assert that the table ``expected`` is a table of README's Results and that each of its intervals is in
+    ``sweeps/FOLDER/regimes.md``; returns the intervals."""
     assert expected in _tables(README_RESULTS)
-    regimes = (REPO / "sweeps" / "own_plan" / "regimes.md").read_text()
+    regimes = (REPO / "sweeps" / folder / "regimes.md").read_text()
     quoted = re.findall(INTERVAL, expected)
-    assert len(quoted) >= 8 and all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
+    assert all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
+    return quoted
 
 
 def _tables(text: str) -> list[str]:
