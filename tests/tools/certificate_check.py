@@ -6,11 +6,13 @@ the after-the-fact check of a certified margin (``baselines/learned_rule.py``, "
 Per sweep, environment and agent group (``<label>-<env>-s<seed>``): the test episodes of all seeds, how
 many violated a constraint (``feasible`` false, failures included), the pooled rate with its two-sided
 95% Clopper-Pearson interval (``scipy.stats.binomtest``), and how many seeds violated on any of their
-test plants (on 50 plants a seed whose rate is exactly 1% shows a violation with probability 39.5%);
-where the sweep folder holds the fits' manifests (``runs/*/learned_rule.json``), how many seeds' margins
+test plants (on 50 plants a seed whose rate is exactly 1% shows a violation with probability 39.5%),
+and on how many distinct test plants any seed violated; where the sweep folder holds the fits' manifests (``runs/*/learned_rule.json``), how many seeds' margins
 were certified and the range of their margins.  The test plants
 are the same for every seed, so the pooled count is not a sum of independent draws: the interval is a
-description of the pooled rate, not a test of each seed's promise.  Prints a Markdown table.
+description of the pooled rate, not a test of each seed's promise.  A plant that violates under every
+seed counts ten times in the pool and once among the plants: read the two together (one plant of 50 is
+consistent with a 1% rate).  Prints a Markdown table.
 """
 
 from __future__ import annotations
@@ -27,17 +29,32 @@ from scipy.stats import binomtest
 GROUP = re.compile(r"^(?P<label>.+)-(?P<env>[A-Z]+-v\d+)-s(?P<seed>\d+)$")
 
 
-def group_counts(sweep: Path) -> dict[tuple[str, str], list[tuple[int, int]]]:
-    """``(env, label) -> [(violations, episodes) per seed]`` on the test plants of a sweep's evaluations."""
-    found: dict[tuple[str, str], list[tuple[int, int]]] = defaultdict(list)
+def group_rows(sweep: Path) -> dict[tuple[str, str], list[list[dict[str, str]]]]:
+    """``(env, label) -> [the agent's test rows of per_plant.csv, per seed]`` of a sweep's evaluations."""
+    found: dict[tuple[str, str], list[list[dict[str, str]]]] = defaultdict(list)
     for path in sorted(sweep.glob("eval/*/*/per_plant.csv")):
         match = GROUP.match(path.parent.name)
         if not match:
             continue
         with path.open(newline="") as handle:
             rows = [row for row in csv.DictReader(handle) if row["subset"] == "test" and row["policy"] == "agent"]
-        found[(match["env"], match["label"])].append((sum(row["feasible"] != "True" for row in rows), len(rows)))
+        found[(match["env"], match["label"])].append(rows)
     return found
+
+
+def _violates(row: dict[str, str]) -> bool:
+    return row["feasible"] != "True"
+
+
+def group_counts(sweep: Path) -> dict[tuple[str, str], list[tuple[int, int]]]:
+    """``(env, label) -> [(violations, episodes) per seed]`` on the test plants of a sweep's evaluations."""
+    return {group: [(sum(map(_violates, rows)), len(rows)) for rows in seeds] for group, seeds in group_rows(sweep).items()}
+
+
+def violating_plants(seeds: list[list[dict[str, str]]]) -> str:
+    """``"k of n"``: the distinct test plants on which any seed violated, of all test plants."""
+    plants = {row["plant"] for rows in seeds for row in rows}
+    return f"{len({row['plant'] for rows in seeds for row in rows if _violates(row)})} of {len(plants)}"
 
 
 def certified(sweep: Path, env: str, label: str) -> str:
@@ -53,14 +70,16 @@ def certified(sweep: Path, env: str, label: str) -> str:
 
 def table(sweeps: list[Path]) -> str:
     lines = ["| sweep | env | group | seeds | test episodes | violations | rate [95% interval] | seeds with a violation "
-             "| seeds certified |", "|---|---|---|---|---|---|---|---|---|"]
+             "| plants with a violation | seeds certified |", "|---|---|---|---|---|---|---|---|---|---|"]
     for sweep in sweeps:
+        rows = group_rows(sweep)
         for (env, label), seeds in sorted(group_counts(sweep).items()):
             violations, episodes = sum(v for v, _ in seeds), sum(n for _, n in seeds)
             interval = binomtest(violations, episodes).proportion_ci(confidence_level=0.95, method="exact")
             above = sum(v > 0 for v, _ in seeds)
             lines.append(f"| {sweep.name} | {env} | {label} | {len(seeds)} | {episodes} | {violations} | {violations / episodes:.1%} "
-                         f"[{interval.low:.1%}, {interval.high:.1%}] | {above} | {certified(sweep, env, label)} |")
+                         f"[{interval.low:.1%}, {interval.high:.1%}] | {above} | {violating_plants(rows[(env, label)])} "
+                         f"| {certified(sweep, env, label)} |")
     return "\n".join(lines)
 
 
