@@ -59,9 +59,9 @@ def test_the_tr_floors_are_those_of_the_code():
 
 
 def _committed() -> list[str]:
-    """The text of every committed ``sweeps/*/summary.md``, ``sweeps/*/regimes.md`` and ``sweeps/*/information.md``."""
+    """The text of every committed ``summary.md``, ``regimes.md`` and ``information.md`` under ``sweeps/``."""
     sweeps = REPO / "sweeps"
-    return [path.read_text() for name in ("summary.md", "regimes.md", "information.md") for path in sorted(sweeps.glob(f"*/{name}"))]
+    return [path.read_text() for name in ("summary.md", "regimes.md", "information.md") for path in sorted(sweeps.rglob(name))]
 
 
 def _tool(name: str):
@@ -70,6 +70,21 @@ def _tool(name: str):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def test_the_gap_decompositions_are_the_committed_per_plant_tables():
+    """The tables of docs/agent_mode.md that split a learner's difference to ``simc-pi`` by the rule's
+    violating plants are ``tests/tools/gap_decomposition.py`` on the committed per-plant tables, and
+    their parts add up to the summary's point estimate."""
+    module = _tool("gap_decomposition")
+    page = (DOCS / "agent_mode.md").read_text()
+    for sweep, group in (("spread_own_plan_noise10_time", "learned-plan-spread-10000"),
+                         ("spread_own_plan_noise10_production", "learned-plan-cert-10000")):
+        table = module.decompose(REPO / "sweeps" / sweep, "PID-v3", group, "simc-pi")
+        assert module.markdown(table) in page, sweep
+        whole = table[-1]["difference per plant"]
+        assert abs(table[0]["share of the mean difference"] + table[1]["share of the mean difference"] - whole) <= 1e-9 * (1 + abs(whole))
+        assert f"{whole:.3g} [" in (REPO / "sweeps" / sweep / "summary.md").read_text()
 
 
 def test_the_information_table_is_its_per_plant_costs():
