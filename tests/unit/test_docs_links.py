@@ -62,3 +62,10 @@ def test_quoted_repository_paths_exist(page: Path) -> None:
 def test_the_anchors_are_github_s() -> None:
     assert "when-choosing-experiments-pays" in _anchors(REPO / "docs" / "results_history.md")
     assert "terms" in _anchors(REPO / "docs" / "results.md")
+
+
+def test_the_readme_stays_a_five_minute_read() -> None:
+    """README.md is the way in: what it is, install, two quick starts, the environments, the headline
+    results and links, in at most 250 lines; the rest belongs to docs/."""
+    lines = (REPO / "README.md").read_text().splitlines()
+    assert len(lines) <= 250, f"README.md has {len(lines)} lines; move detail to docs/"
