@@ -1,6 +1,6 @@
 """What ``deadtime sweep --resume`` checks before it connects to Ray, reading only.
 
-A resumed sweep rewrites ``DIR/sessions.json`` and each trial's ``run.json`` when its work is done,
+A resumed sweep rewrites ``DIR/sessions.json`` (:mod:`agents.sweeps.sessions`) and each trial's ``run.json``,
 and each trial resumes its run directory from its newest intact checkpoint.  A damaged record, or a
 run with no intact checkpoint, is named here in one line (:class:`agents.training.files.DamagedFileError`)
 before any trial starts; a trial that falls back on an older checkpoint is said here, on the user's

@@ -10,18 +10,17 @@ import os
 import pickle
 import sys
 import time
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 from ray import tune
 
-from agents.runtime import git_commit, versions
 from agents.sweeps.cluster import connect
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
 from agents.sweeps.interrupts import TuneStop
 from agents.sweeps.resume import check_resumable, experiment_state_problem
-from agents.training.files import read_record, write_json, write_text
+from agents.sweeps.sessions import SessionRecord
+from agents.training.files import write_text
 
 __all__ = ["Progress", "run_sweep", "trial_function"]
 
@@ -40,7 +39,11 @@ def _check_directory(sweep_file: Path, out: Path, resume: bool) -> None:
 
 
 def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str | None = None, resume: bool = False) -> dict[str, Any]:
-    """Train every trial on Ray Tune, evaluate, and write the summary; returns ``summary.json``'s object."""
+    """Train every trial on Ray Tune, evaluate, and write the summary; returns ``summary.json``'s object.
+
+    The session is recorded in ``DIR/sessions.json`` while it runs, an interrupted one too
+    (:mod:`agents.sweeps.sessions`).
+    """
     import ray
 
     started = time.perf_counter()
@@ -52,29 +55,18 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
     connect(ray, address)
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "sweep.yaml", sweep_file.read_text())
-    results = _train_all(sweep, out, resume)
-    failed = {name: error for name, error in results.items() if error is not None}
-    for name, error in failed.items():
-        print(f"trial {name} failed: {error}", file=sys.stderr)
-    trials = [trial for trial in sweep.trials() if trial.name not in failed]
-    _evaluate_all(ray, sweep, trials, out)
-    sessions = _sessions(out, time.perf_counter() - started, resume)
-    from agents.sweeps.summary import write_summary
+    with SessionRecord(out, resume, ray.cluster_resources().get("CPU"), started=started) as session:
+        results = _train_all(sweep, out, resume)
+        failed = {name: error for name, error in results.items() if error is not None}
+        for name, error in failed.items():
+            print(f"trial {name} failed: {error}", file=sys.stderr)
+        trials = [trial for trial in sweep.trials() if trial.name not in failed]
+        _evaluate_all(ray, sweep, trials, out)
+        from agents.sweeps.summary import write_summary
 
-    summary = write_summary(sweep, trials, out, failed, sessions)
-    write_json(out / "sessions.json", sessions)  # after the summary: a session that wrote none is not recorded
+        summary = write_summary(sweep, trials, out, failed, session.finished())
+        session.save()
     return summary
-
-
-def _sessions(out: Path, seconds: float, resume: bool) -> list[dict[str, Any]]:
-    """The invocations of ``DIR/sessions.json`` and this one (commit, versions, CPUs, wall time)."""
-    import ray
-
-    sessions = read_record(out / "sessions.json", list) or []
-    sessions.append({"finished": datetime.now(UTC).isoformat(timespec="seconds"), "resumed": resume,
-                     "wall_time_s": round(seconds, 1), "cpus": ray.cluster_resources().get("CPU"),
-                     "commit": git_commit(), "versions": versions()})
-    return sessions
 
 
 # ------------------------------------------------------------------------------- the trials

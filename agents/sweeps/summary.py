@@ -37,6 +37,7 @@ import numpy as np
 from agents.evaluation.policies import ROLES, TRAINED
 from agents.evaluation.seed_statistics import SeedStatistics, seed_statistics
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
+from agents.sweeps.sessions import interrupted_sessions
 from agents.training.files import atomic_write_all
 
 __all__ = ["per_plant_costs", "write_summary"]
@@ -168,8 +169,10 @@ def _markdown(summary: dict[str, Any]) -> str:
     if summary.get("env_kwargs"):
         lines += [f"- regime: every environment made with `{json.dumps(summary['env_kwargs'], sort_keys=True)}`"]
     if sessions:
-        lines += [f"- wall time {summary['wall_time_s']:.0f} s in {len(sessions)} session(s) on {sessions[-1]['cpus']:g} CPUs, "
-                  f"commit {sessions[-1]['commit']}", ""]
+        interrupted = interrupted_sessions(sessions)
+        ended = f" ({interrupted} interrupted)" if interrupted else ""
+        lines += [f"- wall time {summary['wall_time_s']:.0f} s in {len(sessions)} session(s){ended} on {sessions[-1]['cpus']:g} "
+                  f"CPUs, commit {sessions[-1]['commit']}", ""]
     for name, error in summary["failed"].items():
         lines.append(f"- trial `{name}` failed: {error}")
     for env in summary["envs"]:
@@ -255,7 +258,7 @@ def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: di
     """Aggregate the evaluations in ``out`` and write ``summary.{md,csv,json}`` and the plots, all or none
 (everything is computed first, then written to temporary files moved into place together).
 
-    ``sessions`` (the invocations of the sweep, :mod:`agents.sweeps.run`) give the wall time.
+    ``sessions`` (the invocations of the sweep, :mod:`agents.sweeps.sessions`) give the wall time.
     """
     entries = [_environment(sweep, env, trials, out) for env in sweep.envs()]
     summary = {"sweep": sweep.name, **({"env_kwargs": dict(sweep.env_kwargs)} if sweep.env_kwargs else {}),

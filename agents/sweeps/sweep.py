@@ -27,7 +27,9 @@ evaluation of ``deadtime evaluate``, into ``DIR/eval/...``), and :mod:`agents.sw
   (``Tuner.restore``): finished trials are kept, unfinished ones continue from their latest
   checkpoint, errored ones are retried.  An experiment state Tune cannot read is said in one line
   and its trials run again as a new experiment, each resuming its run directory.  Evaluations are
-  cached per plant.  The summary's files are written together at the end (all or none).
+  cached per plant.  The summary's files are written together at the end (all or none).  Every
+  session, an interrupted or killed one too, is recorded with its wall time in ``sessions.json``
+  (:mod:`agents.sweeps.sessions`), and the summary's wall time is that of all of them.
 * **Failures.**  A failed trial is retried ``failure.max_failures`` times (``FailureConfig``); if it
   keeps failing it is reported by name with its error, and the summary is made of the others.
 * **Threads.**  One thread for torch, BLAS, OpenMP and numba in every trial and task (the matrices

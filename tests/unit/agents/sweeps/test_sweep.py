@@ -159,10 +159,15 @@ def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path,
             "deadtime sweep: interrupted; no summary written, the trials' checkpoints and the evaluations' caches are "
             f"kept; continue with: deadtime sweep --config {SMOKE} --out {out} --resume")
         assert "Tuner.restore" not in err
-    assert not any(out.glob("summary.*")) and not (out / "sessions.json").exists()
+    assert not any(out.glob("summary.*"))
+    (session,) = json.loads((out / "sessions.json").read_text())  # on record, with the time it spent
+    assert session["status"] == ("interrupted" if how == signal.SIGINT else "running") and session["wall_time_s"] >= 0
     done = subprocess.run(_sweep_command(out, "--resume", "--json"), cwd=REPO, env=_environment(), capture_output=True,
                           text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
+    sessions = json.loads(done.stdout)["sessions"]
+    assert [s["status"] for s in sessions] == ["interrupted", "finished"]
+    assert json.loads(done.stdout)["wall_time_s"] == pytest.approx(sum(s["wall_time_s"] for s in sessions), abs=0.05)
     assert "Failed to fetch metrics" not in done.stderr  # trials not started are not failures
     expected, resumed = (json.loads((d / "summary.json").read_text()) for d in (smoke, out))
     assert resumed["envs"] == expected["envs"]

@@ -87,14 +87,19 @@ def test_ctrl_c_exits_130_writes_nothing_final_and_says_how_to_resume(tmp_path: 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt  # as _train_all raises once Ctrl-C has stopped the Tune experiment
 
+    import ray
+
     monkeypatch.setattr(sweep_run, "connect", lambda ray, address: None)
+    monkeypatch.setattr(ray, "cluster_resources", lambda: {"CPU": 2.0})
     monkeypatch.setattr(sweep_run, "_train_all", interrupted)
     out = tmp_path / "out dir"
     status, printed, err = run("sweep", "--config", str(SMOKE), "--out", str(out))
     assert (status, printed) == (130, "")
     assert err == ("deadtime sweep: interrupted; no summary written, the trials' checkpoints and the evaluations' caches "
                    f"are kept; continue with: deadtime sweep --config {SMOKE} --out '{out}' --resume\n")
-    assert sorted(p.name for p in out.iterdir()) == ["sweep.yaml"]  # what --resume needs, nothing final
+    assert sorted(p.name for p in out.iterdir()) == ["sessions.json", "sweep.yaml"]  # what --resume needs, nothing final
+    (session,) = json.loads((out / "sessions.json").read_text())
+    assert session["status"] == "interrupted"  # its time counts in the summary of the resumed sweep
 
 
 def test_tune_stop_passes_the_first_sigint_to_tune_and_raises_on_the_second() -> None:

@@ -1,0 +1,96 @@
+"""``DIR/sessions.json``: every invocation of a sweep, with its wall time, including the interrupted ones.
+
+A session's entry is written when its trials are about to start and rewritten every
+:data:`HEARTBEAT_S` seconds while it runs, so that a sweep ended by Ctrl-C, a kill or the end of a
+machine's session still counts the time it spent: ``status`` is ``finished`` (it wrote the summary),
+``interrupted`` (Ctrl-C, or an error: its wall time exact) or ``running`` (the process ended without a
+word: its wall time counted to its last heartbeat, at most :data:`HEARTBEAT_S` short).  The next
+session of the sweep records a ``running`` entry it finds as ``interrupted``.  Entries written before
+sessions had a status are finished sessions.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from agents.runtime import git_commit, versions
+from agents.training.files import read_record, write_json
+
+__all__ = ["HEARTBEAT_S", "SessionRecord", "interrupted_sessions"]
+
+HEARTBEAT_S = 60.0
+"""Seconds between two rewrites of a running session's entry."""
+
+
+def _now() -> str:
+    return datetime.now(UTC).isoformat(timespec="seconds")
+
+
+def interrupted_sessions(sessions: list[dict[str, Any]]) -> int:
+    """How many of ``sessions`` did not finish (every entry but a ``finished`` one, or one without a status)."""
+    return sum(session.get("status", "finished") != "finished" for session in sessions)
+
+
+class SessionRecord:
+    """A context manager around one session of a sweep in ``out``.
+
+    :meth:`finished` gives every entry with this session's marked finished, for the summary; :meth:`save`
+    writes them once the summary is written.  Leaving the context before :meth:`save` (an exception,
+    ``KeyboardInterrupt`` included) records the session as ``interrupted``.
+    """
+
+    def __init__(self, out: Path, resume: bool, cpus: float | None, *, started: float | None = None,
+                 heartbeat_s: float = HEARTBEAT_S) -> None:
+        self.path = out / "sessions.json"
+        earlier = read_record(self.path, list) or []
+        for session in earlier:
+            if session.get("status") == "running":
+                session["status"] = "interrupted"
+        self._earlier = earlier
+        self._started = time.perf_counter() if started is None else started  # a time.perf_counter()
+        self._entry: dict[str, Any] = {"started": _now(), "finished": _now(), "status": "running", "resumed": resume,
+                                       "wall_time_s": 0.0, "cpus": cpus, "commit": git_commit(), "versions": versions()}
+        self._saved = False
+        self._heartbeat_s = heartbeat_s
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._beat, name="sessions.json", daemon=True)
+
+    def __enter__(self) -> SessionRecord:
+        self._write(self._now_entry("running"))
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+        if not self._saved:
+            self._write(self._now_entry("interrupted"))
+
+    def finished(self) -> list[dict[str, Any]]:
+        """Every entry, this session's finished with its wall time up to now."""
+        self._stop.set()
+        self._thread.join()
+        self._entry = self._now_entry("finished")
+        return [*self._earlier, self._entry]
+
+    def save(self) -> None:
+        """Write the entries of :meth:`finished` (after the summary: a finished session has written one)."""
+        self._write(self._entry)
+        self._saved = True
+
+    def _now_entry(self, status: str) -> dict[str, Any]:
+        return {**self._entry, "finished": _now(), "status": status,
+                "wall_time_s": round(time.perf_counter() - self._started, 1)}
+
+    def _beat(self) -> None:
+        while not self._stop.wait(self._heartbeat_s):
+            self._write(self._now_entry("running"))
+
+    def _write(self, entry: dict[str, Any]) -> None:
+        with self._lock:
+            write_json(self.path, [*self._earlier, entry])
