@@ -59,9 +59,10 @@ def test_the_tr_floors_are_those_of_the_code():
 
 
 def _committed() -> list[str]:
-    """The text of every committed ``summary.md``, ``regimes.md`` and ``information.md`` under ``sweeps/``."""
+    """The text of every committed ``summary.md``, ``regimes.md``, ``information.md`` and ``fallback.md`` under ``sweeps/``."""
     sweeps = REPO / "sweeps"
-    return [path.read_text() for name in ("summary.md", "regimes.md", "information.md") for path in sorted(sweeps.rglob(name))]
+    names = ("summary.md", "regimes.md", "information.md", "fallback.md")
+    return [path.read_text() for name in names for path in sorted(sweeps.rglob(name))]
 
 
 def _tool(name: str):
@@ -85,6 +86,24 @@ def test_the_gap_decompositions_are_the_committed_per_plant_tables():
         whole = table[-1]["difference per plant"]
         assert abs(table[0]["share of the mean difference"] + table[1]["share of the mean difference"] - whole) <= 1e-9 * (1 + abs(whole))
         assert f"{whole:.3g} [" in (REPO / "sweeps" / sweep / "summary.md").read_text()
+
+
+def test_the_fallback_tables_are_the_committed_pilot_rows():
+    """docs/agent_mode.md's fallback tables are ``tests/tools/fallback_pilot.py``'s ``fallback.md``, made from
+    the rows of its ``fallback.json``; the rows are consistent (each difference is the mean costs' difference,
+    inside its interval, the rule's share a fraction)."""
+    module = _tool("fallback_pilot")
+    page = (DOCS / "agent_mode.md").read_text()
+    for regime in ("free", "priced"):
+        folder = REPO / "sweeps" / "spread_own_plan" / regime
+        record = json.loads((folder / "fallback.json").read_text())
+        table = module.markdown(record["rows"], record["rule"])
+        assert (folder / "fallback.md").read_text() == table + "\n" and table in page, regime
+        learned = record["rows"][0]
+        assert learned["policy"] == "learned design" and learned["rule_share"] == 0
+        for row in record["rows"]:
+            assert abs(row["difference"] - (row["mean_cost"] - learned["mean_cost"])) <= 1e-9 * (1 + learned["mean_cost"])
+            assert row["ci95"][0] <= row["difference"] <= row["ci95"][1] and 0 <= row["rule_share"] <= 1
 
 
 def test_the_information_table_is_its_per_plant_costs():
