@@ -1,9 +1,10 @@
 """A learned design with a fallback to a rule, measured on validation plants only.
 
-    python tests/tools/fallback_pilot.py RUN_DIR [--rule simc-pi] [--safe 0.1] [--out DIR]
+    python tests/tools/fallback_pilot.py RUN_DIR... [--rule simc-pi] [--safe 0.1] [--out DIR]
 
-``RUN_DIR`` is a learned-rule fit (``deadtime train --config configs/learned_plan.yaml ...``): its
-environment, regime, plan, seed and validation plants are read from its ``config.yaml``.  The rule
+Each ``RUN_DIR`` is a learned-rule fit (``deadtime train --config configs/learned_plan.yaml ...``), one
+per training seed of the same config: its environment, regime, plan, seed and validation plants are
+read from its ``config.yaml``.  The rule
 designs on the same identification as the learned design (the plan's experiments), so both pay the
 same experiments, and both are scored by the environment's ``score_controller`` on the true plant.
 
@@ -24,10 +25,12 @@ same experiments, and both are scored by the environment's ``score_controller`` 
    * ``per-plant best``: the cheaper of the two where the rule is feasible, else the learned design
      (a bound no policy reaches: it reads the true plant).
 
-Mean cost, violation rate, the share of plants given to the rule, and the paired difference to the
-learned design with its 95% percentile bootstrap interval (``scipy.stats.bootstrap``, 20000
-resamples, seed 0).  No test plant is drawn.  Prints a Markdown table; ``--out DIR`` writes it to
-``DIR/fallback.md`` and the rows with the fit and the settings to ``DIR/fallback.json``.
+Over the fits' seeds and the validation plants: mean cost, violation rate, the share of plants given to
+the rule, and the paired difference to the learned design with its 95% percentile interval from a
+two-way bootstrap (seeds and plants resampled whole, as the sweeps' summaries do; 2000 resamples,
+seed 0), and the range of the per-seed differences.  No test plant is drawn.  Prints a Markdown table;
+``--out DIR`` writes it to ``DIR/fallback.md`` and the rows, each seed's too, with the fits and the
+settings to ``DIR/fallback.json``.
 """
 
 from __future__ import annotations
@@ -40,7 +43,6 @@ from typing import Any
 
 import numpy as np
 import yaml
-from scipy.stats import bootstrap
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
@@ -101,60 +103,94 @@ def rule_cheaper(episodes: dict[str, np.ndarray]) -> np.ndarray:
     return cheaper
 
 
-def compare(episodes: dict[str, np.ndarray], safe: np.ndarray, cheaper: np.ndarray) -> list[dict[str, Any]]:
-    """One row per policy: mean cost, violation rate, share given to the rule, difference to the learned design."""
+def policy_costs(episodes: dict[str, np.ndarray], safe: np.ndarray, cheaper: np.ndarray) -> dict[str, tuple]:
+    """Per policy: ``(cost, feasible, given to the rule)`` on each validation plant."""
     rule_cost, rule_ok = episodes["rule_cost"], episodes["rule_feasible"]
     learned_cost, learned_ok = episodes["learned_cost"], episodes["learned_feasible"]
     uses = {"learned design": np.zeros_like(safe), "rule": np.ones_like(safe), "rule where safe": safe,
             "cheaper where safe": safe & cheaper, "per-plant best": rule_ok & (rule_cost < learned_cost)}
+    return {name: (np.where(use, rule_cost, learned_cost), np.where(use, rule_ok, learned_ok), use) for name, use in uses.items()}
+
+
+def two_way_interval(differences: np.ndarray, resamples: int = 2000, seed: int = 0) -> list[float]:
+    """95% percentile interval of the mean of a (seeds, plants) array, seeds and plants resampled whole."""
+    rng = np.random.default_rng(seed)
+    seeds, plants = differences.shape
+    means = np.empty(resamples)
+    for r in range(resamples):
+        means[r] = differences[rng.integers(0, seeds, seeds)][:, rng.integers(0, plants, plants)].mean()
+    low, high = np.percentile(means, [2.5, 97.5])
+    return [float(low), float(high)]
+
+
+def compare(per_seed: list[dict[str, tuple]]) -> list[dict[str, Any]]:
+    """One row per policy over the seeds: mean cost, violation rate, share given to the rule, difference to
+    the learned design with its two-way interval and the range of the per-seed differences."""
     rows = []
-    for name, use in uses.items():
-        cost, feasible = np.where(use, rule_cost, learned_cost), np.where(use, rule_ok, learned_ok)
-        difference = bootstrap((cost, learned_cost), lambda a, b: np.mean(a - b), paired=True, vectorized=False,
-                               n_resamples=20000, method="percentile", rng=np.random.default_rng(0))
-        interval = difference.confidence_interval
+    learned = np.array([costs["learned design"][0] for costs in per_seed])
+    for name in per_seed[0]:
+        cost, feasible, use = (np.array([costs[name][i] for costs in per_seed]) for i in range(3))
+        differences = cost - learned
+        by_seed = differences.mean(axis=1)
         rows.append({"policy": name, "mean_cost": float(cost.mean()), "violation_rate": float(1 - feasible.mean()),
-                     "rule_share": float(use.mean()), "difference": float((cost - learned_cost).mean()),
-                     "ci95": [float(interval.low), float(interval.high)]})
+                     "rule_share": float(use.mean()), "difference": float(differences.mean()),
+                     "ci95": two_way_interval(differences), "seed_range": [float(by_seed.min()), float(by_seed.max())]})
     return rows
 
 
-def markdown(rows: list[dict[str, Any]], rule: str) -> str:
-    lines = [f"| policy | mean cost | violations | plants given to `{rule}` | - learned design [95% interval] |",
-             "|---|---|---|---|---|"]
+def markdown(rows: list[dict[str, Any]], rule: str, seeds: int) -> str:
+    lines = [f"| policy | mean cost | violations | plants given to `{rule}` | - learned design [95% interval] "
+             f"| its range over the {seeds} seeds |", "|---|---|---|---|---|---|"]
     for row in rows:
-        difference = "-" if row["policy"] == "learned design" else f"{row['difference']:.3g} [{row['ci95'][0]:.3g}, {row['ci95'][1]:.3g}]"
+        reference = row["policy"] == "learned design"
+        difference = "-" if reference else f"{row['difference']:.3g} [{row['ci95'][0]:.3g}, {row['ci95'][1]:.3g}]"
+        spread = "-" if reference else f"{row['seed_range'][0]:.3g} to {row['seed_range'][1]:.3g}"
         lines.append(f"| {row['policy']} | {row['mean_cost']:.3g} | {row['violation_rate']:.2%} | {row['rule_share']:.1%} "
-                     f"| {difference} |")
+                     f"| {difference} | {spread} |")
     return "\n".join(lines)
+
+
+def pilot(run_dir: Path, rule: str, safe_below: float) -> tuple[dict[str, Any], dict[str, tuple]]:
+    """One fit: its record (config, the fit's choice, the rule's violation rate on its training plants) and
+    the policies' costs on its validation plants."""
+    from agents.environments import make_env
+    from agents.training.learned_rule_policy import load_learned_rule
+
+    config = yaml.safe_load((run_dir / "config.yaml").read_text())
+    fit = json.loads((run_dir / "learned_rule.json").read_text())
+    env = make_env(config["env_id"], config["env_kwargs"])
+    observations, violates = rule_labels(env, config, rule)
+    episodes = validation_episodes(env, load_learned_rule(run_dir), config["validation_plants"], rule)
+    env.close()
+    safe = _classifier().fit(observations, violates).predict_proba(episodes["observation"])[:, 1] < safe_below
+    record = {**{key: config[key] for key in ("env_id", "env_kwargs", "seed", "training_plants", "validation_plants")},
+              **{key: fit[key] for key in ("kind", "margin", "margin_scale", "sha256")},
+              "rule_violates_on_training_plants": float(violates.mean())}
+    return record, policy_costs(episodes, safe, rule_cheaper(episodes))
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("run_dir", type=Path, help="a learned-rule fit's run directory")
+    parser.add_argument("run_dirs", type=Path, nargs="+", metavar="RUN_DIR", help="learned-rule fits, one per seed")
     parser.add_argument("--rule", default="simc-pi", help="the rule to fall back to (default simc-pi)")
     parser.add_argument("--safe", type=float, default=0.1, help="predicted violation probability below which the rule is safe")
     parser.add_argument("--out", type=Path, help="write DIR/fallback.md and DIR/fallback.json")
     args = parser.parse_args()
 
-    from agents.environments import make_env
-    from agents.training.learned_rule_policy import load_learned_rule
-
-    config = yaml.safe_load((args.run_dir / "config.yaml").read_text())
-    env = make_env(config["env_id"], config["env_kwargs"])
-    observations, violates = rule_labels(env, config, args.rule)
-    episodes = validation_episodes(env, load_learned_rule(args.run_dir), config["validation_plants"], args.rule)
-    safe = _classifier().fit(observations, violates).predict_proba(episodes["observation"])[:, 1] < args.safe
-    rows = compare(episodes, safe, rule_cheaper(episodes))
-    print(markdown(rows, args.rule))
+    fits, per_seed = [], []
+    for run_dir in args.run_dirs:
+        record, costs = pilot(run_dir, args.rule, args.safe)
+        fits.append({**record, "rows": compare([costs])})
+        per_seed.append(costs)
+    rows = compare(per_seed)
+    table = markdown(rows, args.rule, len(per_seed))
+    print(table)
     if args.out:
-        fit = json.loads((args.run_dir / "learned_rule.json").read_text())
-        record = {**{key: config[key] for key in ("env_id", "env_kwargs", "seed", "training_plants", "validation_plants")},
-                  **{key: fit[key] for key in ("kind", "margin", "margin_scale")}, "rule": args.rule, "safe": args.safe,
-                  "rule_violates_on_training_plants": float(violates.mean()), "rows": rows}
         args.out.mkdir(parents=True, exist_ok=True)
+        record = {"rule": args.rule, "safe": args.safe, "rows": rows, "fits": fits}
         (args.out / "fallback.json").write_text(json.dumps(record, indent=2) + "\n")
-        (args.out / "fallback.md").write_text(markdown(rows, args.rule) + "\n")
+        (args.out / "fallback.md").write_text(table + "\n")
+
 
 if __name__ == "__main__":
     main()

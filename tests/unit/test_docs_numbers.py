@@ -90,20 +90,31 @@ def test_the_gap_decompositions_are_the_committed_per_plant_tables():
 
 def test_the_fallback_tables_are_the_committed_pilot_rows():
     """docs/agent_mode.md's fallback tables are ``tests/tools/fallback_pilot.py``'s ``fallback.md``, made from
-    the rows of its ``fallback.json``; the rows are consistent (each difference is the mean costs' difference,
-    inside its interval, the rule's share a fraction)."""
+    the rows of its ``fallback.json``, of the sweeps' own fits (their models' sha256); the rows are
+    consistent (each difference is the mean costs' difference and the mean of the per-seed differences,
+    inside its interval and their range; the rule's share a fraction)."""
     module = _tool("fallback_pilot")
     page = (DOCS / "agent_mode.md").read_text()
-    for regime in ("free", "priced"):
+    for regime, sweep, group in (("free", "spread_own_plan_noise10_time", "learned-plan-spread-10000"),
+                                 ("priced", "spread_own_plan_noise10_production", "learned-plan-cert-10000")):
         folder = REPO / "sweeps" / "spread_own_plan" / regime
         record = json.loads((folder / "fallback.json").read_text())
-        table = module.markdown(record["rows"], record["rule"])
+        seeds = [fit["seed"] for fit in record["fits"]]
+        assert len(set(seeds)) == len(seeds) >= 10, regime
+        for fit in record["fits"]:  # the sweep's own fits: the same model files
+            manifest = REPO / "sweeps" / sweep / "runs" / f"{group}-PID-v3-s{fit['seed']}" / "learned_rule.json"
+            assert fit["sha256"] == json.loads(manifest.read_text())["sha256"], manifest
+        table = module.markdown(record["rows"], record["rule"], len(seeds))
         assert (folder / "fallback.md").read_text() == table + "\n" and table in page, regime
         learned = record["rows"][0]
         assert learned["policy"] == "learned design" and learned["rule_share"] == 0
-        for row in record["rows"]:
-            assert abs(row["difference"] - (row["mean_cost"] - learned["mean_cost"])) <= 1e-9 * (1 + learned["mean_cost"])
-            assert row["ci95"][0] <= row["difference"] <= row["ci95"][1] and 0 <= row["rule_share"] <= 1
+        for k, row in enumerate(record["rows"]):
+            by_seed = [fit["rows"][k]["difference"] for fit in record["fits"]]
+            tolerance = 1e-9 * (1 + learned["mean_cost"])
+            assert abs(row["difference"] - (row["mean_cost"] - learned["mean_cost"])) <= tolerance
+            assert abs(row["difference"] - sum(by_seed) / len(by_seed)) <= tolerance
+            assert row["seed_range"] == [min(by_seed), max(by_seed)] and 0 <= row["rule_share"] <= 1
+            assert row["ci95"][0] <= row["difference"] <= row["ci95"][1]
 
 
 def test_the_information_table_is_its_per_plant_costs():
