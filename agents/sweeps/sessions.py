@@ -52,45 +52,46 @@ class SessionRecord:
                 session["status"] = "interrupted"
         self._earlier = earlier
         self._started = time.perf_counter() if started is None else started  # a time.perf_counter()
-        self._entry: dict[str, Any] = {"started": _now(), "finished": _now(), "status": "running", "resumed": resume,
-                                       "wall_time_s": 0.0, "cpus": cpus, "commit": git_commit(), "versions": versions()}
+        self._fixed = {"started": _now(), "resumed": resume, "cpus": cpus, "commit": git_commit(), "versions": versions()}
+        self._final: dict[str, Any] | None = None  # this session's entry once finished
         self._saved = False
         self._heartbeat_s = heartbeat_s
         self._stop = threading.Event()
-        self._lock = threading.Lock()
         self._thread = threading.Thread(target=self._beat, name="sessions.json", daemon=True)
 
     def __enter__(self) -> SessionRecord:
-        self._write(self._now_entry("running"))
+        self._write(self._entry("running"))
         self._thread.start()
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join()
+        self._stop_beating()
         if not self._saved:
-            self._write(self._now_entry("interrupted"))
+            self._write(self._entry("interrupted"))
 
     def finished(self) -> list[dict[str, Any]]:
         """Every entry, this session's finished with its wall time up to now."""
-        self._stop.set()
-        self._thread.join()
-        self._entry = self._now_entry("finished")
-        return [*self._earlier, self._entry]
+        self._stop_beating()
+        self._final = self._entry("finished")
+        return [*self._earlier, self._final]
 
     def save(self) -> None:
         """Write the entries of :meth:`finished` (after the summary: a finished session has written one)."""
-        self._write(self._entry)
+        self._write(self._final)
         self._saved = True
 
-    def _now_entry(self, status: str) -> dict[str, Any]:
-        return {**self._entry, "finished": _now(), "status": status,
-                "wall_time_s": round(time.perf_counter() - self._started, 1)}
+    def _entry(self, status: str) -> dict[str, Any]:
+        """This session's entry as of now."""
+        return {**self._fixed, "finished": _now(), "status": status, "wall_time_s": round(time.perf_counter() - self._started, 1)}
+
+    def _stop_beating(self) -> None:
+        self._stop.set()
+        self._thread.join()
 
     def _beat(self) -> None:
         while not self._stop.wait(self._heartbeat_s):
-            self._write(self._now_entry("running"))
+            self._write(self._entry("running"))
 
     def _write(self, entry: dict[str, Any]) -> None:
-        with self._lock:
-            write_json(self.path, [*self._earlier, entry])
+        """The file with ``entry`` last (the heartbeat writes only while it runs, the session only before or after)."""
+        write_json(self.path, [*self._earlier, entry])
