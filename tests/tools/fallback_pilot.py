@@ -4,9 +4,9 @@
 
 Each ``RUN_DIR`` is a learned-rule fit (``deadtime train --config configs/learned_plan.yaml ...``), one
 per training seed of the same config: its environment, regime, plan, seed and validation plants are
-read from its ``config.yaml``.  The rule
-designs on the same identification as the learned design (the plan's experiments), so both pay the
-same experiments, and both are scored by the environment's ``score_controller`` on the true plant.
+read from its ``config.yaml``.  The rule designs on the same identification as the learned design
+(the plan's experiments), so both pay the same experiments, and both are scored by the environment's
+``score_controller`` on the true plant.
 
 1. **Where the rule is safe.**  The rule is played on the fit's training plants (the same reset seeds,
    :func:`agents.training.learned_rule.training_seed`); a gradient-boosted classifier
@@ -27,25 +27,24 @@ same experiments, and both are scored by the environment's ``score_controller`` 
 
 Over the fits' seeds and the validation plants: mean cost, violation rate, the share of plants given to
 the rule, and the paired difference to the learned design with its 95% percentile interval from a
-two-way bootstrap (seeds and plants resampled whole, as the sweeps' summaries do; 2000 resamples,
-seed 0), and the range of the per-seed differences.  No test plant is drawn.  Prints a Markdown table;
-``--out DIR`` writes it to ``DIR/fallback.md`` and the rows, each seed's too, with the fits and the
-settings to ``DIR/fallback.json``.
+two-way bootstrap of the sweeps' summaries (``agents.evaluation.seed_statistics.bootstrap_interval``:
+seeds and plants resampled whole, 2000 resamples, seed 0), and the range of the per-seed
+differences.  No test plant is drawn.  Prints a Markdown table; ``--out DIR`` writes it to
+``DIR/fallback.md`` and the rows, each seed's too, with the fits and the settings to
+``DIR/fallback.json``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import yaml
 
-REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO))
+from agents.evaluation.seed_statistics import bootstrap_interval
 
 
 def _rule(env: Any, name: str) -> tuple[float, bool]:
@@ -112,15 +111,8 @@ def policy_costs(episodes: dict[str, np.ndarray], safe: np.ndarray, cheaper: np.
     return {name: (np.where(use, rule_cost, learned_cost), np.where(use, rule_ok, learned_ok), use) for name, use in uses.items()}
 
 
-def two_way_interval(differences: np.ndarray, resamples: int = 2000, seed: int = 0) -> list[float]:
-    """95% percentile interval of the mean of a (seeds, plants) array, seeds and plants resampled whole."""
-    rng = np.random.default_rng(seed)
-    seeds, plants = differences.shape
-    means = np.empty(resamples)
-    for r in range(resamples):
-        means[r] = differences[rng.integers(0, seeds, seeds)][:, rng.integers(0, plants, plants)].mean()
-    low, high = np.percentile(means, [2.5, 97.5])
-    return [float(low), float(high)]
+def _resampled_mean(resampled: np.ndarray, plants: np.ndarray) -> np.ndarray:
+    return resampled.mean(axis=(-2, -1))
 
 
 def compare(per_seed: list[dict[str, tuple]]) -> list[dict[str, Any]]:
@@ -134,7 +126,8 @@ def compare(per_seed: list[dict[str, tuple]]) -> list[dict[str, Any]]:
         by_seed = differences.mean(axis=1)
         rows.append({"policy": name, "mean_cost": float(cost.mean()), "violation_rate": float(1 - feasible.mean()),
                      "rule_share": float(use.mean()), "difference": float(differences.mean()),
-                     "ci95": two_way_interval(differences), "seed_range": [float(by_seed.min()), float(by_seed.max())]})
+                     "ci95": bootstrap_interval(differences, _resampled_mean),
+                     "seed_range": [float(by_seed.min()), float(by_seed.max())]})
     return rows
 
 
