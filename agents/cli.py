@@ -3,11 +3,10 @@
 Every subcommand is a module with ``add_arguments(parser)``, declaring its options, and
 ``run(args) -> int``, returning the exit status; the module imports its heavy dependencies (envs'
 numerics, torch, stable-baselines3) inside ``run``, so that parsing loads none of them and
-``deadtime analyze`` never loads torch.  Each module lives in the package that owns its concept:
-``train``, ``evaluate``, ``bench`` and ``sweep`` in :mod:`agents.training`, :mod:`agents.evaluation`,
-:mod:`agents.bench` and :mod:`agents.sweeps`; ``analyze``, ``tune``, ``reproduce`` and ``process``, which front
-functions of ``envs`` and ``baselines`` (packages that know nothing of the command line), in
-:mod:`agents.commands`.
+``deadtime analyze`` never loads torch.  Every such module lives in :mod:`agents.commands`, the one
+place that knows the command line: the libraries it fronts (``envs``, ``baselines``, and
+:mod:`agents.training`, :mod:`agents.evaluation`, :mod:`agents.bench`, :mod:`agents.sweeps`) take
+plain arguments and never import argparse.
 
 Bad input anywhere (a ``ValueError``, ``OverflowError`` or ``OSError``) prints one line naming what is
 wrong and exits with status 2; no traceback.  Ctrl-C prints one line and exits with status 130
@@ -65,11 +64,11 @@ COMMANDS: dict[str, Command] = {
         "agents.commands.reproduce", "the source papers' tables and figures beside their computed twins",
         "Compute the source papers' tables and figures (one by name, or all) and print them beside the published "
         "values; the figures are written as PNG files."),
-    "train": _described("agents.training.train", "train an agent from a YAML config"),
-    "evaluate": _described("agents.evaluation.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
-    "bench": _described("agents.bench.bench", "measure the speed and accuracy of the scoring and the environments"),
-    "sweep": _described("agents.sweeps.sweep", "train many seeds and configs on Ray Tune, evaluate them, and summarize"),
-    "regimes": _described("agents.sweeps.regimes", "compare sweeps that differ only in their regime (env_kwargs): "
+    "train": _described("agents.commands.train", "train an agent from a YAML config"),
+    "evaluate": _described("agents.commands.evaluate", "evaluate policies (rules, oracle, agents) on held-out plants"),
+    "bench": _described("agents.commands.bench", "measure the speed and accuracy of the scoring and the environments"),
+    "sweep": _described("agents.commands.sweep", "train many seeds and configs on Ray Tune, evaluate them, and summarize"),
+    "regimes": _described("agents.commands.regimes", "compare sweeps that differ only in their regime (env_kwargs): "
                           "costs, paired differences, a plot against one argument, what the agents do"),
     "process": Command(
         "agents.commands.process", "the procedure, the rules, the oracle and agents on a real process (the TCLab)",

@@ -1,8 +1,5 @@
-"""``deadtime bench``: the speed and accuracy of the scoring and the environments, in one run.
-
-Usage::
-
-    deadtime bench [--json] [--quick] [--skip-envs] [--skip-ppo]
+"""The speed and accuracy of the scoring and the environments, in one run (``deadtime bench``, whose
+command line is :mod:`agents.commands.bench`).
 
 Four parts, each on the same machine state:
 
@@ -41,19 +38,16 @@ records the commit, whether ``envs/`` had uncommitted changes, the CPU count and
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import platform
 import statistics
-import subprocess
 import sys
 import time
 from typing import Any
 
 from agents.runtime import REPO, THREAD_VARIABLES, git, versions
 
-__all__ = ["HEADLINE", "add_arguments", "run"]
+__all__ = ["HEADLINE", "bench", "format_table", "machine_info"]
 
 HEADLINE = (
     "scorings_per_s_single",
@@ -71,7 +65,6 @@ HEADLINE = (
     "native32_vs_single_bound",
     "ppo_samples_per_s_native32_vs_1",
 )
-CHILD_VARIABLE = "DEADTIME_BENCH_CHILD"
 ENV_ID = "DeadTime/PID-v0"
 SEED = 0
 N_ENVS = 2
@@ -84,17 +77,6 @@ after the other in one block would compare different machine states."""
 VECTOR_SECONDS = 6.0  # per setting, over all rounds
 SCORING_ROUNDS = 3  # our scoring and python-control, interleaved (the speed-up: median over rounds)
 PPO_ROUNDS = 3  # the PPO figures too, each a median over rounds of x1, x8, x32
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Declare the options of ``deadtime bench``."""
-    parser.add_argument("--json", action="store_true", help="print one JSON object with every figure")
-    parser.add_argument("--quick", action="store_true", help="a smoke run (4 loops, one episode per setting: its rates are not measurements)")
-    parser.add_argument("--skip-envs", action="store_true", help="skip the environment episodes")
-    parser.add_argument("--skip-ppo", action="store_true", help="skip the training shares (PPO and SAC)")
-    parser.add_argument("--pade-order", type=int, default=None, help="Padé order of the python-control reference")
-    parser.add_argument("--reference-samples", type=int, default=None,
-                        help="python-control reference steps per plant time scale T_ar")  # fmt: skip
 
 
 def _progress(message: str) -> None:
@@ -400,36 +382,3 @@ def format_table(figures: dict[str, Any]) -> str:
         + f"; bench took {figures['bench_seconds']:.0f} s"
     )
     return "\n".join(lines).lstrip("\n")
-
-
-def _in_child(args: argparse.Namespace) -> dict[str, Any]:
-    """Run the bench in a child process with one thread per pool (see the module docstring)."""
-    argv = [sys.executable, "-m", "agents.cli", "bench", "--json"]
-    for flag, on in (("--quick", args.quick), ("--skip-envs", args.skip_envs), ("--skip-ppo", args.skip_ppo)):
-        argv += [flag] if on else []
-    for flag, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
-        argv += [flag, str(value)] if value is not None else []
-    root = str(REPO)
-    path = os.environ.get("PYTHONPATH")
-    env = {**os.environ, **dict.fromkeys(THREAD_VARIABLES, "1"), CHILD_VARIABLE: "1"}
-    env["PYTHONPATH"] = root if not path else f"{root}{os.pathsep}{path}"
-    done = subprocess.run(argv, env=env, cwd=root, stdout=subprocess.PIPE, text=True, check=False)
-    if done.returncode != 0:
-        raise ValueError(f"the bench's child process failed with status {done.returncode} (see its messages above)")
-    return json.loads(done.stdout)
-
-
-def run(args: argparse.Namespace) -> int:
-    """Run the bench and print the table or the JSON object."""
-    for name, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
-        if value is not None and value < 1:
-            raise ValueError(f"{name} must be >= 1, got {value}")
-    if os.environ.get(CHILD_VARIABLE) == "1":
-        figures = bench(args.quick, not args.skip_envs, not args.skip_ppo, args.pade_order, args.reference_samples)
-    else:
-        figures = _in_child(args)
-    print(json.dumps(figures) if args.json else format_table(figures))
-    if args.quick:
-        print("bench --quick is a smoke run: it times one episode per setting (the first reset outside the timer), so its "
-              "rates are not measurements; run deadtime bench without --quick for those", file=sys.stderr)
-    return 0

@@ -1,8 +1,11 @@
-"""The ``deadtime`` subcommands that front a function of ``envs`` or ``baselines``.
+"""The ``deadtime`` subcommands: the command line, and nothing else, of the functions they front.
 
-``analyze`` (:func:`envs.analysis.loop_analysis.analyze`), ``tune`` (:func:`baselines.rules.tune.tune`)
-and ``reproduce`` (:func:`baselines.reproduction.reproduce.run_reproductions`): their command-line
-layer lives here, in ``agents``, because ``envs`` and ``baselines`` know nothing of the command line.
-Each module follows the protocol of :mod:`agents.cli` (``add_arguments(parser)``, ``run(args) -> int``);
-:mod:`.arguments` holds what they and ``deadtime evaluate`` share.
+One module per subcommand, each following the protocol of :mod:`agents.cli` (``add_arguments(parser)``,
+``run(args) -> int``): ``analyze`` (:func:`envs.analysis.loop_analysis.analyze`), ``tune``
+(:func:`baselines.rules.tune.tune`), ``reproduce`` (:func:`baselines.reproduction.reproduce.run_reproductions`),
+``train`` (:mod:`agents.training`), ``evaluate`` (:mod:`agents.evaluation`), ``bench``
+(:mod:`agents.bench`), ``sweep`` and ``regimes`` (:mod:`agents.sweeps`) and ``process``
+(:mod:`envs.process` with :mod:`agents.evaluation`).  The libraries know nothing of the command line:
+argparse is imported here and in :mod:`agents.cli` only.  :mod:`.arguments` holds what the
+subcommands share.
 """

@@ -1,9 +1,5 @@
-"""``deadtime evaluate``: policies against every rule and the per-plant oracle on held-out plants.
-
-::
-
-    deadtime evaluate --env DeadTime/PID-v0 --policies all-rules,oracle,agent=runs/x/model.zip \\
-        --n 50 --seed 0 --out results/pid
+"""Policies against every rule and the per-plant oracle on held-out plants (``deadtime evaluate``,
+whose command line is :mod:`agents.commands.evaluate`).
 
 Plants: the fixed held-out test set ``envs.systems.plant_sets.plant_set(family, "test", n)`` (or the user's
 own, ``--plants FILE``: a JSON list of plants, labelled ``user-0``, ``user-1``, ...) and, unless
@@ -38,7 +34,6 @@ stable-baselines3's ``predict``.  Without ``out`` it writes nothing and returns 
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -47,62 +42,10 @@ from numbers import Integral
 from pathlib import Path
 from typing import Any
 
-from agents.commands.arguments import PLANT_COEFFICIENTS
 from agents.environments import make_env
 from agents.limits import MAX_RESAMPLES, MAX_TEST_PLANTS, MAX_WORKERS, require_at_most
 
-__all__ = ["add_arguments", "evaluate", "run"]
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Declare the options of ``deadtime evaluate``."""
-    parser.add_argument("--env", required=True, help="environment id, e.g. DeadTime/PID-v3")
-    parser.add_argument(
-        "--policies", required=True,
-        help="comma-separated: rule names, all-rules, oracle, oracle-full, agent paths or NAME=PATH (loading an "
-             "agent runs pickled code from its folder: load only agents you trust; its files are checked against "
-             "the manifest written when it was saved)",
-    )  # fmt: skip
-    parser.add_argument("--n", type=int, default=50,
-                        help=f"number of random held-out test plants (default 50, at most {MAX_TEST_PLANTS})")
-    parser.add_argument("--plants", help="a JSON list of plants (each {\"num\": [...], \"den\": [...], \"delay\": L}) or a "
-                        f"file of one: the user's own test set (at most {MAX_TEST_PLANTS} plants of at most {PLANT_COEFFICIENTS} "
-                        "coefficients in num and in den), instead of --n random plants")
-    parser.add_argument("--seed", type=int, default=0,
-                        help="episode seeds are seed + plant index; also seeds the bootstrap (an integer >= 0, default 0)")
-    parser.add_argument("--out", required=True, help="output directory (created; not the empty string)")
-    parser.add_argument("--json", action="store_true", help="print results.json to stdout")
-    parser.add_argument("--family", help="plant family of the test set (default: the environment's)")
-    parser.add_argument("--env-kwargs", help="a JSON object of environment arguments (or a file of one) that set the "
-                        "regime every policy is scored in, e.g. '{\"noise_std\": 0.1}'; not 'experiments'")
-    parser.add_argument("--no-benchmark", action="store_true", help="leave out the papers' benchmark batch")
-    parser.add_argument("--resamples", type=int, default=2000, help=f"bootstrap resamples (default 2000, at most {MAX_RESAMPLES})")
-    parser.add_argument("--no-plots", action="store_true", help="write the tables only")
-    parser.add_argument("--workers", type=int, default=1,
-                        help=f"processes for the rules and oracles (default 1, at most {MAX_WORKERS})")
-
-
-def run(args: argparse.Namespace) -> int:
-    """Run ``deadtime evaluate``; bad input is a ValueError (one line, exit status 2)."""
-    from agents.commands.arguments import load_json_argument, require_directory
-
-    require_directory(args.out)
-    plants = None if args.plants is None else load_json_argument(args.plants, "--plants")
-    regime = None if args.env_kwargs is None else load_json_argument(args.env_kwargs, "--env-kwargs")
-    result = evaluate(
-        env_id=args.env, policies=args.policies, n=args.n, seed=args.seed, out=Path(args.out), family=args.family,
-        benchmark=not args.no_benchmark, resamples=args.resamples, plots=not args.no_plots, workers=args.workers,
-        plants=plants, env_kwargs=regime,
-    )  # fmt: skip
-    if args.json:
-        print(json.dumps(result, indent=2))
-        return 0
-    from agents.evaluation.report import summary_table
-
-    print(summary_table(result))
-    plots = "" if args.no_plots else ", plots"
-    print(f"wrote {Path(args.out) / 'results.md'} (and .csv, .json, per_plant.csv{plots})", file=sys.stderr)
-    return 0
+__all__ = ["evaluate"]
 
 
 # --------------------------------------------------------------------------- setup
@@ -329,9 +272,9 @@ def evaluate(
 
     _check_sizes(n, seed, resamples, workers)
     if isinstance(out, str):
-        from agents.commands.arguments import require_directory
-
-        out = require_directory(out, "out")
+        if not out.strip():  # the empty string would write into the working directory
+            raise ValueError("out must name a directory, got the empty string")
+        out = Path(out)
     text, python = split_policies(policies)
     return _evaluate(env_id, text, python, int(n), seed, out, family=family, benchmark=benchmark, resamples=resamples,
                      plots=plots, workers=workers, plants=plants, env_kwargs=env_kwargs, warn=warn or _print_warning)

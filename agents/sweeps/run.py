@@ -1,4 +1,4 @@
-"""The Ray Tune side of ``deadtime sweep`` (:mod:`agents.sweeps.sweep`): trials, evaluations, progress.
+"""The Ray Tune side of ``deadtime sweep`` (:mod:`agents.commands.sweep`): trials, evaluations, progress.
 
 Imported only when a sweep runs (Ray is an optional extra, ``pip install -e '.[sweep]'``).
 """

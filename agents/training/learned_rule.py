@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import shlex
 import sys
 import time
 from datetime import UTC, datetime
@@ -64,7 +63,7 @@ if TYPE_CHECKING:
     from agents.training.train import TrainResult
 
 __all__ = ["CHUNK", "TRAINING_SEED", "cached_labels", "certification_line", "check_environment", "fit", "label_direction",
-           "run", "training_seed"]
+           "labels_kept", "run_directory", "training_seed"]
 
 TRAINING_SEED = 10_000_000
 """Reset seed of training plant ``k`` of config seed ``s``: ``TRAINING_SEED + s * MAX_TRAINING_PLANTS + k``
@@ -183,7 +182,7 @@ def cached_labels(config: LearnedRuleConfig, run_dir: Path) -> list[dict[str, An
     return records
 
 
-def _labels_kept(config: LearnedRuleConfig, run_dir: Path) -> int:
+def labels_kept(config: LearnedRuleConfig, run_dir: Path) -> int:
     """How many training plants' labels the run directory holds (for the line after an interruption)."""
     return len(cached_labels(config, run_dir))
 
@@ -375,27 +374,3 @@ def certification_line(certification: dict[str, Any] | None) -> str:
     return (f"NOT certified: no margin of the list has a violation rate <= {certification['violation_target']:.3g} with "
             f"confidence {certification['confidence']:.3g}; chosen the fewest violations ({share}); add larger margins or "
             f"more validation plants")
-
-
-# ----------------------------------------------------------------------------------- command line
-def run(config: LearnedRuleConfig, *, resume: bool, command: str) -> int:
-    """``deadtime train`` of a learned-rule config: fit, report where the rule is (exit 130 on Ctrl-C)."""
-    try:
-        result = fit(config, resume=resume, command=command)
-    except (KeyboardInterrupt, SystemError) as error:
-        if isinstance(error, SystemError) and not isinstance(error.__context__, KeyboardInterrupt):
-            raise  # a SystemError that is not Ctrl-C inside a compiled call
-        run_dir = run_directory(config)
-        kept = _labels_kept(config, run_dir)
-        print(f"\ninterrupted; {kept} labelled training plants are kept in {run_dir / 'dataset'}; continue with: "
-              f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
-        return 130
-    rule = json.loads((result.run_dir / "learned_rule.json").read_text())
-    print(f"{result.num_timesteps} training plants ({result.session_steps} labelled by the oracle in this session, "
-          f"{result.train_seconds:.1f} s); chosen {rule['kind']} with margin {rule['margin']:g}"
-          f"{' (scaled by the spread)' if rule.get('margin_scale') == 'spread' else ''}: "
-          f"validation mean cost {result.best_cost:.6g}")
-    if rule.get("certification"):
-        print(certification_line(rule["certification"]))
-    print(f"learned rule: {result.run_dir / 'learned_rule.json'} (deadtime evaluate --policies learned={result.run_dir})")
-    return 0

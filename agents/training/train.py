@@ -1,8 +1,4 @@
-"""``deadtime train``: train a stable-baselines3 agent from a YAML config.
-
-Usage::
-
-    deadtime train --config configs/ppo.yaml [--env ID] [--out DIR] [--seed N] [--resume] [key=value ...]
+"""The training run of ``deadtime train`` (:mod:`agents.commands.train`): a stable-baselines3 agent from a config.
 
 The resolved config (see :mod:`agents.training.config` for the precedence) is printed and saved as
 ``<run>/config.yaml`` with the command, git commit and package versions; ``<run>/run.json`` records
@@ -11,9 +7,9 @@ them again with the timings.  The run directory then holds ``tensorboard/`` (Ten
 validation cost), and at the end ``model.zip`` (the final agent); ``VecNormalize`` statistics, if
 used, sit beside each model as ``<stem>.vecnormalize.pkl``.
 
-A config with ``algorithm: learned-rule`` (``configs/learned_rule.yaml``) fits the learned rule
-instead (:mod:`agents.training.learned_rule`: the oracle on training plants, a regression, a safety
-margin chosen on the validation plants), into the same kind of run directory.
+A config with ``algorithm: learned-rule`` (``configs/learned_rule.yaml``) is fitted by
+:mod:`agents.training.learned_rule` instead (the oracle on training plants, a regression, a safety
+margin chosen on the validation plants), into the same kind of run directory; the command chooses.
 
 ``--resume`` continues an interrupted run from its newest intact checkpoint
 (:mod:`agents.training.checkpoints`: model, replay buffer, normalization statistics, the environments, every
@@ -36,12 +32,9 @@ torch and stable-baselines3 are imported inside the functions.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import functools
 import json
-import shlex
-import signal
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -53,7 +46,6 @@ from typing import TYPE_CHECKING, Any
 import yaml
 
 from agents.environments import make_env
-from agents.limits import MAX_BUFFER_SIZE, MAX_ENVS, MAX_EVAL_EPISODES, MAX_LAYER_WIDTH, MAX_LAYERS, MAX_NESTING, MAX_YAML_NODES
 from agents.runtime import git_commit, versions
 from agents.training.config import TrainConfig, load_config, validate
 from agents.training.learned_rule_config import LearnedRuleConfig
@@ -61,68 +53,12 @@ from agents.training.learned_rule_config import LearnedRuleConfig
 if TYPE_CHECKING:
     from agents.training.checkpoints import Checkpoint
 
-__all__ = ["TrainResult", "add_arguments", "run", "train", "with_seed"]
+__all__ = ["TrainResult", "checkpoint_steps", "run_directory", "train", "with_seed"]
 
 # Keys that may differ between a run's saved config and the one given on --resume.
 _RESUMABLE_CHANGES = {"total_timesteps", "output_dir", "progress_bar"}
 _ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU", "silu": "SiLU"}
 _OPTIMIZERS = {"adam": "Adam", "adamw": "AdamW", "rmsprop": "RMSprop", "sgd": "SGD"}
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Declare the options of ``deadtime train``."""
-    parser.add_argument("--config", help="a YAML config (configs/<algorithm>.yaml, or a run's config.yaml); "
-                        f"optional with --resume --out DIR.  Limits (agents/limits.py): n_envs <= {MAX_ENVS}, "
-                        f"n_eval_episodes <= {MAX_EVAL_EPISODES}, hyperparameters.buffer_size, batch_size and n_steps * n_envs "
-                        f"<= {MAX_BUFFER_SIZE}, "
-                        f"policy_kwargs.net_arch at most {MAX_LAYERS} layers of {MAX_LAYER_WIDTH} units, "
-                        f"nesting <= {MAX_NESTING} levels, <= {MAX_YAML_NODES} values with aliases expanded")
-    parser.add_argument("--env", help="environment id (selects the config's entry; default the config's env_id)")
-    parser.add_argument("--out", help="run directory (default: the config's output_dir, else runs/<algo>-<env>-s<seed>)")
-    parser.add_argument("--seed", type=int, help="the training seed, an integer >= 0 (the same as the override seed=N; "
-                        "default the config's)")
-    parser.add_argument("--resume", action="store_true", help="continue the run in the run directory from its latest checkpoint")
-    parser.add_argument("overrides", nargs="*", metavar="key=value",
-                        help="config overrides, dotted keys for nesting (e.g. hyperparameters.n_steps=32 seed=3)")
-
-
-def run(args: argparse.Namespace) -> int:
-    """``deadtime train``: resolve the config, train, report where the agent is."""
-    if args.config is None:
-        if not (args.resume and args.out):
-            raise ValueError("--config is required (it may be left out only with --resume --out DIR)")
-        config_path = Path(args.out) / "config.yaml"
-        if not config_path.is_file():
-            raise ValueError(f"{args.out} holds no config.yaml to resume from")
-    else:
-        config_path = Path(args.config)
-        if not config_path.is_file():
-            raise ValueError(f"--config {args.config}: no such file")
-    config = load_config(config_path, env_id=args.env, overrides=with_seed(args.overrides, args.seed))
-    if args.out is not None:
-        config = dataclasses.replace(config, output_dir=args.out)
-    command = shlex.join(_command_from(args))
-    if isinstance(config, LearnedRuleConfig):
-        from agents.training import learned_rule
-
-        return learned_rule.run(config, resume=args.resume, command=command)
-    try:
-        result = train(config, resume=args.resume, command=command)
-    except KeyboardInterrupt:
-        run_dir = run_directory(config)
-        print(f"\ninterrupted; latest checkpoint at {_checkpoint_steps(run_dir)} steps; continue with: "
-              f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
-        return 130
-    if result.status == "interrupted":
-        name = signal.Signals(result.stopped_by).name if result.stopped_by else "a stop request"
-        print(f"deadtime train: stopped by {name}; checkpoint of {result.num_timesteps} steps in "
-              f"{result.run_dir / 'checkpoints'}; continue exactly with: "
-              f"deadtime train --out {shlex.quote(str(result.run_dir))} --resume", file=sys.stderr)
-        return 128 + (result.stopped_by or 2)
-    print(f"{result.num_timesteps} steps; this session trained {result.session_steps} in {result.train_seconds:.1f} s"
-          f"{f' ({result.steps_per_second:.1f} steps/s)' if result.session_steps > 0 else ''}; best validation cost {result.best_cost:.6g}")
-    print(f"agent: {result.run_dir / 'model.zip'} (best: {result.run_dir / 'best_model.zip'})")
-    return 0
 
 
 def with_seed(overrides: Sequence[str], seed: int | None) -> list[str]:
@@ -142,14 +78,6 @@ def with_seed(overrides: Sequence[str], seed: int | None) -> list[str]:
         if path == ["seed"] and (type(value) is not int or value != seed):
             raise ValueError(f"--seed {seed} and the override {text.strip()!r} disagree; give the seed once")
     return [*overrides, f"seed={seed}"]
-
-
-def _command_from(args: argparse.Namespace) -> list[str]:
-    words = ["deadtime", "train"]
-    for option in ("config", "env", "out", "seed"):
-        if getattr(args, option) is not None:
-            words += [f"--{option}", str(getattr(args, option))]
-    return words + (["--resume"] if args.resume else []) + list(args.overrides)
 
 
 @dataclass(frozen=True)
@@ -281,7 +209,7 @@ def _check_resumable(saved: TrainConfig, config: TrainConfig, run_dir: Path) -> 
         raise ValueError(f"cannot resume {run_dir}: the config differs from the saved one in {', '.join(changed)}")
 
 
-def _checkpoint_steps(run_dir: Path) -> int:
+def checkpoint_steps(run_dir: Path) -> int:
     from agents.training.checkpoints import DamagedFileError, find_checkpoint
 
     try:

@@ -1,4 +1,4 @@
-"""``deadtime sweep`` (:mod:`agents.sweeps.sweep`): bad input, the smoke sweep end to end, and resume.
+"""``deadtime sweep`` (:mod:`agents.commands.sweep`): bad input, the smoke sweep end to end, and resume.
 
 The end-to-end tests run ``sweeps/smoke.yaml`` (2 seeds of SAC on PID-v0, 300 steps each) on a
 local Ray instance in a subprocess, as a user would; they are slow (about a minute each on 2 cores).

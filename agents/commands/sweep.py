@@ -45,8 +45,8 @@ import shlex
 import sys
 from pathlib import Path
 
+from agents.commands.arguments import require_directory
 from agents.limits import MAX_RESAMPLES, MAX_SEEDS, MAX_TEST_PLANTS
-from agents.sweeps.config import load_sweep
 
 __all__ = ["add_arguments", "run"]
 
@@ -67,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``deadtime sweep``: check the sweep, run it, print the summary."""
-    from agents.commands.arguments import require_directory
+    from agents.sweeps.config import load_sweep
 
     require_directory(args.out)
     sweep = load_sweep(args.config)
