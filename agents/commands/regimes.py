@@ -3,7 +3,7 @@
 ::
 
     deadtime regimes runs/experiments_noise01_time runs/experiments_noise10_time ... \\
-        --x noise_std --out sweeps/experiments
+        --x noise_std --out results/superseded/experiments
 
 What it computes and writes: :mod:`agents.sweeps.regimes`.
 """

@@ -2,7 +2,7 @@
 
 ::
 
-    deadtime sweep --config sweeps/NAME.yaml --out DIR [--address ADDR] [--resume] [--json]
+    deadtime sweep --config configs/sweeps/NAME.yaml --out DIR [--address ADDR] [--resume] [--json]
 
 The sweep file (:mod:`agents.sweeps.config`) lists training configs x environment ids x seeds.  Each
 ``(config, env, seed)`` is one Ray Tune trial (one CPU) that calls the training function of
@@ -54,7 +54,7 @@ __all__ = ["add_arguments", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``deadtime sweep``."""
     parser.add_argument("--config", required=True,
-                        help=f"a sweep file (sweeps/NAME.yaml).  Limits (agents/limits.py): at most {MAX_SEEDS} seeds per "
+                        help=f"a sweep file (configs/sweeps/NAME.yaml).  Limits (agents/limits.py): at most {MAX_SEEDS} seeds per "
                         f"group, evaluation.n <= {MAX_TEST_PLANTS}, evaluation.resamples <= {MAX_RESAMPLES}, and those of "
                         "deadtime train for each config")
     parser.add_argument("--out", required=True, help="the sweep's directory (runs, evaluations, summary)")

@@ -1,4 +1,4 @@
-"""The schema of a sweep file (``sweeps/NAME.yaml``) for ``deadtime sweep``.
+"""The schema of a sweep file (``configs/sweeps/NAME.yaml``) for ``deadtime sweep``.
 
 A sweep is a study: training configs x environment ids x seeds, then the evaluation of every
 trained agent, and of the rules and the oracle once per environment, on the held-out plants::

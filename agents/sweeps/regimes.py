@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.compressed import exists, read_json, stored_path
 from agents.yaml_input import load_yaml_file
 
 __all__ = ["behaviour", "compare_regimes", "markdown", "plot"]
@@ -46,11 +47,17 @@ ORACLES = ("oracle", "oracle-full")
 
 # ------------------------------------------------------------------------------- reading
 def _regime(directory: Path) -> tuple[str, dict[str, Any]]:
-    """The sweep's name and ``env_kwargs`` (from the copy of its file the sweep keeps)."""
-    path = directory / "sweep.yaml"
-    if not path.is_file():
-        raise ValueError(f"{directory}: not the output directory of a sweep (no sweep.yaml)")
-    data = load_yaml_file(path) or {}
+    """The sweep's name and ``env_kwargs``: from the copy of its file the sweep keeps, or from its
+    ``summary.json`` (a committed sweep under ``results/`` keeps the summary, its file being in ``configs/sweeps/``)."""
+    path, summary = directory / "sweep.yaml", directory / "summary.json"
+    if path.is_file():
+        data = load_yaml_file(path) or {}
+    elif exists(summary):
+        path = stored_path(summary)
+        record = read_json(summary)
+        data = {"name": record.get("sweep"), "env_kwargs": record.get("env_kwargs")}
+    else:
+        raise ValueError(f"{directory}: not the output directory of a sweep (no sweep.yaml or summary.json)")
     if not data.get("env_kwargs"):
         raise ValueError(f"{path}: sets no env_kwargs, so it is no regime")
     return str(data.get("name", directory.name)), dict(data["env_kwargs"])

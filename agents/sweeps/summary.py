@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.compressed import exists, open_text, read_json
 from agents.evaluation.policies import ROLES, TRAINED
 from agents.evaluation.seed_statistics import SeedStatistics, seed_statistics
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
@@ -48,10 +49,10 @@ ORACLES = ("oracle", "oracle-full")
 def per_plant_costs(directory: Path) -> dict[str, dict[tuple, float]]:
     """``{policy: {(index, plant, seed): cost}}`` of an evaluation's ``per_plant.csv``."""
     path = directory / "per_plant.csv"
-    if not path.is_file():
+    if not exists(path):
         raise ValueError(f"{path}: missing (the evaluation did not finish; run the sweep again with --resume)")
     costs: dict[str, dict[tuple, float]] = {}
-    with path.open(newline="") as file:
+    with open_text(path) as file:
         for line, row in enumerate(csv.DictReader(file), start=2):
             try:
                 cost = float(row["cost"])
@@ -74,7 +75,7 @@ def _vector(costs: dict[tuple, float], plants: list[tuple], where: str) -> np.nd
 def _trained_kind(directory: Path) -> str:
     """``agent``, or ``learned-rule`` where the trial's evaluation played a learned rule (its role)."""
     try:
-        policies = json.loads((directory / "results.json").read_text())["policies"]
+        policies = read_json(directory / "results.json")["policies"]
     except (OSError, ValueError, KeyError, TypeError):
         return "agent"
     role = next((p.get("role") for p in policies if p.get("name") == "agent"), None)
@@ -106,7 +107,7 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
         raise ValueError(f"sweep {sweep.name}: evaluation.policies must include at least one rule")
     best_rule = min(rules, key=lambda name: (float(rules[name].mean()), name))
     results = evaluation_directory(out, env_id, "baselines") / "results.json"
-    own_rule = json.loads(results.read_text()).get("best_rule") if results.is_file() else None
+    own_rule = read_json(results).get("best_rule") if exists(results) else None
     rows, normalized = [], {}
 
     def statistics(costs: np.ndarray) -> SeedStatistics:
@@ -135,7 +136,7 @@ def learning_curves(trials: list[Trial], out: Path) -> dict[str, dict[str, Any]]
         per_seed = []
         for trial in (t for t in trials if f"{t.label}/{t.env_id}" == key):
             path = out / "runs" / trial.name / "evaluations.json"
-            history = json.loads(path.read_text()) if path.is_file() else []
+            history = read_json(path) if exists(path) else []
             per_seed.append({entry["num_timesteps"]: entry["mean_cost"] for entry in history})
         steps = sorted(set.intersection(*(set(s) for s in per_seed))) if per_seed else []
         values = np.array([[s[step] for step in steps] for s in per_seed]) if steps else np.empty((0, 0))

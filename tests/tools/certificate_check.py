@@ -1,7 +1,7 @@
 """The violation rates of learned groups on the test plants, pooled over their seeds, with exact intervals:
 the after-the-fact check of a certified margin (``baselines/learned_rule.py``, "Certified margins").
 
-    python tests/tools/certificate_check.py sweeps/certified_noise10_time sweeps/agent_mode_noise10_time ...
+    python tests/tools/certificate_check.py results/certified_noise10_time results/agent_mode_noise10_time ...
 
 Per sweep, environment and agent group (``<label>-<env>-s<seed>``): the test episodes of all seeds, how
 many violated a constraint (``feasible`` false, failures included), the pooled rate with its two-sided
@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import re
 from collections import defaultdict
 from pathlib import Path
 
 from scipy.stats import binomtest
+
+from agents.compressed import exists, open_text, read_json
 
 GROUP = re.compile(r"^(?P<label>.+)-(?P<env>[A-Z]+-v\d+)-s(?P<seed>\d+)$")
 
@@ -32,11 +33,11 @@ GROUP = re.compile(r"^(?P<label>.+)-(?P<env>[A-Z]+-v\d+)-s(?P<seed>\d+)$")
 def group_rows(sweep: Path) -> dict[tuple[str, str], list[list[dict[str, str]]]]:
     """``(env, label) -> [the agent's test rows of per_plant.csv, per seed]`` of a sweep's evaluations."""
     found: dict[tuple[str, str], list[list[dict[str, str]]]] = defaultdict(list)
-    for path in sorted(sweep.glob("eval/*/*/per_plant.csv")):
-        match = GROUP.match(path.parent.name)
-        if not match:
+    for folder in sorted(sweep.glob("eval/*/*/")):
+        match = GROUP.match(folder.name)
+        if not match or not exists(folder / "per_plant.csv"):
             continue
-        with path.open(newline="") as handle:
+        with open_text(folder / "per_plant.csv") as handle:
             rows = [row for row in csv.DictReader(handle) if row["subset"] == "test" and row["policy"] == "agent"]
         found[(match["env"], match["label"])].append(rows)
     return found
@@ -59,7 +60,8 @@ def violating_plants(seeds: list[list[dict[str, str]]]) -> str:
 
 def certified(sweep: Path, env: str, label: str) -> str:
     """``"k of n (margins a-b)"`` from the fits' manifests, ``-`` where there are none or no target."""
-    found = [json.loads(path.read_text()) for path in sorted(sweep.glob(f"runs/{label}-{env}-s*/learned_rule.json"))]
+    found = [read_json(run / "learned_rule.json") for run in sorted(sweep.glob(f"runs/{label}-{env}-s*/"))
+             if exists(run / "learned_rule.json")]
     found = [m for m in found if m.get("certification")]
     if not found:
         return "-"

@@ -1,7 +1,7 @@
 """Copy a finished sweep into the repository, small enough to commit and complete enough to recompute
 its summary and ``deadtime regimes`` from (no models, no caches, no controllers):
 
-    python tests/tools/commit_sweep.py runs/agent_mode_noise10_time sweeps/agent_mode_noise10_time
+    python tests/tools/commit_sweep.py runs/agent_mode_noise10_time results/agent_mode_noise10_time
 
 Copies ``sweep.yaml``, ``sessions.json``, each trial's ``evaluations.json`` (its validation) and, for a
 learned rule, its manifest ``learned_rule.json`` (kind, margin, validation costs and violations per
@@ -53,6 +53,6 @@ def copy(source: Path, target: Path) -> None:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("source", type=Path, help="the finished sweep's output directory")
-    parser.add_argument("target", type=Path, help="the directory to commit, under sweeps/")
+    parser.add_argument("target", type=Path, help="the directory to commit, under results/")
     args = parser.parse_args()
     copy(args.source, args.target)

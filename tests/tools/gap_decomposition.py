@@ -1,6 +1,6 @@
 """Where a learned group's mean difference to a rule comes from: the rule's violating plants or the rest.
 
-    python tests/tools/gap_decomposition.py sweeps/spread_own_plan_noise10_time --env PID-v3 \\
+    python tests/tools/gap_decomposition.py results/spread_own_plan_noise10_time --env PID-v3 \\
         --group learned-plan-spread-10000 --rule simc-pi
 
 Reads a sweep's committed per-plant tables (``eval/<env>/<group>-<env>-s<seed>/per_plant.csv`` and
@@ -21,9 +21,11 @@ from collections import defaultdict
 from pathlib import Path
 from statistics import fmean
 
+from agents.compressed import open_text
+
 
 def _rows(path: Path) -> list[dict[str, str]]:
-    with path.open(newline="") as handle:
+    with open_text(path) as handle:
         return list(csv.DictReader(handle))
 
 

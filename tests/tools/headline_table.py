@@ -1,22 +1,22 @@
 """The headline table of README.md ("Results"), generated from the committed agent-mode study.
 
-    python tests/tools/headline_table.py [sweeps/agent_mode/regimes.json]
-    python tests/tools/headline_table.py --rl [sweeps/rl_plan/regimes.json]
-    python tests/tools/headline_table.py --fixed [sweeps/fixed_mode_v3/regimes.json]
-    python tests/tools/headline_table.py --own [sweeps/own_plan/regimes.json]
+    python tests/tools/headline_table.py [results/agent_mode/regimes.json]
+    python tests/tools/headline_table.py --rl [results/rl_plan/regimes.json]
+    python tests/tools/headline_table.py --fixed [results/fixed_mode_v3/regimes.json]
+    python tests/tools/headline_table.py --own [results/own_plan/regimes.json]
 
-prints the Markdown table: one row per regime of ``sweeps/agent_mode/regimes.json`` (written by
+prints the Markdown table: one row per regime of ``results/agent_mode/regimes.json`` (written by
 ``deadtime regimes``), the structure, noise and production price, the oracle's and the best rule's
 mean cost, the learned plan's with its violation rate, and the same for the learned plan with a
 certified margin (``learned-plan-cert``) with its paired difference to the best rule.
-With ``--rl``, the two tables of the RL agent in plan mode from ``sweeps/rl_plan/regimes.json``
+With ``--rl``, the two tables of the RL agent in plan mode from ``results/rl_plan/regimes.json``
 (:func:`rl_plan_table`: its costs and paired differences; :func:`behaviour_table`: what it and the
 certified learned plan do on validation plants).
-With ``--fixed``, the fixed mode's table from ``sweeps/fixed_mode_v3/regimes.json`` (:func:`fixed_table`:
+With ``--fixed``, the fixed mode's table from ``results/fixed_mode_v3/regimes.json`` (:func:`fixed_table`:
 the paired differences of the learned designs of :data:`FIXED_POLICIES` to the best rule, each with its
 violation rate).
 With ``--own``, the certified learned plan with the plan chosen for the learned design from
-``sweeps/own_plan/regimes.json`` (:func:`own_plan_table`: against the best rule and against the same
+``results/own_plan/regimes.json`` (:func:`own_plan_table`: against the best rule and against the same
 learner on the base rule's plan).
 Intervals are 95% bootstrap intervals as in ``regimes.md``, formatted the same way (3 significant
 digits).  ``tests/unit/test_docs_numbers.py`` holds the README's tables equal to this output.
@@ -27,7 +27,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-SWEEPS = Path(__file__).resolve().parents[2] / "sweeps"
+from agents.compressed import exists, read_json
+
+SWEEPS = Path(__file__).resolve().parents[2] / "results"
 REGIMES = SWEEPS / "agent_mode" / "regimes.json"
 RL_REGIMES = SWEEPS / "rl_plan" / "regimes.json"
 FIXED_REGIMES = SWEEPS / "fixed_mode_v3" / "regimes.json"
@@ -169,8 +171,8 @@ def _own_plan(regime: dict) -> str:
     """The plan of ``learned-plan-own-3000`` in a regime, from its seed-0 run's manifest in the committed sweep."""
     for sweep in regime["sweep"].split(" + "):
         manifest = SWEEPS / sweep / "runs" / f"{OWN}-{regime['env']}-s0" / "learned_rule.json"
-        if manifest.is_file():
-            return str(json.loads(manifest.read_text())["env_kwargs"]["plan"])
+        if exists(manifest):
+            return str(read_json(manifest)["env_kwargs"]["plan"])
     raise FileNotFoundError(f"no run of {OWN} on {regime['env']} among the sweeps {regime['sweep']}")
 
 
@@ -199,9 +201,9 @@ def main() -> None:
 
     parser = argparse.ArgumentParser(description="Print a table of README.md's Results from a committed regimes.json.")
     which = parser.add_mutually_exclusive_group()
-    which.add_argument("--rl", action="store_true", help="the RL agent in plan mode (default source sweeps/rl_plan)")
-    which.add_argument("--fixed", action="store_true", help="the fixed mode (default source sweeps/fixed_mode_v3)")
-    which.add_argument("--own", action="store_true", help="the plan chosen for the learned design (default sweeps/own_plan)")
+    which.add_argument("--rl", action="store_true", help="the RL agent in plan mode (default source results/rl_plan)")
+    which.add_argument("--fixed", action="store_true", help="the fixed mode (default source results/fixed_mode_v3)")
+    which.add_argument("--own", action="store_true", help="the plan chosen for the learned design (default results/own_plan)")
     parser.add_argument("regimes", nargs="?", type=Path, help="a regimes.json written by deadtime regimes")
     args = parser.parse_args()
     if args.own:

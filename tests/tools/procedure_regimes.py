@@ -1,7 +1,7 @@
 """The experiment procedures against the fixed procedure in the twelve regimes of the agent-mode study:
 ``DeadTime/{PID,FPPI,MSP}-v3``, noise 1% and 10%, production free and priced (0.05).
 
-    python tests/tools/procedure_regimes.py runs/procedures sweeps/procedures
+    python tests/tools/procedure_regimes.py runs/procedures results/procedures
 
 For each regime, ``deadtime evaluate --policies plan-1-1,plan-best,amplitude-rule,all-rules,oracle
 --n 50 --seed 0`` into ``<runs>/<env>-noise<N>-production<P>/`` (resumable: the evaluation caches

@@ -3,7 +3,7 @@
 Every Markdown link or image ``[text](target)`` of ``README.md`` and ``docs/**/*.md`` whose target is
 not a URL names a file or folder that exists, relative to the page; a ``#fragment`` names a heading
 of the target page (GitHub's anchors: lower case, punctuation dropped, spaces as hyphens).  Every
-repository path quoted in backticks (``docs/...``, ``sweeps/...``, ``configs/...``, ``tests/...``,
+repository path quoted in backticks (``docs/...``, ``results/...``, ``configs/...``, ``tests/...``,
 ``envs/...``, ``agents/...``, ``baselines/...`` with a file extension) exists too.
 """
 
@@ -16,7 +16,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
-QUOTED_PATH = re.compile(r"`((?:docs|sweeps|configs|tests|envs|agents|baselines)/[\w./-]+\.(?:md|py|yaml|json|png|csv))`")
+QUOTED_PATH = re.compile(r"`((?:docs|results|configs|tests|envs|agents|baselines)/[\w./-]+\.(?:md|py|yaml|json|png|csv))`")
 
 
 def _pages() -> list[Path]:

@@ -5,9 +5,9 @@ The demo's numbers need a training run and are not checked here (docs/training_a
 marks the agent's row as varying across machines).  The ``tune`` rows are deterministic closed forms
 to the printed digits (SIMC on ``2.5 e^{-4s}/(12 s + 1)``: ``K_c = 0.6``, ``T_i = 12``; ZN's step PI
 has ``Ms = 2.566``); the ``T_r`` floors are measured by ``test_tr_floors_are_the_exact_model_delay_margin``.
-The results pages' tables are the committed ``sweeps/*/summary.md`` and ``regimes.md`` tables, and
+The results pages' tables are the committed ``results/*/summary.md`` and ``regimes.md`` tables, and
 the README's headline table is ``tests/tools/headline_table.py``'s output for the committed
-``sweeps/agent_mode/regimes.json``.
+``results/agent_mode/regimes.json``.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 from agents.cli import main
+from agents.compressed import read_json
 
 REPO = Path(__file__).resolve().parents[2]
 README = (REPO / "README.md").read_text()
@@ -59,8 +60,8 @@ def test_the_tr_floors_are_those_of_the_code():
 
 
 def _committed() -> list[str]:
-    """The text of every committed ``summary.md``, ``regimes.md``, ``information.md`` and ``fallback.md`` under ``sweeps/``."""
-    sweeps = REPO / "sweeps"
+    """The text of every committed ``summary.md``, ``regimes.md``, ``information.md`` and ``fallback.md`` under ``results/``."""
+    sweeps = REPO / "results"
     names = ("summary.md", "regimes.md", "information.md", "fallback.md")
     return [path.read_text() for name in names for path in sorted(sweeps.rglob(name))]
 
@@ -81,11 +82,11 @@ def test_the_gap_decompositions_are_the_committed_per_plant_tables():
     page = (DOCS / "agent_mode.md").read_text()
     for sweep, group in (("spread_own_plan_noise10_time", "learned-plan-spread-10000"),
                          ("spread_own_plan_noise10_production", "learned-plan-cert-10000")):
-        table = module.decompose(REPO / "sweeps" / sweep, "PID-v3", group, "simc-pi")
+        table = module.decompose(REPO / "results" / sweep, "PID-v3", group, "simc-pi")
         assert module.markdown(table) in page, sweep
         whole = table[-1]["difference per plant"]
         assert abs(table[0]["share of the mean difference"] + table[1]["share of the mean difference"] - whole) <= 1e-9 * (1 + abs(whole))
-        assert f"{whole:.3g} [" in (REPO / "sweeps" / sweep / "summary.md").read_text()
+        assert f"{whole:.3g} [" in (REPO / "results" / sweep / "summary.md").read_text()
 
 
 def test_the_fallback_tables_are_the_committed_pilot_rows():
@@ -97,13 +98,13 @@ def test_the_fallback_tables_are_the_committed_pilot_rows():
     page = (DOCS / "agent_mode.md").read_text()
     for regime, sweep, group in (("free", "spread_own_plan_noise10_time", "learned-plan-spread-10000"),
                                  ("priced", "spread_own_plan_noise10_production", "learned-plan-cert-10000")):
-        folder = REPO / "sweeps" / "spread_own_plan" / regime
+        folder = REPO / "results" / "spread_own_plan" / regime
         record = json.loads((folder / "fallback.json").read_text())
         seeds = [fit["seed"] for fit in record["fits"]]
         assert len(set(seeds)) == len(seeds) >= 10, regime
         for fit in record["fits"]:  # the sweep's own fits: the same model files
-            manifest = REPO / "sweeps" / sweep / "runs" / f"{group}-PID-v3-s{fit['seed']}" / "learned_rule.json"
-            assert fit["sha256"] == json.loads(manifest.read_text())["sha256"], manifest
+            manifest = REPO / "results" / sweep / "runs" / f"{group}-PID-v3-s{fit['seed']}" / "learned_rule.json"
+            assert fit["sha256"] == read_json(manifest)["sha256"], manifest
         table = module.markdown(record["rows"], record["rule"], len(seeds))
         assert (folder / "fallback.md").read_text() == table + "\n" and table in page, regime
         learned = record["rows"][0]
@@ -118,17 +119,17 @@ def test_the_fallback_tables_are_the_committed_pilot_rows():
 
 
 def test_the_information_table_is_its_per_plant_costs():
-    """``sweeps/fixed_mode_v3/information.md``: the table ``tests/tools/information_study.py`` makes of the
+    """``results/fixed_mode_v3/information.md``: the table ``tests/tools/information_study.py`` makes of the
     committed per-plant costs (``information.json``)."""
-    folder = REPO / "sweeps" / "fixed_mode_v3"
+    folder = REPO / "results" / "fixed_mode_v3"
     table = _tool("information_study").table(json.loads((folder / "information.json").read_text()))
     assert table in _tables((folder / "information.md").read_text())
 
 
 def test_the_results_tables_are_the_committed_sweep_summaries():
     """Every policy table of docs/results.md and docs/results_history.md is a table of a committed
-    ``sweeps/*/summary.md``, verbatim; every ``value [low, high]`` of their other tables (the
-    overview, the regimes) is in one of them or in a committed ``sweeps/*/regimes.md``
+    ``results/*/summary.md``, verbatim; every ``value [low, high]`` of their other tables (the
+    overview, the regimes) is in one of them or in a committed ``results/*/regimes.md``
     (``deadtime regimes``) too."""
     summaries = _committed()
     committed = [table for summary in summaries for table in _tables(summary)]
@@ -142,7 +143,7 @@ def test_the_results_tables_are_the_committed_sweep_summaries():
 
 def test_every_interval_of_the_v3_study_pages_is_committed():
     """docs/agent_mode.md and docs/results.md, prose and tables: every ``value [low, high]`` is in a
-    committed ``sweeps/*/summary.md`` or ``sweeps/*/regimes.md``, as printed there (no rounding of
+    committed ``results/*/summary.md`` or ``results/*/regimes.md``, as printed there (no rounding of
     one's own); the pooled test violation rates of the certified groups are
     ``tests/tools/certificate_check.py``'s."""
     summaries = _committed()
@@ -151,7 +152,7 @@ def test_every_interval_of_the_v3_study_pages_is_committed():
         assert len(quoted) >= 15, page
         assert all(any(q in summary for summary in summaries) for q in quoted), [q for q in quoted if not any(q in m for m in summaries)]
     module = _tool("certificate_check")
-    certified = sorted(path for path in (REPO / "sweeps").glob("certified_noise*") if path.is_dir())
+    certified = sorted(path for path in (REPO / "results").glob("certified_noise*") if path.is_dir())
     rates = [row.split(" | ")[6] for row in module.table(certified).splitlines()[2:]]
     page = (DOCS / "agent_mode.md").read_text()
     assert len(rates) == 12 and all(rate in page for rate in rates), rates
@@ -159,14 +160,14 @@ def test_every_interval_of_the_v3_study_pages_is_committed():
 
 def test_the_readme_headline_table_is_the_committed_regimes():
     """README "Results": the table is ``tests/tools/headline_table.py``'s output for the committed
-    ``sweeps/agent_mode/regimes.json``, and each of its intervals is in the committed ``regimes.md``."""
+    ``results/agent_mode/regimes.json``, and each of its intervals is in the committed ``regimes.md``."""
     quoted = _readme_table_of(_tool("headline_table").headline_table(), "agent_mode")
     assert len(quoted) >= 48
 
 
 def test_the_readme_rl_tables_are_the_committed_regimes():
     """README "Results": the RL agent's table and what it does are ``tests/tools/headline_table.py --rl``'s
-    output for the committed ``sweeps/rl_plan/regimes.json``; each interval is in a committed ``regimes.md``
+    output for the committed ``results/rl_plan/regimes.json``; each interval is in a committed ``regimes.md``
     or ``summary.md`` (the procedures' costs are in the sweeps' summaries)."""
     module = _tool("headline_table")
     results = _tables(README_RESULTS)
@@ -179,7 +180,7 @@ def test_the_readme_rl_tables_are_the_committed_regimes():
 
 def test_the_readme_fixed_mode_table_is_the_committed_regimes():
     """README "Results": the fixed mode's table is ``tests/tools/headline_table.py --fixed``'s output for
-    the committed ``sweeps/fixed_mode_v3/regimes.json``, and each of its intervals is in its ``regimes.md``."""
+    the committed ``results/fixed_mode_v3/regimes.json``, and each of its intervals is in its ``regimes.md``."""
     expected = _tool("headline_table").fixed_table()
     quoted = _readme_table_of(expected, "fixed_mode_v3")
     cells = [cell.strip() for line in expected.splitlines()[2:] for cell in line.strip("|").split("|")[1:]]
@@ -188,15 +189,15 @@ def test_the_readme_fixed_mode_table_is_the_committed_regimes():
 
 def test_the_readme_own_plan_table_is_the_committed_regimes():
     """README "Results": the table of the plan chosen for the learned design is ``tests/tools/headline_table.py
-    --own``'s output for the committed ``sweeps/own_plan/regimes.json``; each interval is in its ``regimes.md``."""
+    --own``'s output for the committed ``results/own_plan/regimes.json``; each interval is in its ``regimes.md``."""
     assert len(_readme_table_of(_tool("headline_table").own_plan_table(), "own_plan")) >= 8
 
 
 def _readme_table_of(expected: str, folder: str) -> list[str]:
     """Assert that the table ``expected`` is a table of README's Results and that each of its intervals is in
-    ``sweeps/FOLDER/regimes.md``; returns the intervals."""
+    ``results/FOLDER/regimes.md``; returns the intervals."""
     assert expected in _tables(README_RESULTS)
-    regimes = (REPO / "sweeps" / folder / "regimes.md").read_text()
+    regimes = (REPO / "results" / folder / "regimes.md").read_text()
     quoted = re.findall(INTERVAL, expected)
     assert all(q in regimes for q in quoted), [q for q in quoted if q not in regimes]
     return quoted

@@ -1,12 +1,12 @@
 """The README, the docs and the command line's help texts speak of the product, not of its history.
 
 The texts checked: ``README.md``, every ``docs/**/*.md``, and the help of ``deadtime --help`` and of
-every subcommand's ``--help`` (``agents.cli.COMMANDS``).  Committed summaries under ``sweeps/*/``
+every subcommand's ``--help`` (``agents.cli.COMMANDS``).  Committed summaries under ``results/*/``
 are not checked: their provenance (commits, sessions, dates) belongs to them.
 
 The comments and docstrings of the Python sources under ``envs/``, ``baselines/``, ``agents/`` and
 ``tests/`` (this file excepted, which quotes the patterns) and the comments of ``configs/**/*.yaml``
-and ``sweeps/*.yaml`` are checked for three of the patterns: a numbered issue, ``the seeds'`` and
+(the sweep files of ``configs/sweeps/`` too) are checked for three of the patterns: a numbered issue, ``the seeds'`` and
 ``SPEC`` (:data:`SOURCE_PATTERNS`).  Strings the code prints are not: they are checked where they are
 shown, in the help texts.
 
@@ -22,7 +22,7 @@ The patterns, case-insensitive, each a sign of a development diary rather than a
 * ``2026-12-01``: an ISO date;
 * ``this session``: a working session;
 * ``commit 0e32e8f``, ``at `0e32e8f```: a commit hash (hashes stay in the committed summaries'
-  provenance, ``sweeps/*/sessions.json``);
+  provenance, ``results/*/sessions.json``);
 * ``development machine``, ``the other machine``: the machine a figure was taken on;
 * ``SPEC``: the internal specification document.
 """
@@ -126,7 +126,7 @@ THIS_FILE = Path(__file__).resolve()
 def _sources() -> list[Path]:
     python = [path for package in ("envs", "baselines", "agents", "tests")
               for path in sorted((REPO / package).rglob("*.py")) if path.resolve() != THIS_FILE]
-    yaml = [*sorted((REPO / "configs").rglob("*.yaml")), *sorted((REPO / "sweeps").glob("*.yaml"))]
+    yaml = sorted((REPO / "configs").rglob("*.yaml"))
     return [*python, *yaml]
 
 

@@ -18,7 +18,7 @@ from agents.cli import main
 from agents.sweeps.cluster import connect
 
 REPO = Path(__file__).resolve().parents[4]
-SMOKE = REPO / "sweeps" / "smoke.yaml"
+SMOKE = REPO / "configs" / "sweeps" / "smoke.yaml"
 
 
 class FakeRay:

@@ -1,6 +1,6 @@
 """``deadtime sweep`` (:mod:`agents.commands.sweep`): bad input, the smoke sweep end to end, and resume.
 
-The end-to-end tests run ``sweeps/smoke.yaml`` (2 seeds of SAC on PID-v0, 300 steps each) on a
+The end-to-end tests run ``configs/sweeps/smoke.yaml`` (2 seeds of SAC on PID-v0, 300 steps each) on a
 local Ray instance in a subprocess, as a user would; they are slow (about a minute each on 2 cores).
 """
 
@@ -23,7 +23,7 @@ from agents.cli import main
 from agents.sweeps.config import load_sweep
 
 REPO = Path(__file__).resolve().parents[4]
-SMOKE = REPO / "sweeps" / "smoke.yaml"
+SMOKE = REPO / "configs" / "sweeps" / "smoke.yaml"
 
 
 def run(*args: str) -> tuple[int, str, str]:
@@ -208,7 +208,7 @@ failure: {{max_failures: 1}}
     assert "trial bad-PID-v0-s0 failed: ValueError: eval_family: refused" in done.stderr
 
 
-@pytest.mark.parametrize("path", sorted((REPO / "sweeps").glob("*.yaml")), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", sorted((REPO / "configs" / "sweeps").glob("*.yaml")), ids=lambda p: p.name)
 def test_every_committed_sweep_file_is_valid(path: Path) -> None:
     """The studies behind docs/results.md and docs/results_history.md load and validate (each training config resolved, with its seeds)."""
     sweep = load_sweep(path)

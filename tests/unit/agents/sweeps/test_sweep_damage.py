@@ -17,7 +17,7 @@ import pytest
 from agents.cli import main
 
 REPO = Path(__file__).resolve().parents[4]
-SMOKE = REPO / "sweeps" / "smoke.yaml"
+SMOKE = REPO / "configs" / "sweeps" / "smoke.yaml"
 TRIAL = "sac-PID-v0-s0"
 
 
