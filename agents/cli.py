@@ -70,6 +70,8 @@ COMMANDS: dict[str, Command] = {
     "sweep": _described("agents.commands.sweep", "train many seeds and configs on Ray Tune, evaluate them, and summarize"),
     "regimes": _described("agents.commands.regimes", "compare sweeps that differ only in their regime (env_kwargs): "
                           "costs, paired differences, a plot against one argument, what the agents do"),
+    "protocol": _described("agents.commands.protocol", "a preregistered protocol: register its test seed, run it "
+                           "(train, choose on validation, test once), report it, check its interval's coverage"),
     "process": Command(
         "agents.commands.process", "the procedure, the rules, the oracle and agents on a real process (the TCLab)",
         "Identify a sampled process (the TCLab emulator, or module:factory for your own) around its operating point, "

@@ -1,0 +1,88 @@
+"""``deadtime protocol``: a preregistered protocol's run, its report, its test seed and the interval's coverage.
+
+::
+
+    deadtime protocol register configs/protocols/v1.yaml          # its test seed, before any result
+    deadtime protocol run configs/protocols/v1.yaml --out results/protocol_v1 --resume [--regime NAME ...]
+    deadtime protocol report configs/protocols/v1.yaml --out results/protocol_v1
+    deadtime protocol coverage --sweeps sweeps --n 4000 --out results/protocol_coverage.json
+
+``run`` trains, chooses on validation and tests regime after regime (:mod:`agents.protocol.run`);
+each finished regime's folder can be committed as it finishes.  ``report`` writes
+``protocol_results.json``, ``results.md`` and ``forest.png`` (:mod:`agents.protocol.report`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare the subcommands of ``deadtime protocol``."""
+    actions = parser.add_subparsers(dest="action", required=True)
+    register = actions.add_parser("register", help="register the protocol's test seed to its sha256")
+    register.add_argument("protocol", help="the protocol file, e.g. configs/protocols/v1.yaml")
+    run = actions.add_parser("run", help="train, choose on validation and test, regime after regime (resumable)")
+    run.add_argument("protocol")
+    run.add_argument("--out", required=True, help="the run's folder, e.g. results/protocol_v1")
+    run.add_argument("--resume", action="store_true", help="continue a run of the same protocol in --out")
+    run.add_argument("--regime", action="append", help="run only this regime (repeatable; default: all in order)")
+    report = actions.add_parser("report", help="protocol_results.json, results.md and forest.png of a run")
+    report.add_argument("protocol")
+    report.add_argument("--out", required=True)
+    coverage = actions.add_parser("coverage", help="the coverage of the protocol's interval on the committed per-plant data")
+    coverage.add_argument("--sweeps", default="sweeps", help="the folder of the studies' results (default sweeps)")
+    coverage.add_argument("--n", type=int, default=4000, help="plants per replicate (default 4000, the test size)")
+    coverage.add_argument("--replicates", type=int, default=4000, help="replicates per population (default 4000)")
+    coverage.add_argument("--seed", type=int, default=0)
+    coverage.add_argument("--comparisons", type=int, default=51,
+                          help="Holm's family size m: the coverage is also checked at level 1 - 0.05/m (default 51, v1's)")
+    coverage.add_argument("--out", help="write the JSON here (default: print it)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``deadtime protocol ACTION``; bad input is a ValueError (one line, exit status 2)."""
+    from agents.protocol.config import load_protocol
+
+    if args.action == "coverage":
+        from agents.protocol.coverage import coverage
+
+        if args.n < 2 or args.replicates < 1:
+            raise ValueError(f"--n must be >= 2 and --replicates >= 1, got {args.n} and {args.replicates}")
+        result = coverage(Path(args.sweeps), args.n, args.replicates, (0.95, 1 - 0.05 / args.comparisons), args.seed)
+        text = json.dumps(result, indent=1)
+        if args.out:
+            from agents.training.files import write_text
+
+            write_text(args.out, text + "\n")
+            print(f"smallest coverage {result['smallest_coverage']} over {len(result['populations'])} populations; "
+                  f"wrote {args.out}", file=sys.stderr)
+        else:
+            print(text)
+        return 0
+    protocol = load_protocol(args.protocol)
+    if args.action == "register":
+        from agents.protocol.streams import register_test_seed
+
+        entry = register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256,
+                                   Path(protocol.path).with_name("test_seeds.json"))
+        print(json.dumps(entry))
+        return 0
+    out = Path(args.out)
+    if args.action == "run":
+        from agents.protocol.run import run_protocol
+
+        done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime)
+        print(f"deadtime protocol: {len(done)} regime(s) done: {', '.join(done)}", file=sys.stderr)
+        return 0
+    from agents.protocol.report import write_report
+
+    results = write_report(protocol, out)
+    print(f"{results['comparisons_done']} of {results['comparisons_declared']} comparisons; wrote "
+          f"{out / 'protocol_results.json'}, results.md, forest.png", file=sys.stderr)
+    return 0

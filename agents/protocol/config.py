@@ -1,0 +1,277 @@
+"""The schema of a protocol file (``configs/protocols/NAME.yaml``) and its fingerprint.
+
+A protocol declares, before any of its test plants is evaluated, everything its answer depends on::
+
+    name: v1
+    seeds: {first: 0, count: 10}        # the training seeds of every learner
+    alpha: 0.05                         # family-wise error rate of the comparisons (Holm)
+    streams:
+      validation: {entropy: 1234, plants: 2000, episode_seed: 50000000}
+      test: {entropy: 5678, plants: 4000, episode_seed: 60000000}
+    selection:
+      violation_target: 0.01            # the certificate: plant-clustered upper bound <= target
+      confidence: 0.95
+      rules: [all-rules]                # the best rule: least mean validation cost among these
+      plans: [plan-0.1-0.1, ...]        # the best single plan: likewise
+      fixed_procedure: plan-1-1
+    comparisons: [[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure], [plan, best-plan]]
+    regimes:
+      - name: pid-noise01-time
+        env: DeadTime/PID-v3
+        env_kwargs: {noise_std: 0.01, weights: {production: 0}}
+        fixed:                          # candidates of the fixed-mode primary
+          - {label: learned-fixed, config: configs/learned_plan.yaml, overrides: [], origin: sweeps/X.yaml}
+        plan: [...]                     # candidates of the plan-mode primary (may be empty)
+
+Streams of plants (:mod:`agents.protocol.streams`): the validation and test plants of each structure
+come from ``numpy.random.SeedSequence(entropy, spawn_key=(family,))``; the training plants are the
+learners' own (their configs' seeds, :mod:`agents.training.learned_rule`).  The test entropy must be
+registered in ``configs/protocols/test_seeds.json`` with this file's sha256 before the run.
+
+The file is read with :func:`agents.yaml_input.load_yaml_file`; an unknown key is an error that
+names it.  :attr:`Protocol.sha256` is the SHA-256 of the file's bytes: any change to the file
+(a comment too) is a changed protocol.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from agents.limits import MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
+from agents.yaml_input import load_yaml_file
+
+__all__ = ["COMPARISON_SIDES", "Learner", "Protocol", "Regime", "Selection", "Stream", "load_protocol"]
+
+COMPARISON_SIDES = {"first": ("fixed", "plan"), "second": ("best-rule", "fixed-procedure", "best-plan")}
+"""What a declared comparison may name: a primary first, a baseline chosen on validation second."""
+
+
+@dataclass(frozen=True)
+class Learner:
+    """A candidate learner: a training config with overrides, as a sweep trial declares it."""
+
+    label: str
+    config: str
+    overrides: tuple[str, ...] = ()
+    origin: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"label": self.label, "config": self.config, "overrides": list(self.overrides), "origin": self.origin}
+
+
+@dataclass(frozen=True)
+class Regime:
+    """One environment in one regime, with the candidates of its two primaries."""
+
+    name: str
+    env: str
+    env_kwargs: Mapping[str, Any]
+    fixed: tuple[Learner, ...]
+    plan: tuple[Learner, ...] = ()
+
+    def candidates(self, mode: str) -> tuple[Learner, ...]:
+        return self.fixed if mode == "fixed" else self.plan
+
+
+@dataclass(frozen=True)
+class Stream:
+    """A stream of plants per structure: its entropy, its size and the first episode seed."""
+
+    entropy: int
+    plants: int
+    episode_seed: int
+
+
+@dataclass(frozen=True)
+class Selection:
+    """How the primaries, the best rule and the best plan are chosen on the validation plants."""
+
+    violation_target: float = 0.01
+    confidence: float = 0.95
+    rules: tuple[str, ...] = ("all-rules",)
+    plans: tuple[str, ...] = ()
+    fixed_procedure: str = "plan-1-1"
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """A protocol file, read and checked (module docstring)."""
+
+    name: str
+    path: str
+    sha256: str
+    seeds: tuple[int, ...]
+    alpha: float
+    validation: Stream
+    test: Stream
+    selection: Selection
+    comparisons: tuple[tuple[str, str], ...]
+    regimes: tuple[Regime, ...] = field(default_factory=tuple)
+
+    def regime(self, name: str) -> Regime:
+        for regime in self.regimes:
+            if regime.name == name:
+                return regime
+        raise ValueError(f"{self.path}: no regime named {name!r} (regimes: {', '.join(r.name for r in self.regimes)})")
+
+
+# ------------------------------------------------------------------------------------ reading
+def _mapping(value: Any, where: str, known: Sequence[str], required: Sequence[str] = ()) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{where} must be a mapping, got {type(value).__name__}")
+    unknown = [key for key in value if key not in known]
+    if unknown:
+        raise ValueError(f"unknown key {unknown[0]!r} in {where} (known keys: {', '.join(known)})")
+    missing = [key for key in required if key not in value]
+    if missing:
+        raise ValueError(f"{where} needs {missing[0]!r}")
+    return value
+
+
+def _integer(value: Any, where: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise ValueError(f"{where} must be an integer >= {minimum}, got {value!r}")
+    return value
+
+
+def _fraction(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 1:
+        raise ValueError(f"{where} must be a number in (0, 1), got {value!r}")
+    return float(value)
+
+
+def _strings(value: Any, where: str, allow_empty: bool = False) -> tuple[str, ...]:
+    if value is None and allow_empty:
+        return ()
+    if not isinstance(value, list) or (not value and not allow_empty) or not all(isinstance(v, str) and v for v in value):
+        raise ValueError(f"{where} must be a list of non-empty strings, got {value!r}")
+    return tuple(value)
+
+
+def _seeds(value: Any) -> tuple[int, ...]:
+    value = _mapping(value, "seeds", ("first", "count"), ("count",))
+    first, count = _integer(value.get("first", 0), "seeds.first", 0), _integer(value["count"], "seeds.count", 1)
+    require_at_most(count, MAX_SEEDS, "seeds.count")
+    return tuple(range(first, first + count))
+
+
+def _stream(value: Any, where: str) -> Stream:
+    value = _mapping(value, where, ("entropy", "plants", "episode_seed"), ("entropy", "plants", "episode_seed"))
+    plants = _integer(value["plants"], f"{where}.plants", 2)
+    require_at_most(plants, MAX_TEST_PLANTS, f"{where}.plants")
+    return Stream(_integer(value["entropy"], f"{where}.entropy", 0), plants, _integer(value["episode_seed"], f"{where}.episode_seed", 0))
+
+
+def _selection(value: Any) -> Selection:
+    value = _mapping(value, "selection", ("violation_target", "confidence", "rules", "plans", "fixed_procedure"),
+                     ("violation_target", "confidence", "rules"))
+    procedure = value.get("fixed_procedure", Selection.fixed_procedure)
+    if not isinstance(procedure, str) or not procedure:
+        raise ValueError(f"selection.fixed_procedure must be a policy name, got {procedure!r}")
+    return Selection(_fraction(value["violation_target"], "selection.violation_target"),
+                     _fraction(value["confidence"], "selection.confidence"), _strings(value["rules"], "selection.rules"),
+                     _strings(value.get("plans"), "selection.plans", allow_empty=True), procedure)
+
+
+def _learner(value: Any, where: str) -> Learner:
+    value = _mapping(value, where, ("label", "config", "overrides", "origin"), ("label", "config"))
+    label, config = value["label"], value["config"]
+    if not isinstance(label, str) or not label or "/" in label or "=" in label:
+        raise ValueError(f"{where}.label must be a non-empty name without '/' or '=', got {label!r}")
+    if not isinstance(config, str) or not Path(config).is_file():
+        raise ValueError(f"{where}.config: no such file: {config!r}")
+    origin = value.get("origin", "")
+    if not isinstance(origin, str):
+        raise ValueError(f"{where}.origin must be a string, got {origin!r}")
+    return Learner(label, config, _strings(value.get("overrides"), f"{where}.overrides", allow_empty=True), origin)
+
+
+def _regime(value: Any, where: str) -> Regime:
+    value = _mapping(value, where, ("name", "env", "env_kwargs", "fixed", "plan"), ("name", "env", "fixed"))
+    name, env = value["name"], value["env"]
+    if not isinstance(name, str) or not name or "/" in name:
+        raise ValueError(f"{where}.name must be a non-empty name without '/', got {name!r}")
+    if not isinstance(env, str) or not env.startswith("DeadTime/"):
+        raise ValueError(f"{where}.env must be a DeadTime environment id, got {env!r}")
+    env_kwargs = value.get("env_kwargs") or {}
+    if not isinstance(env_kwargs, Mapping) or "experiments" in env_kwargs:
+        raise ValueError(f"{where}.env_kwargs must be a mapping of environment arguments without 'experiments', got {env_kwargs!r}")
+    learners = {}
+    for mode in ("fixed", "plan"):
+        items = value.get(mode) or []
+        if not isinstance(items, list) or (mode == "fixed" and not items):
+            raise ValueError(f"{where}.{mode} must be a {'non-empty ' if mode == 'fixed' else ''}list of learners")
+        learners[mode] = tuple(_learner(item, f"{where}.{mode}[{i}]") for i, item in enumerate(items))
+        labels = [learner.label for learner in learners[mode]]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"{where}.{mode} repeats a label: {labels}")
+    shared = {learner.label for learner in learners["fixed"]} & {learner.label for learner in learners["plan"]}
+    if shared:
+        raise ValueError(f"{where}: the label {sorted(shared)[0]!r} names a fixed and a plan candidate; give them distinct labels")
+    return Regime(name, env, dict(env_kwargs), learners["fixed"], learners["plan"])
+
+
+def _comparisons(value: Any) -> tuple[tuple[str, str], ...]:
+    if not isinstance(value, list) or not value:
+        raise ValueError(f"comparisons must be a non-empty list of [first, second] pairs, got {value!r}")
+    pairs = []
+    for i, pair in enumerate(value):
+        if (not isinstance(pair, list) or len(pair) != 2 or pair[0] not in COMPARISON_SIDES["first"]
+                or pair[1] not in COMPARISON_SIDES["second"]):
+            raise ValueError(f"comparisons[{i}] must be [first, second] with first one of {COMPARISON_SIDES['first']} "
+                             f"and second one of {COMPARISON_SIDES['second']}, got {pair!r}")
+        pairs.append((pair[0], pair[1]))
+    return tuple(pairs)
+
+
+def load_protocol(path: str | Path) -> Protocol:
+    """Read and check a protocol file.
+
+    Raises
+    ------
+    ValueError
+        Naming the file, key or value that is wrong (an unknown key, a missing config, two regimes of
+        one name, equal validation and test entropies, a learner whose training config does not resolve).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"protocol {path}: no such file")
+    sha256 = hashlib.sha256(path.read_bytes()).hexdigest()
+    data = _mapping(load_yaml_file(path) or {}, str(path),
+                    ("name", "seeds", "alpha", "streams", "selection", "comparisons", "regimes"),
+                    ("name", "seeds", "alpha", "streams", "selection", "comparisons", "regimes"))
+    name = data["name"]
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"{path}: name must be a non-empty string, got {name!r}")
+    streams = _mapping(data["streams"], "streams", ("validation", "test"), ("validation", "test"))
+    validation, test = _stream(streams["validation"], "streams.validation"), _stream(streams["test"], "streams.test")
+    if validation.entropy == test.entropy:
+        raise ValueError(f"{path}: streams.validation and streams.test must have different entropies, both are {test.entropy}")
+    if not isinstance(data["regimes"], list) or not data["regimes"]:
+        raise ValueError(f"{path}: regimes must be a non-empty list")
+    regimes = tuple(_regime(item, f"regimes[{i}]") for i, item in enumerate(data["regimes"]))
+    names = [regime.name for regime in regimes]
+    if len(set(names)) != len(names):
+        raise ValueError(f"{path}: two regimes have one name: {sorted(n for n in set(names) if names.count(n) > 1)[0]!r}")
+    protocol = Protocol(name, str(path), sha256, _seeds(data["seeds"]), _fraction(data["alpha"], "alpha"), validation, test,
+                        _selection(data["selection"]), _comparisons(data["comparisons"]), regimes)
+    _check_learners(protocol)
+    return protocol
+
+
+def _check_learners(protocol: Protocol) -> None:
+    """Each learner's training config resolved and validated for its regime, as ``deadtime train`` would."""
+    from agents.protocol.training import trial
+    from agents.training.config import validate
+
+    for regime in protocol.regimes:
+        for mode in ("fixed", "plan"):
+            for learner in regime.candidates(mode):
+                try:
+                    validate(trial(regime, learner, protocol.seeds[0]).train_config(Path("unused")))
+                except ValueError as error:
+                    raise ValueError(f"{protocol.path}, regime {regime.name}, learner {learner.label}: {error}") from None

@@ -1,0 +1,289 @@
+"""``deadtime protocol run``: a protocol's regimes, each trained, chosen on validation and tested once.
+
+For each regime, in the protocol's order (or the ones named), until its ``summary.json`` exists:
+
+1. every candidate learner is trained with every seed of the protocol (:mod:`agents.protocol.training`,
+   resumable per seed);
+2. the declared rules, plans, the fixed procedure and every candidate's seeds are scored on the
+   validation stream (:func:`agents.evaluation.evaluate.evaluate`, whose per-plant cache resumes an
+   interrupted evaluation);
+3. the best rule, the best plan and the two primaries are chosen on it (:mod:`agents.protocol.selection`)
+   and written to ``OUT/REGIME/selection.json``;
+4. only then the test stream, and the papers' benchmark batch beside it, are scored for the chosen
+   policies and the oracle; ``OUT/REGIME/test_per_plant.csv.gz`` holds every per-plant result (the
+   benchmark rows are labelled so, and never enter the statistics of the random plants), and
+   ``OUT/REGIME/summary.json`` the regime's unadjusted comparisons and violations.
+
+The folder's ``protocol.json`` records the protocol's path, sha256 and the commit it ran at; a run
+into a folder of another protocol's sha256 is refused in one line, and so is a protocol whose test
+entropy is not registered to its own sha256 (:func:`agents.protocol.streams.check_test_seed`).  The
+trained models and the evaluations' caches stay in ``OUT/work`` (not results: never committed).
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import hashlib
+import io
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.protocol.config import Protocol, Regime
+from agents.protocol.selection import choose_primary, least_mean
+from agents.protocol.statistics import paired_difference, plant_means, plant_violations
+from agents.protocol.streams import check_test_seed, plant_stream
+
+__all__ = ["PER_PLANT", "SUMMARY", "ProtocolRefused", "read_per_plant", "run_protocol", "start"]
+
+PER_PLANT = "test_per_plant.csv.gz"
+SUMMARY = "summary.json"
+_COLUMNS = ("subset", "plant", "policy", "seed", "cost", "feasible")
+
+
+class ProtocolRefused(ValueError):
+    """A run that would evaluate a test stream under another protocol."""
+
+
+def _commit() -> str:
+    """The checked-out commit (``unknown`` outside a git work tree), with ``-dirty`` if files changed."""
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True,
+                               check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return f"{head}-dirty" if dirty else head
+
+
+def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
+    """Check that ``protocol`` may run into ``out`` and record it there (``protocol.json``).
+
+    Raises
+    ------
+    ProtocolRefused
+        One line: the test seed is not registered to this protocol, ``out`` holds another protocol's
+        run, or holds a run and ``resume`` is False.
+    """
+    registry = Path(protocol.path).with_name("test_seeds.json")
+    try:
+        check_test_seed(protocol.test.entropy, protocol.sha256, registry)
+    except ValueError as error:
+        raise ProtocolRefused(str(error)) from None
+    record_path = out / "protocol.json"
+    if record_path.exists():
+        record = json.loads(record_path.read_text())
+        if record.get("protocol_sha256") != protocol.sha256:
+            raise ProtocolRefused(f"{out} holds the run of protocol sha256 {str(record.get('protocol_sha256'))[:12]}, "
+                                  f"{protocol.path} has {protocol.sha256[:12]}: a changed protocol takes a fresh test seed")
+        if not resume:
+            raise ProtocolRefused(f"{out} already holds this protocol's run: add --resume to continue it")
+        return record
+    from agents.training.files import write_json
+
+    out.mkdir(parents=True, exist_ok=True)
+    configs = sorted({learner.config for regime in protocol.regimes for mode in ("fixed", "plan")
+                      for learner in regime.candidates(mode)})
+    record = {"protocol": protocol.path, "protocol_sha256": protocol.sha256, "commit": _commit(),
+              "test_entropy": protocol.test.entropy,
+              "configs_sha256": {path: hashlib.sha256(Path(path).read_bytes()).hexdigest() for path in configs}}
+    write_json(record_path, record)
+    return record
+
+
+# ------------------------------------------------------------------------------------ tables
+def read_per_plant(path: Path, learners: dict[str, str] | None = None) -> list[dict[str, Any]]:
+    """Rows ``(subset, plant, policy, seed, cost, feasible)`` of an evaluation's ``per_plant.csv`` or of a
+    protocol's gzip table; ``learners`` maps an evaluation's policy names to ``(label, seed)`` text ``label@seed``."""
+    opener = gzip.open if path.suffix == ".gz" else open
+    rows = []
+    with opener(path, "rt", newline="") as file:
+        for row in csv.DictReader(file):
+            policy, seed = row["policy"], row.get("seed", "")
+            if learners is not None:
+                label, _, trained = learners.get(policy, f"{policy}@").partition("@")
+                policy, seed = label, trained
+            rows.append({"subset": row["subset"], "plant": row["plant"], "policy": policy, "seed": seed,
+                         "cost": float(row["cost"]), "feasible": row["feasible"] == "True"})
+    return rows
+
+
+def _write_table(path: Path, rows: list[dict[str, Any]]) -> None:
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({**row, "cost": f"{row['cost']:.7g}"})
+    from agents.training.files import atomic_write
+
+    data = gzip.compress(text.getvalue().encode(), compresslevel=9, mtime=0)
+    atomic_write(path, lambda handle: handle.write(data))
+
+
+def matrices(rows: list[dict[str, Any]], subset: str) -> tuple[list[str], dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """The plants of ``subset`` in order, and per policy its ``(seeds, plants)`` costs and feasibility."""
+    plants: dict[str, int] = {}
+    grouped: dict[str, dict[str, dict[str, tuple[float, bool]]]] = {}
+    for row in rows:
+        if row["subset"] != subset:
+            continue
+        plants.setdefault(row["plant"], len(plants))
+        grouped.setdefault(row["policy"], {}).setdefault(row["seed"], {})[row["plant"]] = (row["cost"], row["feasible"])
+    order = list(plants)
+    result = {}
+    for policy, seeds in grouped.items():
+        if any(len(values) != len(order) for values in seeds.values()):
+            raise ValueError(f"policy {policy} is not scored on every {subset} plant")
+        costs = np.array([[seeds[s][p][0] for p in order] for s in sorted(seeds, key=lambda s: (len(s), s))])
+        feasible = np.array([[seeds[s][p][1] for p in order] for s in sorted(seeds, key=lambda s: (len(s), s))])
+        result[policy] = (costs, feasible)
+    return order, result
+
+
+# ------------------------------------------------------------------------------------ one regime
+def _family(regime: Regime) -> str:
+    from agents.environments import make_env
+
+    env = make_env(regime.env, {"experiments": "fixed", **regime.env_kwargs})
+    family = env.unwrapped.family
+    env.close()
+    return family
+
+
+def _evaluate(regime: Regime, policies: list[str], plants: list[Any], episode_seed: int, directory: Path,
+              benchmark: bool) -> None:
+    from agents.evaluation.evaluate import evaluate
+
+    evaluate(regime.env, ",".join(policies), len(plants), episode_seed, directory, benchmark=benchmark, resamples=100,
+             plots=False, plants=[plant.to_dict() for plant in plants], env_kwargs=dict(regime.env_kwargs))
+
+
+def _learner_policies(protocol: Protocol, work: Path, regime: Regime, labels: list[tuple[str, str]]) -> tuple[list[str], dict[str, str]]:
+    """``NAME=PATH`` policies of the learners' seeds (training them where needed), and NAME -> ``label@seed``."""
+    from agents.protocol.training import train_learner
+
+    policies, names = [], {}
+    for mode, label in labels:
+        learner = next(item for item in regime.candidates(mode) if item.label == label)
+        for seed in protocol.seeds:
+            directory = train_learner(work, regime, learner, seed)
+            name = f"{mode}.{label}.s{seed}"
+            policies.append(f"{name}={directory}")
+            names[name] = f"{label}@{seed}"
+    return policies, names
+
+
+def _baselines(protocol: Protocol) -> list[str]:
+    selection = protocol.selection
+    return list(dict.fromkeys([*selection.rules, *selection.plans, selection.fixed_procedure, "oracle"]))
+
+
+def _rule_names(protocol: Protocol, regime: Regime) -> list[str]:
+    """The rules that ``selection.rules`` expands to in the regime's structure."""
+    from agents.environments import make_env
+    from agents.evaluation.policies import parse_policies
+
+    env = make_env(regime.env, {"experiments": "fixed", **regime.env_kwargs})
+    structure = env.unwrapped.structure
+    env.close()
+    return [spec.name for spec in parse_policies(",".join(protocol.selection.rules), structure) if spec.kind == "rule"]
+
+
+def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[str, Any]:
+    """Steps 1-3 of the module docstring; returns (and writes) ``selection.json``."""
+    from agents.training.files import write_json
+
+    path = out / regime.name / "selection.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    labels = [(mode, learner.label) for mode in ("fixed", "plan") for learner in regime.candidates(mode)]
+    learners, names = _learner_policies(protocol, work, regime, labels)
+    family = _family(regime)
+    plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
+    directory = work / regime.name / "validation"
+    _evaluate(regime, [*_baselines(protocol), *learners], plants, protocol.validation.episode_seed, directory, benchmark=False)
+    _, table = matrices(read_per_plant(directory / "per_plant.csv", names), "test")
+    mean_of = {name: plant_means(table[name][0]) for name in table}
+    chosen: dict[str, Any] = {
+        "best-rule": least_mean({name: mean_of[name] for name in _rule_names(protocol, regime)}),
+        "fixed-procedure": protocol.selection.fixed_procedure,
+    }
+    if protocol.selection.plans:
+        chosen["best-plan"] = least_mean({name: mean_of[name] for name in protocol.selection.plans})
+    candidates = {}
+    target, confidence = protocol.selection.violation_target, protocol.selection.confidence
+    for mode in ("fixed", "plan"):
+        modes = [learner.label for learner in regime.candidates(mode)]
+        if modes:
+            label, records = choose_primary({m: table[m][0] for m in modes}, {m: table[m][1] for m in modes}, target, confidence)
+            chosen[mode] = label
+            candidates[mode] = [record.to_dict() for record in records]
+    selection = {"regime": regime.name, "env": regime.env, "env_kwargs": dict(regime.env_kwargs), "family": family,
+                 "validation_plants": len(plants), "chosen_on": "validation", "chosen": chosen, "candidates": candidates,
+                 "validation_mean_cost": {name: float(values.mean()) for name, values in sorted(mean_of.items())}}
+    write_json(path, selection)
+    return selection
+
+
+def _regime_summary(protocol: Protocol, selection: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per chosen policy its test mean and plant violations; the declared comparisons, unadjusted."""
+    chosen = selection["chosen"]
+    _, table = matrices(rows, "test")
+    policies = {role: {"policy": name, "mean_cost": float(plant_means(table[name][0]).mean()),
+                       "violations": plant_violations(table[name][1], 0.95).to_dict()}
+                for role, name in chosen.items()}
+    comparisons = []
+    for first, second in protocol.comparisons:
+        if first in chosen and second in chosen:
+            d = paired_difference(chosen[first], chosen[second], table[chosen[first]][0], table[chosen[second]][0])
+            comparisons.append({"first": d.first, "second": d.second, "roles": [first, second], "mean": d.mean,
+                                "unadjusted": [d.low, d.high], "p_value": d.p_value, "percent_of_second": d.percent_of_second,
+                                "share_better": d.share_better})
+    plants, benchmark = matrices(rows, "benchmark")
+    return {"regime": selection["regime"], "env": selection["env"], "env_kwargs": selection["env_kwargs"],
+            "test_plants": len(matrices(rows, "test")[0]), "rule_chosen_on": "validation", "chosen": chosen,
+            "policies": policies, "comparisons": comparisons,
+            "benchmark": {"plants": len(plants), "pooled": False,
+                          "policies": {role: {"policy": name, "mean_cost": float(plant_means(benchmark[name][0]).mean()),
+                                              "violating_plants": plant_violations(benchmark[name][1]).violating}
+                                       for role, name in chosen.items() if name in benchmark}}}
+
+
+def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selection: dict[str, Any]) -> dict[str, Any]:
+    """Step 4 of the module docstring: the chosen policies on the test stream and the benchmark batch."""
+    from agents.training.files import write_json
+
+    chosen = selection["chosen"]
+    labels = [(mode, chosen[mode]) for mode in ("fixed", "plan") if mode in chosen]
+    learners, names = _learner_policies(protocol, work, regime, labels)
+    baselines = list(dict.fromkeys([chosen[role] for role in ("best-rule", "fixed-procedure", "best-plan") if role in chosen]))
+    plants = plant_stream(selection["family"], protocol.test.entropy, protocol.test.plants)
+    directory = work / regime.name / "test"
+    _evaluate(regime, [*baselines, "oracle", *learners], plants, protocol.test.episode_seed, directory, benchmark=True)
+    rows = read_per_plant(directory / "per_plant.csv", names)
+    _write_table(out / regime.name / PER_PLANT, rows)
+    summary = _regime_summary(protocol, selection, rows)
+    write_json(out / regime.name / SUMMARY, summary)
+    return summary
+
+
+def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes: list[str] | None = None) -> list[str]:
+    """Run the protocol's regimes (all, or those named) into ``out``; returns the names of the regimes done."""
+    start(protocol, out, resume)
+    work = out / "work"
+    chosen = [protocol.regime(name) for name in regimes] if regimes else list(protocol.regimes)
+    done = []
+    for regime in chosen:
+        if not (out / regime.name / SUMMARY).exists():
+            print(f"deadtime protocol: {regime.name}: training and validation", file=sys.stderr, flush=True)
+            selection = select(protocol, work, out, regime)
+            print(f"deadtime protocol: {regime.name}: chosen on validation {selection['chosen']}; the test stream",
+                  file=sys.stderr, flush=True)
+            test_regime(protocol, work, out, regime, selection)
+        done.append(regime.name)
+    return done

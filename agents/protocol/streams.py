@@ -1,0 +1,95 @@
+"""The protocol's plant streams and the registry of test seeds.
+
+A stream of plants of a family is ``numpy.random.SeedSequence(entropy, spawn_key=(family index,))``
+fed to :func:`envs.systems.families.sample_plant`, one plant after another, so that the ``i``-th
+plant does not depend on the stream's length.  A non-empty spawn key makes a stream that no integer
+training seed reproduces (the learners' training plants come from ``default_rng(seed)``), and an
+entropy other than :data:`envs.systems.plant_sets.PLANT_SET_ENTROPY` one that differs from the
+validation and test sets every study before the protocol used.
+
+The registry (``configs/protocols/test_seeds.json``) lists each test entropy with the protocol that
+consumes it (path and sha256).  A run evaluates its test stream only when the protocol's entropy is
+registered with the protocol's own sha256: a protocol changed after its registration, or another
+protocol on the same entropy, is refused in one line (a changed protocol takes a fresh test seed).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["REGISTRY", "TestSeedRefused", "check_test_seed", "plant_stream", "read_registry", "register_test_seed"]
+
+REGISTRY = Path("configs/protocols/test_seeds.json")
+"""The registry of test entropies, relative to the repository's root (the directory commands run in)."""
+
+
+class TestSeedRefused(ValueError):
+    """A test stream that this protocol may not evaluate (its entropy is not registered to it)."""
+
+    __test__ = False  # not a pytest class
+
+
+def plant_stream(family: str, entropy: int, n: int) -> list[Any]:
+    """The first ``n`` plants of the stream of ``family`` with ``entropy`` (module docstring)."""
+    from envs.systems.families import FAMILIES, sample_plant
+    from envs.systems.plant_sets import PLANT_SET_ENTROPY
+
+    if family not in FAMILIES:
+        raise ValueError(f"unknown plant family {family!r}; valid families: {', '.join(FAMILIES)}")
+    if entropy == PLANT_SET_ENTROPY:
+        raise ValueError(f"entropy {entropy} is that of the fixed validation and test sets of every earlier study; "
+                         "a protocol's streams need their own")
+    rng = np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(FAMILIES.index(family),)))
+    return [sample_plant(family, rng) for _ in range(int(n))]
+
+
+def read_registry(path: Path = REGISTRY) -> list[dict[str, Any]]:
+    """The registry's entries, ``{"entropy", "protocol", "sha256"}`` each (an absent file: none)."""
+    if not path.exists():
+        return []
+    entries = json.loads(path.read_text())
+    if not isinstance(entries, list) or not all(isinstance(e, dict) and {"entropy", "protocol", "sha256"} <= e.keys()
+                                                 for e in entries):
+        raise ValueError(f"{path}: must be a JSON list of {{entropy, protocol, sha256}}")
+    return entries
+
+
+def check_test_seed(entropy: int, sha256: str, path: Path = REGISTRY) -> dict[str, Any]:
+    """The registry entry of ``entropy`` if it is registered to the protocol of ``sha256``.
+
+    Raises
+    ------
+    TestSeedRefused
+        One line: the entropy is not registered, or registered to another protocol's sha256.
+    """
+    for entry in read_registry(path):
+        if entry["entropy"] == entropy:
+            if entry["sha256"] != sha256:
+                raise TestSeedRefused(
+                    f"test seed {entropy} was registered to {entry['protocol']} with sha256 {entry['sha256'][:12]}, "
+                    f"this protocol's is {sha256[:12]}: a changed protocol takes a fresh test seed")
+            return entry
+    raise TestSeedRefused(f"test seed {entropy} is not registered in {path}: register it "
+                          "(deadtime protocol register) in a commit before any result of the protocol")
+
+
+def register_test_seed(entropy: int, protocol: str, sha256: str, path: Path = REGISTRY) -> dict[str, Any]:
+    """Add ``entropy`` to the registry for the protocol of ``sha256``; refused if any protocol has it
+    (the same protocol again: the entry as it is)."""
+    entries = read_registry(path)
+    for entry in entries:
+        if entry["entropy"] == entropy:
+            if entry["sha256"] == sha256:
+                return entry
+            raise TestSeedRefused(f"test seed {entropy} is already registered to {entry['protocol']} "
+                                  f"(sha256 {entry['sha256'][:12]}): choose a fresh one")
+    entry = {"entropy": entropy, "protocol": protocol, "sha256": sha256}
+    from agents.training.files import write_text
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_text(path, json.dumps([*entries, entry], indent=2) + "\n")
+    return entry

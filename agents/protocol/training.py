@@ -1,0 +1,50 @@
+"""Training the protocol's learners: each (regime, learner, seed) is a sweep trial, trained by ``deadtime train``.
+
+A learner of a regime is the sweep trial ``Trial(label, env, seed, config, overrides, env_kwargs)``
+(:class:`agents.sweeps.config.Trial`), trained by :func:`agents.training.train.train` with
+``resume=True``: a finished fit is read back, an interrupted one continues from its checkpoint.  The
+run directory is named by what determines the fit (environment, regime, config file and overrides),
+so two regimes that declare the same learner in the same environment and regime share its fits.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+from agents.protocol.config import Learner, Regime
+from agents.sweeps.config import Trial
+
+__all__ = ["run_directory", "train_learner", "trial"]
+
+
+def trial(regime: Regime, learner: Learner, seed: int) -> Trial:
+    """The sweep trial of ``learner`` in ``regime`` with ``seed``."""
+    return Trial(learner.label, regime.env, seed, learner.config, learner.overrides, dict(regime.env_kwargs))
+
+
+def run_directory(work: Path, regime: Regime, learner: Learner, seed: int) -> Path:
+    """``WORK/runs/LABEL-ENV-HASH/sSEED``: HASH of the environment, regime, config file and overrides."""
+    identity = json.dumps([regime.env, dict(regime.env_kwargs), learner.label, Path(learner.config).read_text(),
+                           list(learner.overrides)], sort_keys=True)
+    digest = hashlib.sha256(identity.encode()).hexdigest()[:10]
+    return work / "runs" / f"{learner.label}-{regime.env.split('/')[-1]}-{digest}" / f"s{seed}"
+
+
+def train_learner(work: Path, regime: Regime, learner: Learner, seed: int) -> Path:
+    """Train (or resume, or read back) one seed of ``learner`` in ``regime``; returns its run directory.
+
+    Raises
+    ------
+    ValueError
+        If the fit was interrupted (it resumes when called again) or its config changed since it started.
+    """
+    from agents.training.train import train
+
+    directory = run_directory(work, regime, learner, seed)
+    config = trial(regime, learner, seed).train_config(directory)
+    result = train(config, resume=True, command=f"deadtime protocol run ({regime.name}, {learner.label}, seed {seed})")
+    if result.status != "finished":
+        raise ValueError(f"the fit of {learner.label} seed {seed} in {regime.name} was interrupted; run again to resume")
+    return directory
