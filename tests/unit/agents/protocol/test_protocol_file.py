@@ -1,0 +1,90 @@
+"""The protocol file: v1 as committed, the schema's refusals, and the refusal of a changed protocol."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from agents.protocol.config import load_protocol
+from agents.protocol.report import _declared
+from agents.protocol.run import ProtocolRefused, start
+from agents.protocol.streams import check_test_seed, plant_stream, read_registry, register_test_seed
+
+V1 = Path("configs/protocols/v1.yaml")
+
+
+def test_v1_declares_the_study_and_its_test_seed_is_registered_to_it():
+    protocol = load_protocol(V1)
+    assert len(protocol.regimes) == 15 and _declared(protocol) == 51
+    assert protocol.validation.plants >= 2000 and protocol.test.plants >= 2000 and len(protocol.seeds) == 10
+    entry = check_test_seed(protocol.test.entropy, protocol.sha256, V1.with_name("test_seeds.json"))
+    assert entry["protocol"] == str(V1)
+    entropies = [e["entropy"] for e in read_registry(V1.with_name("test_seeds.json"))]
+    assert len(set(entropies)) == len(entropies)
+
+
+def test_streams_are_prefix_stable_and_differ_from_the_fixed_sets():
+    from envs.systems.plant_sets import PLANT_SET_ENTROPY, plant_set
+
+    ten, three = plant_stream("stable", 11, 10), plant_stream("stable", 11, 3)
+    assert [p.to_dict() for p in three] == [p.to_dict() for p in ten[:3]]
+    assert ten[0].to_dict() != plant_set("stable", "test", 1)[0].to_dict()
+    with pytest.raises(ValueError, match="fixed validation and test sets"):
+        plant_stream("stable", PLANT_SET_ENTROPY, 1)
+
+
+def _copy(tmp_path: Path, change: str = "") -> Path:
+    folder = tmp_path / "protocols"
+    folder.mkdir(exist_ok=True)
+    path = folder / "v1.yaml"
+    path.write_text(V1.read_text() + change)
+    shutil.copy(V1.with_name("test_seeds.json"), folder / "test_seeds.json")
+    return path
+
+
+def test_a_changed_protocol_is_refused_on_the_registered_test_seed(tmp_path):
+    protocol = load_protocol(_copy(tmp_path, "# a changed comment changes the protocol\n"))
+    with pytest.raises(ProtocolRefused, match="a changed protocol takes a fresh test seed"):
+        start(protocol, tmp_path / "out", resume=False)
+    with pytest.raises(ValueError, match="already registered"):
+        register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, Path(protocol.path).with_name("test_seeds.json"))
+
+
+def test_a_run_folder_of_another_protocol_is_refused(tmp_path):
+    protocol = load_protocol(_copy(tmp_path))
+    out = tmp_path / "out"
+    start(protocol, out, resume=False)
+    with pytest.raises(ProtocolRefused, match="--resume"):
+        start(protocol, out, resume=False)
+    assert start(protocol, out, resume=True)["protocol_sha256"] == protocol.sha256
+    record = json.loads((out / "protocol.json").read_text())
+    (out / "protocol.json").write_text(json.dumps({**record, "protocol_sha256": "0" * 64}))
+    with pytest.raises(ProtocolRefused, match="a changed protocol takes a fresh test seed"):
+        start(protocol, out, resume=True)
+
+
+def test_the_command_refuses_a_changed_protocol_in_one_line(tmp_path):
+    path = _copy(tmp_path, "# changed\n")
+    done = subprocess.run([sys.executable, "-m", "agents.cli", "protocol", "run", str(path), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True)
+    assert done.returncode == 2
+    assert len(done.stderr.strip().splitlines()) == 1 and "fresh test seed" in done.stderr
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("name: v1", "name: v1\nextra: 1"), "unknown key 'extra'"),
+    (("plants: 4000", "plants: 1"), "streams.test.plants must be an integer >= 2"),
+    (("comparisons: [[fixed, best-rule]", "comparisons: [[fixed, oracle]"), r"comparisons\[0\]"),
+    (("config: configs/learned_plan.yaml", "config: configs/missing.yaml"), "no such file"),
+])
+def test_bad_protocols_are_refused_naming_what_is_wrong(tmp_path, edit, message):
+    path = tmp_path / "bad.yaml"
+    path.write_text(V1.read_text().replace(*edit, 1))
+    with pytest.raises(ValueError, match=message):
+        load_protocol(path)
