@@ -1,0 +1,89 @@
+"""A tiny protocol (one regime, two seeds, a few plants, 30 training plants per fit) run, interrupted
+after its choices on validation, resumed, and reported."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from agents.protocol.config import load_protocol
+from agents.protocol.report import write_report
+from agents.protocol.run import PER_PLANT, SUMMARY, run_protocol
+from agents.protocol.streams import register_test_seed
+
+RULE = """default:
+  algorithm: learned-rule
+  env_id: DeadTime/PID-v3
+  env_kwargs: {experiments: fixed}
+  seed: 0
+  training_plants: 30
+  validation_plants: 10
+  margins: [0.0, 0.2]
+  models: [quantile-boosting]
+"""
+
+PROTOCOL = """name: tiny
+seeds: {{first: 0, count: 2}}
+alpha: 0.05
+streams:
+  validation: {{entropy: 11, plants: 5, episode_seed: 50000000}}
+  test: {{entropy: 12, plants: 6, episode_seed: 60000000}}
+selection:
+  violation_target: 0.5
+  confidence: 0.95
+  rules: [simc-pi, gorez-klan-mu-2]
+  plans: [plan-1-1, plan-3-0.1]
+  fixed_procedure: plan-1-1
+comparisons: [[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure], [plan, best-plan]]
+regimes:
+  - name: pid-tiny
+    env: DeadTime/PID-v3
+    env_kwargs: {{noise_std: 0.01}}
+    fixed:
+      - {{label: tiny-fixed, config: {rule}}}
+      - {{label: tiny-fixed-wide, config: {rule}, overrides: ["margins=[0.5]"]}}
+    plan:
+      - {{label: tiny-plan, config: {rule}, overrides: ["env_kwargs.plan=[3, 0.1]"]}}
+"""
+
+
+@pytest.mark.slow
+def test_a_tiny_protocol_runs_resumes_and_reports(tmp_path):
+    (tmp_path / "rule.yaml").write_text(RULE)
+    (tmp_path / "protocols").mkdir()
+    path = tmp_path / "protocols" / "tiny.yaml"
+    path.write_text(PROTOCOL.format(rule=tmp_path / "rule.yaml"))
+    protocol = load_protocol(path)
+    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
+    out = tmp_path / "out"
+    assert run_protocol(protocol, out) == ["pid-tiny"]
+    regime = out / "pid-tiny"
+    first = (regime / PER_PLANT).read_bytes()
+    fits = sorted((out / "work" / "runs").glob("*/s*/learned_rule.json"))
+    assert len(fits) == 6  # three learners, two seeds
+    stamps = [fit.stat().st_mtime_ns for fit in fits]
+
+    # interrupted after the choices: the test stream is scored again from the evaluation's cache
+    (regime / SUMMARY).unlink()
+    (regime / PER_PLANT).unlink()
+    with pytest.raises(ValueError, match="--resume"):
+        run_protocol(protocol, out)
+    assert run_protocol(protocol, out, resume=True) == ["pid-tiny"]
+    assert (regime / PER_PLANT).read_bytes() == first
+    assert [fit.stat().st_mtime_ns for fit in fits] == stamps  # no fit trained twice
+
+    results = write_report(protocol, out)
+    assert results["protocol_sha256"] == protocol.sha256 and results["complete"]
+    entry = results["regimes"][0]
+    assert entry["rule_chosen_on"] == "validation" and entry["test_plants"] == 6
+    assert entry["benchmark"]["plants"] == 9 and entry["benchmark"]["pooled"] is False
+    assert len(entry["comparisons"]) == 4
+    for comparison in entry["comparisons"]:
+        assert comparison["adjustment"] == "holm" and comparison["verdict"] in ("better", "tie", "worse")
+        assert comparison["adjusted"]["low"] <= comparison["estimate"]["low"] <= comparison["estimate"]["high"]
+    assert all(v["unit"] == "plant" for v in entry["violations"].values())
+    selection = json.loads((regime / "selection.json").read_text())
+    assert selection["chosen_on"] == "validation" and selection["validation_plants"] == 5
+    assert (out / "results.md").read_text().count("\n| pid-tiny") == 4 and (out / "forest.png").exists()
