@@ -46,7 +46,7 @@ def populations(sweeps: Path, structures: tuple[str, ...] = ("PID", "FPPI")) -> 
         plants = sorted(next(iter(rules.values())))
         learners: dict[str, list[np.ndarray]] = {}
         for run in sorted(env_dir.glob("*-s[0-9]*/per_plant.csv")):
-            label = run.parent.name.rsplit("-s", 1)[0]
+            label = run.parent.name.rsplit("-s", 1)[0].removesuffix(f"-{env_dir.name}")
             costs = next(iter(_costs(run).values()))
             learners.setdefault(label, []).append(np.array([costs[p] for p in plants]))
         candidates = {name: np.array([c[p] for p in plants]) for name, c in rules.items()

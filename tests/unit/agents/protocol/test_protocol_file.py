@@ -88,3 +88,14 @@ def test_bad_protocols_are_refused_naming_what_is_wrong(tmp_path, edit, message)
     path.write_text(V1.read_text().replace(*edit, 1))
     with pytest.raises(ValueError, match=message):
         load_protocol(path)
+
+
+def test_the_committed_coverage_check_holds_and_the_docs_quote_it():
+    coverage = json.loads(Path("results/protocol_coverage/coverage.json").read_text())
+    assert coverage["n"] == load_protocol(V1).test.plants and coverage["replicates"] == 4000
+    envs = {population["env"] for population in coverage["populations"]}
+    assert envs == {"PID-v3", "FPPI-v3"} and len(coverage["populations"]) == 156
+    assert coverage["smallest_coverage"]["0.95"] >= 0.93
+    text = Path("docs/protocol.md").read_text()
+    for level, error in coverage["monte_carlo_standard_error_at_nominal"].items():
+        assert f"{coverage['smallest_coverage'][level]:g}" in text and f"{error:.2g}" in text
