@@ -5,7 +5,7 @@
     deadtime protocol register configs/protocols/v1.yaml          # its test seed, before any result
     deadtime protocol run configs/protocols/v1.yaml --out results/protocol_v1 --resume [--regime NAME ...]
     deadtime protocol report configs/protocols/v1.yaml --out results/protocol_v1
-    deadtime protocol coverage --sweeps sweeps --n 4000 --out results/protocol_coverage.json
+    deadtime protocol coverage --n 4000 --out results/protocol_coverage/coverage.json
 
 ``run`` trains, chooses on validation and tests regime after regime (:mod:`agents.protocol.run`);
 each finished regime's folder can be committed as it finishes.  ``report`` writes
@@ -36,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     report.add_argument("protocol")
     report.add_argument("--out", required=True)
     coverage = actions.add_parser("coverage", help="the coverage of the protocol's interval on the committed per-plant data")
-    coverage.add_argument("--sweeps", default="sweeps", help="the folder of the studies' results (default sweeps)")
+    coverage.add_argument("--sweeps", default="results", help="the folder of the committed sweeps (default results)")
     coverage.add_argument("--n", type=int, default=4000, help="plants per replicate (default 4000, the test size)")
     coverage.add_argument("--replicates", type=int, default=4000, help="replicates per population (default 4000)")
     coverage.add_argument("--seed", type=int, default=0)

@@ -20,7 +20,7 @@ A protocol declares, before any of its test plants is evaluated, everything its 
         env: DeadTime/PID-v3
         env_kwargs: {noise_std: 0.01, weights: {production: 0}}
         fixed:                          # candidates of the fixed-mode primary
-          - {label: learned-fixed, config: configs/learned_plan.yaml, overrides: [], origin: sweeps/X.yaml}
+          - {label: learned-fixed, config: configs/learned_plan.yaml, overrides: [], origin: configs/sweeps/X.yaml}
         plan: [...]                     # candidates of the plan-mode primary (may be empty)
 
 Streams of plants (:mod:`agents.protocol.streams`): the validation and test plants of each structure

@@ -20,6 +20,8 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from agents.compressed import open_text
+
 __all__ = ["coverage", "populations", "t_coverage"]
 
 _NOT_RULES = ("oracle", "oracle-full", "amplitude-rule")
@@ -28,7 +30,7 @@ _NOT_RULES = ("oracle", "oracle-full", "amplitude-rule")
 def _costs(path: Path) -> dict[str, dict[str, float]]:
     """``policy -> plant -> cost`` of the random test plants of an evaluation's ``per_plant.csv``."""
     found: dict[str, dict[str, float]] = {}
-    with path.open(newline="") as file:
+    with open_text(path) as file:
         for row in csv.DictReader(file):
             if row["subset"] == "test":
                 found.setdefault(row["policy"], {})[row["plant"]] = float(row["cost"])
@@ -36,16 +38,17 @@ def _costs(path: Path) -> dict[str, dict[str, float]]:
 
 
 def populations(sweeps: Path, structures: tuple[str, ...] = ("PID", "FPPI")) -> list[dict[str, Any]]:
-    """Every (sweep, environment, learner, second) population of per-plant differences under ``sweeps``."""
+    """Every (sweep, environment, learner, second) population of per-plant differences in the sweep
+    folders under ``sweeps`` (their ``eval/ENV/*/per_plant.csv``, plain or ``.gz``)."""
     found = []
-    for baselines in sorted(sweeps.glob("*/eval/*/baselines/per_plant.csv")):
+    for baselines in sorted(sweeps.glob("*/eval/*/baselines/per_plant.csv*")):
         env_dir = baselines.parent.parent
         if env_dir.name.split("-")[0] not in structures:
             continue
         rules = _costs(baselines)
         plants = sorted(next(iter(rules.values())))
         learners: dict[str, list[np.ndarray]] = {}
-        for run in sorted(env_dir.glob("*-s[0-9]*/per_plant.csv")):
+        for run in sorted(env_dir.glob("*-s[0-9]*/per_plant.csv*")):
             label = run.parent.name.rsplit("-s", 1)[0].removesuffix(f"-{env_dir.name}")
             costs = next(iter(_costs(run).values()))
             learners.setdefault(label, []).append(np.array([costs[p] for p in plants]))

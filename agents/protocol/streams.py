@@ -11,6 +11,8 @@ The registry (``configs/protocols/test_seeds.json``) lists each test entropy wit
 consumes it (path and sha256).  A run evaluates its test stream only when the protocol's entropy is
 registered with the protocol's own sha256: a protocol changed after its registration, or another
 protocol on the same entropy, is refused in one line (a changed protocol takes a fresh test seed).
+An entry with ``superseded_by`` is retired: its protocol was replaced before any evaluation, and its
+entropy is never evaluated.
 """
 
 from __future__ import annotations
@@ -72,6 +74,9 @@ def check_test_seed(entropy: int, sha256: str, path: Path = REGISTRY) -> dict[st
                 raise TestSeedRefused(
                     f"test seed {entropy} was registered to {entry['protocol']} with sha256 {entry['sha256'][:12]}, "
                     f"this protocol's is {sha256[:12]}: a changed protocol takes a fresh test seed")
+            if entry.get("superseded_by"):
+                raise TestSeedRefused(f"test seed {entropy} was retired (its protocol was superseded by sha256 "
+                                      f"{entry['superseded_by'][:12]} before any evaluation): it is never evaluated")
             return entry
     raise TestSeedRefused(f"test seed {entropy} is not registered in {path}: register it "
                           "(deadtime protocol register) in a commit before any result of the protocol")

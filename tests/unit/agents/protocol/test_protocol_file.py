@@ -99,3 +99,10 @@ def test_the_committed_coverage_check_holds_and_the_docs_quote_it():
     text = Path("docs/protocol.md").read_text()
     for level, error in coverage["monte_carlo_standard_error_at_nominal"].items():
         assert f"{coverage['smallest_coverage'][level]:g}" in text and f"{error:.2g}" in text
+
+
+def test_a_retired_test_seed_is_never_evaluated(tmp_path):
+    registry = tmp_path / "test_seeds.json"
+    registry.write_text(json.dumps([{"entropy": 5, "protocol": "p.yaml", "sha256": "a" * 64, "superseded_by": "b" * 64}]))
+    with pytest.raises(ValueError, match="retired"):
+        check_test_seed(5, "a" * 64, registry)
