@@ -11,11 +11,11 @@ How each policy is scored, and what a rule's failure costs: :mod:`agents.evaluat
 policies: :mod:`agents.evaluation.policies`; the statistics (regret, gap closure, paired
 bootstrap seeded with ``--seed``): :mod:`agents.evaluation.stats`.
 
-The gap closure's best rule is the rule of lowest mean cost over all plants among the rules of the
+The gap closure's reference, the *paper rule* (``best_rule`` in ``results.json``), is the rule of lowest mean cost over all plants among the rules of the
 environment's own structure (the ``mu`` rules in ``PID-v0``, the FPPI ``T_r`` rules in ``FPPI-v0``,
 the MSP ``T_r`` rules in ``MSP-v0``): the oracle is the per-plant optimum of that structure's one
 parameter, so only those rules are bounded by it.  They and the oracle are always computed (regret
-and gap closure need them); the table shows the listed policies plus the oracle and the best rule.
+and gap closure need them); the table shows the listed policies plus the oracle and the paper rule.
 
 Writes into ``--out``: ``results.md``, ``results.csv``, ``results.json`` (also printed by
 ``--json``), ``per_plant.csv``, ``costs.png`` and, for a few representative plants (the best
@@ -417,7 +417,7 @@ def _roles(shown: list[str], agents: dict[str, str], best_rule: str, listed_rule
     roles = {name: "rule" for name in shown}
     roles.update(agents)
     roles.update({name: name for name in ("oracle", "oracle-full") if name in shown})
-    roles[best_rule] = "best rule of the structure" if best_rule in listed_rules else "best rule of the structure (reference)"
+    roles[best_rule] = "paper rule" if best_rule in listed_rules else "paper rule (reference)"
     return roles
 
 
@@ -454,9 +454,9 @@ def _notes(best_rule: str, own: list[str]) -> list[str]:
     from agents.evaluation.run import FAILURE_COST
 
     best = (
-        f"Best rule: {best_rule}, the lowest mean cost among the rules of the environment's own structure "
+        f"Paper rule: {best_rule}, the lowest mean cost among the papers' rules of the environment's own structure "
         f"({', '.join(own)}); the oracle is the per-plant optimum of that structure's parameter, so only these "
-        "rules are bounded by it. Gap closure = (mean cost of the best rule - mean cost)/(mean cost of the best rule "
+        "rules are bounded by it. Gap closure = (mean cost of the paper rule - mean cost)/(mean cost of the paper rule "
         "- mean cost of the oracle)."
     )
     regret = (

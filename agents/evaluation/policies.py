@@ -152,7 +152,7 @@ def applicable_rules(structure: str) -> list[str]:
 def own_rules(structure: str) -> list[str]:
     """Names of the rules that set the environment's own design parameter (``mu`` or ``T_r``).
 
-    These, and only these, compete for "best rule of the structure" in the gap closure: the oracle is the
+    These, and only these, compete for "paper rule", the reference of the gap closure: the oracle is the
     per-plant optimum of that structure's one parameter, so a rule of another structure (a full
     PID, or the FPPI in ``PID-v0``) is not bounded by it and the gap would not be a share of
     anything.

@@ -1,10 +1,11 @@
 """The tables of ``deadtime evaluate``: ``results.md``, ``results.csv``, ``results.json``, ``per_plant.csv``.
 
 Policies are sorted by mean cost.  Roles mark the rows: ``oracle`` (and ``oracle-full``), the
-``best rule`` (lowest mean cost among the rules of the environment's own structure, the
-reference of the gap closure) and ``agent``; other rules have the role ``rule``.  The rules of the
-environment's own structure are always scored (the best rule must exist), and the best rule is
-always shown, even if ``--policies`` did not list it (role ``best rule (reference)``).
+``paper rule`` (lowest mean cost among the papers' rules of the environment's own structure, the
+reference of the gap closure; ``results.json`` names it ``best_rule``) and ``agent``; other rules have the
+role ``rule``.  The rules of the environment's own structure are always scored (the paper rule must
+exist), and the paper rule is always shown, even if ``--policies`` did not list it (role ``paper rule
+(reference)``).
 """
 
 from __future__ import annotations
@@ -126,7 +127,7 @@ def write_tables(
 def summary_table(result: dict[str, Any]) -> str:
     """A compact plain-text table of ``results.json`` (all plants) for the terminal."""
     lines = [
-        f"{result['env']}: {result.get('plants', result['n'])} plants, seed {result['seed']}, best rule of the structure {result.get('best_rule')}",
+        f"{result['env']}: {result.get('plants', result['n'])} plants, seed {result['seed']}, paper rule {result.get('best_rule')}",
         f"{'policy':24s} {'role':28s} {'mean':>8s} {'median':>8s} {'viol.':>6s} {'regret':>8s} {'gap cl.':>8s}",
     ]
     for p in result["policies"]:

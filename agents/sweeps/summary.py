@@ -9,13 +9,13 @@ and plants resampled whole; :mod:`agents.evaluation.seed_statistics` says why no
 violation rate, the normalized score ``oracle/cost`` (IQM and optimality gap), the probability of
 improvement over every rule and the paired difference to the best rule (the rule of lowest mean
 cost on these plants).  A rule or the oracle has one cost per plant: its intervals resample the
-plants only.  The tables show the agents, the best rule, the best rule of the
-environment's own structure (``deadtime evaluate``'s ``best_rule``, the baseline of its gap closure)
-and the oracle; ``summary.json`` and ``summary.csv`` hold every rule.
+plants only.  The tables show the agents, the best rule, the paper rule (the best of the
+papers' rules of the environment's own structure: ``deadtime evaluate``'s ``best_rule``, the baseline of
+its gap closure) and the oracle; ``summary.json`` and ``summary.csv`` hold every rule.
 
 ``summary.json``::
 
-    {"sweep": NAME, "failed": {TRIAL: ERROR}, "envs": [{"env", "plants", "best_rule", "best_structure_rule",
+    {"sweep": NAME, "failed": {TRIAL: ERROR}, "envs": [{"env", "plants", "best_rule", "paper_rule",
       "policies": [{"name", "kind", "seeds", "mean_cost", "iqm_cost", "ci95": {...},
                     "violation_rate", "normalized_iqm", "optimality_gap",
                     "prob_improvement": {"RULE": p, ...}, "diff_to_best_rule": [est, lo, hi],
@@ -41,7 +41,7 @@ from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
 from agents.sweeps.sessions import interrupted_sessions
 from agents.training.files import atomic_write_all
 
-__all__ = ["per_plant_costs", "write_summary"]
+__all__ = ["per_plant_costs", "summary_texts", "write_summary"]
 
 ORACLES = ("oracle", "oracle-full")
 
@@ -125,7 +125,7 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
     rows += [_row(name, "procedure", statistics(cost[None, :])) for name, cost in procedures.items()]
     rows.append(_row("oracle", "oracle", statistics(oracle[None, :])))
     rows.sort(key=lambda row: (row["kind"] not in TRAINED, row["mean_cost"]))
-    entry = {"env": env_id, "plants": len(plants), "best_rule": best_rule, "best_structure_rule": own_rule, "policies": rows}
+    entry = {"env": env_id, "plants": len(plants), "best_rule": best_rule, "paper_rule": own_rule, "policies": rows}
     return entry, normalized
 
 
@@ -178,18 +178,18 @@ def _markdown(summary: dict[str, Any]) -> str:
         lines.append(f"- trial `{name}` failed: {error}")
     for env in summary["envs"]:
         best = env["best_rule"]
-        own = env.get("best_structure_rule")
+        own = env.get("paper_rule")
         lines += ["", f"## {env['env']} ({env['plants']} held-out plants; best rule `{best}`)", "",
                   f"| policy | role | seeds | mean cost | IQM cost | violation rate | normalized IQM | optimality gap "
                   f"| P(better than {best}) | difference to {best} |", "|---|---|---|---|---|---|---|---|---|---|"]
         for row in env["policies"]:
-            if row["kind"] == "rule" and row["name"] not in (best, env.get("best_structure_rule")):
+            if row["kind"] == "rule" and row["name"] not in (best, env.get("paper_rule")):
                 continue
             diff = row["diff_to_best_rule"]
             diff_text = f"{diff[0]:.3g}" + ("" if diff[1] is None else f" [{diff[1]:.3g}, {diff[2]:.3g}]")
             probability = row["prob_improvement"].get(best)
             role = {**ROLES, "oracle": "oracle"}.get(row["kind"]) or " and ".join(
-                label for label, name in (("best rule", best), ("best rule of the structure", own)) if row["name"] == name)
+                label for label, name in (("best rule", best), ("paper rule", own)) if row["name"] == name)
             lines.append(
                 f"| {row['name']} | {role} | {row['seeds'] or '-'} | {row['mean_cost']:.3g}{_interval(row, 'mean_cost')} "
                 f"| {row['iqm_cost']:.3g}{_interval(row, 'iqm_cost')} | {row['violation_rate']:.1%} "
@@ -261,15 +261,8 @@ def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: di
 
     ``sessions`` (the invocations of the sweep, :mod:`agents.sweeps.sessions`) give the wall time.
     """
-    entries = [_environment(sweep, env, trials, out) for env in sweep.envs()]
-    summary = {"sweep": sweep.name, **({"env_kwargs": dict(sweep.env_kwargs)} if sweep.env_kwargs else {}),
-               "failed": failed, "envs": [entry for entry, _ in entries],
-               "sessions": list(sessions), "wall_time_s": round(sum(s["wall_time_s"] for s in sessions), 1)}
-    summary = _json_ready(summary)
-    curves = learning_curves(trials, out)
-    texts = {"summary.json": json.dumps({**summary, "learning_curves": curves}, indent=2) + "\n",
-             "summary.md": _markdown(summary), "summary.csv": _csv(summary)}
-    figures = _plots(summary, curves, [profile for _, profile in entries])
+    summary, curves, profiles, texts = _summary(sweep, trials, out, failed, sessions)
+    figures = _plots(summary, curves, profiles)
     writers = {out / name: functools.partial(_write_bytes, text.encode()) for name, text in texts.items()}
     writers.update({out / name: functools.partial(figure.savefig, format="png", dpi=120) for name, figure in figures.items()})
     try:
@@ -280,6 +273,26 @@ def write_summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: di
         for figure in figures.values():
             plt.close(figure)
     return summary
+
+
+def summary_texts(sweep: SweepConfig, trials: list[Trial], out: Path, failed: dict[str, str],
+                  sessions: list[dict[str, Any]] = ()) -> dict[str, str]:
+    """The texts :func:`write_summary` writes (``summary.json``, ``summary.md``, ``summary.csv``), written nowhere:
+    a committed sweep's summary recomputed from its evaluations (plain or compressed, :mod:`agents.compressed`)."""
+    return _summary(sweep, trials, out, failed, sessions)[3]
+
+
+def _summary(sweep: SweepConfig, trials: list[Trial], out: Path, failed: dict[str, str],
+             sessions: list[dict[str, Any]]) -> tuple[dict[str, Any], dict[str, Any], list, dict[str, str]]:
+    entries = [_environment(sweep, env, trials, out) for env in sweep.envs()]
+    summary = {"sweep": sweep.name, **({"env_kwargs": dict(sweep.env_kwargs)} if sweep.env_kwargs else {}),
+               "failed": failed, "envs": [entry for entry, _ in entries],
+               "sessions": list(sessions), "wall_time_s": round(sum(s["wall_time_s"] for s in sessions), 1)}
+    summary = _json_ready(summary)
+    curves = learning_curves(trials, out)
+    texts = {"summary.json": json.dumps({**summary, "learning_curves": curves}, indent=2) + "\n",
+             "summary.md": _markdown(summary), "summary.csv": _csv(summary)}
+    return summary, curves, [profile for _, profile in entries], texts
 
 
 def _write_bytes(data: bytes, handle: Any) -> None:

@@ -167,7 +167,7 @@ def test_rerun_is_served_from_the_cache_and_workers_agree(capsys, tmp_path, monk
     assert main(["evaluate", "--env", FAST_ENV, "--n", "2", "--seed", "3", "--out", str(tmp_path),
                  "--policies", "ppi-kappa1,oracle", "--no-benchmark", "--no-plots"]) == 0  # fmt: skip
     captured = capsys.readouterr()
-    assert captured.out.splitlines()[0].startswith(f"{FAST_ENV}: 2 plants, seed 3, best rule of the structure ")
+    assert captured.out.splitlines()[0].startswith(f"{FAST_ENV}: 2 plants, seed 3, paper rule ")
     assert any(line.split()[:2] == ["oracle", "oracle"] for line in captured.out.splitlines())
     assert "results.md" in captured.err
 
