@@ -1,4 +1,4 @@
-"""One direction of dependency (STYLE.md, Boundaries).
+"""One direction of dependency (docs/architecture.md).
 
 ``envs`` -> ``baselines`` -> ``agents``: no module under ``envs/`` imports ``baselines`` or
 ``agents``, and none under ``baselines/`` imports ``agents`` (every import statement counts, the
@@ -9,10 +9,10 @@ imported under ``agents/`` only, and ``baselines`` never imports gymnasium.
 The physics core of ``envs`` (plants, simulation, controllers, loops, robustness, performance,
 analysis) and the baselines are importable without torch or stable-baselines3 (checked in a fresh
 interpreter); inside ``envs`` only ``envs/__init__.py`` (registration), one module holding the
-``gymnasium.Env`` classes and its sibling holding their native ``VectorEnv`` classes (STYLE.md: "a
-vector environment lives beside its single environment") may import gymnasium.  Importing any ``envs`` module runs
+``gymnasium.Env`` classes and its sibling holding their native ``VectorEnv`` classes (a vector
+environment lives beside its single environment) may import gymnasium.  Importing any ``envs`` module runs
 ``envs/__init__.py`` and so loads gymnasium: that is the registration on ``import envs`` that makes the ids
-known to ``gymnasium.make`` (STYLE's "``envs/__init__.py`` holds the ``register(...)`` calls"); the numerical
+known to ``gymnasium.make`` (``envs/__init__.py`` holds the ``register(...)`` calls); the numerical
 modules themselves never import it (checked statically below).
 """
 

@@ -1,4 +1,4 @@
-"""The command line lives at the edge (STYLE.md, "one protocol for all command-line subcommands").
+"""The command line lives at the edge (docs/architecture.md: one protocol for every subcommand).
 
 argparse is imported only by :mod:`agents.cli` (the ``deadtime`` entry point) and the subcommand
 modules of :mod:`agents.commands`; the libraries of ``envs``, ``baselines`` and ``agents`` take plain

@@ -1,6 +1,6 @@
 """``deadtime sweep`` (:mod:`agents.commands.sweep`): bad input, the smoke sweep end to end, and resume.
 
-The end-to-end tests run ``configs/sweeps/smoke.yaml`` (2 seeds of SAC on PID-v0, 300 steps each) on a
+The end-to-end tests run ``configs/sweeps/smoke.yaml`` (2 seeds of SAC on PID-v3, 300 steps each) on a
 local Ray instance in a subprocess, as a user would; they are slow (about a minute each on 2 cores).
 """
 
@@ -133,7 +133,7 @@ def test_smoke_sweep_equals_the_runs_done_one_by_one(smoke: Path, tmp_path: Path
                           cwd=REPO, env=_environment(), capture_output=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     one_by_one = _agent_costs(evaluation / "per_plant.csv")
-    assert one_by_one == _agent_costs(smoke / "eval" / "PID-v0" / trial.name / "per_plant.csv")
+    assert one_by_one == _agent_costs(smoke / "eval" / "PID-v3" / trial.name / "per_plant.csv")
     agent = next(p for p in summary["envs"][0]["policies"] if p["kind"] == "agent")
     assert agent["seeds"] == 2
     assert agent["per_seed_mean_cost"][0] == pytest.approx(sum(map(float, one_by_one)) / len(one_by_one), rel=1e-12)

@@ -18,7 +18,7 @@ from agents.cli import main
 
 REPO = Path(__file__).resolve().parents[4]
 SMOKE = REPO / "configs" / "sweeps" / "smoke.yaml"
-TRIAL = "sac-PID-v0-s0"
+TRIAL = "sac-PID-v3-s0"
 
 
 def run(*args: str) -> tuple[int, str, str]:
@@ -68,7 +68,7 @@ def test_a_damaged_record_is_named_before_the_resume_starts(started: Path, name:
     ("policies", "message"),
     [("[all-rules, oracel]", "evaluation.policies: unknown policy 'oracel' (did you mean 'oracle'?)"),
      ("[all-rules]", "evaluation.policies must include 'oracle'"),
-     ("[oracle, oracle-full]", "evaluation.policies must include at least one rule of DeadTime/PID-v0")],
+     ("[oracle, oracle-full]", "evaluation.policies must include at least one rule of DeadTime/PID-v3")],
     ids=["misspelled", "no-oracle", "no-rule"],
 )
 def test_evaluation_policies_are_checked_before_any_trial(tmp_path: Path, policies: str, message: str) -> None:
@@ -144,7 +144,7 @@ def test_a_nan_cost_fails_the_summary_naming_the_file_and_leaves_the_old_summary
 
     sweep = load_sweep(SMOKE)
     out = tmp_path / "out"
-    baselines = evaluation_directory(out, "DeadTime/PID-v0", "baselines")
+    baselines = evaluation_directory(out, "DeadTime/PID-v3", "baselines")
     baselines.mkdir(parents=True)
     (baselines / "per_plant.csv").write_text("index,subset,plant,seed,policy,cost\n0,test,test-0,0,oracle,nan\n")
     for name in ("summary.json", "summary.md", "summary.csv"):

@@ -217,7 +217,7 @@ def test_benchmark_family_draws_from_the_batch():
 
 
 def test_families_imports_numpy_only():
-    """envs/ numerics never import gymnasium, torch or control (STYLE, Boundaries)."""
+    """envs/ numerics never import gymnasium, torch or control (docs/architecture.md)."""
     tree = ast.parse(Path(envs.systems.families.__file__).read_text())
     imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
     imported |= {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
