@@ -72,6 +72,7 @@ COMMANDS: dict[str, Command] = {
                           "costs, paired differences, a plot against one argument, what the agents do"),
     "protocol": _described("agents.commands.protocol", "a preregistered protocol: register its test seed, run it "
                            "(train, choose on validation, test once), report it, check its interval's coverage"),
+    "study": _described("agents.commands.study", "the research analyses behind the docs' numbers (deadtime study NAME --help)"),
     "process": Command(
         "agents.commands.process", "the procedure, the rules, the oracle and agents on a real process (the TCLab)",
         "Identify a sampled process (the TCLab emulator, or module:factory for your own) around its operating point, "

@@ -6,13 +6,13 @@ marks the agent's row as varying across machines).  The ``tune`` rows are determ
 to the printed digits (SIMC on ``2.5 e^{-4s}/(12 s + 1)``: ``K_c = 0.6``, ``T_i = 12``; ZN's step PI
 has ``Ms = 2.566``); the ``T_r`` floors are measured by ``test_tr_floors_are_the_exact_model_delay_margin``.
 The results pages' tables are the committed ``results/*/summary.md`` and ``regimes.md`` tables, and
-the README's headline table is ``tests/tools/headline_table.py``'s output for the committed
+the README's headline table is ``deadtime study headline``'s output for the committed
 ``results/agent_mode/regimes.json``.
 """
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import io
 import itertools
 import json
@@ -66,19 +66,16 @@ def _committed() -> list[str]:
     return [path.read_text() for name in names for path in sorted(sweeps.rglob(name))]
 
 
-def _tool(name: str):
-    """A module of ``tests/tools``."""
-    spec = importlib.util.spec_from_file_location(name, REPO / "tests" / "tools" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def _study(name: str):
+    """A module of :mod:`agents.studies` (``deadtime study NAME``)."""
+    return importlib.import_module(f"agents.studies.{name}")
 
 
 def test_the_gap_decompositions_are_the_committed_per_plant_tables():
     """The tables of docs/agent_mode.md that split a learner's difference to ``simc-pi`` by the rule's
-    violating plants are ``tests/tools/gap_decomposition.py`` on the committed per-plant tables, and
+    violating plants are ``deadtime study gap`` on the committed per-plant tables, and
     their parts add up to the summary's point estimate."""
-    module = _tool("gap_decomposition")
+    module = _study("gap")
     page = (DOCS / "agent_mode.md").read_text()
     for sweep, group in (("spread_own_plan_noise10_time", "learned-plan-spread-10000"),
                          ("spread_own_plan_noise10_production", "learned-plan-cert-10000")):
@@ -90,11 +87,11 @@ def test_the_gap_decompositions_are_the_committed_per_plant_tables():
 
 
 def test_the_fallback_tables_are_the_committed_pilot_rows():
-    """docs/agent_mode.md's fallback tables are ``tests/tools/fallback_pilot.py``'s ``fallback.md``, made from
+    """docs/agent_mode.md's fallback tables are ``deadtime study fallback``'s ``fallback.md``, made from
     the rows of its ``fallback.json``, of the sweeps' own fits (their models' sha256); the rows are
     consistent (each difference is the mean costs' difference and the mean of the per-seed differences,
     inside its interval and their range; the rule's share a fraction)."""
-    module = _tool("fallback_pilot")
+    module = _study("fallback")
     page = (DOCS / "agent_mode.md").read_text()
     for regime, sweep, group in (("free", "spread_own_plan_noise10_time", "learned-plan-spread-10000"),
                                  ("priced", "spread_own_plan_noise10_production", "learned-plan-cert-10000")):
@@ -119,10 +116,10 @@ def test_the_fallback_tables_are_the_committed_pilot_rows():
 
 
 def test_the_information_table_is_its_per_plant_costs():
-    """``results/fixed_mode_v3/information.md``: the table ``tests/tools/information_study.py`` makes of the
+    """``results/fixed_mode_v3/information.md``: the table ``deadtime study information`` makes of the
     committed per-plant costs (``information.json``)."""
     folder = REPO / "results" / "fixed_mode_v3"
-    table = _tool("information_study").table(json.loads((folder / "information.json").read_text()))
+    table = _study("information").table(json.loads((folder / "information.json").read_text()))
     assert table in _tables((folder / "information.md").read_text())
 
 
@@ -145,13 +142,13 @@ def test_every_interval_of_the_v3_study_pages_is_committed():
     """docs/agent_mode.md and docs/results.md, prose and tables: every ``value [low, high]`` is in a
     committed ``results/*/summary.md`` or ``results/*/regimes.md``, as printed there (no rounding of
     one's own); the pooled test violation rates of the certified groups are
-    ``tests/tools/certificate_check.py``'s."""
+    ``deadtime study certificates``'s."""
     summaries = _committed()
     for page in ("agent_mode.md", "results.md"):
         quoted = re.findall(INTERVAL, (DOCS / page).read_text())
         assert len(quoted) >= 15, page
         assert all(any(q in summary for summary in summaries) for q in quoted), [q for q in quoted if not any(q in m for m in summaries)]
-    module = _tool("certificate_check")
+    module = _study("certificates")
     certified = sorted(path for path in (REPO / "results").glob("certified_noise*") if path.is_dir())
     rates = [row.split(" | ")[6] for row in module.table(certified).splitlines()[2:]]
     page = (DOCS / "agent_mode.md").read_text()
@@ -159,17 +156,17 @@ def test_every_interval_of_the_v3_study_pages_is_committed():
 
 
 def test_the_readme_headline_table_is_the_committed_regimes():
-    """README "Results": the table is ``tests/tools/headline_table.py``'s output for the committed
+    """README "Results": the table is ``deadtime study headline``'s output for the committed
     ``results/agent_mode/regimes.json``, and each of its intervals is in the committed ``regimes.md``."""
-    quoted = _readme_table_of(_tool("headline_table").headline_table(), "agent_mode")
+    quoted = _readme_table_of(_study("headline").headline_table(), "agent_mode")
     assert len(quoted) >= 48
 
 
 def test_the_readme_rl_tables_are_the_committed_regimes():
-    """README "Results": the RL agent's table and what it does are ``tests/tools/headline_table.py --rl``'s
+    """README "Results": the RL agent's table and what it does are ``deadtime study headline --rl``'s
     output for the committed ``results/rl_plan/regimes.json``; each interval is in a committed ``regimes.md``
     or ``summary.md`` (the procedures' costs are in the sweeps' summaries)."""
-    module = _tool("headline_table")
+    module = _study("headline")
     results = _tables(README_RESULTS)
     costs, behaviour = module.rl_plan_table(), module.behaviour_table()
     assert costs in results and behaviour in results
@@ -179,18 +176,18 @@ def test_the_readme_rl_tables_are_the_committed_regimes():
 
 
 def test_the_readme_fixed_mode_table_is_the_committed_regimes():
-    """README "Results": the fixed mode's table is ``tests/tools/headline_table.py --fixed``'s output for
+    """README "Results": the fixed mode's table is ``deadtime study headline --fixed``'s output for
     the committed ``results/fixed_mode_v3/regimes.json``, and each of its intervals is in its ``regimes.md``."""
-    expected = _tool("headline_table").fixed_table()
+    expected = _study("headline").fixed_table()
     quoted = _readme_table_of(expected, "fixed_mode_v3")
     cells = [cell.strip() for line in expected.splitlines()[2:] for cell in line.strip("|").split("|")[1:]]
     assert len(quoted) == sum(cell != "-" for cell in cells) >= 22  # one interval in each filled cell
 
 
 def test_the_readme_own_plan_table_is_the_committed_regimes():
-    """README "Results": the table of the plan chosen for the learned design is ``tests/tools/headline_table.py
+    """README "Results": the table of the plan chosen for the learned design is ``deadtime study headline
     --own``'s output for the committed ``results/own_plan/regimes.json``; each interval is in its ``regimes.md``."""
-    assert len(_readme_table_of(_tool("headline_table").own_plan_table(), "own_plan")) >= 8
+    assert len(_readme_table_of(_study("headline").own_plan_table(), "own_plan")) >= 8
 
 
 def _readme_table_of(expected: str, folder: str) -> list[str]:

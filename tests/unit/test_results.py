@@ -39,6 +39,15 @@ def test_every_yaml_file_is_a_config():
     assert [path for path in _tracked() if path.endswith((".yaml", ".yml")) and not path.startswith(("configs/", ".ci/"))] == []
 
 
+def test_tests_hold_only_tests():
+    """Under tests/ every Python file is a test module, a conftest or a helper a test imports (by its module
+    name); research scripts are ``deadtime study`` commands (agents/studies/)."""
+    sources = "\n".join(path.read_text() for path in (REPO / "tests").rglob("test_*.py"))
+    others = [path for path in (REPO / "tests").rglob("*.py") if not path.name.startswith("test_") and path.name != "conftest.py"]
+    assert [path for path in others if path.name != "__init__.py" and f"import {path.stem}" not in sources
+            and f"{path.stem} import" not in sources] == []
+
+
 def _recomputable() -> list[Path]:
     return sorted(path.parent for path in RESULTS.rglob("eval") if (path.parent / "summary.md").is_file())
 

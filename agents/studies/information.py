@@ -1,6 +1,6 @@
 """Information or learning?  The learned rule with the true plant's parameters against the observation alone.
 
-    python tests/tools/information_study.py RUN... [--plants N] [--out FILE]
+    deadtime study information RUN... [--plants N] [--out FILE]
 
 Each ``RUN`` is a learned-rule fit (``deadtime train --config configs/learned_plan.yaml ...``), whose cached
 training labels (``dataset/``) are reused.  Two regressions of the oracle's action, the same quantile
@@ -28,7 +28,6 @@ into its part on the episodes it designs within the constraints and its part on 
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -123,21 +122,14 @@ def table(results: dict[str, dict]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> str:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("runs", nargs="+", type=Path)
-    parser.add_argument("--plants", type=int, default=600)
-    parser.add_argument("--out", type=Path, default=Path("information.json"))
-    args = parser.parse_args(argv)
-    results = json.loads(args.out.read_text()) if args.out.is_file() else {}
-    for run in args.runs:
+def information(runs: list[Path], plants: int = 600, out: Path = Path("information.json")) -> str:
+    """The study of ``runs`` on ``plants`` validation plants, each run's costs kept in ``out`` (resumable);
+    returns the table of the runs."""
+    results = json.loads(out.read_text()) if out.is_file() else {}
+    for run in runs:
         if run.name not in results:
-            results[run.name] = study(run, args.plants)
-            partial = args.out.with_suffix(".partial")
+            results[run.name] = study(run, plants)
+            partial = out.with_suffix(".partial")
             partial.write_text(json.dumps(results))
-            os.replace(partial, args.out)
-    return table({name: found for name, found in results.items() if name in {run.name for run in args.runs}})
-
-
-if __name__ == "__main__":
-    print(main())
+            os.replace(partial, out)
+    return table({name: found for name, found in results.items() if name in {run.name for run in runs}})

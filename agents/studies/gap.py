@@ -1,6 +1,6 @@
 """Where a learned group's mean difference to a rule comes from: the rule's violating plants or the rest.
 
-    python tests/tools/gap_decomposition.py results/spread_own_plan_noise10_time --env PID-v3 \\
+    deadtime study gap results/spread_own_plan_noise10_time --env PID-v3 \\
         --group learned-plan-spread-10000 --rule simc-pi
 
 Reads a sweep's committed per-plant tables (``eval/<env>/<group>-<env>-s<seed>/per_plant.csv`` and
@@ -15,7 +15,6 @@ Prints a Markdown table.
 
 from __future__ import annotations
 
-import argparse
 import csv
 from collections import defaultdict
 from pathlib import Path
@@ -78,17 +77,3 @@ def markdown(table: list[dict[str, object]]) -> str:
     for row in table:
         lines.append("| " + " | ".join(f"{v:.3g}" if isinstance(v, float) else str(v) for v in row.values()) + " |")
     return "\n".join(lines)
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("sweep", type=Path)
-    parser.add_argument("--env", required=True, help="e.g. PID-v3")
-    parser.add_argument("--group", required=True, help="the agent group's label")
-    parser.add_argument("--rule", required=True, help="a rule of the sweep's baselines")
-    args = parser.parse_args()
-    print(markdown(decompose(args.sweep, args.env, args.group, args.rule)))
-
-
-if __name__ == "__main__":
-    main()

@@ -2,7 +2,7 @@
 docs/environments/overview.md, v2): the fixed procedure's two steps at ``A``, then the base rule's design (action 0), on
 the first 60 validation plants, episode seed = plant index.
 
-    python tests/tools/commit_amplitude.py
+    deadtime study commit-amplitude
 """
 
 from __future__ import annotations
@@ -34,7 +34,8 @@ def mean_cost(noise: float, production: float, amplitude: float, plants: list) -
     return float(np.mean(costs))
 
 
-if __name__ == "__main__":
+def commit_amplitude() -> None:
+    """Print the mean cost of committing at amplitude 0.3, 1 and 3 in each noise and price regime."""
     plants = plant_set("stable", "validation", 60)
     for noise in (0.01, 0.1):
         for production in (0.0, 0.05):

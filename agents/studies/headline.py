@@ -1,9 +1,9 @@
 """The headline table of README.md ("Results"), generated from the committed agent-mode study.
 
-    python tests/tools/headline_table.py [results/agent_mode/regimes.json]
-    python tests/tools/headline_table.py --rl [results/rl_plan/regimes.json]
-    python tests/tools/headline_table.py --fixed [results/fixed_mode_v3/regimes.json]
-    python tests/tools/headline_table.py --own [results/own_plan/regimes.json]
+    deadtime study headline [results/agent_mode/regimes.json]
+    deadtime study headline --rl [results/rl_plan/regimes.json]
+    deadtime study headline --fixed [results/fixed_mode_v3/regimes.json]
+    deadtime study headline --own [results/own_plan/regimes.json]
 
 prints the Markdown table: one row per regime of ``results/agent_mode/regimes.json`` (written by
 ``deadtime regimes``), the structure, noise and production price, the oracle's and the best rule's
@@ -24,16 +24,15 @@ digits).  ``tests/unit/test_docs_numbers.py`` holds the README's tables equal to
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from agents.compressed import exists, read_json
 
-SWEEPS = Path(__file__).resolve().parents[2] / "results"
-REGIMES = SWEEPS / "agent_mode" / "regimes.json"
-RL_REGIMES = SWEEPS / "rl_plan" / "regimes.json"
-FIXED_REGIMES = SWEEPS / "fixed_mode_v3" / "regimes.json"
-OWN_REGIMES = SWEEPS / "own_plan" / "regimes.json"
+RESULTS = Path(__file__).resolve().parents[2] / "results"
+REGIMES = RESULTS / "agent_mode" / "regimes.json"
+RL_REGIMES = RESULTS / "rl_plan" / "regimes.json"
+FIXED_REGIMES = RESULTS / "fixed_mode_v3" / "regimes.json"
+OWN_REGIMES = RESULTS / "own_plan" / "regimes.json"
 STRUCTURES = ("PID", "FPPI", "MSP")
 HEADER = ("| structure | noise | production price | oracle | best rule | learned plan | its violations "
           "| certified learned plan | its violations | certified - best rule |")
@@ -55,7 +54,7 @@ def _head(header: str) -> list[str]:
 
 def _regimes(path: Path) -> list[dict]:
     """The regimes of a ``regimes.json``, by structure, noise and production price."""
-    return sorted(json.loads(path.read_text())["regimes"], key=_order)
+    return sorted(read_json(path)["regimes"], key=_order)
 
 
 def _structure(regime: dict) -> str:
@@ -170,7 +169,7 @@ OWN_HEADER = ("| structure | noise | production price | best rule | certified, `
 def _own_plan(regime: dict) -> str:
     """The plan of ``learned-plan-own-3000`` in a regime, from its seed-0 run's manifest in the committed sweep."""
     for sweep in regime["sweep"].split(" + "):
-        manifest = SWEEPS / sweep / "runs" / f"{OWN}-{regime['env']}-s0" / "learned_rule.json"
+        manifest = RESULTS / sweep / "runs" / f"{OWN}-{regime['env']}-s0" / "learned_rule.json"
         if exists(manifest):
             return str(read_json(manifest)["env_kwargs"]["plan"])
     raise FileNotFoundError(f"no run of {OWN} on {regime['env']} among the sweeps {regime['sweep']}")
@@ -196,26 +195,16 @@ def own_plan_table(path: Path = OWN_REGIMES) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    import argparse
-
-    parser = argparse.ArgumentParser(description="Print a table of README.md's Results from a committed regimes.json.")
-    which = parser.add_mutually_exclusive_group()
-    which.add_argument("--rl", action="store_true", help="the RL agent in plan mode (default source results/rl_plan)")
-    which.add_argument("--fixed", action="store_true", help="the fixed mode (default source results/fixed_mode_v3)")
-    which.add_argument("--own", action="store_true", help="the plan chosen for the learned design (default results/own_plan)")
-    parser.add_argument("regimes", nargs="?", type=Path, help="a regimes.json written by deadtime regimes")
-    args = parser.parse_args()
-    if args.own:
-        print(own_plan_table(args.regimes or OWN_REGIMES))
-    elif args.fixed:
-        print(fixed_table(args.regimes or FIXED_REGIMES))
-    elif args.rl:
-        source = args.regimes or RL_REGIMES
-        print(rl_plan_table(source) + "\n\n" + behaviour_table(source))
-    else:
-        print(headline_table(args.regimes or REGIMES))
-
-
-if __name__ == "__main__":
-    main()
+def tables(which: str = "headline", regimes: Path | None = None) -> str:
+    """The table(s) of ``which`` (``headline``, ``rl``, ``fixed`` or ``own``) from ``regimes`` (default: the
+    committed study's ``regimes.json``)."""
+    if which == "own":
+        return own_plan_table(regimes or OWN_REGIMES)
+    if which == "fixed":
+        return fixed_table(regimes or FIXED_REGIMES)
+    if which == "rl":
+        source = regimes or RL_REGIMES
+        return rl_plan_table(source) + "\n\n" + behaviour_table(source)
+    if which != "headline":
+        raise ValueError(f"no table {which!r}: headline, rl, fixed or own")
+    return headline_table(regimes or REGIMES)

@@ -1,6 +1,6 @@
 """A learned design with a fallback to a rule, measured on validation plants only.
 
-    python tests/tools/fallback_pilot.py RUN_DIR... [--rule simc-pi] [--safe 0.1] [--out DIR]
+    deadtime study fallback RUN_DIR... [--rule simc-pi] [--safe 0.1] [--out DIR]
 
 Each ``RUN_DIR`` is a learned-rule fit (``deadtime train --config configs/learned_plan.yaml ...``), one
 per training seed of the same config: its environment, regime, plan, seed and validation plants are
@@ -36,7 +36,6 @@ differences.  No test plant is drawn.  Prints a Markdown table; ``--out DIR`` wr
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 from typing import Any
@@ -162,28 +161,19 @@ def pilot(run_dir: Path, rule: str, safe_below: float) -> tuple[dict[str, Any], 
     return record, policy_costs(episodes, safe, rule_cheaper(episodes))
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("run_dirs", type=Path, nargs="+", metavar="RUN_DIR", help="learned-rule fits, one per seed")
-    parser.add_argument("--rule", default="simc-pi", help="the rule to fall back to (default simc-pi)")
-    parser.add_argument("--safe", type=float, default=0.1, help="predicted violation probability below which the rule is safe")
-    parser.add_argument("--out", type=Path, help="write DIR/fallback.md and DIR/fallback.json")
-    args = parser.parse_args()
-
+def fallback(run_dirs: list[Path], rule: str = "simc-pi", safe: float = 0.1, out: Path | None = None) -> str:
+    """The pilot over the fits ``run_dirs`` (one per seed): the Markdown table; with ``out``, also
+    ``out/fallback.md`` and ``out/fallback.json`` (the rows, each seed's too, the fits and the settings)."""
     fits, per_seed = [], []
-    for run_dir in args.run_dirs:
-        record, costs = pilot(run_dir, args.rule, args.safe)
+    for run_dir in run_dirs:
+        record, costs = pilot(run_dir, rule, safe)
         fits.append({**record, "rows": compare([costs])})
         per_seed.append(costs)
     rows = compare(per_seed)
-    table = markdown(rows, args.rule, len(per_seed))
-    print(table)
-    if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
-        record = {"rule": args.rule, "safe": args.safe, "rows": rows, "fits": fits}
-        (args.out / "fallback.json").write_text(json.dumps(record, indent=2) + "\n")
-        (args.out / "fallback.md").write_text(table + "\n")
-
-
-if __name__ == "__main__":
-    main()
+    table = markdown(rows, rule, len(per_seed))
+    if out:
+        out.mkdir(parents=True, exist_ok=True)
+        record = {"rule": rule, "safe": safe, "rows": rows, "fits": fits}
+        (out / "fallback.json").write_text(json.dumps(record, indent=2) + "\n")
+        (out / "fallback.md").write_text(table + "\n")
+    return table

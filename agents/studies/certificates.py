@@ -1,7 +1,7 @@
 """The violation rates of learned groups on the test plants, pooled over their seeds, with exact intervals:
 the after-the-fact check of a certified margin (``baselines/learned_rule.py``, "Certified margins").
 
-    python tests/tools/certificate_check.py results/certified_noise10_time results/agent_mode_noise10_time ...
+    deadtime study certificates results/certified_noise10_time results/agent_mode_noise10_time ...
 
 Per sweep, environment and agent group (``<label>-<env>-s<seed>``): the test episodes of all seeds, how
 many violated a constraint (``feasible`` false, failures included), the pooled rate with its two-sided
@@ -17,7 +17,6 @@ consistent with a 1% rate).  Prints a Markdown table.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import re
 from collections import defaultdict
@@ -83,9 +82,3 @@ def table(sweeps: list[Path]) -> str:
                          f"[{interval.low:.1%}, {interval.high:.1%}] | {above} | {violating_plants(rows[(env, label)])} "
                          f"| {certified(sweep, env, label)} |")
     return "\n".join(lines)
-
-
-if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("sweeps", type=Path, nargs="+", help="committed or finished sweep directories")
-    print(table(parser.parse_args().sweeps))

@@ -2,7 +2,7 @@
 
     deadtime train --config configs/learned_plan.yaml --env DeadTime/PID-v3 --out /tmp/pid10 \\
         'env_kwargs.plan=[3, 0.1]' env_kwargs.noise_std=0.1 'env_kwargs.weights={production: 0}'
-    python tests/tools/scaled_margin.py /tmp/pid10 500
+    deadtime study scaled-margin /tmp/pid10 500
 
 Reads the fit's cached training labels (``dataset/``), fits the 0.9, and 0.1 quantile trees
 (``baselines.learned_rule.fit_regression``) and plays, on the first ``N`` validation plants, the
@@ -16,7 +16,6 @@ Romano, Patterson and Candès, NeurIPS 2019).  The test plants are never drawn.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +23,7 @@ import numpy as np
 MARGINS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.7, 1.0)
 
 
-def main(run: Path, plants_count: int) -> None:
+def scaled_margin(run: Path, plants_count: int) -> None:
     from agents.training.config import load_config
     from agents.training.learned_rule import cached_labels, check_environment, label_direction
     from agents.training.validation import validate_policy, validation_plants
@@ -53,11 +52,3 @@ def main(run: Path, plants_count: int) -> None:
         for margin in MARGINS:
             result = validate_policy(rule(margin, scaled), env, plants_count, plants)
             print(scaled, margin, round(result.mean_cost, 3), round(result.violation_rate * plants_count), flush=True)
-
-
-if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("run", type=Path, help="a learned rule's run directory (with its cached labels)")
-    parser.add_argument("plants", type=int, help="how many validation plants to play")
-    args = parser.parse_args()
-    main(args.run, args.plants)

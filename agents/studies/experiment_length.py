@@ -9,12 +9,18 @@ Prints identification errors against the noise-free procedure, ``T_f_bar/T_n`` (
 mean costs of ``fppi-eq34`` and of the oracle on the identified model (``design``: without the
 ``0.01 t_exp/T_ar`` term).  Reads private run helpers of the experiments (a tool, not an API).
 
-Usage: python tests/tools/experiment_length.py 0.01,0.05,0.1,0.2 [OUT.json, default experiment_length.json] "detected,+4 T_ar,..."
+Usage: deadtime study experiment-length 0.01,0.05,0.1,0.2 [OUT.json, default experiment_length.json] "detected,+4 T_ar,..."
 (the third argument: the policies whose oracle is computed, about 1 s a plant).  Results: docs/numerics.md,
 "Experiment length and noise"."""
-import json, sys, math
+from __future__ import annotations
+
+import json
+import math
 from dataclasses import replace
+from pathlib import Path
+
 import numpy as np
+
 from envs.systems.plant_sets import plant_set
 from envs.identification import closed_loop_experiment as cle, open_loop_experiments as ole
 from envs.identification.experiment_base import measurement_noise, cap_steps, MeasurementNoise, record_fields, ExperimentRun, sample_time, snap_to_integer
@@ -23,6 +29,7 @@ from envs.identification.steady_state import window_samples
 from envs.identification.procedure import identify, Identification
 from envs.simulation.delay_systems import open_loop_response
 from envs.analysis.scoring import score, Constraints, CostWeights
+from baselines.oracle import oracle
 from baselines.rules.registry import RuleInputs, get_rule
 
 RULE = get_rule("fppi-eq34")
@@ -78,41 +85,41 @@ def cost(plant, ident):
     s = score(plant, RULE(RuleInputs.from_identification(ident)), experiment_time=ident.experiment_time)
     return s.cost, s.cost - s.experiment_cost
 
-plants = plant_set("stable", "test", 80)
-policies = {"detected": lambda end, w, j, clean: end}
-for k in (1, 2, 4):
-    policies[f"+{k} T_ar"] = (lambda k: lambda end, w, j, clean: end + k * w)(k)
-policies["noise-free length"] = lambda end, w, j, clean: max(end, clean[j])
-for k in (2, 4):
-    policies[f"closed +{k} T_ar only"] = (lambda k: lambda end, w, j, clean: end + k * w if j == 0 else end)(k)
-policies["closed noise-free length only"] = lambda end, w, j, clean: max(end, clean[j]) if j == 0 else end
-ORACLE = set(sys.argv[3].split(",")) if len(sys.argv) > 3 else set()
-from baselines.oracle import oracle
-noises = [float(x) for x in sys.argv[1].split(",")] if len(sys.argv) > 1 else [0.01, 0.05, 0.1, 0.2]
-rows = []
-for i, plant in enumerate(plants):
-    ref, clean_ends = procedure(plant, i, 0.0, policies["detected"])
-    check = identify(plant, np.random.default_rng(i), 0.0)
-    assert check.gain == ref.gain and check.residence_time == ref.residence_time and check.mismatch_time == ref.mismatch_time
+
+def experiment_length(noises: list[float], out: str | Path = "experiment_length.json", oracle_policies: set[str] = frozenset()) -> None:
+    """Play every policy at every noise level on the 80 plants, write the rows to ``out`` (JSON) and print
+    the means per noise and policy; the oracle's cost only for ``oracle_policies``."""
+    plants = plant_set("stable", "test", 80)
+    policies = {"detected": lambda end, w, j, clean: end}
+    for k in (1, 2, 4):
+        policies[f"+{k} T_ar"] = (lambda k: lambda end, w, j, clean: end + k * w)(k)
+    policies["noise-free length"] = lambda end, w, j, clean: max(end, clean[j])
+    for k in (2, 4):
+        policies[f"closed +{k} T_ar only"] = (lambda k: lambda end, w, j, clean: end + k * w if j == 0 else end)(k)
+    policies["closed noise-free length only"] = lambda end, w, j, clean: max(end, clean[j]) if j == 0 else end
+    rows = []
+    for i, plant in enumerate(plants):
+        ref, clean_ends = procedure(plant, i, 0.0, policies["detected"])
+        check = identify(plant, np.random.default_rng(i), 0.0)
+        assert check.gain == ref.gain and check.residence_time == ref.residence_time and check.mismatch_time == ref.mismatch_time
+        for noise in noises:
+            lib = identify(plant, np.random.default_rng(i), noise)
+            for name, policy in policies.items():
+                ident, ends = procedure(plant, i, noise, policy, clean_ends)
+                if name == "detected":
+                    assert ident.gain == lib.gain and ident.residence_time == lib.residence_time and ident.mismatch_time == lib.mismatch_time
+                total, design = cost(plant, ident)
+                best = oracle(plant, ident, "fppi").cost if name in oracle_policies else math.nan
+                rows.append(dict(oracle=best, plant=i, noise=noise, policy=name, time=ident.experiment_time / plant.residence_time,
+                                 gain=ident.gain / ref.gain - 1, tar=ident.residence_time / ref.residence_time - 1,
+                                 tn=ident.fopdt.time_constant / ref.fopdt.time_constant - 1,
+                                 tf=ident.mismatch_time / ref.fopdt.time_constant, tf_ref=ref.mismatch_time / ref.fopdt.time_constant,
+                                 cost=total, design_cost=design))
+    Path(out).write_text(json.dumps(rows))
     for noise in noises:
-        lib = identify(plant, np.random.default_rng(i), noise)
-        for name, policy in policies.items():
-            ident, ends = procedure(plant, i, noise, policy, clean_ends)
-            if name == "detected":
-                assert ident.gain == lib.gain and ident.residence_time == lib.residence_time and ident.mismatch_time == lib.mismatch_time
-            total, design = cost(plant, ident)
-            best = oracle(plant, ident, "fppi").cost if name in ORACLE else math.nan
-            rows.append(dict(oracle=best, plant=i, noise=noise, policy=name, time=ident.experiment_time / plant.residence_time,
-                             gain=ident.gain / ref.gain - 1, tar=ident.residence_time / ref.residence_time - 1,
-                             tn=ident.fopdt.time_constant / ref.fopdt.time_constant - 1,
-                             tf=ident.mismatch_time / ref.fopdt.time_constant, tf_ref=ref.mismatch_time / ref.fopdt.time_constant,
-                             cost=total, design_cost=design))
-json.dump(rows, open(sys.argv[2] if len(sys.argv) > 2 else "experiment_length.json", "w"))
-import collections
-for noise in noises:
-    for name in policies:
-        r = [x for x in rows if x["noise"] == noise and x["policy"] == name]
-        a = lambda key: np.array([x[key] for x in r])
-        rms = lambda key: float(np.sqrt(np.mean(a(key) ** 2)))
-        print(f"noise {noise:4.2f} {name:18s} t_exp {a('time').mean():6.2f} T_ar | K bias {a('gain').mean():+.4f} rms {rms('gain'):.4f} | T_ar bias {a('tar').mean():+.4f} rms {rms('tar'):.4f} | "
-              f"T_n bias {a('tn').mean():+.4f} rms {rms('tn'):.4f} | T_f/T_n {a('tf').mean():.4f} (noise-free {a('tf_ref').mean():.4f}) | eq34 cost {a('cost').mean():.3f} design {a('design_cost').mean():.3f} | oracle {a('oracle').mean():.3f}")
+        for name in policies:
+            r = [x for x in rows if x["noise"] == noise and x["policy"] == name]
+            a = lambda key: np.array([x[key] for x in r])
+            rms = lambda key: float(np.sqrt(np.mean(a(key) ** 2)))
+            print(f"noise {noise:4.2f} {name:18s} t_exp {a('time').mean():6.2f} T_ar | K bias {a('gain').mean():+.4f} rms {rms('gain'):.4f} | T_ar bias {a('tar').mean():+.4f} rms {rms('tar'):.4f} | "
+                  f"T_n bias {a('tn').mean():+.4f} rms {rms('tn'):.4f} | T_f/T_n {a('tf').mean():.4f} (noise-free {a('tf_ref').mean():.4f}) | eq34 cost {a('cost').mean():.3f} design {a('design_cost').mean():.3f} | oracle {a('oracle').mean():.3f}")

@@ -1,26 +1,26 @@
 """The experiment procedures against the fixed procedure in the twelve regimes of the agent-mode study:
 ``DeadTime/{PID,FPPI,MSP}-v3``, noise 1% and 10%, production free and priced (0.05).
 
-    python tests/tools/procedure_regimes.py runs/procedures results/procedures
+    deadtime study procedures runs/procedures results/procedures
 
 For each regime, ``deadtime evaluate --policies plan-1-1,plan-best,amplitude-rule,all-rules,oracle
 --n 50 --seed 0`` into ``<runs>/<env>-noise<N>-production<P>/`` (resumable: the evaluation caches
 per plant); then ``<out>/procedures.md`` (each procedure's mean cost, and its paired difference to
 ``plan-1-1``, the fixed procedure, and to the best rule, with percentile bootstrap 95% intervals over
-the plants, 2000 resamples, seed 0) and ``<out>/per_plant_costs.csv`` (every policy's cost on every
+the plants, 2000 resamples, seed 0) and ``<out>/per_plant_costs.csv.gz`` (every policy's cost on every
 plant of every regime).  ``plan-best`` is chosen on validation plants, never on these.
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
+import io
 import json
 from pathlib import Path
 
 import numpy as np
 
-from agents.cli import main as cli
+from agents.compressed import compressed_bytes, exists, open_text, read_json
 
 STRUCTURES = ("PID", "FPPI", "MSP")
 NOISES = (0.01, 0.1)
@@ -36,7 +36,7 @@ def _regimes():
 
 
 def _costs(folder: Path) -> dict[str, dict[int, float]]:
-    with open(folder / "per_plant.csv", newline="") as file:
+    with open_text(folder / "per_plant.csv") as file:
         costs: dict[str, dict[int, float]] = {}
         for row in csv.DictReader(file):
             costs.setdefault(row["policy"], {})[int(row["index"])] = float(row["cost"])
@@ -55,7 +55,7 @@ def _text(value: tuple[float, float, float]) -> str:
     return f"{value[0]:+.3f} [{value[1]:+.3f}, {value[2]:+.3f}]"
 
 
-def run(runs: Path, out: Path) -> None:
+def procedures(runs: Path, out: Path) -> None:
     lines = ["# Experiment procedures against the fixed procedure", "",
              "Mean cost on 59 held-out plants (50 test plants and the benchmark batch; MSP 58); differences paired on "
              "the plants, 95% percentile bootstrap intervals (negative: the procedure is better).  `plan-1-1` is the "
@@ -67,13 +67,15 @@ def run(runs: Path, out: Path) -> None:
     for structure, noise, production, label in _regimes():
         folder = runs / label
         kwargs = json.dumps({"noise_std": noise, "weights": {"production": production}})
-        if not (folder / "results.json").is_file():
+        if not exists(folder / "results.json"):
+            from agents.cli import main as cli
+
             status = cli(["evaluate", "--env", f"DeadTime/{structure}-v3", "--policies",
                           ",".join((*PROCEDURES, "all-rules", "oracle")), "--n", "50", "--seed", "0", "--env-kwargs", kwargs,
                           "--no-plots", "--out", str(folder)])
             if status:
                 raise SystemExit(status)
-        results = json.loads((folder / "results.json").read_text())
+        results = read_json(folder / "results.json")
         costs = _costs(folder)
         mean = {name: float(np.mean(list(c.values()))) for name, c in costs.items()}
         rules = [n for n in costs if n not in (*PROCEDURES, "oracle")]
@@ -87,16 +89,9 @@ def run(runs: Path, out: Path) -> None:
         rows += [{"regime": label, "policy": name, "plant": i, "cost": c} for name, by in costs.items() for i, c in sorted(by.items())]
     out.mkdir(parents=True, exist_ok=True)
     (out / "procedures.md").write_text("\n".join(lines) + "\n")
-    with open(out / "per_plant_costs.csv", "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=["regime", "policy", "plant", "cost"])
-        writer.writeheader()
-        writer.writerows(rows)
+    table = io.StringIO(newline="")
+    writer = csv.DictWriter(table, fieldnames=["regime", "policy", "plant", "cost"])
+    writer.writeheader()
+    writer.writerows(rows)
+    (out / "per_plant_costs.csv.gz").write_bytes(compressed_bytes(table.getvalue().encode()))
     print("\n".join(lines))
-
-
-if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("runs", type=Path, help="the evaluations' directory (resumable)")
-    parser.add_argument("out", type=Path, help="where procedures.md and per_plant_costs.csv go")
-    args = parser.parse_args()
-    run(args.runs, args.out)

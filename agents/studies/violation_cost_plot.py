@@ -1,11 +1,11 @@
 """The figure of docs/scoring.md: the cost of a violating design against its grade, both maps.
 
-    python tests/tools/violation_cost_plot.py docs/figures/violation_cost.png
+    deadtime study violation-cost-plot docs/figures/violation_cost.png
 """
 
 from __future__ import annotations
 
-import sys
+from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from envs.analysis.scoring import FEASIBLE_CAP, VIOLATION_BAND, violation_cost
 
 
-def main(path: str) -> None:
+def violation_cost_plot(path: str | Path) -> None:
     grades = np.logspace(-3, 4, 400)
     figure = Figure(figsize=(6.0, 3.2), dpi=100)
     FigureCanvasAgg(figure)
@@ -32,7 +32,3 @@ def main(path: str) -> None:
     axes.legend(fontsize=7, loc="upper left")
     figure.tight_layout()
     figure.savefig(path)
-
-
-if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "docs/figures/violation_cost.png")

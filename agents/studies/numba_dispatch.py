@@ -6,7 +6,7 @@ times an empty compiled function called with those same arguments: the cost of d
 call (typing the arguments, unboxing them) without the kernel's work.  Their sum per episode is what
 calling every kernel once per batch instead of once per plant could save at most.
 
-    OPENBLAS_NUM_THREADS=1 NUMBA_NUM_THREADS=1 taskset -c 0 python tests/tools/numba_dispatch.py
+    OPENBLAS_NUM_THREADS=1 NUMBA_NUM_THREADS=1 taskset -c 0 deadtime study numba-dispatch
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ def _kernels() -> list[tuple[object, str, CPUDispatcher]]:
             for name, value in list(vars(module).items()) if isinstance(value, CPUDispatcher)]
 
 
-def main() -> None:
+def numba_dispatch() -> None:
     vec = gymnasium.make_vec("DeadTime/PID-v0", num_envs=SLOTS, experiments="fixed")
     vec.action_space.seed(0)
     vec.reset(seed=0)
@@ -66,7 +66,3 @@ def main() -> None:
         total += each * count / episodes
         print(f"{label:28s} calls/episode {count / episodes:5.2f}  arguments {len(args):2d}  dispatch {1e6 * each:6.2f} us")
     print(f"numba dispatch per episode: {1e6 * total:.1f} us")
-
-
-if __name__ == "__main__":
-    main()

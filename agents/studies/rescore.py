@@ -3,7 +3,7 @@ two versions' scores (docs/scoring.md, "v2 and v3 on the same plants").
 
     deadtime evaluate --env DeadTime/PID-v2 --policies all-rules,oracle --n 50 --seed 0 --out runs/PID-v2 --no-plots
     deadtime evaluate --env DeadTime/PID-v3 --policies all-rules,oracle --n 50 --seed 0 --out runs/PID-v3 --no-plots
-    python tests/tools/rescore_versions.py runs/PID-v2 runs/PID-v3
+    deadtime study rescore runs/PID-v2 runs/PID-v3
 
 Prints a Markdown table: per policy, the mean cost with its bootstrap 95% interval (as ``deadtime
 evaluate`` computes it) under each version, the paired difference to the oracle (mean and percentile
@@ -14,18 +14,19 @@ changed.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
+from agents.compressed import open_text, read_json
+
 
 def _rows(folder: Path) -> tuple[dict, dict]:
-    results = json.loads((folder / "results.json").read_text())
+    results = read_json(folder / "results.json")
     policies = {p["name"]: p for p in results["policies"]}
-    with open(folder / "per_plant.csv", newline="") as file:
+    with open_text(folder / "per_plant.csv") as file:
         costs: dict[str, dict[int, float]] = {}
         for row in csv.DictReader(file):
             costs.setdefault(row["policy"], {})[int(row["index"])] = float(row["cost"])
@@ -60,11 +61,3 @@ def table(first: Path, second: Path) -> str:
     lines.append(f"\nThe oracle's mean cost: {a['oracle']['mean_cost']:.4g} and {b['oracle']['mean_cost']:.4g}; "
                  f"its largest change on a plant {oracle:.2g}.")
     return "\n".join(lines)
-
-
-if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("first", type=Path, help="the evaluation under the first version")
-    parser.add_argument("second", type=Path, help="the same plants' evaluation under the second version")
-    args = parser.parse_args()
-    print(table(args.first, args.second))
