@@ -71,7 +71,7 @@ import scipy.linalg
 import scipy.optimize
 
 from envs.systems.controllers import Controller
-from envs.design import PARAMETER_RANGES, STRUCTURES, design, relative_scale
+from envs.structures import PARAMETER_RANGES, STRUCTURES, design, relative_scale
 from envs.identification.models import (
     FOPDTModel,
     IntegratingModel,
@@ -156,10 +156,11 @@ class ExactModels:
 
 
 # --------------------------------------------------------------------------- designs
-def _model_for(structure: str, sopdt, fopdt, integrating_model):
-    model = {"pid": sopdt, "fppi": fopdt, "msp": integrating_model}[structure]
+def _model_for(structure: str, models):
+    """The model ``structure``'s design reads, from an identification or :class:`ExactModels`."""
+    model = STRUCTURES[structure].model_of(models)
     if model is None:
-        kind = "an integrating" if structure == "msp" else "a self-regulating"
+        kind = "an integrating" if STRUCTURES[structure].integrating else "a self-regulating"
         raise ValueError(f"structure {structure!r} needs {kind} plant and its model; none was identified")
     return model
 
@@ -308,7 +309,7 @@ def oracle(
         self-regulating plant, the MSP an integrating one), or for a bad grid or range.
     """
     _check_structure(structure)
-    model = _model_for(structure, identification.sopdt, identification.fopdt, identification.integrating_model)
+    model = _model_for(structure, identification)
     return _oracle(plant, structure, model, identification.experiment_time, constraints, weights, grid, parameter_range,
                    identification.experiment_deviation)
 
@@ -326,7 +327,7 @@ def full_information_oracle(
     """:func:`oracle` with the exact models of :func:`exact_models` and no experiment time."""
     _check_structure(structure)
     models = exact_models(plant)
-    model = _model_for(structure, models.sopdt, models.fopdt, models.integrating_model)
+    model = _model_for(structure, models)
     return _oracle(plant, structure, model, 0.0, constraints, weights, grid, parameter_range)
 
 

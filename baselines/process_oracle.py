@@ -4,10 +4,10 @@
 Gorez-Klan PID, ``T_r`` of the FPPI) for the smallest cost on the TRUE plant.  On a process the
 truth is only known by running it, so :func:`process_oracle` searches the same parameter with the
 same search (:func:`baselines.oracle.search_parameter`: a log grid of ``grid`` points over
-:data:`envs.design.PARAMETER_RANGES`, bounded Brent around the best point, two probes) for the
+:data:`envs.structures.PARAMETER_RANGES`, bounded Brent around the best point, two probes) for the
 smallest :func:`envs.process.scoring.process_score`: the process's own set-point and load tests,
 under the constraints judged on the identified model (a design infeasible there is not run).  The
-designs are those of the environments (:func:`envs.design.design` on the identified model), so the
+designs are those of the environments (:func:`envs.structures.design` on the identified model), so the
 oracle bounds every policy that sets that parameter, rules and agents alike, on this process and
 with these experiments.  It costs up to ``grid + 16`` designs, each two runs of the process.
 """
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from baselines.oracle import search_parameter
 from envs.analysis.scoring import Constraints, CostWeights
-from envs.design import PARAMETER_RANGES, design, relative_scale
+from envs.structures import PARAMETER_RANGES, STRUCTURES, design, relative_scale
 from envs.process.performance import RunProtocol
 from envs.process.procedure import ProcessIdentification
 from envs.process.protocol import Process
@@ -61,15 +61,16 @@ def process_oracle(
     Raises
     ------
     ValueError
-        For a structure other than ``"pid"`` and ``"fppi"`` (the procedure identifies
-        self-regulating processes only; the MSP is for integrating ones) or a grid below 3.
+        For a structure of integrating plants (the procedure identifies self-regulating processes
+        only) or a grid below 3.
     """
-    if structure not in ("pid", "fppi"):
-        raise ValueError(f"structure must be 'pid' or 'fppi' on a self-regulating process, got {structure!r}")
+    stable = [name for name, s in STRUCTURES.items() if not s.integrating]
+    if structure not in stable:
+        raise ValueError(f"structure must be one of {', '.join(stable)} on a self-regulating process, got {structure!r}")
     if int(grid) != grid or grid < 3:
         raise ValueError(f"grid must be an integer >= 3, got {grid!r}")
     identification = found.identification
-    model = identification.sopdt if structure == "pid" else identification.fopdt
+    model = STRUCTURES[structure].model_of(identification)
     unit = relative_scale(structure, model)
 
     def cost_of(relative: float) -> ProcessScore:

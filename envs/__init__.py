@@ -12,7 +12,7 @@ cost); then :mod:`envs.design`, :mod:`envs.episode` and the environments.
 
 from gymnasium.envs.registration import register
 
-# v0: the design parameter on a log scale over its range (envs.design.PARAMETER_RANGES).
+# v0: the design parameter on a log scale over its range (envs.structures.PARAMETER_RANGES).
 # v1: the action is a residual around the structure's base rule, and the observation has the design
 # features (envs.base_design); the plants, experiments and cost are v0's.
 _V1 = {"action": "residual", "design_features": True}

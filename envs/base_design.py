@@ -7,7 +7,7 @@ Residual action
 ---------------
 The action ``a`` in ``[-1, 1]`` is a log-correction of the base rule's relative parameter ``p_0``,
 log-linear on each side from the range's aggressive end to ``p_0`` to its other end
-(:data:`envs.design.PARAMETER_RANGES` ``[p_min, p_max]``):
+(:data:`envs.structures.PARAMETER_RANGES` ``[p_min, p_max]``):
 
     ``p = p_0 (p_max/p_0)^a`` for ``a >= 0``,  ``p = p_0 (p_0/p_min)^a`` for ``a < 0``,
 
@@ -69,9 +69,9 @@ import math
 
 from envs.analysis.loop_analysis import plant_margins
 from envs.analysis.matching import loop_figure, match_parameter
-from envs.design import PARAMETER_RANGES, design, relative_scale
-from envs.identification.models import IntegratingModel
+from envs.design import FPPI_DEAD_TIME_ERROR, MSP_RELATIVE_DEAD_TIME_ERROR, PID_BASE_MU, fppi_time_constant
 from envs.identification.procedure import Identification
+from envs.structures import PARAMETER_RANGES, STRUCTURES
 from envs.validation import require_number
 
 __all__ = [
@@ -95,63 +95,16 @@ ACTIONS = ("parameter", "residual", "robustness")
 """The action coordinates of the environments: the relative parameter over its range (``-v0``), the
 residual around the base rule (``-v1``), or the robustness target on the model."""
 
-ROBUSTNESS_TARGETS: dict[str, tuple[str, float, float]] = {
-    "pid": ("ms", 2.4, 1.2),
-    "fppi": ("ms", 2.4, 1.2),
-    "msp": ("delay_margin", 0.1, 1.5),
-}
-"""``(figure, target at a = -1, target at a = +1)`` of the robustness action (log scale between).
-``Ms`` from 1.2 (the matched rules' most robust is 1.4) to 2.4 (beyond the constraint's 2, since
-the model's ``Ms`` is not the plant's); the delay margin from 0.1 to 1.5 ``L_n`` (the MSP's
-approaches about 2 ``L_n`` as ``T_r`` grows)."""
-
-PID_BASE_MU = 2.0
-"""``mu`` of the PID's base rule (Gorez-Klan section 3 table)."""
-
-FPPI_DEAD_TIME_ERROR = 0.1
-"""``Delta L/L_n`` assumed by eq. 34 (``fppi-eq34``; Ingimundarson section 4.2 leaves it to the user)."""
-
-MSP_RELATIVE_DEAD_TIME_ERROR = 0.2
-"""``delta_L`` of eq. 50 (``msp-eq50``; 0.2 gives ``T_r = L_n/2``)."""
+ROBUSTNESS_TARGETS: dict[str, tuple[str, float, float]] = {name: s.robustness for name, s in STRUCTURES.items()}
+"""``(figure, target at a = -1, target at a = +1)`` of the robustness action (log scale between),
+:attr:`envs.structures.Structure.robustness`.  ``Ms`` from 1.2 (the matched rules' most robust is
+1.4) to 2.4 (beyond the constraint's 2, since the model's ``Ms`` is not the plant's); the delay
+margin from 0.1 to 1.5 ``L_n`` (the MSP's approaches about 2 ``L_n`` as ``T_r`` grows)."""
 
 DESIGN_FEATURES: tuple[str, ...] = ("log_base_parameter", "check_ms", "check_delay_margin")
 """Names of :func:`design_features`, in order."""
 
 FIGURE_CLIP = 5.0
-
-
-def fppi_time_constant(time_constant: float, mismatch_time: float) -> float:
-    """``T_r = max(sqrt(T_f_bar T_n), T_f_bar)`` (Ingimundarson eq. 28 and 29).
-
-    Parameters
-    ----------
-    time_constant : float
-        ``T_n`` of the FOPDT model, ``> 0``.
-    mismatch_time : float
-        ``T_f_bar = int |y - y_n| dt / K_n`` (eq. 22), possibly increased by an assumed dead-time
-        error (eq. 34), ``> 0``.
-
-    Returns
-    -------
-    float
-        The smallest ``T_r`` allowed by the design rules ``gamma kappa <= 1`` and ``gamma <= 1``
-        (eq. 27, with ``gamma = T_f_bar/T_r`` and ``kappa = T_n/T_r``, Fig. 6).
-
-    Raises
-    ------
-    ValueError
-        If an argument is not a positive finite number.
-
-    Examples
-    --------
-    Table 1, process 1 (``T_n = 10.4``, ``T_f_bar = 0.27``):
-
-    >>> round(fppi_time_constant(10.4, 0.27), 2)
-    1.68
-    """
-    time_constant = require_number(time_constant, "time_constant", positive=True)
-    mismatch_time = require_number(mismatch_time, "mismatch_time", positive=True)
-    return max(math.sqrt(mismatch_time * time_constant), mismatch_time)
 
 
 def _clip_to_range(structure: str, relative: float) -> float:
@@ -169,17 +122,7 @@ def base_parameter(structure: str, identification: Identification) -> float:
     settle) counts as 0, so that eq. 34 keeps its assumed dead-time error ``Delta L``; before
     this, such an episode's base was the aggressive end and its loop was unstable at ``a = 0``.
     """
-    if structure == "pid":
-        return PID_BASE_MU
-    if structure == "msp":
-        delta = MSP_RELATIVE_DEAD_TIME_ERROR
-        return 2.0 * delta / (1.0 - delta)
-    fopdt = identification.fopdt
-    mismatch = identification.mismatch_time if math.isfinite(identification.mismatch_time) else 0.0
-    bound = mismatch + FPPI_DEAD_TIME_ERROR * fopdt.dead_time
-    if not (fopdt.time_constant > 0 and bound > 0):
-        return PARAMETER_RANGES["fppi"][0]
-    return _clip_to_range("fppi", fppi_time_constant(fopdt.time_constant, bound) / fopdt.time_constant)
+    return _clip_to_range(structure, STRUCTURES[structure].base(identification))
 
 
 def residual_parameter(structure: str, base: float, action: float) -> float:
@@ -209,11 +152,13 @@ def robustness_target(structure: str, action: float) -> float:
 
 
 def _robustness_loop(structure: str, identification: Identification):
-    """``(design model, model the loop is closed around, scale of the relative parameter, figure's unit)``."""
-    model = {"pid": identification.sopdt, "fppi": identification.fopdt, "msp": identification.integrating_model}[structure]
-    loop_model = identification.integrating_model if structure == "msp" else identification.sopdt
-    unit = model.dead_time if ROBUSTNESS_TARGETS[structure][0] == "delay_margin" else 1.0
-    return model, loop_model, relative_scale(structure, model), unit
+    """``(design model, model the loop is closed around, scale of the relative parameter, figure's unit)``:
+    the loop is closed around the SOPDT model, or the two-parameter model where the plants integrate."""
+    found = STRUCTURES[structure]
+    model = found.model_of(identification)
+    loop_model = identification.integrating_model if found.integrating else identification.sopdt
+    unit = model.dead_time if found.robustness[0] == "delay_margin" else 1.0
+    return model, loop_model, found.scale(model), unit
 
 
 def robustness_parameter(structure: str, identification: Identification, action: float) -> float:
@@ -223,7 +168,7 @@ def robustness_parameter(structure: str, identification: Identification, action:
     low, high = PARAMETER_RANGES[structure]
     try:
         found = match_parameter(
-            lambda p: design(structure, model, p), loop_model.plant(), figure, robustness_target(structure, action),
+            lambda p: STRUCTURES[structure].design(model, p), loop_model.plant(), figure, robustness_target(structure, action),
             (low * scale, high * scale), scale=unit,
         )
     except ValueError:  # missed even at the least aggressive end: the most robust design there is
@@ -241,7 +186,7 @@ def robustness_action(structure: str, identification: Identification, parameter:
     figure, aggressive, robust = ROBUSTNESS_TARGETS[structure]
     model, loop_model, scale, unit = _robustness_loop(structure, identification)
     relative = _clip_to_range(structure, require_number(parameter, "parameter", positive=True))
-    value = loop_figure(loop_model.plant(), design(structure, model, relative * scale), figure, unit)
+    value = loop_figure(loop_model.plant(), STRUCTURES[structure].design(model, relative * scale), figure, unit)
     if not (math.isfinite(value) and value > 0):
         return -1.0
     return min(max(2.0 * math.log(value / aggressive) / math.log(robust / aggressive) - 1.0, -1.0), 1.0)
@@ -249,16 +194,7 @@ def robustness_action(structure: str, identification: Identification, parameter:
 
 def check_model(structure: str, identification: Identification):
     """The model the base design is checked on (module docstring), or None where it is unknown."""
-    i = identification
-    if structure == "pid":
-        return i.fopdt
-    if structure == "fppi":
-        return i.sopdt
-    model = i.integrating_model
-    lag = i.closed_loop.apparent_time_constant
-    if math.isfinite(lag) and 0.0 < lag < model.dead_time:
-        return IntegratingModel(model.gain, model.dead_time - lag, lag)
-    return model
+    return STRUCTURES[structure].check(identification)
 
 
 def design_features(structure: str, identification: Identification | None) -> dict[str, float]:
@@ -266,12 +202,13 @@ def design_features(structure: str, identification: Identification | None) -> di
     if identification is None:
         return dict.fromkeys(DESIGN_FEATURES, 0.0)
     base = base_parameter(structure, identification)
-    model = {"pid": identification.sopdt, "fppi": identification.fopdt, "msp": identification.integrating_model}[structure]
-    checked = check_model(structure, identification)
+    found = STRUCTURES[structure]
+    model = found.model_of(identification)
+    checked = found.check(identification)
     out = {"log_base_parameter": math.log10(base), "check_ms": 0.0, "check_delay_margin": 0.0}
     if checked is None:
         return out
-    margins = plant_margins(checked.plant(), design(structure, model, base * relative_scale(structure, model)))
+    margins = plant_margins(checked.plant(), found.relative_design(model, base))
     if not margins.stable:
         return {**out, "check_ms": FIGURE_CLIP}
     ms = float(margins.ms) if math.isfinite(margins.ms) else FIGURE_CLIP

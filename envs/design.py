@@ -11,7 +11,9 @@ These are the three designs of the papers, shared by the environments, the rules
   (section 5), optionally with the PD-type extension (eq. 51).
 
 The agent, the oracle and the environments use the *relative* parameter: ``mu``, ``T_r/T_n`` or
-``T_r/L_n`` (:func:`relative_scale`), searched over :data:`PARAMETER_RANGES` on a log scale.
+``T_r/L_n``, searched over a range on a log scale; :mod:`envs.structures` holds, per structure, the
+design, the unit of its parameter and the range.  The constants and eq. 28-29 of the base rules of
+the residual action (:mod:`envs.base_design`) are here too.
 
 Undefined PID
 -------------
@@ -25,48 +27,34 @@ design is the one of a model with that small dead time, and ``mu`` keeps the rol
 
 from __future__ import annotations
 
+import math
+
 from envs.systems.controllers import FPPI, MSP, SeriesPID
 from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
+from envs.validation import require_number
 
 __all__ = [
     "DERIVATIVE_FILTER",
+    "FPPI_DEAD_TIME_ERROR",
     "MIN_RELATIVE_DEAD_TIME",
-    "PARAMETER_RANGES",
-    "STRUCTURES",
-    "pid_design",
+    "MSP_RELATIVE_DEAD_TIME_ERROR",
+    "PID_BASE_MU",
     "fppi_design",
+    "fppi_time_constant",
     "msp_design",
-    "design",
-    "relative_scale",
+    "pid_design",
 ]
 
 DERIVATIVE_FILTER = 10.0
 MIN_RELATIVE_DEAD_TIME = 0.01  # floor of D_2/T_ar in eq. 3-11 (module docstring)
-STRUCTURES = ("pid", "fppi", "msp")
+PID_BASE_MU = 2.0
+"""``mu`` of the PID's base rule (Gorez-Klan section 3 table)."""
 
-PARAMETER_RANGES: dict[str, tuple[float, float]] = {
-    "pid": (0.3, 300.0),
-    "fppi": (0.001, 10.0),
-    "msp": (0.01, 30.0),
-}
-"""Range of the relative design parameter of each structure (log scale).
+FPPI_DEAD_TIME_ERROR = 0.1
+"""``Delta L/L_n`` assumed by eq. 34 (``fppi-eq34``; Ingimundarson section 4.2 leaves it to the user)."""
 
-* ``"pid"``: ``mu`` (Gorez-Klan eq. 3-11), dimensionless.
-* ``"fppi"``: ``T_r/T_n``, ``T_n`` the model's time constant (``kappa = T_n/T_r``).
-* ``"msp"``: ``T_r/L_n``, ``L_n`` the model's dead time.
-
-Measured with a wider search (``mu`` in [0.3, 300], ``T_r/T_n`` in [0.003, 100], ``T_r/L_n`` in
-[0.005, 100]) on the 17 benchmark plants and 40 random plants of each family
-(``sample_plants(family, 50, 0)[:40]``), noise-free identification, default constraints: every
-plant had a feasible design, with optima ``mu`` in [0.45, 105.5], ``T_r/T_n`` in [0.0053, 4.9]
-and ``T_r/L_n`` in [0.064, 3.0].  ``mu`` must reach about 30 on Ingimundarson's stable P6
-(``0.5/(s+1) + 0.05/(s+0.1)``, lead: the PID is unstable up to ``mu`` = 13 and breaks
-``Ms <= 2`` up to 28.5) and 105 on lag-chain plant 28 (strong lead, ``D_2 = 0.007 T_ar``: ``mu``
-scales with ``1/D_2``).  The ranges leave a factor of 2 or more beyond every optimum found.  The
-MSP's optimum under ``Ms <= 2`` is ``T_r/L_n`` of about 2.3 (the MSP loop has ``Ms`` of
-2.2-2.4 for ``T_r/L_n <= 1``, Ingimundarson eq. 47).  These are the ranges open to the agent (``mu``
-reaching well beyond 8).
-"""
+MSP_RELATIVE_DEAD_TIME_ERROR = 0.2
+"""``delta_L`` of eq. 50 (``msp-eq50``; 0.2 gives ``T_r = L_n/2``)."""
 
 
 def pid_design(model: SOPDTModel, mu: float, derivative_filter: float = DERIVATIVE_FILTER) -> SeriesPID:
@@ -88,21 +76,35 @@ def msp_design(model: IntegratingModel, tr: float, extension: bool = False) -> M
     return MSP(model.gain, model.dead_time, tr, extension)
 
 
-def relative_scale(structure: str, model: SOPDTModel | FOPDTModel | IntegratingModel) -> float:
-    """The unit of the relative parameter: 1 (PID), ``T_n`` (FPPI) or ``L_n`` (MSP)."""
-    if structure == "pid":
-        return 1.0
-    if structure == "fppi":
-        return model.time_constant
-    return model.dead_time
+def fppi_time_constant(time_constant: float, mismatch_time: float) -> float:
+    """``T_r = max(sqrt(T_f_bar T_n), T_f_bar)`` (Ingimundarson eq. 28 and 29).
 
+    Parameters
+    ----------
+    time_constant : float
+        ``T_n`` of the FOPDT model, ``> 0``.
+    mismatch_time : float
+        ``T_f_bar = int |y - y_n| dt / K_n`` (eq. 22), possibly increased by an assumed dead-time
+        error (eq. 34), ``> 0``.
 
-def design(structure: str, model: SOPDTModel | FOPDTModel | IntegratingModel, parameter: float):
-    """The controller of ``structure`` designed from ``model`` with ``parameter`` (``mu`` or ``T_r``)."""
-    if structure == "pid":
-        return pid_design(model, parameter)
-    if structure == "fppi":
-        return fppi_design(model, parameter)
-    if structure == "msp":
-        return msp_design(model, parameter)
-    raise ValueError(f"unknown structure {structure!r}; valid: {', '.join(STRUCTURES)}")
+    Returns
+    -------
+    float
+        The smallest ``T_r`` allowed by the design rules ``gamma kappa <= 1`` and ``gamma <= 1``
+        (eq. 27, with ``gamma = T_f_bar/T_r`` and ``kappa = T_n/T_r``, Fig. 6).
+
+    Raises
+    ------
+    ValueError
+        If an argument is not a positive finite number.
+
+    Examples
+    --------
+    Table 1, process 1 (``T_n = 10.4``, ``T_f_bar = 0.27``):
+
+    >>> round(fppi_time_constant(10.4, 0.27), 2)
+    1.68
+    """
+    time_constant = require_number(time_constant, "time_constant", positive=True)
+    mismatch_time = require_number(mismatch_time, "mismatch_time", positive=True)
+    return max(math.sqrt(mismatch_time * time_constant), mismatch_time)

@@ -58,6 +58,7 @@ from envs.identification.procedure import PULSE_LENGTH, Identification, Procedur
 from envs.identification.relay import RelayResult, relay_feedback
 from envs.identification.steady_state import noise_level
 from envs.episode_options import DEFAULT_OPTIONS, EpisodeOptions
+from envs.structures import STRUCTURES
 
 __all__ = [
     "STABLE_EXPERIMENTS",
@@ -490,8 +491,8 @@ def identification(
 ) -> tuple[Identification, Evidence]:
     """The identified data the design reads, completing the fixed procedure where it is missing.
 
-    The PID and the MSP need the closed-loop step; the FPPI also needs ``T_n``, from the open-loop
-    step or else the ramp.  A missing experiment is run (at ``amplitude``; by default 1, or the
+    Every design needs the closed-loop step; one that reads the FOPDT model (the FPPI) also needs
+    ``T_n``, from the open-loop step or else the ramp.  A missing experiment is run (at ``amplitude``; by default 1, or the
     amplitude limit if smaller; charged like any other).
     Returns the evidence actually used too, as ``(identification, evidence)``.  With disturbances,
     up to :data:`DISTURBED_ATTEMPTS` closed-loop steps are run until one is usable.  With
@@ -514,7 +515,7 @@ def identification(
         raise IdentificationFailed(evidence)
     step, ramp = evidence.results.get("open-loop-step"), evidence.results.get("open-loop-ramp")
     fitted = evidence.fit is not None
-    if structure == "fppi" and not fitted and (step is None or step.model is None) and (ramp is None or ramp.model is None):
+    if STRUCTURES[structure].model == "fopdt" and not fitted and (step is None or step.model is None) and (ramp is None or ramp.model is None):
         evidence = run_experiment(evidence, "open-loop-step", plant, rng, amplitude, noise_std, math.inf)
         step = evidence.results.get("open-loop-step")
     first = evidence.closed_loop

@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass, field
 
 from envs.identification.disturbances import Disturbances
+from envs.structures import STRUCTURES, structure as structure_named
 from envs.validation import require_number
 
 __all__ = ["AMPLITUDE_RANGE", "IDENTIFICATIONS", "EXPERIMENT_SETS", "DESIGN_EXPERIMENTS", "EpisodeOptions", "DEFAULT_OPTIONS"]
@@ -27,18 +28,13 @@ IDENTIFICATIONS: tuple[str, ...] = ("seeds", "least-squares")
 """``identification`` values: the papers' formulas (moments, areas), or the least-squares fit of
 Marlin section 6.4 (:mod:`envs.identification.least_squares`) of the open-loop records."""
 
-_ORDERS = {"pid": 2, "fppi": 1}  # the least-squares model each structure's design reads: SOPDT, FOPDT
-
 EXPERIMENT_SETS: tuple[str, ...] = ("all", "design")
 """``experiment_set`` values: every experiment type of the plant's kind (v0-v2), or those whose result
 the structure's design or design features read (:data:`DESIGN_EXPERIMENTS`; v3)."""
 
-DESIGN_EXPERIMENTS: dict[str, tuple[str, ...]] = {
-    "pid": ("closed-loop-step", "open-loop-step", "relay"),
-    "fppi": ("closed-loop-step", "open-loop-step"),
-    "msp": ("closed-loop-step", "pulse"),
-}
-"""The agent mode's experiment types with ``experiment_set="design"``.  The closed-loop step gives
+DESIGN_EXPERIMENTS: dict[str, tuple[str, ...]] = {name: s.design_experiments for name, s in STRUCTURES.items()}
+"""The agent mode's experiment types with ``experiment_set="design"``
+(:attr:`envs.structures.Structure.design_experiments`).  The closed-loop step gives
 ``K_n``, ``T_ar`` and the PID's SOPDT model (Gorez-Klan eq. 2-8) and the MSP's model (Ingimundarson
 eq. 2); the open-loop step the FPPI's FOPDT model and mismatch area (eq. 11, 22) and the model the
 PID's design features check against; the pulse the MSP's area (eq. 46); the relay the PID's ultimate
@@ -128,12 +124,13 @@ class EpisodeOptions:
         """
         if identification not in IDENTIFICATIONS:
             raise ValueError(f"identification must be one of {', '.join(IDENTIFICATIONS)}, got {identification!r}")
-        if identification == "least-squares" and structure not in _ORDERS:
+        kind = structure_named(structure)
+        if identification == "least-squares" and kind.least_squares_order is None:
             raise ValueError("identification='least-squares' needs self-regulating plants (FOPDT and SOPDT fits); "
                              f"the {structure.upper()} environment's plants integrate")
         limit = math.inf if amplitude_limit is None else require_number(amplitude_limit, "amplitude_limit", positive=True)
         found = Disturbances.from_argument(disturbances, "disturbances")
-        if found.load > 0 and structure not in _ORDERS:
+        if found.load > 0 and kind.integrating:
             raise ValueError("disturbances['load'] needs self-regulating plants: under a lasting load the integral of "
                              f"the input of the {structure.upper()} environment's integrating plants grows without end, "
                              "and the closed-loop step identifies no model")
@@ -141,8 +138,8 @@ class EpisodeOptions:
             raise ValueError(f"experiment_set must be one of {', '.join(EXPERIMENT_SETS)}, got {experiment_set!r}")
         types = None
         if experiment_set == "design":
-            types = DESIGN_EXPERIMENTS[structure] + (("prbs",) if identification == "least-squares" else ())
-        return cls(identification=identification, order=_ORDERS.get(structure, 1), amplitude_limit=limit,
+            types = kind.design_experiments + (("prbs",) if identification == "least-squares" else ())
+        return cls(identification=identification, order=kind.least_squares_order or 1, amplitude_limit=limit,
                    disturbances=found, production=bool(production), measured=bool(measured), experiment_types=types)
 
 

@@ -26,7 +26,6 @@ from envs.base_design import (
     robustness_action,
     robustness_parameter,
 )
-from envs.design import PARAMETER_RANGES, design, relative_scale
 from envs.episode import (
     Evidence,
     IdentificationFailed,
@@ -38,6 +37,7 @@ from envs.episode import (
     start_fixed,
 )
 from envs.episode_options import AMPLITUDE_RANGE, EpisodeOptions
+from envs.structures import Structure, structure as structure_named
 from envs.systems.families import FAMILIES, check_family_config, sample_plant
 from envs.systems.plants import Plant, as_plant
 from envs.identification.procedure import Identification, ProcedureFailed
@@ -110,14 +110,19 @@ def _draw_bounded(axes: Any, curves: list[tuple[np.ndarray, np.ndarray, str, str
 class DeadTimeTuningEnv(gym.Env):
     """Base class of the tuning environments; see :class:`PIDEnv` for the full documentation.
 
-    Subclasses set :attr:`structure` (``"pid"``, ``"fppi"`` or ``"msp"``), :attr:`integrating` and
-    :attr:`default_family`, and may override :meth:`default_constraints`.
+    Subclasses set :attr:`structure`, a name of :data:`envs.structures.STRUCTURES`; :attr:`integrating`,
+    :attr:`default_family` and :meth:`default_constraints` are the structure's.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 1}
     structure: str = "pid"
     integrating: bool = False
     default_family: str = "stable"
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        kind = structure_named(cls.structure)
+        cls.integrating, cls.default_family = kind.integrating, kind.family
 
     def __init__(
         self,
@@ -181,7 +186,7 @@ class DeadTimeTuningEnv(gym.Env):
         )  # fmt: skip
         self.render_mode = render_mode
         self._controller = None
-        self.parameter_range = PARAMETER_RANGES[self.structure]
+        self.parameter_range = self.kind.parameter_range
         evidence = Evidence.empty(self.integrating, self.options)
         self.experiment_names = evidence.experiments
         self.design_step = (design_step and self.mode == "agent") or self.mode == "plan"
@@ -214,10 +219,15 @@ class DeadTimeTuningEnv(gym.Env):
             raise ValueError(f"plan amplitudes must lie in [{low:g}, {high:g}], got {list(plan)!r}")
         return amplitudes
 
+    @property
+    def kind(self) -> Structure:
+        """The controller structure (:mod:`envs.structures`) named by :attr:`structure`."""
+        return structure_named(self.structure)
+
     @classmethod
     def default_constraints(cls) -> Constraints:
-        """``Ms <= 2`` and a delay margin of at least 0.2 times the true dead time (docs/scoring.md)."""
-        return Constraints()
+        """The structure's default constraints (:attr:`envs.structures.Structure.constraints`; docs/scoring.md)."""
+        return structure_named(cls.structure).constraints
 
     def base_parameter(self) -> float:
         """The residual action's base: the relative parameter of the structure's base rule for this
@@ -471,13 +481,11 @@ class DeadTimeTuningEnv(gym.Env):
     # ------------------------------------------------------------------ scoring
     def model(self):
         """The identified model the design reads (SOPDT, FOPDT or integrating)."""
-        found = self.identification
-        return {"pid": found.sopdt, "fppi": found.fopdt, "msp": found.integrating_model}[self.structure]
+        return self.kind.model_of(self.identification)
 
     def design(self, relative: float):
         """The controller for the relative parameter ``relative`` and the current identification."""
-        model = self.model()
-        return design(self.structure, model, relative * relative_scale(self.structure, model))
+        return self.kind.relative_design(self.model(), relative)
 
     def score_controller(self, controller) -> Score:
         """The cost of any ``controller`` on the true plant, with this episode's experiment time."""
@@ -542,7 +550,7 @@ class DeadTimeTuningEnv(gym.Env):
         dt = simulation_step(self.plant, self._controller)
         steps = int(min(40.0 * scale / dt, 20_000))
         gain = abs(self.plant.gain) * (scale if self.integrating else 1.0)
-        symbol = {"pid": "mu", "fppi": "T_r/T_n", "msp": "T_r/L_n"}[self.structure]
+        symbol = self.kind.symbol
         curves = {output: [], control: []}
         for label, kwargs, unit, style in (("set point", {"setpoint": 1.0}, 1.0, "-"), ("load / |K|", {"load": 1.0}, gain, "--")):
             response = closed_loop_response(self.plant, self._controller, steps, dt, **kwargs)
@@ -751,9 +759,3 @@ class MSPEnv(DeadTimeTuningEnv):
     the robustness measure of Ingimundarson's own analysis (eq. 40).
 """ + _SHARED_DOC
     structure = "msp"
-    integrating = True
-    default_family = "integrating"
-
-    @classmethod
-    def default_constraints(cls) -> Constraints:
-        return Constraints(max_sensitivity=None, min_relative_delay_margin=0.2)

@@ -46,6 +46,7 @@ class Loop:
 def bench_loops(per_family: int, seed: int) -> list[Loop]:
     """The benchmark loops (see the module docstring)."""
     from baselines.oracle import design, relative_scale
+    from envs.structures import STRUCTURES
     from envs.systems.families import sample_plants
     from envs.identification.procedure import identify
     from envs.analysis.scoring import score
@@ -58,7 +59,7 @@ def bench_loops(per_family: int, seed: int) -> list[Loop]:
                 structure = "msp"
             else:
                 structure = "pid" if i % 2 == 0 and identification.sopdt.dead_time > 0 else "fppi"
-            model = {"pid": identification.sopdt, "fppi": identification.fopdt, "msp": identification.integrating_model}[structure]
+            model = STRUCTURES[structure].model_of(identification)
             relative = TYPICAL_PARAMETER[structure]
             for _ in range(FEASIBILITY_STEPS):
                 controller = design(structure, model, relative * relative_scale(structure, model))

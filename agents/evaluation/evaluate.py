@@ -44,6 +44,7 @@ from typing import Any
 
 from agents.environments import make_env
 from agents.limits import MAX_RESAMPLES, MAX_TEST_PLANTS, MAX_WORKERS, require_at_most
+from envs.structures import STRUCTURES
 
 __all__ = ["evaluate"]
 
@@ -84,9 +85,10 @@ def _given_plants(given: Any, structure: str) -> list[Any]:
             plants.append(as_plant(value, f"--plants[{i}]"))
         except ValueError as error:
             raise ValueError(f"--plants[{i}]: {error}" if not str(error).startswith("--plants[") else str(error)) from None
+    integrating = STRUCTURES[structure].integrating
     for i, plant in enumerate(plants):
-        if plant.integrating != (structure == "msp"):
-            kind = "integrating" if structure == "msp" else "self-regulating"
+        if plant.integrating != integrating:
+            kind = "integrating" if integrating else "self-regulating"
             raise ValueError(f"--plants[{i}] must be a {kind} plant for this environment")
     return plants
 
@@ -294,7 +296,7 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
     env = make_env(env_id, {"experiments": "fixed", **env_kwargs})
     unwrapped = env.unwrapped
     structure = unwrapped.structure
-    family = family or getattr(unwrapped, "family", None) or ("integrating" if structure == "msp" else "stable")
+    family = family or getattr(unwrapped, "family", None) or STRUCTURES[structure].family
     specs = [] if text is None else parse_policies(text, structure)
     listed_rules = [s.name for s in specs if s.kind == "rule"]
     own = own_rules(structure)

@@ -43,10 +43,12 @@ from typing import Any
 __all__ = ["PLAYED", "ROLES", "STRUCTURE_CONTROLLER", "TRAINED", "CallablePolicy", "PolicySpec", "applicable_rules", "load_agent",
            "own_rules", "parse_policies", "split_policies"]
 
-STRUCTURE_CONTROLLER = {"pid": "pid-series", "fppi": "fppi", "msp": "msp"}
+from envs.structures import STRUCTURES
+
+STRUCTURE_CONTROLLER = {name: s.controller for name, s in STRUCTURES.items()}
 """The controller type of each environment structure's design (the rules of its own structure)."""
 
-_PLANT_KINDS = {"pid": ("stable", "both"), "fppi": ("stable", "both"), "msp": ("integrating", "both")}
+_PLANT_KINDS = {name: (s.plant_kind, "both") for name, s in STRUCTURES.items()}
 
 
 TRAINED = ("agent", "learned-rule")

@@ -15,7 +15,7 @@ judges on the identified model:
   :func:`envs.episode.features` over the environment's budget, clipped to its observation bounds,
   float32), its action is mapped to the parameter by the environment's own
   ``parameter_from_action``, and the controller is the environment's design
-  (:func:`envs.design.design` on the identified model).
+  (:func:`envs.structures.design` on the identified model).
 
 A policy that cannot give a controller here (a rule undefined for these inputs, a controller with
 no discrete law, an agent of the agent mode) is a failure with its reason, not an error of the run.
@@ -92,22 +92,19 @@ def _oracle(process, found, protocol, structure: str, name: str) -> ProcessPolic
 def _agent(process, found, protocol, spec: Any) -> ProcessPolicyResult:
     from agents.environments import make_env
     from agents.evaluation.policies import load_agent
-    from envs.design import design, relative_scale
-
     name, policy = load_agent(spec)  # a file that cannot be loaded is bad input (one line, exit 2)
     env_id = getattr(policy, "env_id", None) or DEFAULT_AGENT_ENV
     env = make_env(env_id, getattr(policy, "env_kwargs", {}) or {}).unwrapped
     if env.mode != "fixed":
         return ProcessPolicyResult(name, "agent", error=f"the agent plays {env_id} in agent mode (it chooses its experiments); "
                                    "on a process the fixed procedure runs, so only fixed-mode agents apply")
-    if env.structure == "msp":
+    if env.kind.integrating:
         return ProcessPolicyResult(name, "agent", error=f"the agent designs the modified Smith predictor of {env_id}, for "
                                    "integrating plants; the procedure here identifies self-regulating processes")
     observation = agent_observation(found, env.budget)
     action, _ = policy.predict(observation, deterministic=True)
     relative = env.parameter_from_action(float(np.asarray(action, dtype=np.float64).reshape(-1)[-1]))
-    model = found.identification.sopdt if env.structure == "pid" else found.identification.fopdt
-    controller = design(env.structure, model, relative * relative_scale(env.structure, model))
+    controller = env.kind.relative_design(env.kind.model_of(found.identification), relative)
     try:
         return ProcessPolicyResult(name, "agent", controller, relative, process_score(process, controller, found, protocol))
     except ValueError as error:

@@ -90,7 +90,7 @@ def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
 def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[PolicyResult, float]:
     """The oracle's result and ``|its own cost - the environment's cost|`` of its optimum."""
     from baselines.oracle import exact_models, full_information_oracle, oracle
-    from envs.design import design
+    from envs.structures import STRUCTURES, design
     from envs.analysis.scoring import score
 
     unwrapped = env.unwrapped
@@ -104,8 +104,7 @@ def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[Policy
         else:
             result = oracle(plant, identification, structure, **options)
             models = identification
-        model = {"pid": models.sopdt, "fppi": models.fopdt, "msp": models.integrating_model}[structure]
-        controller = design(structure, model, result.parameter)
+        controller = design(structure, STRUCTURES[structure].model_of(models), result.parameter)
         if full:
             checked = score(plant, controller, experiment_time=0.0, **options)
         else:

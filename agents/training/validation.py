@@ -48,12 +48,13 @@ def validation_plants(env: Any, n: int, family: str | None = None) -> list[Any] 
     unwrapped = env.unwrapped
     if not hasattr(unwrapped, "structure"):
         return None
+    from envs.structures import STRUCTURES
     from envs.systems.plant_sets import plant_set
 
     if family is None:
         family = getattr(unwrapped, "family", None)
     if family is None:
-        family = "integrating" if unwrapped.structure == "msp" else "stable"
+        family = STRUCTURES[unwrapped.structure].family
     return list(plant_set(family, "validation", n))
 
 

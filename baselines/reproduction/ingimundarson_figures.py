@@ -176,11 +176,12 @@ def _delay_rows(kind: str, threshold_case: str, threshold_text: str, low_text: s
 
 def _delay_notes(kind: str, data: dict, loop: str, claims: str) -> list[str]:
     (low, high), (low10, high10) = data["full"], data["truncated"]
+    fppi = kind == "fppi"  # else the MSP's loop
     growth = ", ".join(f"delta_L = {d:.3g}: {'diverges' if math.isinf(g) else f'{g:.3g}'}" for d, g in data["growth"].items())
     return [
         f"Loop {loop} with e^{{-i w}} in the denominator (the printed e^{{+i w}} is a sign slip: normalizing "
-        f"{'eq. 31' if kind == 'fppi' else 'eq. 47'} gives e^{{-i w}}). Nyquist stability by loop_margins with "
-        f"integrators={1 if kind == 'fppi' else 2}: the denominator's zero at s = 0 is a pole of the loop, its only one "
+        f"{'eq. 31' if fppi else 'eq. 47'} gives e^{{-i w}}). Nyquist stability by loop_margins with "
+        f"integrators={1 if fppi else 2}: the denominator's zero at s = 0 is a pole of the loop, its only one "
         "in Re s >= 0. For each T_r/L_n the loop is stable for delta_L between the nearest values that turn a gain "
         "crossover onto -1 (increase: the delay margin of section 3; decrease: the same with the phase measured the "
         "other way); the bound is taken over a grid of 48 T_r/L_n in [0.005, 2] and bisected.",

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 
-from envs.base_design import fppi_time_constant  # eq. 28 and 29, shared with the residual action's base
+from envs.design import fppi_time_constant  # eq. 28 and 29, shared with the residual action's base
 from envs.systems.controllers import FPPI, MSP
 from envs.validation import require_number
 

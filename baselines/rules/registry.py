@@ -44,7 +44,8 @@ from baselines.rules.pid_registry import RULES as PID_RULES
 from baselines.rules.pid_registry import PIDFormula
 from envs.systems.controllers import Controller
 from envs.base_design import FPPI_DEAD_TIME_ERROR, MSP_RELATIVE_DEAD_TIME_ERROR  # the constants of fppi-eq34 and msp-eq50
-from envs.design import MIN_RELATIVE_DEAD_TIME, fppi_design, msp_design, pid_design, relative_scale
+from envs.design import MIN_RELATIVE_DEAD_TIME, fppi_design, msp_design, pid_design
+from envs.structures import STRUCTURES
 from envs.identification.models import (
     FOPDTModel,
     IntegratingModel,
@@ -258,13 +259,12 @@ class Rule:
         return self.design(inputs)
 
     def relative_parameter(self, inputs: RuleInputs) -> float | None:
-        """:attr:`parameter` made dimensionless as the agent's and the oracle's (:func:`envs.design.relative_scale`):
+        """:attr:`parameter` made dimensionless as the agent's and the oracle's (:func:`envs.structures.relative_scale`):
         ``mu``, ``T_r/T_n`` (FOPDT model) or ``T_r/L_n`` (two-parameter model); None for the full PI/PID rules."""
         if self.parameter is None:
             return None
-        structure = {"pid-series": "pid", "fppi": "fppi", "msp": "msp"}[self.controller]
-        model = {"pid": inputs.sopdt, "fppi": inputs.fopdt, "msp": inputs.integrating_model}[structure]
-        return self.parameter(inputs) / relative_scale(structure, model)
+        structure = next(s for s in STRUCTURES.values() if s.controller == self.controller)
+        return self.parameter(inputs) / structure.scale(structure.model_of(inputs))
 
 
 def _rule(

@@ -29,6 +29,7 @@ from envs.systems.controllers import Controller
 from envs.identification.models import Model, model_from_dict
 from envs.systems.plants import Plant, as_plant
 from envs.identification.procedure import identify
+from envs.structures import STRUCTURES
 from envs.threads import single_threaded
 
 __all__ = ["DegenerateTuning", "TR_FLOORS", "Tuning", "rule_inputs", "rule_list", "tune"]
@@ -177,12 +178,13 @@ def _refuse_degenerate(rule: Rule, inputs: RuleInputs) -> None:
     """Raise :class:`DegenerateTuning` if ``rule``'s ``T_r`` is below its floor (:data:`TR_FLOORS`)."""
     if rule.parameter is None or rule.controller not in TR_FLOORS:
         return
-    model = inputs.fopdt if rule.controller == "fppi" else inputs.integrating_model
+    structure = next(s for s in STRUCTURES.values() if s.controller == rule.controller)
+    model = structure.model_of(inputs)
     if model is None or not model.dead_time > 0:
         return
     tr, floor = float(rule.parameter(inputs)), TR_FLOORS[rule.controller]
     if tr < floor * model.dead_time:
-        cause = f"T_f_bar = {inputs.mismatch_time:.3g}" if rule.controller == "fppi" else f"A = {inputs.pulse_area:.3g}"
+        cause = f"A = {inputs.pulse_area:.3g}" if structure.integrating else f"T_f_bar = {inputs.mismatch_time:.3g}"
         raise DegenerateTuning(
             f"{rule.name} gives T_r = {tr:.3g} = {tr / model.dead_time:.3g} L_n, below the floor {floor:g} L_n: the model "
             f"error ({cause}) is about zero, as for an exact model, and below the floor even the model's own loop has DM < 0.2 L_n"

@@ -64,7 +64,6 @@ def benchmark_set(structure: str) -> dict[str, Plant]:
     ``"msp"``: Ingimundarson's eight integrating processes (see
     :func:`envs.systems.families.benchmark_plants`).
     """
-    kinds = {"pid": "stable", "fppi": "stable", "msp": "integrating"}
-    if structure not in kinds:
-        raise ValueError(f"unknown structure {structure!r}; valid: {', '.join(kinds)}")
-    return benchmark_plants(kinds[structure])
+    from envs.structures import structure as structure_named  # the structures sit above the plants
+
+    return benchmark_plants(structure_named(structure).plant_kind)

@@ -20,7 +20,7 @@ import pytest
 
 import envs  # noqa: F401
 from envs.analysis.scoring import FEASIBLE_CAP, VIOLATION_BAND, Constraints, score, violation_cost
-from envs.design import PARAMETER_RANGES, design, relative_scale
+from envs.structures import PARAMETER_RANGES, design, relative_scale
 from envs.identification import closed_loop_experiment, open_loop_experiments, prbs_experiment, relay
 from envs.identification.closed_loop_experiment import closed_loop_step
 from envs.identification.procedure import identify

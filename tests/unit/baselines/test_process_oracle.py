@@ -57,7 +57,7 @@ def test_the_fppi_oracle_is_ahead_of_the_fppi_rules(setting):
 
 def test_the_process_oracle_refuses_what_it_cannot_search(setting):
     process, found, protocol = setting
-    with pytest.raises(ValueError, match="structure must be 'pid' or 'fppi'"):
+    with pytest.raises(ValueError, match="structure must be one of pid, fppi"):
         process_oracle(process, found, protocol, "msp")
     with pytest.raises(ValueError, match="grid must be an integer >= 3"):
         process_oracle(process, found, protocol, grid=2)

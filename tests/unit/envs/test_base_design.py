@@ -20,7 +20,7 @@ from envs.base_design import (
     residual_action,
     residual_parameter,
 )
-from envs.design import PARAMETER_RANGES, design, relative_scale
+from envs.structures import PARAMETER_RANGES, design, relative_scale
 
 BASE_RULES = {"pid": "gorez-klan-mu-2", "fppi": "fppi-eq34", "msp": "msp-eq50"}
 V1 = {"pid": "DeadTime/PID-v1", "fppi": "DeadTime/FPPI-v1", "msp": "DeadTime/MSP-v1"}

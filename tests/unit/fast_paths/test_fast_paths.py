@@ -25,7 +25,7 @@ from baselines.oracle import exact_models
 from envs.analysis.loop_analysis import plant_margins
 from envs.identification.commissioning import _first_violation
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
-from envs.design import PARAMETER_RANGES, design, relative_scale
+from envs.structures import PARAMETER_RANGES, design, relative_scale
 from envs.systems.families import FAMILIES, sample_plants
 from envs.simulation.loops import loop_response
 from envs.systems.plants import Plant
@@ -130,7 +130,7 @@ def test_margins_agree_with_the_point_by_point_reference(name):
 # ----------------------------------------------------------------------------- compiled margins
 def _random_loops(per_family: int, seed: int):
     """``(name, plant, controller)``: plants of every family of :func:`envs.systems.families.sample_plants`,
-    designs of :func:`envs.design.design` on their exact models (:func:`baselines.oracle.exact_models`)
+    designs of :func:`envs.structures.design` on their exact models (:func:`baselines.oracle.exact_models`)
     with the relative parameter log-uniform from a tenth of the low end of its range to its high end
     (many unstable or infeasible), an MSP with the PD-type filter (eq. 51) on a mismatched model, and
     an ideal PID of random gain (often unstable)."""
