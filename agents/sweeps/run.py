@@ -73,18 +73,21 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
 def trial_function(config: dict[str, Any]) -> None:
     """One Tune trial: ``deadtime train`` of ``config["trial"]`` into ``config["out"]/runs/NAME`` (an agent
     trained, or a learned rule fitted)."""
-    from agents.training.learned_rule_config import LEARNED_RULE
-    from agents.training.train import train
+    from agents.training.learned_rule_config import LearnedRuleConfig
 
     trial = Trial.from_dict(config["trial"])
     run_dir = Path(config["out"]) / "runs" / trial.name
     train_config = trial.train_config(run_dir)
-    callbacks = []
-    if train_config.algorithm != LEARNED_RULE:  # a learned-rule fit reports when it ends only
-        from agents.sweeps.reporter import TuneReporter
+    command = f"deadtime sweep (trial {trial.name})"
+    if isinstance(train_config, LearnedRuleConfig):  # a learned-rule fit reports when it ends only
+        from agents.training.learned_rule import fit
 
-        callbacks = [TuneReporter(train_config.total_timesteps)]
-    result = train(train_config, resume=True, command=f"deadtime sweep (trial {trial.name})", callbacks=callbacks)
+        result = fit(train_config, resume=True, command=command)
+    else:
+        from agents.sweeps.reporter import TuneReporter
+        from agents.training.train import train
+
+        result = train(train_config, resume=True, command=command, callbacks=[TuneReporter(train_config.total_timesteps)])
     tune.report({"timesteps": result.num_timesteps, "best_cost": result.best_cost, "final_cost": result.final_cost,
                  "finished": result.status == "finished"})
 

@@ -32,15 +32,23 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import inspect
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import MappingProxyType
 from typing import Any
 
 from agents.limits import MAX_ENVS, MAX_EVAL_EPISODES, require_at_most
+from agents.training.learned_rule_config import LEARNED_RULE, LearnedRuleConfig, validate_learned_rule
+from agents.training.schema import (
+    check_env_kwargs,
+    did_you_mean,
+    frozen_mapping,
+    parameters,
+    plain_value,
+    probe_environment,
+    require_field,
+    yaml_number,
+)
 from agents.yaml_input import load_yaml, load_yaml_file
 
 __all__ = [
@@ -48,15 +56,10 @@ __all__ = [
     "MAPPING_FIELDS",
     "TrainConfig",
     "apply_overrides",
-    "did_you_mean",
-    "frozen_mapping",
     "load_config",
     "merge",
     "parse_override",
-    "plain_value",
-    "require_field",
     "validate",
-    "yaml_number",
 ]
 
 ALGORITHMS = ("A2C", "PPO", "SAC", "TD3")
@@ -77,10 +80,6 @@ _RESERVED = {
     "replay_buffer_class": "stable-baselines3 (classes are not configurable from YAML)",
     "rollout_buffer_class": "stable-baselines3 (classes are not configurable from YAML)",
 }
-
-
-def frozen_mapping(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
-    return MappingProxyType(dict(mapping))
 
 
 @dataclass(frozen=True)
@@ -214,40 +213,6 @@ class TrainConfig:
         return cls(**data)
 
 
-_EXPONENT_NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
-
-
-def yaml_number(value: Any) -> Any:
-    """A number written in exponent form without a dot or sign (``1e5``, ``3e-4``), which YAML 1.1
-    reads as a string, as a float; any other value unchanged."""
-    if isinstance(value, str) and _EXPONENT_NUMBER.fullmatch(value.strip()):
-        return float(value)
-    return value
-
-
-def did_you_mean(key: Any, known: Sequence[str]) -> str:
-    """``" (did you mean 'total_timesteps'?)"`` for the known name closest to a misspelled ``key``, or ``""``.
-
-    >>> did_you_mean("total_timestep", ["seed", "total_timesteps"]), did_you_mean("xyz", ["seed"])
-    (" (did you mean 'total_timesteps'?)", '')
-    """
-    close = difflib.get_close_matches(str(key), list(known), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
-def require_field(condition: bool, name: str, what: str, value: Any) -> None:
-    if not condition:
-        raise ValueError(f"{name} must be {what}, got {value!r}")
-
-
-def plain_value(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {key: plain_value(item) for key, item in value.items()}
-    if isinstance(value, tuple | list):
-        return [plain_value(item) for item in value]
-    return value
-
-
 # ----------------------------------------------------------------------------------- merging
 def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
     """``base`` updated by ``update``: mappings merge key by key, every other value replaces."""
@@ -353,8 +318,6 @@ def _check_top_level(data: Mapping[str, Any], path: Path) -> None:
 
     import envs  # noqa: F401  (registers the DeadTime ids)
 
-    from agents.training.learned_rule_config import LearnedRuleConfig
-
     fields = list(dict.fromkeys(f.name for schema in (TrainConfig, LearnedRuleConfig) for f in dataclasses.fields(schema)))
     for key in data:
         if key == "default" or (isinstance(key, str) and key in gymnasium.registry):
@@ -370,8 +333,6 @@ def _check_top_level(data: Mapping[str, Any], path: Path) -> None:
 
 def _schema(algorithm: Any) -> type:
     """:class:`TrainConfig`, or for ``algorithm: learned-rule`` the learned rule's config."""
-    from agents.training.learned_rule_config import LEARNED_RULE, LearnedRuleConfig
-
     return LearnedRuleConfig if isinstance(algorithm, str) and algorithm.lower() == LEARNED_RULE else TrainConfig
 
 
@@ -385,13 +346,6 @@ def _override_value(overrides: Sequence[str], key: str) -> Any:
 
 
 # ----------------------------------------------------------------------------------- validation
-def _parameters(function: Any) -> tuple[set[str], bool]:
-    """Names a callable accepts, and whether it takes ``**kwargs``."""
-    parameters = inspect.signature(function).parameters.values()
-    names = {p.name for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
-    return names, any(p.kind is p.VAR_KEYWORD for p in parameters)
-
-
 def validate(config: TrainConfig) -> None:
     """Check ``hyperparameters``, ``policy``, ``policy_kwargs`` and ``env_kwargs`` against the constructors:
     the keys, then the values (:mod:`agents.training.hyperparameters`).
@@ -401,27 +355,21 @@ def validate(config: TrainConfig) -> None:
     seed (and ``deadtime train`` builds them all before anything is written).
 
     A learned-rule config (:class:`agents.training.learned_rule_config.LearnedRuleConfig`) has no
-    stable-baselines3 keys: its ``env_kwargs`` are checked, and the environment is made to check that
-    its action has one component (:func:`agents.training.learned_rule.check_environment`).
+    stable-baselines3 keys: it is checked by
+    :func:`agents.training.learned_rule_config.validate_learned_rule`.
 
     Raises
     ------
     ValueError
         Naming the first unknown key or invalid value.
     """
-    from agents.training.learned_rule_config import LearnedRuleConfig
-
     if isinstance(config, LearnedRuleConfig):
-        from agents.training.learned_rule import check_environment
-
-        _validate_env_kwargs(config)
-        check_environment(config).close()
-        _probe_environment(config)
+        validate_learned_rule(config)
         return
     import stable_baselines3
 
     algorithm = getattr(stable_baselines3, config.algorithm)
-    accepted, _ = _parameters(algorithm.__init__)
+    accepted, _ = parameters(algorithm.__init__)
     for key in config.hyperparameters:
         if key in _RESERVED:
             raise ValueError(f"hyperparameters.{key} is not allowed here (it is set by {_RESERVED[key]})")
@@ -431,7 +379,7 @@ def validate(config: TrainConfig) -> None:
     if config.policy not in algorithm.policy_aliases:
         raise ValueError(f"unknown policy {config.policy!r} for {config.algorithm} (known: {', '.join(algorithm.policy_aliases)})")
     policy_class = algorithm.policy_aliases[config.policy]
-    accepted, open_ended = _parameters(policy_class.__init__)
+    accepted, open_ended = parameters(policy_class.__init__)
     accepted -= {"self", "observation_space", "action_space", "lr_schedule"}
     for key in config.policy_kwargs:
         if key not in accepted and not open_ended:
@@ -442,9 +390,9 @@ def validate(config: TrainConfig) -> None:
     check_hyperparameters(config.algorithm, config.hyperparameters, config.n_envs)
     check_policy_kwargs(config.policy_kwargs)
     _validate_device(config.device)
-    _validate_env_kwargs(config)
+    check_env_kwargs(config)
     _validate_native(config)
-    _probe_environment(config)
+    probe_environment(config)
 
 
 def _validate_device(device: str) -> None:
@@ -457,22 +405,6 @@ def _validate_device(device: str) -> None:
         torch.device(device)
     except (RuntimeError, TypeError, ValueError):
         raise ValueError(f"device must be auto or a torch device such as cpu, cuda or cuda:0, got {device!r}") from None
-
-
-def _probe_environment(config: TrainConfig) -> None:
-    """Make one environment and reset it with the training seed: ``env_kwargs`` values that only an
-    episode uses (a family's config, a render mode) are refused here, before anything is written."""
-    from agents.environments import make_env
-
-    env = None
-    try:
-        env = make_env(config.env_id, config.env_kwargs)
-        env.reset(seed=config.seed)
-    except (ValueError, TypeError, KeyError, AssertionError, OverflowError) as error:
-        raise ValueError(f"env_kwargs: refused by {config.env_id}: {error or error.__class__.__name__}") from None
-    finally:
-        if env is not None:
-            env.close()
 
 
 def _validate_native(config: TrainConfig) -> None:
@@ -488,27 +420,3 @@ def _validate_native(config: TrainConfig) -> None:
     if mode != "fixed":
         raise ValueError(f"vec_env: native runs the fixed mode only, but env_kwargs.experiments is {mode!r} "
                          "(use dummy or subproc)")
-
-
-def _validate_env_kwargs(config: TrainConfig) -> None:
-    import gymnasium
-
-    from agents.environments import require_registered
-
-    require_registered(config.env_id, "env_id")
-    try:
-        spec = gymnasium.spec(config.env_id)
-    except (gymnasium.error.Error, ImportError) as error:  # "module:Id-v0" of a module that fails or registers no such id
-        raise ValueError(f"env_id {config.env_id!r}: {error}") from None
-    entry_point = spec.entry_point
-    if isinstance(entry_point, str):
-        from gymnasium.envs.registration import load_env_creator
-
-        entry_point = load_env_creator(entry_point)
-    target = entry_point.__init__ if inspect.isclass(entry_point) else entry_point
-    accepted, open_ended = _parameters(target)
-    accepted |= {"max_episode_steps", "disable_env_checker", "autoreset", "apply_api_compatibility"}
-    for key in config.env_kwargs:
-        if key not in accepted and not open_ended:
-            raise ValueError(f"unknown env_kwargs key {key!r} for {config.env_id} "
-                             f"(known: {', '.join(sorted(accepted - {'self'}))})")

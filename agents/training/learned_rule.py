@@ -57,7 +57,7 @@ import numpy as np
 
 from agents.training.files import write_json, write_text
 from agents.training.interrupts import StopRequest
-from agents.training.learned_rule_config import MAX_TRAINING_PLANTS, LearnedRuleConfig
+from agents.training.learned_rule_config import MAX_TRAINING_PLANTS, LearnedRuleConfig, check_environment
 
 if TYPE_CHECKING:
     from agents.training.train import TrainResult
@@ -79,22 +79,6 @@ _RESUMABLE_CHANGES = {"training_plants", "validation_plants", "margins", "margin
 def training_seed(seed: int, index: int) -> int:
     """The reset seed of training plant ``index`` of config seed ``seed``."""
     return TRAINING_SEED + seed * MAX_TRAINING_PLANTS + index
-
-
-def check_environment(config: LearnedRuleConfig) -> Any:
-    """The environment of ``config``, made; refused in one line if its action has more than one component."""
-    from agents.environments import make_env
-    from agents.training.train import _refused_as
-
-    env = _refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
-    shape = tuple(getattr(env.action_space, "shape", None) or ())
-    mappings = all(hasattr(env.unwrapped, name) for name in ("action_from_parameter", "parameter_from_action"))
-    if shape != (1,) or not mappings:
-        env.close()
-        raise ValueError(f"env_kwargs: the learned rule needs a one-component action (fixed mode) and the environment's "
-                         f"action_from_parameter and parameter_from_action; {config.env_id} with env_kwargs "
-                         f"{dict(config.env_kwargs)} has an action of shape {shape}")
-    return env
 
 
 def run_directory(config: LearnedRuleConfig) -> Path:

@@ -4,7 +4,8 @@ Read by :func:`agents.training.config.load_config` like the configs of stable-ba
 same zoo-style file, precedence and ``key=value`` overrides); a file whose resolved ``algorithm`` is
 ``learned-rule`` gives a :class:`LearnedRuleConfig`, which ``deadtime train`` fits with
 :mod:`agents.training.learned_rule` instead of training an agent.  An unknown key, or a value of the
-wrong type or range, is a ``ValueError`` that names the key.
+wrong type or range, is a ``ValueError`` that names the key; :func:`validate_learned_rule` checks the
+environment it names.
 """
 
 from __future__ import annotations
@@ -16,10 +17,19 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from agents.limits import MAX_EVAL_EPISODES
+from agents.training.schema import (
+    check_env_kwargs,
+    did_you_mean,
+    frozen_mapping,
+    plain_value,
+    probe_environment,
+    refused_as,
+    require_field,
+    yaml_number,
+)
 from baselines.learned_rule import MARGIN_SCALES, QUANTILE
-from agents.training.config import did_you_mean, frozen_mapping, plain_value, require_field, yaml_number
 
-__all__ = ["LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS"]
+__all__ = ["LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS", "check_environment", "validate_learned_rule"]
 
 LEARNED_RULE = "learned-rule"
 """The ``algorithm`` value of a learned-rule config."""
@@ -168,3 +178,32 @@ def _models(value: Any) -> tuple[str, ...]:
     require_field(isinstance(items, list | tuple) and bool(items) and all(item in MODEL_KINDS for item in items), "models", what, value)
     require_field(len(set(items)) == len(items), "models", "a list without repeats", value)
     return tuple(items)
+
+
+def check_environment(config: LearnedRuleConfig) -> Any:
+    """The environment of ``config``, made; refused in one line if its action has more than one component."""
+    from agents.environments import make_env
+
+    env = refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
+    shape = tuple(getattr(env.action_space, "shape", None) or ())
+    mappings = all(hasattr(env.unwrapped, name) for name in ("action_from_parameter", "parameter_from_action"))
+    if shape != (1,) or not mappings:
+        env.close()
+        raise ValueError(f"env_kwargs: the learned rule needs a one-component action (fixed mode) and the environment's "
+                         f"action_from_parameter and parameter_from_action; {config.env_id} with env_kwargs "
+                         f"{dict(config.env_kwargs)} has an action of shape {shape}")
+    return env
+
+
+def validate_learned_rule(config: LearnedRuleConfig) -> None:
+    """Check the environment of ``config``: ``env_kwargs``' keys, an action of one component
+    (:func:`check_environment`) and ``env_kwargs``' values (one reset with the seed).
+
+    Raises
+    ------
+    ValueError
+        Naming the first unknown key or invalid value.
+    """
+    check_env_kwargs(config)
+    check_environment(config).close()
+    probe_environment(config)

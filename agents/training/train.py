@@ -48,7 +48,7 @@ import yaml
 from agents.environments import make_env
 from agents.runtime import git_commit, versions
 from agents.training.config import TrainConfig, load_config, validate
-from agents.training.learned_rule_config import LearnedRuleConfig
+from agents.training.schema import refused_as
 
 if TYPE_CHECKING:
     from agents.training.checkpoints import Checkpoint
@@ -227,8 +227,8 @@ def train(
     command: str | None = None,
     callbacks: Sequence[Any] = (),
 ) -> TrainResult:
-    """Train an agent as the config says, in :func:`run_directory` ``(config)``; a learned-rule
-    config is fitted instead (:func:`agents.training.learned_rule.fit`).
+    """Train a stable-baselines3 agent as the config says, in :func:`run_directory` ``(config)`` (a
+    learned-rule config is fitted by :func:`agents.training.learned_rule.fit`).
 
     Everything that can refuse the config (its values, the environments, the model) is built before
     anything is written; a first SIGINT or SIGTERM ends the run at the next rollout boundary with a
@@ -248,16 +248,13 @@ def train(
     Raises
     ------
     ValueError
-        If the config is invalid, the run directory already holds a run and ``resume`` is False,
+        If the config is invalid or not a :class:`TrainConfig`, the run directory already holds a run and ``resume`` is False,
         ``resume`` is True with a config that differs from the run's, or a file of the run is damaged
         (:class:`agents.training.checkpoints.DamagedFileError`, naming it).
     """
-    if isinstance(config, LearnedRuleConfig):
-        from agents.training.learned_rule import fit
-
-        if callbacks:
-            raise ValueError("a learned-rule fit takes no stable-baselines3 callbacks")
-        return fit(config, resume=resume, command=command)
+    if not isinstance(config, TrainConfig):
+        raise ValueError(f"train() trains a stable-baselines3 agent; a {config.algorithm} config is fitted by "  # noqa: TRY004
+                         "agents.training.learned_rule.fit")
     from agents.training.callbacks import make_callbacks, save_model
     from agents.training.checkpoints import restore_state
     from agents.training.interrupts import StopRequest
@@ -283,7 +280,7 @@ def train(
         venv = model.get_env()
         resumed = None if checkpoint is None else {"periodic_checkpoint": checkpoint.periodic_checkpoint, "state": state}
         history = checkpoint.evaluations if checkpoint is not None else ()
-        run_callbacks, validator, checkpointer = _refused_as("eval_family", "the validation plant set", lambda: make_callbacks(
+        run_callbacks, validator, checkpointer = refused_as("eval_family", "the validation plant set", lambda: make_callbacks(
             run_dir, config.total_timesteps, eval_env, config.n_eval_episodes, config.eval_freq,
             config.eval_family, config.checkpoint_freq, config.progress_bar, vecnormalize, history, stop, resumed))
         _start_writing(run_dir, text, checkpoint)  # the config was accepted: now the run directory
@@ -360,19 +357,11 @@ def _start_writing(run_dir: Path, config_text: str, checkpoint: Checkpoint | Non
         write_json(run_dir / "evaluations.json", list(checkpoint.evaluations))
 
 
-def _refused_as(key: str, refuser: str, build: Callable[[], Any]) -> Any:
-    """``build()``, with an error it raises reported in one line as ``refuser`` refusing ``key``."""
-    try:
-        return build()
-    except (ValueError, TypeError, KeyError, AssertionError, OverflowError) as error:
-        raise ValueError(f"{key}: refused by {refuser}: {error or error.__class__.__name__}") from None
-
-
 def _environments(config: TrainConfig) -> tuple[Any, Any]:
     """The training environments and the validation environment; ``env_kwargs`` errors name the key."""
-    venv = _refused_as("env_kwargs", config.env_id, lambda: make_vec_env(config))
+    venv = refused_as("env_kwargs", config.env_id, lambda: make_vec_env(config))
     try:
-        eval_env = _refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
+        eval_env = refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
     except ValueError:
         _close(venv)
         raise
@@ -397,7 +386,7 @@ def _model(config: TrainConfig, checkpoint: Checkpoint | None, venv: Any, tensor
         return _restored_model(config, checkpoint, venv, tensorboard)
     if config.normalize:
         venv = VecNormalize(venv, norm_obs=True, norm_reward=config.normalize_reward)
-    model = _refused_as("hyperparameters or policy_kwargs", config.algorithm, lambda: new_model(config, venv, tensorboard))
+    model = refused_as("hyperparameters or policy_kwargs", config.algorithm, lambda: new_model(config, venv, tensorboard))
     model.deadtime_vecnormalize = config.normalize  # saved with the model: load_policy requires the statistics
     return model, venv if config.normalize else None, None
 

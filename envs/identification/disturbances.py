@@ -1,7 +1,7 @@
 """Disturbances of an experiment beyond white measurement noise: a slow drift, an unmeasured load.
 
 The experiments of :mod:`envs.identification.experiments` measure ``y + n`` with ``n`` white
-(:class:`~envs.identification.experiment_base.MeasurementNoise`).  A plant's measurement also moves
+(:class:`~envs.identification.noise.MeasurementNoise`).  A plant's measurement also moves
 for reasons the experiment does not cause; :class:`Disturbances` adds, as options, each with a
 level in units of the output (the experiments' amplitudes are relative to a unit change of it):
 
@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from envs.identification.experiment_base import MeasurementNoise
+from envs.identification.noise import MeasurementNoise
 from envs.validation import require_number
 
 __all__ = ["DISTURBANCE_KINDS", "LOAD_SPAN", "Disturbances", "DisturbedNoise"]
@@ -100,7 +100,7 @@ class Disturbances:
 class DisturbedNoise(MeasurementNoise):
     """White noise plus the disturbances of one experiment, drawn as the run grows.
 
-    Wraps the experiment's :class:`~envs.identification.experiment_base.MeasurementNoise` ``white``
+    Wraps the experiment's :class:`~envs.identification.noise.MeasurementNoise` ``white``
     (whose samples it adds unchanged) with the same interface (``first``, ``size``,
     ``drawn_as_needed``, ``noise_std``).
 

@@ -8,7 +8,7 @@ Conventions (see :mod:`envs.identification.experiments` for the full list)
 ------------------------------------------------------------
 * The default ``dt`` is ``T/SAMPLES_PER_RESIDENCE_TIME`` with ``T = plant.step_time_scale()``
   (``T_ar`` of the true plant when positive), so the noise bandwidth is fixed relative to the plant.
-* Measurement noise is white and Gaussian, ``noise_std`` per sample (:class:`MeasurementNoise`).
+* Measurement noise is white and Gaussian, ``noise_std`` per sample (:class:`envs.identification.noise.MeasurementNoise`).
   Each experiment draws its noise from a child stream of its own: :func:`measurement_noise` seeds
   a new generator with 128 bits drawn from the episode's ``rng`` (always exactly these, whatever
   the noise level, duration or outcome of the experiment), and the child's standard normals are
@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from envs.identification.noise import MeasurementNoise
 from envs.systems.plants import Plant
 from envs.simulation.delay_systems import MAX_RUN_SAMPLES
 from envs.validation import require_number
@@ -91,51 +92,6 @@ def measurement_noise(
     from envs.identification.disturbances import DisturbedNoise
 
     return DisturbedNoise(white, seed, disturbances, plant, dt, plant.step_time_scale())
-
-
-class MeasurementNoise:
-    """White Gaussian noise ``noise_std * z`` of the samples of one experiment, drawn as needed.
-
-    ``first(count)`` is the noise of samples ``0 .. count - 1``: the standard normals ``z`` of the
-    child stream ``source`` in order, drawn up to the largest ``count`` asked so far (none at all when
-    ``noise_std`` is 0).  ``size`` is the cap, the number of samples of the longest run allowed.
-    """
-
-    def __init__(self, noise_std: float, size: int, source: np.random.Generator | None) -> None:
-        self.noise_std, self.size, self._source = noise_std, int(size), source
-        self._values = np.empty(0)  # the samples, drawn into this buffer of ``size`` when first needed
-        self._drawn = 0
-
-    @classmethod
-    def given(cls, values: np.ndarray) -> MeasurementNoise:
-        """Noise with the given samples (e.g. to replay a run)."""
-        noise = cls(0.0, np.size(values), None)
-        noise._values = np.asarray(values, dtype=float).ravel()
-        noise._drawn = noise.size
-        return noise
-
-    @property
-    def drawn_as_needed(self) -> bool:
-        """Whether samples are drawn from the child stream when first asked for (not given or zero)."""
-        return self._source is not None and self.noise_std != 0.0 and self._drawn < self.size
-
-    def first(self, count: int) -> np.ndarray:
-        count = min(int(count), self.size)
-        drawn = self._drawn
-        if count > drawn:
-            if self._values.size < self.size:
-                self._values = np.empty(self.size)
-            self._fill(self._values[drawn:count], drawn, count)
-            self._drawn = count
-        return self._values[:count]
-
-    def _fill(self, fresh: np.ndarray, drawn: int, count: int) -> None:
-        """Write samples ``drawn .. count - 1`` into ``fresh`` (the buffer's slice for them)."""
-        if self.noise_std == 0.0 or self._source is None:
-            fresh[:] = 0.0
-        else:  # the normals of standard_normal(count - drawn), scaled in place: the same products
-            self._source.standard_normal(out=fresh)
-            fresh *= self.noise_std
 
 
 def as_noise(noise: MeasurementNoise | np.ndarray) -> MeasurementNoise:

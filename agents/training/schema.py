@@ -1,0 +1,114 @@
+"""What the two training-config schemas share: reading their values, and checking their environment.
+
+:class:`agents.training.config.TrainConfig` (a stable-baselines3 agent) and
+:class:`agents.training.learned_rule_config.LearnedRuleConfig` (the learned rule) are both frozen
+dataclasses read from the same zoo-style files: their fields are checked with :func:`require_field`,
+numbers in exponent form read with :func:`yaml_number`, mappings frozen with :func:`frozen_mapping`,
+and a misspelled key named with :func:`did_you_mean`.  Both name a registered environment and its
+keyword arguments, checked by :func:`check_env_kwargs` (the keys, against the environment's
+signature) and :func:`probe_environment` (the values, by one reset); an error of building anything
+from a config is reported in one line by :func:`refused_as`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import inspect
+import re
+from collections.abc import Callable, Mapping, Sequence
+from types import MappingProxyType
+from typing import Any
+
+__all__ = ["check_env_kwargs", "did_you_mean", "frozen_mapping", "parameters", "plain_value", "probe_environment",
+           "refused_as", "require_field", "yaml_number"]
+
+
+def frozen_mapping(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
+    """A read-only copy of ``mapping`` (the mapping fields of a frozen config)."""
+    return MappingProxyType(dict(mapping))
+
+_EXPONENT_NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
+
+
+def yaml_number(value: Any) -> Any:
+    """A number written in exponent form without a dot or sign (``1e5``, ``3e-4``), which YAML 1.1
+    reads as a string, as a float; any other value unchanged."""
+    if isinstance(value, str) and _EXPONENT_NUMBER.fullmatch(value.strip()):
+        return float(value)
+    return value
+
+
+def did_you_mean(key: Any, known: Sequence[str]) -> str:
+    """``" (did you mean 'total_timesteps'?)"`` for the known name closest to a misspelled ``key``, or ``""``.
+
+    >>> did_you_mean("total_timestep", ["seed", "total_timesteps"]), did_you_mean("xyz", ["seed"])
+    (" (did you mean 'total_timesteps'?)", '')
+    """
+    close = difflib.get_close_matches(str(key), list(known), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def require_field(condition: bool, name: str, what: str, value: Any) -> None:
+    if not condition:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
+def plain_value(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {key: plain_value(item) for key, item in value.items()}
+    if isinstance(value, tuple | list):
+        return [plain_value(item) for item in value]
+    return value
+
+def parameters(function: Any) -> tuple[set[str], bool]:
+    """Names a callable accepts, and whether it takes ``**kwargs``."""
+    parameters = inspect.signature(function).parameters.values()
+    names = {p.name for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    return names, any(p.kind is p.VAR_KEYWORD for p in parameters)
+
+def refused_as(key: str, refuser: str, build: Callable[[], Any]) -> Any:
+    """``build()``, with an error it raises reported in one line as ``refuser`` refusing ``key``."""
+    try:
+        return build()
+    except (ValueError, TypeError, KeyError, AssertionError, OverflowError) as error:
+        raise ValueError(f"{key}: refused by {refuser}: {error or error.__class__.__name__}") from None
+
+def check_env_kwargs(config: Any) -> None:
+    """``env_id`` registered, and every key of ``env_kwargs`` one the environment's constructor (or
+    ``gymnasium.make``) accepts; read from the signature, no environment is made."""
+    import gymnasium
+
+    from agents.environments import require_registered
+
+    require_registered(config.env_id, "env_id")
+    try:
+        spec = gymnasium.spec(config.env_id)
+    except (gymnasium.error.Error, ImportError) as error:  # "module:Id-v0" of a module that fails or registers no such id
+        raise ValueError(f"env_id {config.env_id!r}: {error}") from None
+    entry_point = spec.entry_point
+    if isinstance(entry_point, str):
+        from gymnasium.envs.registration import load_env_creator
+
+        entry_point = load_env_creator(entry_point)
+    target = entry_point.__init__ if inspect.isclass(entry_point) else entry_point
+    accepted, open_ended = parameters(target)
+    accepted |= {"max_episode_steps", "disable_env_checker", "autoreset", "apply_api_compatibility"}
+    for key in config.env_kwargs:
+        if key not in accepted and not open_ended:
+            raise ValueError(f"unknown env_kwargs key {key!r} for {config.env_id} "
+                             f"(known: {', '.join(sorted(accepted - {'self'}))})")
+
+def probe_environment(config: Any) -> None:
+    """Make one environment and reset it with the training seed: ``env_kwargs`` values that only an
+    episode uses (a family's config, a render mode) are refused here, before anything is written."""
+    from agents.environments import make_env
+
+    env = None
+    try:
+        env = make_env(config.env_id, config.env_kwargs)
+        env.reset(seed=config.seed)
+    except (ValueError, TypeError, KeyError, AssertionError, OverflowError) as error:
+        raise ValueError(f"env_kwargs: refused by {config.env_id}: {error or error.__class__.__name__}") from None
+    finally:
+        if env is not None:
+            env.close()
