@@ -39,12 +39,15 @@ import hashlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from agents.limits import MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
 from agents.yaml_input import load_yaml_file
 
-__all__ = ["COMPARISON_SIDES", "Learner", "Protocol", "Regime", "Selection", "Stream", "load_protocol"]
+if TYPE_CHECKING:
+    from agents.sweeps.config import Trial
+
+__all__ = ["COMPARISON_SIDES", "Learner", "Protocol", "Regime", "Selection", "Stream", "load_protocol", "trial"]
 
 COMPARISON_SIDES = {"first": ("fixed", "plan"), "second": ("best-rule", "fixed-procedure", "best-plan")}
 """What a declared comparison may name: a primary first, a baseline chosen on validation second."""
@@ -265,7 +268,6 @@ def load_protocol(path: str | Path) -> Protocol:
 
 def _check_learners(protocol: Protocol) -> None:
     """Each learner's training config resolved and validated for its regime, as ``deadtime train`` would."""
-    from agents.protocol.training import trial
     from agents.training.config import validate
 
     for regime in protocol.regimes:
@@ -275,3 +277,10 @@ def _check_learners(protocol: Protocol) -> None:
                     validate(trial(regime, learner, protocol.seeds[0]).train_config(Path("unused")))
                 except ValueError as error:
                     raise ValueError(f"{protocol.path}, regime {regime.name}, learner {learner.label}: {error}") from None
+
+
+def trial(regime: Regime, learner: Learner, seed: int) -> Trial:
+    """The sweep trial of ``learner`` in ``regime`` with ``seed``."""
+    from agents.sweeps.config import Trial
+
+    return Trial(learner.label, regime.env, seed, learner.config, learner.overrides, dict(regime.env_kwargs))

@@ -1,8 +1,8 @@
 """Training the protocol's learners: each (regime, learner, seed) is a sweep trial, trained by ``deadtime train``.
 
 A learner of a regime is the sweep trial ``Trial(label, env, seed, config, overrides, env_kwargs)``
-(:class:`agents.sweeps.config.Trial`), trained by :func:`agents.training.train.train` with
-``resume=True``: a finished fit is read back, an interrupted one continues from its checkpoint.  The
+(:class:`agents.sweeps.config.Trial`), trained by :func:`agents.training.train.train` (a learned rule
+fitted by :func:`agents.training.learned_rule.fit`) with ``resume=True``: a finished fit is read back, an interrupted one continues from its checkpoint.  The
 run directory is named by what determines the fit (environment, regime, config file and overrides),
 so two regimes that declare the same learner in the same environment and regime share its fits.
 """
@@ -13,15 +13,9 @@ import hashlib
 import json
 from pathlib import Path
 
-from agents.protocol.config import Learner, Regime
-from agents.sweeps.config import Trial
+from agents.protocol.config import Learner, Regime, trial
 
 __all__ = ["run_directory", "train_learner", "trial"]
-
-
-def trial(regime: Regime, learner: Learner, seed: int) -> Trial:
-    """The sweep trial of ``learner`` in ``regime`` with ``seed``."""
-    return Trial(learner.label, regime.env, seed, learner.config, learner.overrides, dict(regime.env_kwargs))
 
 
 def run_directory(work: Path, regime: Regime, learner: Learner, seed: int) -> Path:
@@ -40,11 +34,19 @@ def train_learner(work: Path, regime: Regime, learner: Learner, seed: int) -> Pa
     ValueError
         If the fit was interrupted (it resumes when called again) or its config changed since it started.
     """
-    from agents.training.train import train
+    from agents.training.learned_rule_config import LearnedRuleConfig
 
     directory = run_directory(work, regime, learner, seed)
     config = trial(regime, learner, seed).train_config(directory)
-    result = train(config, resume=True, command=f"deadtime protocol run ({regime.name}, {learner.label}, seed {seed})")
+    command = f"deadtime protocol run ({regime.name}, {learner.label}, seed {seed})"
+    if isinstance(config, LearnedRuleConfig):
+        from agents.training.learned_rule import fit
+
+        result = fit(config, resume=True, command=command)
+    else:
+        from agents.training.train import train
+
+        result = train(config, resume=True, command=command)
     if result.status != "finished":
         raise ValueError(f"the fit of {learner.label} seed {seed} in {regime.name} was interrupted; run again to resume")
     return directory
