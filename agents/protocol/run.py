@@ -14,8 +14,10 @@ For each regime, in the protocol's order (or the ones named), until its ``summar
    benchmark rows are labelled so, and never enter the statistics of the random plants), and
    ``OUT/REGIME/summary.json`` the regime's unadjusted comparisons and violations.
 
-The folder's ``protocol.json`` records the protocol's path, sha256 and the commit it ran at; a run
-into a folder of another protocol's sha256 is refused in one line, and so is a protocol whose test
+The folder's ``protocol.json`` records the protocol's path, sha256, the commit it started at and the
+sha256 of each training config its learners name (each regime's ``selection.json`` and ``summary.json``
+the commit they were computed at); a run into a folder of another protocol's sha256, or with a training
+config changed since the run started, is refused in one line, and so is a protocol whose test
 entropy is not registered to its own sha256 (:func:`agents.protocol.streams.check_test_seed`).  The
 trained models and the evaluations' caches stay in ``OUT/work`` (not results: never committed).
 """
@@ -61,6 +63,13 @@ def _commit() -> str:
     return f"{head}-dirty" if dirty else head
 
 
+def _config_digests(protocol: Protocol) -> dict[str, str]:
+    """The sha256 of every training config the protocol's learners name, by path."""
+    configs = sorted({learner.config for regime in protocol.regimes for mode in ("fixed", "plan")
+                      for learner in regime.candidates(mode)})
+    return {path: hashlib.sha256(Path(path).read_bytes()).hexdigest() for path in configs}
+
+
 def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
     """Check that ``protocol`` may run into ``out`` and record it there (``protocol.json``).
 
@@ -68,7 +77,8 @@ def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
     ------
     ProtocolRefused
         One line: the test seed is not registered to this protocol, ``out`` holds another protocol's
-        run, or holds a run and ``resume`` is False.
+        run, or holds a run and ``resume`` is False, or a training config it names changed since the
+        run started.
     """
     registry = Path(protocol.path).with_name("test_seeds.json")
     try:
@@ -83,15 +93,17 @@ def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
                                   f"{protocol.path} has {protocol.sha256[:12]}: a changed protocol takes a fresh test seed")
         if not resume:
             raise ProtocolRefused(f"{out} already holds this protocol's run: add --resume to continue it")
+        changed = [path for path, digest in _config_digests(protocol).items()
+                   if record.get("configs_sha256", {}).get(path) != digest]
+        if changed:
+            raise ProtocolRefused(f"{changed[0]} changed since the run in {out} started: its learners would not be the "
+                                  "protocol's; restore it (the run's commit is in protocol.json)")
         return record
     from agents.training.files import write_json
 
     out.mkdir(parents=True, exist_ok=True)
-    configs = sorted({learner.config for regime in protocol.regimes for mode in ("fixed", "plan")
-                      for learner in regime.candidates(mode)})
     record = {"protocol": protocol.path, "protocol_sha256": protocol.sha256, "commit": _commit(),
-              "test_entropy": protocol.test.entropy,
-              "configs_sha256": {path: hashlib.sha256(Path(path).read_bytes()).hexdigest() for path in configs}}
+              "test_entropy": protocol.test.entropy, "configs_sha256": _config_digests(protocol)}
     write_json(record_path, record)
     return record
 
@@ -223,7 +235,7 @@ def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[st
             label, records = choose_primary({m: table[m][0] for m in modes}, {m: table[m][1] for m in modes}, target, confidence)
             chosen[mode] = label
             candidates[mode] = [record.to_dict() for record in records]
-    selection = {"regime": regime.name, "env": regime.env, "env_kwargs": dict(regime.env_kwargs), "family": family,
+    selection = {"regime": regime.name, "commit": _commit(), "env": regime.env, "env_kwargs": dict(regime.env_kwargs), "family": family,
                  "validation_plants": len(plants), "chosen_on": "validation", "chosen": chosen, "candidates": candidates,
                  "validation_mean_cost": {name: float(values.mean()) for name, values in sorted(mean_of.items())}}
     write_json(path, selection)
@@ -245,7 +257,7 @@ def _regime_summary(protocol: Protocol, selection: dict[str, Any], rows: list[di
                                 "unadjusted": [d.low, d.high], "p_value": d.p_value, "percent_of_second": d.percent_of_second,
                                 "share_better": d.share_better})
     plants, benchmark = matrices(rows, "benchmark")
-    return {"regime": selection["regime"], "env": selection["env"], "env_kwargs": selection["env_kwargs"],
+    return {"regime": selection["regime"], "commit": _commit(), "env": selection["env"], "env_kwargs": selection["env_kwargs"],
             "test_plants": len(matrices(rows, "test")[0]), "rule_chosen_on": "validation", "chosen": chosen,
             "policies": policies, "comparisons": comparisons,
             "benchmark": {"plants": len(plants), "pooled": False,

@@ -106,3 +106,13 @@ def test_a_retired_test_seed_is_never_evaluated(tmp_path):
     registry.write_text(json.dumps([{"entropy": 5, "protocol": "p.yaml", "sha256": "a" * 64, "superseded_by": "b" * 64}]))
     with pytest.raises(ValueError, match="retired"):
         check_test_seed(5, "a" * 64, registry)
+
+
+def test_a_training_config_changed_after_the_start_is_refused(tmp_path):
+    protocol = load_protocol(_copy(tmp_path))
+    out = tmp_path / "out"
+    record = start(protocol, out, resume=False)
+    config = next(iter(record["configs_sha256"]))
+    (out / "protocol.json").write_text(json.dumps({**record, "configs_sha256": {config: "0" * 64}}))
+    with pytest.raises(ProtocolRefused, match=f"{config} changed since the run"):
+        start(protocol, out, resume=True)
