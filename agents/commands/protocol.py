@@ -32,6 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--out", required=True, help="the run's folder, e.g. results/protocol_v1")
     run.add_argument("--resume", action="store_true", help="continue a run of the same protocol in --out")
     run.add_argument("--regime", action="append", help="run only this regime (repeatable; default: all in order)")
+    run.add_argument("--validation-only", action="store_true",
+                     help="stop each regime after its choices on the validation plants (selection.json), before its test")
     report = actions.add_parser("report", help="protocol_results.json, results.md and forest.png of a run")
     report.add_argument("protocol")
     report.add_argument("--out", required=True)
@@ -77,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "run":
         from agents.protocol.run import run_protocol
 
-        done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime)
+        done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only)
         print(f"deadtime protocol: {len(done)} regime(s) done: {', '.join(done)}", file=sys.stderr)
         return 0
     from agents.protocol.report import write_report

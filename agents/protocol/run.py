@@ -284,8 +284,11 @@ def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selec
     return summary
 
 
-def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes: list[str] | None = None) -> list[str]:
-    """Run the protocol's regimes (all, or those named) into ``out``; returns the names of the regimes done."""
+def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes: list[str] | None = None,
+                 validation_only: bool = False) -> list[str]:
+    """Run the protocol's regimes (all, or those named) into ``out``; returns the names of the regimes done.
+
+    ``validation_only`` stops each regime after its choices (``selection.json``), before its test stream."""
     start(protocol, out, resume)
     work = out / "work"
     chosen = [protocol.regime(name) for name in regimes] if regimes else list(protocol.regimes)
@@ -294,8 +297,11 @@ def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes
         if not (out / regime.name / SUMMARY).exists():
             print(f"deadtime protocol: {regime.name}: training and validation", file=sys.stderr, flush=True)
             selection = select(protocol, work, out, regime)
-            print(f"deadtime protocol: {regime.name}: chosen on validation {selection['chosen']}; the test stream",
-                  file=sys.stderr, flush=True)
+            print(f"deadtime protocol: {regime.name}: chosen on validation {selection['chosen']}", file=sys.stderr, flush=True)
+            if validation_only:
+                done.append(regime.name)
+                continue
+            print(f"deadtime protocol: {regime.name}: the test stream", file=sys.stderr, flush=True)
             test_regime(protocol, work, out, regime, selection)
         done.append(regime.name)
     return done

@@ -58,8 +58,11 @@ def test_a_tiny_protocol_runs_resumes_and_reports(tmp_path):
     protocol = load_protocol(path)
     register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
     out = tmp_path / "out"
-    assert run_protocol(protocol, out) == ["pid-tiny"]
+    assert run_protocol(protocol, out, validation_only=True) == ["pid-tiny"]
     regime = out / "pid-tiny"
+    assert (regime / "selection.json").exists() and not (regime / PER_PLANT).exists()
+    assert not (out / "work" / "pid-tiny" / "test").exists()  # no test plant scored yet
+    assert run_protocol(protocol, out, resume=True) == ["pid-tiny"]
     first = (regime / PER_PLANT).read_bytes()
     fits = sorted((out / "work" / "runs").glob("*/s*/learned_rule.json"))
     assert len(fits) == 6  # three learners, two seeds
