@@ -69,3 +69,10 @@ def test_the_readme_stays_a_five_minute_read() -> None:
     results and links, in at most 250 lines; the rest belongs to docs/."""
     lines = (REPO / "README.md").read_text().splitlines()
     assert len(lines) <= 250, f"README.md has {len(lines)} lines; move detail to docs/"
+
+
+def test_no_docs_page_is_over_300_lines() -> None:
+    """A docs page is a method page (what a mode, policy or statistic is: short, current) or a page of
+    the exploration log (docs/exploration/); either stays readable in one sitting."""
+    long = {str(page.relative_to(REPO)): n for page in (REPO / "docs").rglob("*.md") if (n := len(page.read_text().splitlines())) > 300}
+    assert long == {}

@@ -28,7 +28,9 @@ README = (REPO / "README.md").read_text()
 README_RESULTS = README[README.index("## Results"):README.index("## Documentation")]
 DOCS = REPO / "docs"
 COMMAND_LINE = (DOCS / "command_line.md").read_text()
-RESULTS = (DOCS / "results.md").read_text() + "\n" + (DOCS / "results_history.md").read_text()
+RESULTS = "\n".join((DOCS / page).read_text() for page in ("results.md", "results_history.md", "results_v0.md"))
+# the agent-mode study: its method page and its exploration log
+AGENT_MODE = "\n".join(path.read_text() for path in (DOCS / "agent_mode.md", *sorted((DOCS / "exploration").glob("*.md"))))
 MODEL = '{"type": "fopdt", "gain": 2.5, "time_constant": 12, "dead_time": 4}'
 INTERVAL = r"-?[\d.]+ \[-?[\d.]+, -?[\d.]+\]"
 
@@ -72,11 +74,11 @@ def _study(name: str):
 
 
 def test_the_gap_decompositions_are_the_committed_per_plant_tables():
-    """The tables of docs/agent_mode.md that split a learner's difference to ``simc-pi`` by the rule's
+    """The tables of docs/exploration/own_plan.md that split a learner's difference to ``simc-pi`` by the rule's
     violating plants are ``deadtime study gap`` on the committed per-plant tables, and
     their parts add up to the summary's point estimate."""
     module = _study("gap")
-    page = (DOCS / "agent_mode.md").read_text()
+    page = AGENT_MODE
     for sweep, group in (("spread_own_plan_noise10_time", "learned-plan-spread-10000"),
                          ("spread_own_plan_noise10_production", "learned-plan-cert-10000")):
         table = module.decompose(REPO / "results" / sweep, "PID-v3", group, "simc-pi")
@@ -87,12 +89,12 @@ def test_the_gap_decompositions_are_the_committed_per_plant_tables():
 
 
 def test_the_fallback_tables_are_the_committed_pilot_rows():
-    """docs/agent_mode.md's fallback tables are ``deadtime study fallback``'s ``fallback.md``, made from
+    """docs/exploration/own_plan.md's fallback tables are ``deadtime study fallback``'s ``fallback.md``, made from
     the rows of its ``fallback.json``, of the sweeps' own fits (their models' sha256); the rows are
     consistent (each difference is the mean costs' difference and the mean of the per-seed differences,
     inside its interval and their range; the rule's share a fraction)."""
     module = _study("fallback")
-    page = (DOCS / "agent_mode.md").read_text()
+    page = AGENT_MODE
     for regime, sweep, group in (("free", "spread_own_plan_noise10_time", "learned-plan-spread-10000"),
                                  ("priced", "spread_own_plan_noise10_production", "learned-plan-cert-10000")):
         folder = REPO / "results" / "spread_own_plan" / regime
@@ -139,19 +141,19 @@ def test_the_results_tables_are_the_committed_sweep_summaries():
 
 
 def test_every_interval_of_the_v3_study_pages_is_committed():
-    """docs/agent_mode.md and docs/results.md, prose and tables: every ``value [low, high]`` is in a
+    """docs/agent_mode.md with its exploration log (docs/exploration/) and docs/results.md, prose and tables: every ``value [low, high]`` is in a
     committed ``results/*/summary.md`` or ``results/*/regimes.md``, as printed there (no rounding of
     one's own); the pooled test violation rates of the certified groups are
     ``deadtime study certificates``'s."""
     summaries = _committed()
-    for page in ("agent_mode.md", "results.md"):
-        quoted = re.findall(INTERVAL, (DOCS / page).read_text())
+    for page, text in (("agent_mode.md", AGENT_MODE), ("results.md", (DOCS / "results.md").read_text())):
+        quoted = re.findall(INTERVAL, text)
         assert len(quoted) >= 15, page
         assert all(any(q in summary for summary in summaries) for q in quoted), [q for q in quoted if not any(q in m for m in summaries)]
     module = _study("certificates")
     certified = sorted(path for path in (REPO / "results").glob("certified_noise*") if path.is_dir())
     rates = [row.split(" | ")[6] for row in module.table(certified).splitlines()[2:]]
-    page = (DOCS / "agent_mode.md").read_text()
+    page = AGENT_MODE
     assert len(rates) == 12 and all(rate in page for rate in rates), rates
 
 
