@@ -27,7 +27,9 @@ _V2 = {**_V1, "weights": {"production": 0.05}, "amplitude_limit": 3.0, "design_s
 # agent mode offers the experiments the structure's design reads (envs.episode_options.DESIGN_EXPERIMENTS).
 _V3 = {**_V2, "violation_cost": "bounded", "measured_observation": True, "experiment_set": "design"}
 
-for _version, _kwargs in (("v0", {}), ("v1", _V1), ("v2", _V2), ("v3", _V3)):
-    for _structure in ("PID", "FPPI", "MSP"):
+# PI (SIMC PI, envs.structures): v3 only, the first version of that structure.
+for _version, _kwargs, _structures in (("v0", {}, ("PID", "FPPI", "MSP")), ("v1", _V1, ("PID", "FPPI", "MSP")),
+                                       ("v2", _V2, ("PID", "FPPI", "MSP")), ("v3", _V3, ("PID", "FPPI", "MSP", "PI"))):
+    for _structure in _structures:
         register(id=f"DeadTime/{_structure}-{_version}", entry_point=f"envs.tuning_env:{_structure}Env",
                  vector_entry_point=f"envs.vector_env:{_structure}VectorEnv", kwargs=_kwargs)

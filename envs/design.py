@@ -1,6 +1,6 @@
 """The design step: one parameter and an identified model give the controller.
 
-These are the three designs of the papers, shared by the environments, the rules and the oracle:
+These are the four designs, shared by the environments, the rules and the oracle:
 
 * :func:`pid_design`: Gorez-Klan's series PID on the SOPDT model, parameter ``mu`` (eq. 3-11);
   the derivative filter is ``T_d/N`` with ``N = DERIVATIVE_FILTER`` (a common industrial value;
@@ -9,10 +9,12 @@ These are the three designs of the papers, shared by the environments, the rules
   (Ingimundarson section 4.3: the optimum of eq. 23-24 has ``T_r = T_f``).
 * :func:`msp_design`: the modified Smith predictor on the two-parameter model, parameter ``T_r``
   (section 5), optionally with the PD-type extension (eq. 51).
+* :func:`pi_design`: Skogestad's SIMC PI on the FOPDT model, parameter ``tau_c`` (the closed-loop
+  time constant; SIMC's own rule ``simc-pi`` takes ``tau_c = theta``).
 
-The agent, the oracle and the environments use the *relative* parameter: ``mu``, ``T_r/T_n`` or
-``T_r/L_n``, searched over a range on a log scale; :mod:`envs.structures` holds, per structure, the
-design, the unit of its parameter and the range.  The constants and eq. 28-29 of the base rules of
+The agent, the oracle and the environments use the *relative* parameter: ``mu``, ``T_r/T_n``,
+``T_r/L_n`` or ``tau_c/theta``, searched over a range on a log scale; :mod:`envs.structures` holds,
+per structure, the design, the unit of its parameter and the range.  The constants and eq. 28-29 of the base rules of
 the residual action (:mod:`envs.base_design`) are here too.
 
 Undefined PID
@@ -29,7 +31,7 @@ from __future__ import annotations
 
 import math
 
-from envs.systems.controllers import FPPI, MSP, SeriesPID
+from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
 from envs.validation import require_number
 
@@ -42,7 +44,10 @@ __all__ = [
     "fppi_design",
     "fppi_time_constant",
     "msp_design",
+    "pi_dead_time",
+    "pi_design",
     "pid_design",
+    "simc_pi_gains",
 ]
 
 DERIVATIVE_FILTER = 10.0
@@ -108,3 +113,28 @@ def fppi_time_constant(time_constant: float, mismatch_time: float) -> float:
     time_constant = require_number(time_constant, "time_constant", positive=True)
     mismatch_time = require_number(mismatch_time, "mismatch_time", positive=True)
     return max(math.sqrt(mismatch_time * time_constant), mismatch_time)
+
+
+def simc_pi_gains(gain: float, lag: float, dead_time: float, tau_c: float) -> tuple[float, float]:
+    """``K_c = tau_1/(k (tau_c + theta))``, ``tau_I = min(tau_1, 4 (tau_c + theta))``: Skogestad's SIMC PI
+    rule for ``k e^{-theta s}/(tau_1 s + 1)`` (S. Skogestad, "Simple analytic rules for model reduction
+    and PID controller tuning", J. Process Control 13 (2003) 291-309, the SIMC PI settings).
+
+    The one implementation of the formula: ``simc-pi`` (:func:`baselines.rules.pid.simc_pi`, which checks
+    its arguments first) and the PI environment (:func:`pi_design`) call it.
+    """
+    return lag / (gain * (tau_c + dead_time)), min(lag, 4.0 * (tau_c + dead_time))
+
+
+def pi_dead_time(model: FOPDTModel) -> float:
+    """``theta`` of the PI design: the model's dead time, floored at ``MIN_RELATIVE_DEAD_TIME`` times its
+    ``T_ar`` (as :func:`pid_design` floors ``D_2``), so that ``tau_c = theta`` is defined for a model
+    without dead time.  The floor changes no design of a model whose ``L_n/T_ar`` is 0.01 or more."""
+    return max(model.dead_time, MIN_RELATIVE_DEAD_TIME * model.residence_time)
+
+
+def pi_design(model: FOPDTModel, tau_c: float) -> PID:
+    """SIMC PI on the FOPDT model with closed-loop time constant ``tau_c`` (:func:`simc_pi_gains`,
+    ``theta`` of :func:`pi_dead_time`); ``tau_c = theta`` is the rule ``simc-pi``."""
+    kp, ti = simc_pi_gains(model.gain, model.time_constant, pi_dead_time(model), tau_c)
+    return PID(kp=kp, ti=ti)

@@ -37,6 +37,8 @@ from envs.design import (
     fppi_design,
     fppi_time_constant,
     msp_design,
+    pi_dead_time,
+    pi_design,
     pid_design,
 )
 from envs.identification.models import IntegratingModel
@@ -175,6 +177,12 @@ STRUCTURES: dict[str, Structure] = {
             base=lambda identification: 2.0 * MSP_RELATIVE_DEAD_TIME_ERROR / (1.0 - MSP_RELATIVE_DEAD_TIME_ERROR),
             check=_msp_check, robustness=("delay_margin", 0.1, 1.5), design_experiments=("closed-loop-step", "pulse"),
             least_squares_order=None, constraints=Constraints(max_sensitivity=None, min_relative_delay_margin=0.2),
+        ),
+        Structure(
+            name="pi", title="PI", controller="pid", model="fopdt", integrating=False, family="stable",
+            symbol="tau_c/theta", parameter_range=(0.03, 300.0), design_function=pi_design, unit=pi_dead_time,
+            base_rule="simc-pi", base=lambda identification: 1.0, check=lambda i: i.sopdt,
+            robustness=("ms", 2.4, 1.2), design_experiments=_STABLE_EXPERIMENTS, least_squares_order=1,
         ),
     )
 }

@@ -51,7 +51,7 @@ from gymnasium.vector.utils import batch_space
 
 from envs.threads import single_threaded
 from envs.validation import require_real_array
-from envs.tuning_env import OBSERVATION_BOUND, DeadTimeTuningEnv, FPPIEnv, MSPEnv, PIDEnv
+from envs.tuning_env import OBSERVATION_BOUND, DeadTimeTuningEnv, FPPIEnv, MSPEnv, PIDEnv, PIEnv
 
 __all__ = ["DeadTimeVectorEnv", "PIDVectorEnv", "FPPIVectorEnv", "MSPVectorEnv"]
 
@@ -186,3 +186,9 @@ class MSPVectorEnv(DeadTimeVectorEnv):
     """:class:`~envs.tuning_env.MSPEnv`, fixed mode, ``num_envs`` plants per call (module docstring)."""
 
     single_class = MSPEnv
+
+
+class PIVectorEnv(DeadTimeVectorEnv):
+    """:class:`~envs.tuning_env.PIEnv`, fixed mode, ``num_envs`` plants per call (module docstring)."""
+
+    single_class = PIEnv

@@ -152,7 +152,8 @@ def applicable_rules(structure: str) -> list[str]:
 
 
 def own_rules(structure: str) -> list[str]:
-    """Names of the rules that set the environment's own design parameter (``mu`` or ``T_r``).
+    """Names of the rules that set the environment's own design parameter (``mu``, ``T_r``, or the PI's
+    ``tau_c``: its base rule ``simc-pi`` and that rule matched to ``Ms`` targets, ``simc-pi-msX``).
 
     These, and only these, compete for "paper rule", the reference of the gap closure: the oracle is the
     per-plant optimum of that structure's one parameter, so a rule of another structure (a full
@@ -161,8 +162,16 @@ def own_rules(structure: str) -> list[str]:
     """
     from baselines.rules.registry import RULES
 
-    controller = STRUCTURE_CONTROLLER[structure]
-    return [name for name, rule in RULES.items() if rule.controller == controller and rule.parameter is not None]
+    controller, base = STRUCTURE_CONTROLLER[structure], STRUCTURES[structure].base_rule
+    return [name for name, rule in RULES.items()
+            if rule.controller == controller and (rule.parameter is not None or name in (base, *_matched(base)))]
+
+
+def _matched(rule: str) -> list[str]:
+    """The names of ``rule`` matched to the ``Ms`` targets (:data:`baselines.rules.registry.MS_TARGETS`)."""
+    from baselines.rules.registry import MS_TARGETS
+
+    return [f"{rule}-ms{target:g}" for target in MS_TARGETS]
 
 
 def parse_policies(text: str, structure: str) -> list[PolicySpec]:

@@ -71,6 +71,7 @@ from baselines.rules.pid_forms import (
     series_to_ideal,
     ultimate_point,
 )
+from envs.design import simc_pi_gains  # the one SIMC PI formula, shared with the PI environment
 from envs.systems.controllers import PID, SeriesPID
 from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
 
@@ -445,8 +446,7 @@ def _simc_integrating(gain: float, dead_time: float, tau_c: float | None, rule: 
 
 def _simc_lag(gain: float, lag: float, dead_time: float, tau_c: float | None, rule: str) -> tuple[float, float]:
     """``K_c = lag/(k (tau_c + theta))``, ``tau_I = min(lag, 4 (tau_c + theta))`` of SIMC ([SK])."""
-    tc = _tau_c(tau_c, dead_time, rule)
-    return lag / (gain * (tc + dead_time)), min(lag, 4.0 * (tc + dead_time))
+    return simc_pi_gains(gain, lag, dead_time, _tau_c(tau_c, dead_time, rule))
 
 
 def simc_pi(model: FOPDTModel | SOPDTModel | IntegratingModel, tau_c: float | None = None) -> PID:

@@ -77,7 +77,7 @@ def test_registry_entries_are_consistent(name):
 
 
 def test_unknown_structure_is_one_clear_error():
-    with pytest.raises(ValueError, match=r"unknown structure 'pd'; valid: pid, fppi, msp"):
+    with pytest.raises(ValueError, match=r"unknown structure 'pd'; valid: pid, fppi, msp, pi"):
         structure("pd")
 
 

@@ -35,12 +35,12 @@ def test_bad_arguments_are_named():
         plant_set("x", "test", 3)
     with pytest.raises(ValueError, match="n must be an integer >= 0"):
         plant_set("stable", "test", -1)
-    with pytest.raises(ValueError, match="unknown structure 'pi'"):
-        benchmark_set("pi")
+    with pytest.raises(ValueError, match="unknown structure 'pd'"):
+        benchmark_set("pd")
 
 
 def test_benchmark_sets_by_structure():
-    assert len(benchmark_set("pid")) == len(benchmark_set("fppi")) == 9
+    assert len(benchmark_set("pid")) == len(benchmark_set("fppi")) == len(benchmark_set("pi")) == 9
     integrating = benchmark_set("msp")
     assert len(integrating) == 8 and all(p.integrating for p in integrating.values())
 
