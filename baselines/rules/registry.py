@@ -30,7 +30,7 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 from functools import lru_cache
 from typing import Any, Literal
 
@@ -56,7 +56,7 @@ from envs.identification.models import (
 )
 from envs.identification.open_loop_experiments import open_loop_pulse, open_loop_step
 from envs.systems.plants import Plant
-from envs.identification.procedure import PULSE_LENGTH, Identification
+from envs.identification.procedure import PULSE_LENGTH, Identification, IdentifiedModels
 
 __all__ = [
     "DM_TARGETS",
@@ -76,46 +76,26 @@ PlantKind = Literal["stable", "integrating", "both"]
 
 
 @dataclass(frozen=True)
-class RuleInputs:
-    """The identified quantities every rule is a function of.
+class RuleInputs(IdentifiedModels):
+    """The identified quantities every rule is a function of: the identified models
+    (:class:`~envs.identification.procedure.IdentifiedModels`, whose fields it has) and two more.
 
     Attributes
     ----------
-    integrating : bool
-        Whether the plant (and the model) is integrating.
-    gain : float
-        ``K_n``: static gain, or velocity gain if integrating.
-    residence_time : float
-        ``T_ar`` (eq. 10); for integrating plants that of the dynamics additional to the integrator.
-    fopdt, sopdt : FOPDTModel, SOPDTModel or None
-        ``K_n e^{-L_n s}/(T_n s + 1)`` (Ingimundarson eq. 1) and Gorez-Klan's SOPDT model
-        (eq. 2-8); None if integrating.
-    integrating_model : IntegratingModel or None
-        The two-parameter model ``K_n e^{-L_n s}/s`` (Ingimundarson eq. 2), ``L_n = T_ar``; None
-        if stable.
     model : FOPDTModel, SOPDTModel or IntegratingModel
         The model the ultimate-gain rules and the integrating PID rules use: the given model
         (:meth:`from_model`), else the SOPDT model (stable) or the two-parameter model.
-    mismatch_time : float
-        ``T_f_bar`` (eq. 22), nan if unknown or integrating.
-    pulse_area : float
-        ``A`` (eq. 46), nan if unknown or stable.
     apparent_time_constant : float
         ``T_n`` of the dynamics additional to the integrator (``msp-tr-tn``): the given model's
         ``time_constant``, or the closed-loop ``T_a`` (Gorez-Klan appendix B on the integrated
         input); nan if unknown.
+
+    ``mismatch_time`` (``T_f_bar``, eq. 22) and ``pulse_area`` (``A``, eq. 46) are nan where unknown;
+    ``fopdt`` and ``sopdt`` None if integrating, ``integrating_model`` (``L_n = T_ar``) None if stable.
     """
 
-    integrating: bool
-    gain: float
-    residence_time: float
-    fopdt: FOPDTModel | None
-    sopdt: SOPDTModel | None
-    integrating_model: IntegratingModel | None
-    model: Model
-    mismatch_time: float = math.nan
-    pulse_area: float = math.nan
-    apparent_time_constant: float = math.nan
+    model: Model = field(kw_only=True)
+    apparent_time_constant: float = field(default=math.nan, kw_only=True)
 
     @classmethod
     def from_identification(cls, identification: Identification) -> RuleInputs:
@@ -125,15 +105,8 @@ class RuleInputs:
         if model is None:
             raise ValueError("the identification produced no model")
         return cls(
-            integrating=i.integrating,
-            gain=i.gain,
-            residence_time=i.residence_time,
-            fopdt=i.fopdt,
-            sopdt=i.sopdt,
-            integrating_model=i.integrating_model,
+            **{f.name: getattr(i, f.name) for f in fields(IdentifiedModels)},
             model=model,
-            mismatch_time=i.mismatch_time,
-            pulse_area=i.pulse_area,
             apparent_time_constant=i.closed_loop.apparent_time_constant if i.integrating else math.nan,
         )
 
@@ -164,7 +137,7 @@ class RuleInputs:
             two_parameter = IntegratingModel(gain=model.gain, dead_time=model.residence_time)
             return cls(
                 integrating=True, gain=model.gain, residence_time=model.residence_time, fopdt=None, sopdt=None,
-                integrating_model=two_parameter, model=model,
+                integrating_model=two_parameter, model=model, mismatch_time=math.nan,
                 pulse_area=_pulse_area(plant, two_parameter) if plant is not None else math.nan,
                 apparent_time_constant=model.time_constant if model.time_constant is not None else math.nan,
             )
@@ -180,7 +153,7 @@ class RuleInputs:
             raise TypeError(f"model must be a FOPDTModel, SOPDTModel or IntegratingModel, got {type(model).__name__}")
         return cls(
             integrating=False, gain=model.gain, residence_time=model.residence_time, fopdt=fopdt, sopdt=sopdt,
-            integrating_model=None, model=model,
+            integrating_model=None, model=model, pulse_area=math.nan,
             mismatch_time=_mismatch_time(plant, fopdt) if plant is not None else math.nan,
         )
 

@@ -27,14 +27,17 @@ from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
 from envs.identification.open_loop_experiments import OpenLoopPulseResult, OpenLoopStepResult, open_loop_pulse, open_loop_step
 from envs.systems.plants import Plant
 
-__all__ = ["Identification", "identify", "experiment_deviation", "usable_closed_loop", "PULSE_LENGTH"]
+__all__ = ["IdentifiedModels", "Identification", "identify", "experiment_deviation", "usable_closed_loop", "PULSE_LENGTH"]
 
 PULSE_LENGTH = 1.0 / 3.0  # tau_p / L_n
 
 
 @dataclass(frozen=True)
-class Identification:
-    """Everything the fixed procedure identifies, and what it cost.
+class IdentifiedModels:
+    """The models identified for a plant, and the model errors that the papers' rules tune from.
+
+    What the environments' designs and every rule read (the rules' inputs,
+    :class:`baselines.rules.registry.RuleInputs`, are these and the model of the ultimate-gain rules).
 
     Attributes
     ----------
@@ -54,14 +57,6 @@ class Identification:
         ``T_f_bar`` of eq. 22 (stable plants), else nan.
     pulse_area : float
         ``A`` of eq. 46 (integrating plants), else nan.
-    experiment_time : float
-        Total duration of the experiments, in the plant's time units.
-    closed_loop, open_loop : experiment results
-        The raw experiments (signals included).
-    experiment_deviation : float
-        ``D_exp = int |y| dt`` of the true output over the experiments (output units times time
-        units): the production the experiments disturb (:func:`experiment_deviation`); 0 unless
-        asked for (``identify(..., deviation=True)``).
     """
 
     integrating: bool
@@ -72,6 +67,24 @@ class Identification:
     integrating_model: IntegratingModel | None
     mismatch_time: float
     pulse_area: float
+
+
+@dataclass(frozen=True)
+class Identification(IdentifiedModels):
+    """Everything the fixed procedure identifies (the fields of :class:`IdentifiedModels`), and what it cost.
+
+    Attributes
+    ----------
+    experiment_time : float
+        Total duration of the experiments, in the plant's time units.
+    closed_loop, open_loop : experiment results
+        The raw experiments (signals included).
+    experiment_deviation : float
+        ``D_exp = int |y| dt`` of the true output over the experiments (output units times time
+        units): the production the experiments disturb (:func:`experiment_deviation`); 0 unless
+        asked for (``identify(..., deviation=True)``).
+    """
+
     experiment_time: float
     closed_loop: ClosedLoopStepResult
     open_loop: OpenLoopStepResult | OpenLoopPulseResult

@@ -70,7 +70,7 @@ def test_a_model_without_dead_time_has_the_floored_theta():
     controller = pi.relative_design(model, 1.0)  # tau_c = theta = 0.05
     assert (controller.kp, controller.ti) == (5.0 / (1.0 * (0.05 + 0.05)), 4.0 * (0.05 + 0.05))
     with pytest.raises(ValueError):
-        get_rule("simc-pi")(RuleInputs(False, 1.0, 5.0, model, None, None, model))
+        get_rule("simc-pi")(RuleInputs(False, 1.0, 5.0, model, None, None, 0.0, float("nan"), model=model))
 
 
 def test_oracle_optimum_inside_the_range():

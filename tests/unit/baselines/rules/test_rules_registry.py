@@ -173,10 +173,10 @@ def table_inputs(time_constant=None, dead_time=None, mismatch=math.nan, area=mat
     """Rule inputs holding printed model values (Ingimundarson Tables 1 and 2)."""
     if integrating:
         model = IntegratingModel(gain=1.0, dead_time=dead_time)
-        return RuleInputs(True, 1.0, dead_time, None, None, model, model, pulse_area=area, apparent_time_constant=time_constant)
+        return RuleInputs(True, 1.0, dead_time, None, None, model, math.nan, area, model=model, apparent_time_constant=time_constant)
     fopdt = FOPDTModel(gain=1.0, time_constant=time_constant, dead_time=dead_time)
     sopdt = sopdt_from_moments(1.0, fopdt.residence_time, fopdt.normalized_dead_time)
-    return RuleInputs(False, 1.0, fopdt.residence_time, fopdt, sopdt, None, sopdt, mismatch_time=mismatch)
+    return RuleInputs(False, 1.0, fopdt.residence_time, fopdt, sopdt, None, mismatch, math.nan, model=sopdt)
 
 
 # rule, inputs, T_r, kappa (None for the MSP), and the tolerances: half the last printed digit for
