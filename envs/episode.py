@@ -222,14 +222,14 @@ class Evidence:
 
 
 def evidence_from_identification(
-    identification: Identification, noise_std: float, options: EpisodeOptions = DEFAULT_OPTIONS, amplitude: float = 1.0
+    identification: Identification, options: EpisodeOptions = DEFAULT_OPTIONS, amplitude: float = 1.0
 ) -> Evidence:
     """The evidence of the fixed procedure (:func:`envs.identification.procedure.identify`, at ``amplitude``)."""
     evidence = Evidence.empty(identification.integrating, options)
     second = "pulse" if identification.integrating else "open-loop-step"
     counts = tuple(int(name in ("closed-loop-step", second)) for name in evidence.experiments)
     results = {"closed-loop-step": identification.closed_loop, second: identification.open_loop}
-    sigma = noise_level(identification.closed_loop.output) if options.measured else noise_std
+    sigma = noise_level(identification.closed_loop.output) if options.measured else options.noise_std
     measured = {"noise_estimate": sigma} if options.measured else {}
     return replace(
         evidence, counts=counts, results=results, experiment_time=identification.experiment_time,
@@ -237,20 +237,18 @@ def evidence_from_identification(
     )  # fmt: skip
 
 
-def start_fixed(
-    plant: Plant, rng: np.random.Generator, noise_std: float, options: EpisodeOptions = DEFAULT_OPTIONS
-) -> tuple[Identification, Evidence]:
+def start_fixed(plant: Plant, rng: np.random.Generator, options: EpisodeOptions = DEFAULT_OPTIONS) -> tuple[Identification, Evidence]:
     """The fixed mode's start: the fixed procedure (:func:`~envs.identification.procedure.identify`, at the
     options' amplitude, with their disturbances) and its evidence; with ``identification="least-squares"``,
     its open-loop step's record fitted too and read by the design (:func:`identification`)."""
-    amplitude = options.seed_amplitude
+    amplitude, noise_std = options.seed_amplitude, options.noise_std
     if options.disturbances.active or amplitude != 1.0 or options.production:
         attempts = DISTURBED_ATTEMPTS if options.disturbances.active else 1
         found = identify(plant, rng, noise_std, amplitude=amplitude, disturbances=options.disturbances, attempts=attempts,
                          deviation=options.production)
     else:
         found = identify(plant, rng, noise_std)  # the v0 call
-    evidence = evidence_from_identification(found, noise_std, options, amplitude)
+    evidence = evidence_from_identification(found, options, amplitude)
     if not options.least_squares:
         return found, evidence
     evidence = _with_fit(evidence, "open-loop-step", found.open_loop, amplitude)
@@ -359,7 +357,6 @@ def run_experiment(
     plant: Plant,
     rng: np.random.Generator,
     amplitude: float,
-    noise_std: float,
     excursion_limit: float,
 ) -> Evidence:
     """Run one experiment on the true ``plant`` and return the evidence with its result.
@@ -371,13 +368,15 @@ def run_experiment(
         step has identified ``K_n`` and ``T_ar``.
     amplitude : float
         ``a > 0``, the intended change of the output (module docstring).
-    noise_std, excursion_limit : float
-        Measurement noise and the output limit that stops the experiment.
+    excursion_limit : float
+        The output limit that stops the experiment.  The measurement noise is the options'
+        (:attr:`envs.episode_options.EpisodeOptions.noise_std`).
     """
     if kind not in evidence.experiments:
         raise ValueError(f"unknown experiment {kind!r}; valid: {', '.join(evidence.experiments)}")
     if evidence.closed_loop is None:
         kind = "closed-loop-step"
+    noise_std = evidence.options.noise_std
     result = _run(kind, plant, rng, amplitude, evidence, noise_std, excursion_limit)
     counts = tuple(c + (name == kind) for name, c in zip(evidence.experiments, evidence.counts))
     usable = not result.aborted and (kind != "closed-loop-step" or _usable(result))
@@ -487,7 +486,7 @@ class IdentificationFailed(ValueError):
 
 
 def identification(
-    evidence: Evidence, structure: str, plant: Plant, rng: np.random.Generator, noise_std: float, amplitude: float | None = None
+    evidence: Evidence, structure: str, plant: Plant, rng: np.random.Generator, amplitude: float | None = None
 ) -> tuple[Identification, Evidence]:
     """The identified data the design reads, completing the fixed procedure where it is missing.
 
@@ -510,13 +509,13 @@ def identification(
     for _ in range(attempts):
         if evidence.closed_loop is not None:
             break
-        evidence = run_experiment(evidence, "closed-loop-step", plant, rng, amplitude, noise_std, math.inf)
+        evidence = run_experiment(evidence, "closed-loop-step", plant, rng, amplitude, math.inf)
     if evidence.closed_loop is None:
         raise IdentificationFailed(evidence)
     step, ramp = evidence.results.get("open-loop-step"), evidence.results.get("open-loop-ramp")
     fitted = evidence.fit is not None
     if STRUCTURES[structure].model == "fopdt" and not fitted and (step is None or step.model is None) and (ramp is None or ramp.model is None):
-        evidence = run_experiment(evidence, "open-loop-step", plant, rng, amplitude, noise_std, math.inf)
+        evidence = run_experiment(evidence, "open-loop-step", plant, rng, amplitude, math.inf)
         step = evidence.results.get("open-loop-step")
     first = evidence.closed_loop
     fopdt = step.model if step is not None and step.model is not None else (ramp.model if ramp is not None else None)

@@ -78,6 +78,9 @@ class EpisodeOptions:
     experiment_types : tuple of str or None
         The agent mode's experiment types (``experiment_set="design"``: :data:`DESIGN_EXPERIMENTS`);
         None: every type of the plant's kind (:mod:`envs.episode`).
+    noise_std : float
+        The white measurement noise of every experiment, relative to a unit output change (the
+        environments' ``noise_std``).
     """
 
     identification: str = "seeds"
@@ -87,6 +90,7 @@ class EpisodeOptions:
     production: bool = False
     measured: bool = False
     experiment_types: tuple[str, ...] | None = None
+    noise_std: float = 0.0
 
     def __post_init__(self) -> None:
         if self.identification not in IDENTIFICATIONS:
@@ -109,7 +113,7 @@ class EpisodeOptions:
 
     @classmethod
     def for_structure(
-        cls, structure: str, *, identification: str = "seeds", amplitude_limit: float | None = None,
+        cls, structure: str, *, noise_std: float = 0.0, identification: str = "seeds", amplitude_limit: float | None = None,
         disturbances=None, production: bool = False, measured: bool = False, experiment_set: str = "all",
     ) -> EpisodeOptions:  # fmt: skip
         """The options of an environment of ``structure`` (``"pid"``, ``"fppi"`` or ``"msp"``), from its
@@ -140,7 +144,8 @@ class EpisodeOptions:
         if experiment_set == "design":
             types = kind.design_experiments + (("prbs",) if identification == "least-squares" else ())
         return cls(identification=identification, order=kind.least_squares_order or 1, amplitude_limit=limit,
-                   disturbances=found, production=bool(production), measured=bool(measured), experiment_types=types)
+                   disturbances=found, production=bool(production), measured=bool(measured), experiment_types=types,
+                   noise_std=require_number(noise_std, "noise_std", nonnegative=True))
 
 
 DEFAULT_OPTIONS = EpisodeOptions()

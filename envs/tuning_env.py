@@ -170,7 +170,7 @@ class DeadTimeTuningEnv(gym.Env):
         if self.family in _FAMILY_KINDS and _FAMILY_KINDS[self.family] != self.integrating:
             raise ValueError(self._wrong_family_kind(_FAMILY_KINDS[self.family]))
         self.family_config = check_family_config(self.family, family_config)
-        self.noise_std = require_number(noise_std, "noise_std", nonnegative=True)
+        noise_std = require_number(noise_std, "noise_std", nonnegative=True)
         self.constraints = _dataclass_argument(constraints, Constraints, "constraints") if constraints is not None else self.default_constraints()
         if self.constraints.violation_cost != violation_cost:
             self.constraints = replace(self.constraints, violation_cost=violation_cost)
@@ -181,7 +181,7 @@ class DeadTimeTuningEnv(gym.Env):
         self.budget = int(budget)
         self.excursion_limit = require_number(excursion_limit, "excursion_limit", positive=True)
         self.options = EpisodeOptions.for_structure(
-            self.structure, identification=identification, amplitude_limit=amplitude_limit, disturbances=disturbances,
+            self.structure, noise_std=noise_std, identification=identification, amplitude_limit=amplitude_limit, disturbances=disturbances,
             production=self.weights.production > 0, measured=measured_observation, experiment_set=experiment_set,
         )  # fmt: skip
         self.render_mode = render_mode
@@ -218,6 +218,11 @@ class DeadTimeTuningEnv(gym.Env):
         if not all(low <= a <= high for a in amplitudes):
             raise ValueError(f"plan amplitudes must lie in [{low:g}, {high:g}], got {list(plan)!r}")
         return amplitudes
+
+    @property
+    def noise_std(self) -> float:
+        """The measurement noise of the experiments (the ``noise_std`` argument, :attr:`options`)."""
+        return self.options.noise_std
 
     @property
     def kind(self) -> Structure:
@@ -338,7 +343,7 @@ class DeadTimeTuningEnv(gym.Env):
                 self.identification, self.evidence = None, failure.evidence
         elif self.mode == "fixed":
             try:
-                self.identification, self.evidence = start_fixed(plant, self.np_random, self.noise_std, self.options)
+                self.identification, self.evidence = start_fixed(plant, self.np_random, self.options)
             except ProcedureFailed as failure:
                 if not (given and self.options.measured):
                     raise
@@ -377,7 +382,7 @@ class DeadTimeTuningEnv(gym.Env):
         amplitude = self._amplitude(amplitude_action)
         try:
             self.identification, self.evidence = identification(
-                self.evidence, self.structure, self.plant, self.np_random, self.noise_std, amplitude=amplitude
+                self.evidence, self.structure, self.plant, self.np_random, amplitude=amplitude
             )
         except IdentificationFailed as failure:
             return self._failed(failure, amplitude)
@@ -412,14 +417,13 @@ class DeadTimeTuningEnv(gym.Env):
 
     def _run_plan(self, first: float, second: float) -> None:
         """Run a plan on the episode's evidence and identify (raises :class:`IdentificationFailed`)."""
-        evidence = run_experiment(self.evidence, "closed-loop-step", self.plant, self.np_random, first, self.noise_std,
-                                  self.excursion_limit)
+        evidence = run_experiment(self.evidence, "closed-loop-step", self.plant, self.np_random, first, self.excursion_limit)
         if evidence.closed_loop is not None:
             kind = "pulse" if self.integrating else "open-loop-step"
-            evidence = run_experiment(evidence, kind, self.plant, self.np_random, second, self.noise_std, self.excursion_limit)
+            evidence = run_experiment(evidence, kind, self.plant, self.np_random, second, self.excursion_limit)
         self.evidence = evidence
         self.identification, self.evidence = identification(
-            self.evidence, self.structure, self.plant, self.np_random, self.noise_std, amplitude=first
+            self.evidence, self.structure, self.plant, self.np_random, amplitude=first
         )
 
     def _failed(self, failure: IdentificationFailed, amplitude: float | None) -> tuple[np.ndarray, float, bool, bool, dict]:
@@ -446,9 +450,7 @@ class DeadTimeTuningEnv(gym.Env):
 
     def _experiment(self, kind: str, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         amplitude = self._amplitude(amplitude_action)
-        self.evidence = run_experiment(
-            self.evidence, kind, self.plant, self.np_random, amplitude, self.noise_std, self.excursion_limit
-        )
+        self.evidence = run_experiment(self.evidence, kind, self.plant, self.np_random, amplitude, self.excursion_limit)
         observation, named = self._observation_and_features()
         info = {"experiment": kind, "amplitude": amplitude, "features": named}
         return observation, 0.0, False, False, info
@@ -456,9 +458,7 @@ class DeadTimeTuningEnv(gym.Env):
     def _commit(self, parameter_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         if self.mode == "agent" and not self._design_pending:  # (design_step: _identify has identified)
             try:
-                self.identification, self.evidence = identification(
-                    self.evidence, self.structure, self.plant, self.np_random, self.noise_std
-                )
+                self.identification, self.evidence = identification(self.evidence, self.structure, self.plant, self.np_random)
             except IdentificationFailed as failure:
                 return self._failed(failure, None)
         relative, controller, result = self.commit_design(parameter_action)

@@ -301,9 +301,8 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
     listed_rules = [s.name for s in specs if s.kind == "rule"]
     own = own_rules(structure)
     rules = listed_rules + [name for name in own if name not in listed_rules]
-    scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **env_kwargs}
-    if hasattr(unwrapped, "noise_std"):
-        scoring["noise_std"] = unwrapped.noise_std
+    scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **env_kwargs,
+               "noise_std": unwrapped.options.noise_std}
     agents, agent_roles = _agents([s for s in specs if s.kind in PLAYED], python, env_id, scoring,
                                   {*rules, "oracle", "oracle-full"})
     given = None if plants is None else _given_plants(plants, structure)

@@ -59,9 +59,10 @@ def agent_observation(found: ProcessIdentification, budget: int) -> np.ndarray:
     """The fixed-mode observation of the process's experiments, as the environment builds it at
     ``reset`` (see the module docstring); the noise ratio is ``sigma/|setpoint_step|``."""
     from envs.episode import evidence_from_identification, features
+    from envs.episode_options import EpisodeOptions
     from envs.tuning_env import OBSERVATION_BOUND
 
-    evidence = evidence_from_identification(found.identification, found.noise_ratio)
+    evidence = evidence_from_identification(found.identification, EpisodeOptions(noise_std=found.noise_ratio))
     values = features(evidence, budget)
     return np.clip(values, -OBSERVATION_BOUND, OBSERVATION_BOUND).astype(np.float32)
 

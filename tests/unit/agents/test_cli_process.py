@@ -204,6 +204,7 @@ def test_an_agent_reads_the_environments_observation_and_ranks(tmp_path, monkeyp
     from agents.environments import make_env
     from agents.evaluation.process_policies import agent_observation
     from envs.episode import evidence_from_identification
+    from envs.episode_options import EpisodeOptions
     from envs.process.procedure import identify_process
     from envs.process.tclab_process import TCLabProcess
 
@@ -221,7 +222,7 @@ def test_an_agent_reads_the_environments_observation_and_ranks(tmp_path, monkeyp
     # the observation is the one the environment builds from the same evidence
     found = identify_process(TCLabProcess())
     env = make_env("DeadTime/PID-v0").unwrapped
-    env.evidence = evidence_from_identification(found.identification, found.noise_ratio)
+    env.evidence = evidence_from_identification(found.identification, EpisodeOptions(noise_std=found.noise_ratio))
     expected, _ = env._observation_and_features()
     assert np.array_equal(_Constant.seen[0], expected) and np.array_equal(agent_observation(found, env.budget), expected)
     assert _Constant.seen[0][5] == pytest.approx(math.log10(found.operating_point.noise_std / 10.0))  # noise / 10 degC
