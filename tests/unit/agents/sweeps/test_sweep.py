@@ -354,3 +354,23 @@ def test_a_sweep_on_a_ray_start_cluster_by_address_equals_the_local_run(smoke: P
     assert remote["learning_curves"] == expected["learning_curves"]
     assert (out / "summary.csv").read_text() == (smoke / "summary.csv").read_text()
     assert remote["sessions"][0]["cpus"] == 2
+
+
+@pytest.mark.slow
+def test_a_committed_sweep_is_compressed_and_recomputes_its_summary(smoke: Path, tmp_path: Path) -> None:
+    """``deadtime study commit``: the copy keeps no model and no sweep file, its tables are compressed, and its
+    summary is the sweep's and is recomputed from the copy, byte for byte."""
+    from agents.compressed import read_json, read_text
+    from agents.sweeps.summary import summary_texts
+
+    target = tmp_path / "results" / "smoke"
+    status, _, err = run("study", "commit", str(smoke), str(target))
+    assert status == 0, err
+    files = {path.relative_to(target).as_posix() for path in target.rglob("*") if path.is_file()}
+    assert not any(name.endswith((".zip", ".pkl", ".yaml", ".csv")) for name in files), files
+    assert {"summary.md", "summary.csv.gz", "summary.json.gz", "sessions.json"} <= files
+    assert read_text(target / "summary.md") == (smoke / "summary.md").read_text()
+    sweep = load_sweep(SMOKE)
+    committed = read_json(target / "summary.json")
+    texts = summary_texts(sweep, sweep.trials(), target, committed["failed"], read_json(target / "sessions.json"))
+    assert texts == {name: read_text(target / name) for name in texts}
