@@ -2,8 +2,10 @@
 
 The committed results (``results/``) keep their bulky tables and records compressed
 (``per_plant.csv.gz``, ``results.json.gz``, ``summary.json.gz``, ...) so that a clone stays light.
-Every reader of a sweep's files opens them through :func:`open_text` with the plain name: the plain
-file when it exists, else the same name with ``.gz``.  :func:`compress_file` writes the ``.gz`` with
+Every reader of a sweep's files reads them with the plain name (:mod:`agents.files.reader`, the one
+reader, whose :func:`~agents.files.reader.read_text`, :func:`~agents.files.reader.read_json` and
+:func:`~agents.files.reader.stored_path` this module gives on): the plain file when it exists, else
+the same name with ``.gz``.  :func:`compress_file` writes the ``.gz`` with
 the modification time 0 and no file name in its header, so that the same text gives the same bytes
 on every machine (``deadtime results compress DIR`` compresses a finished sweep's tables in place).
 """
@@ -12,9 +14,10 @@ from __future__ import annotations
 
 import gzip
 import io
-import json
 from pathlib import Path
-from typing import IO, Any
+from typing import IO
+
+from agents.files.reader import exists, read_json, read_text, stored_path
 
 __all__ = ["COMPRESSED_NAMES", "compress_file", "compressed_bytes", "exists", "open_text", "read_json", "read_text",
            "stored_path"]
@@ -23,37 +26,9 @@ __all__ = ["COMPRESSED_NAMES", "compress_file", "compressed_bytes", "exists", "o
 COMPRESSED_NAMES = ("results.json", "summary.json", "learned_rule.json", "evaluations.json")
 
 
-def stored_path(path: str | Path) -> Path:
-    """``path`` if it exists, else ``path`` + ``.gz`` if that exists, else ``path`` (so that an error names it)."""
-    path = Path(path)
-    if path.exists() or path.suffix == ".gz":
-        return path
-    compressed = path.with_name(path.name + ".gz")
-    return compressed if compressed.exists() else path
-
-
-def exists(path: str | Path) -> bool:
-    """Whether ``path`` or its ``.gz`` is a file."""
-    return stored_path(path).is_file()
-
-
 def open_text(path: str | Path) -> IO[str]:
-    """``path`` opened for reading text (CSV: ``newline=""``), decompressed if stored as ``.gz``."""
-    found = stored_path(path)
-    if found.suffix == ".gz":
-        return io.TextIOWrapper(gzip.open(found, "rb"), encoding="utf-8", newline="")
-    return found.open(encoding="utf-8", newline="")
-
-
-def read_text(path: str | Path) -> str:
-    """The text of ``path`` or of its ``.gz``."""
-    with open_text(path) as file:
-        return file.read()
-
-
-def read_json(path: str | Path) -> Any:
-    """The JSON object of ``path`` or of its ``.gz``."""
-    return json.loads(read_text(path))
+    """The text of ``path`` or of its ``.gz`` (:func:`agents.files.reader.read_text`), as a file (CSV: ``newline=""``)."""
+    return io.StringIO(read_text(path), newline="")
 
 
 def compressed_bytes(data: bytes) -> bytes:

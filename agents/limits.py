@@ -20,8 +20,10 @@ from typing import Any
 
 __all__ = [
     "MAX_BUFFER_SIZE",
+    "MAX_CSV_FIELD",
     "MAX_ENVS",
     "MAX_EVAL_EPISODES",
+    "MAX_FILE_BYTES",
     "MAX_LAYERS",
     "MAX_LAYER_WIDTH",
     "MAX_NESTING",
@@ -43,6 +45,15 @@ MAX_YAML_NODES = 100_000
 aliases expanded (each ``*name`` counts the whole value it repeats): a config file has about a
 hundred.  An alias bomb ("billion laughs": a few lines that expand to billions of values) is refused
 in milliseconds, and its value is never expanded nor printed."""
+
+MAX_FILE_BYTES = 1 << 30
+"""Bytes of one file that ``deadtime`` reads back (:mod:`agents.files.reader`): a config, a record, a table
+of per-plant costs, the evaluation cache.  The largest honest file, the cache of an evaluation of
+10000 plants, holds tens of megabytes."""
+
+MAX_CSV_FIELD = 65_536
+"""Characters of one field of a table that ``deadtime`` reads back (``per_plant.csv``): the longest
+honest field, a plant's JSON, holds at most 202 coefficients (a few kilobytes)."""
 
 MAX_SEEDS = 1_000
 """Seeds of one trial group of a sweep (``seeds: {count: ...}`` or a list): one training run each."""

@@ -39,6 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _in_child(args: argparse.Namespace) -> dict[str, Any]:
     """Run the bench in a child process with one thread per pool (see the module docstring)."""
+    from agents.files.reader import parse_json
+
     argv = [sys.executable, "-m", "agents.cli", "bench", "--json"]
     for flag, on in (("--quick", args.quick), ("--skip-envs", args.skip_envs), ("--skip-ppo", args.skip_ppo)):
         argv += [flag] if on else []
@@ -51,7 +53,7 @@ def _in_child(args: argparse.Namespace) -> dict[str, Any]:
     done = subprocess.run(argv, env=env, cwd=root, stdout=subprocess.PIPE, text=True, check=False)
     if done.returncode != 0:
         raise ValueError(f"the bench's child process failed with status {done.returncode} (see its messages above)")
-    return json.loads(done.stdout)
+    return parse_json(done.stdout, "the output of the bench's child process", dict)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -11,7 +11,6 @@ What it computes and writes: :mod:`agents.sweeps.regimes`.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -35,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime regimes``; bad input is a ValueError (one line, exit status 2)."""
-    from agents.sweeps.regimes import compare_regimes, markdown, plot
+    from agents.sweeps.regimes import compare_regimes, markdown, write_outputs
 
     require_directory(args.out)
     require_at_most(args.behaviour, MAX_EVAL_EPISODES, "--behaviour")
@@ -48,10 +47,7 @@ def run(args: argparse.Namespace) -> int:
     result = compare_regimes([Path(p) for p in args.sweeps], args.x, compare, args.behaviour, args.resamples)
     text = markdown(result)  # before anything is written: the three files come from one result or none
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "regimes.json").write_text(json.dumps(result, indent=2) + "\n")
-    (out / "regimes.md").write_text(text)
-    plot(result, out / "regimes.png")
+    write_outputs(out, result, text)
     print(text)
     print(f"wrote {out / 'regimes.md'} (and .json, .png)", file=sys.stderr)
     return 0

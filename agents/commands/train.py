@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import shlex
 import signal
 import sys
@@ -85,6 +84,18 @@ def _command_from(args: argparse.Namespace) -> list[str]:
     return words + (["--resume"] if args.resume else []) + list(args.overrides)
 
 
+def _interrupted_advice(run_dir: Path, kept: str) -> str:
+    """The line printed after Ctrl-C ends ``deadtime train`` outside a training step: what is ``kept``
+    and how to go on.
+
+    ``--resume --out DIR`` is advised only where it works, a run directory with its ``config.yaml``;
+    before that is written nothing of the run exists, and the same command starts it again.
+    """
+    if not (run_dir / "config.yaml").is_file():
+        return "deadtime train: interrupted before the run started; nothing was written (run the same command again)"
+    return f"deadtime train: interrupted; {kept}; continue with: deadtime train --out {shlex.quote(str(run_dir))} --resume"
+
+
 def _train_agent(config: TrainConfig, *, resume: bool, command: str) -> int:
     """Train a stable-baselines3 agent; a stop by signal or Ctrl-C says how to continue."""
     from agents.training.train import checkpoint_steps, run_directory, train
@@ -93,8 +104,7 @@ def _train_agent(config: TrainConfig, *, resume: bool, command: str) -> int:
         result = train(config, resume=resume, command=command)
     except KeyboardInterrupt:
         run_dir = run_directory(config)
-        print(f"\ninterrupted; latest checkpoint at {checkpoint_steps(run_dir)} steps; continue with: "
-              f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
+        print(f"\n{_interrupted_advice(run_dir, f'latest checkpoint at {checkpoint_steps(run_dir)} steps')}", file=sys.stderr)
         return 130
     if result.status == "interrupted":
         name = signal.Signals(result.stopped_by).name if result.stopped_by else "a stop request"
@@ -110,6 +120,7 @@ def _train_agent(config: TrainConfig, *, resume: bool, command: str) -> int:
 
 def _fit_learned_rule(config: LearnedRuleConfig, *, resume: bool, command: str) -> int:
     """Fit the learned rule, report where the rule is (exit 130 on Ctrl-C, with the command that continues)."""
+    from agents.files.reader import read_json
     from agents.training.learned_rule import certification_line, fit, labels_kept, run_directory
 
     try:
@@ -118,11 +129,10 @@ def _fit_learned_rule(config: LearnedRuleConfig, *, resume: bool, command: str) 
         if isinstance(error, SystemError) and not isinstance(error.__context__, KeyboardInterrupt):
             raise  # a SystemError that is not Ctrl-C inside a compiled call
         run_dir = run_directory(config)
-        kept = labels_kept(config, run_dir)
-        print(f"\ninterrupted; {kept} labelled training plants are kept in {run_dir / 'dataset'}; continue with: "
-              f"deadtime train --out {shlex.quote(str(run_dir))} --resume", file=sys.stderr)
+        kept = f"{labels_kept(config, run_dir)} labelled training plants are kept in {run_dir / 'dataset'}"
+        print(f"\n{_interrupted_advice(run_dir, kept)}", file=sys.stderr)
         return 130
-    rule = json.loads((result.run_dir / "learned_rule.json").read_text())
+    rule = read_json(result.run_dir / "learned_rule.json", dict)
     print(f"{result.num_timesteps} training plants ({result.session_steps} labelled by the oracle in this session, "
           f"{result.train_seconds:.1f} s); chosen {rule['kind']} with margin {rule['margin']:g}"
           f"{' (scaled by the spread)' if rule.get('margin_scale') == 'spread' else ''}: "

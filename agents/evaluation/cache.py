@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.evaluation.result import PolicyResult
+from agents.files.reader import FileProblem, parse_json
 
 __all__ = ["Cache", "line_digest"]
 
@@ -37,9 +38,9 @@ def _parse(line: str) -> tuple[tuple[str, str] | None, PolicyResult | None]:
     """``((key, policy), result)`` of a line; the result None if the line is not to be trusted, the
     pair None too if not even it can be read."""
     try:
-        entry = json.loads(line)
+        entry = parse_json(line, "a line of the cache", dict)
         found = (entry["key"], entry["policy"])
-    except (json.JSONDecodeError, KeyError, TypeError):
+    except (FileProblem, KeyError, TypeError):
         return None, None
     if not all(isinstance(part, str) for part in found):
         return None, None

@@ -181,7 +181,7 @@ def _csv(rows: list[dict[str, Any]]) -> str:
 def write_outputs(out: Path, found: ProcessIdentification, results: list[ProcessPolicyResult], rows: list[dict],
                   data: dict, text: str, units: Any, plots: bool = True) -> list[Path]:
     """``results.md``, ``results.csv``, ``results.json`` and (``plots``) the two figures, in ``out``."""
-    from agents.training.files import write_json, write_text
+    from agents.files.writer import write_json, write_text
 
     out.mkdir(parents=True, exist_ok=True)
     written = [write_text(out / "results.md", text + "\n"), write_text(out / "results.csv", _csv(rows)),

@@ -10,7 +10,6 @@ exist), and the paper rule is always shown, even if ``--policies`` did not list 
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -93,10 +92,12 @@ def write_tables(
     per_plant: list[dict[str, Any]],
     notes: list[str],
 ) -> dict[str, Any]:
-    """Write the four tables into ``out``; returns the ``results.json`` object."""
-    out.mkdir(parents=True, exist_ok=True)
+    """Write the four tables into ``out``, all or none (:func:`agents.files.writer.atomic_write_all`: a full
+    disk leaves the previous tables, and no empty file); returns the ``results.json`` object."""
+    from agents.files.writer import atomic_write_all, csv_text, text_writer
+
     result = results_json(env_id, n, seed, subsets, roles, extra)
-    (out / "results.json").write_text(json.dumps(result, indent=2) + "\n")
+    texts = {"results.json": json.dumps(result, indent=2) + "\n"}
 
     lines = [f"# `deadtime evaluate` on {env_id}", ""]
     lines += [f"- {key}: {value}" for key, value in extra.items() if not isinstance(value, (dict, list))]
@@ -106,21 +107,18 @@ def write_tables(
             continue  # one subset only: it is the whole set
         lines += [f"## {SUBSET_TITLES.get(name, name)} ({stats[0].n} plants)", "", markdown_table(stats, roles), ""]
     lines += ["## Notes", ""] + [f"- {note}" for note in notes] + [""]
-    (out / "results.md").write_text("\n".join(lines))
+    texts["results.md"] = "\n".join(lines)
 
-    with (out / "results.csv").open("w", newline="") as file:
-        writer = csv.writer(file)
-        writer.writerow(["subset", "policy", "role", "n", *_COLUMNS, *(f"{k}_{e}" for k in INTERVAL_FIELDS for e in ("lo", "hi"))])
-        for name, stats in subsets.items():
-            for s in sorted(stats, key=lambda s: (s.mean_cost, s.name)):
-                values = [getattr(s, c) for c in _COLUMNS] + [v for k in INTERVAL_FIELDS for v in s.ci95.get(k, [math.nan] * 2)]
-                writer.writerow([name, s.name, roles.get(s.name, "rule"), s.n, *values])
-
+    rows = [["subset", "policy", "role", "n", *_COLUMNS, *(f"{k}_{e}" for k in INTERVAL_FIELDS for e in ("lo", "hi"))]]
+    for name, stats in subsets.items():
+        for s in sorted(stats, key=lambda s: (s.mean_cost, s.name)):
+            values = [getattr(s, c) for c in _COLUMNS] + [v for k in INTERVAL_FIELDS for v in s.ci95.get(k, [math.nan] * 2)]
+            rows.append([name, s.name, roles.get(s.name, "rule"), s.n, *values])
+    texts["results.csv"] = csv_text(rows)
     if per_plant:
-        with (out / "per_plant.csv").open("w", newline="") as file:
-            writer = csv.DictWriter(file, fieldnames=list(per_plant[0]))
-            writer.writeheader()
-            writer.writerows(per_plant)
+        columns = list(per_plant[0])
+        texts["per_plant.csv"] = csv_text([columns, *([row.get(c, "") for c in columns] for row in per_plant)])
+    atomic_write_all({out / name: text_writer(text) for name, text in texts.items()})
     return result
 
 

@@ -20,7 +20,7 @@ trained agent, and of the rules and the oracle once per environment, on the held
       max_failures: 1                 # retries of a failed trial before it is reported as failed
 
 The rules of ``configs/`` hold: ``yaml.safe_load`` into frozen dataclasses (within the limits of
-:mod:`agents.yaml_input`), an unknown key is an error that names it, paths are relative to the
+:mod:`agents.files.reader`), an unknown key is an error that names it, paths are relative to the
 directory the command runs in.  At most :data:`agents.limits.MAX_SEEDS` seeds per group,
 :data:`agents.limits.MAX_TEST_PLANTS` test plants and :data:`agents.limits.MAX_RESAMPLES` resamples.  Each training
 config is resolved and validated here (:func:`agents.training.config.validate`), with its overrides and the
@@ -38,7 +38,7 @@ from typing import Any
 
 from agents.limits import MAX_RESAMPLES, MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
 from agents.training.config import TrainConfig, load_config
-from agents.yaml_input import load_yaml_file
+from agents.files.reader import load_yaml_file
 
 __all__ = ["Evaluation", "Failure", "SweepConfig", "Trial", "TrialGroup", "evaluation_directory", "load_sweep"]
 

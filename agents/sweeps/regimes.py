@@ -37,12 +37,26 @@ from typing import Any
 
 import numpy as np
 
-from agents.compressed import exists, read_json, stored_path
-from agents.yaml_input import load_yaml_file
+from agents.files.reader import FileProblem, exists, load_yaml_file, read_json, stored_path
 
-__all__ = ["behaviour", "compare_regimes", "markdown", "plot"]
+__all__ = ["behaviour", "compare_regimes", "figure_of", "markdown", "write_outputs"]
 
 ORACLES = ("oracle", "oracle-full")
+
+
+def write_outputs(out: Path, result: dict[str, Any], text: str) -> None:
+    """``regimes.json``, ``regimes.md`` (``text``) and ``regimes.png`` into ``out``, all or none
+    (:func:`agents.files.writer.atomic_write_all`: a full disk leaves the previous files, and no empty one)."""
+    import matplotlib.pyplot as plt
+
+    from agents.files.writer import atomic_write_all, figure_writer, text_writer
+
+    figure = figure_of(result)
+    try:
+        atomic_write_all({out / "regimes.json": text_writer(json.dumps(result, indent=2) + "\n"),
+                          out / "regimes.md": text_writer(text), out / "regimes.png": figure_writer(figure, 110)})
+    finally:
+        plt.close(figure)
 
 
 # ------------------------------------------------------------------------------- reading
@@ -51,7 +65,7 @@ def _regime(directory: Path) -> tuple[str, dict[str, Any]]:
     ``summary.json`` (a committed sweep under ``results/`` keeps the summary, its file being in ``configs/sweeps/``)."""
     path, summary = directory / "sweep.yaml", directory / "summary.json"
     if path.is_file():
-        data = load_yaml_file(path) or {}
+        data = load_yaml_file(path, (dict, type(None))) or {}
     elif exists(summary):
         path = stored_path(summary)
         record = read_json(summary)
@@ -59,7 +73,9 @@ def _regime(directory: Path) -> tuple[str, dict[str, Any]]:
     else:
         raise ValueError(f"{directory}: not the output directory of a sweep (no sweep.yaml or summary.json)")
     if not data.get("env_kwargs"):
-        raise ValueError(f"{path}: sets no env_kwargs, so it is no regime")
+        raise FileProblem(f"{path}: sets no env_kwargs, so it is no regime")
+    if not isinstance(data["env_kwargs"], dict):
+        raise FileProblem(f"{path}: env_kwargs must be a mapping of environment arguments, got {data['env_kwargs']!r:.60}")
     return str(data.get("name", directory.name)), dict(data["env_kwargs"])
 
 
@@ -302,9 +318,9 @@ def markdown(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def plot(result: dict[str, Any], path: Path) -> None:
-    """Cost against ``x`` per policy: the agents with their intervals, the oracle, the best rules;
-    one panel per environment and setting of the other arguments."""
+def figure_of(result: dict[str, Any]) -> Any:
+    """The figure of ``regimes.png``: cost against ``x`` per policy: the agents with their intervals, the
+    oracle, the best rules; one panel per environment and setting of the other arguments."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -332,5 +348,4 @@ def plot(result: dict[str, Any], path: Path) -> None:
         axis.set(title=title, xlabel=x, ylabel="mean cost (95% interval)", ylim=(0.9 * low, 1.1 * high))
         axis.legend(fontsize=7)
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
+    return figure

@@ -2,7 +2,7 @@
 
 A resumed sweep rewrites ``DIR/sessions.json`` (:mod:`agents.sweeps.sessions`) and each trial's ``run.json``,
 and each trial resumes its run directory from its newest intact checkpoint.  A damaged record, or a
-run with no intact checkpoint, is named here in one line (:class:`agents.training.files.DamagedFileError`)
+run with no intact checkpoint, is named here in one line (:class:`agents.files.reader.DamagedFileError`)
 before any trial starts; a trial that falls back on an older checkpoint is said here, on the user's
 terminal, not only in a Ray worker's log.  :func:`experiment_state_problem` says why Tune's
 experiment state of an earlier session cannot be restored (then the trials run as a new Tune
@@ -11,11 +11,11 @@ experiment, each resuming its run directory, which is as exact).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from agents.sweeps.config import SweepConfig
-from agents.training.files import DamagedFileError, read_record
+from agents.sweeps.sessions import read_sessions
+from agents.files.reader import DamagedFileError, FileProblem, damaged, read_json, read_record
 
 __all__ = ["check_resumable", "experiment_state_problem"]
 
@@ -31,7 +31,7 @@ def check_resumable(sweep: SweepConfig, out: Path) -> list[str]:
     """
     from agents.training.checkpoints import find_checkpoint
 
-    read_record(out / "sessions.json", list)
+    read_sessions(out / "sessions.json")
     notes = []
     for trial in sweep.trials():
         run_dir = out / "runs" / trial.name
@@ -52,7 +52,7 @@ def experiment_state_problem(experiment: Path) -> str | None:
     if not states:
         return f"{experiment} holds no experiment_state-*.json"
     try:
-        json.loads(states[-1].read_text())
-    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as error:
-        return f"{states[-1]} is damaged ({type(error).__name__}: {error})"
+        read_json(states[-1])
+    except FileProblem as error:
+        return str(damaged(error, states[-1]))
     return None

@@ -15,12 +15,14 @@ from typing import Any
 
 from ray import tune
 
+from agents.files.lock import LOCK_NAME, folder_lock
+from agents.files.reader import read_text
+from agents.files.writer import write_text
 from agents.sweeps.cluster import connect
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
 from agents.sweeps.interrupts import TuneStop
 from agents.sweeps.resume import check_resumable, experiment_state_problem
 from agents.sweeps.sessions import SessionRecord
-from agents.training.files import write_text
 
 __all__ = ["Progress", "run_sweep", "trial_function"]
 
@@ -32,9 +34,9 @@ def _check_directory(sweep_file: Path, out: Path, resume: bool) -> None:
     if saved.is_file():
         if not resume:
             raise ValueError(f"{out} already holds a sweep; pass --resume to finish it, or choose another --out")
-        if saved.read_text() != sweep_file.read_text():
+        if read_text(saved) != read_text(sweep_file):
             raise ValueError(f"--resume: {sweep_file} differs from the sweep in {saved}; resume with the same file")
-    elif out.exists() and any(out.iterdir()):
+    elif out.exists() and any(path.name != LOCK_NAME for path in out.iterdir()):
         raise ValueError(f"{out} is not empty and holds no sweep.yaml; choose another --out")
 
 
@@ -44,17 +46,23 @@ def run_sweep(sweep: SweepConfig, sweep_file: Path, out: Path, *, address: str |
     The session is recorded in ``DIR/sessions.json`` while it runs, an interrupted one too
     (:mod:`agents.sweeps.sessions`).
     """
-    import ray
-
     started = time.perf_counter()
     out = out.resolve()
+    with folder_lock(out, "sweep"):  # before the folder is checked: a second sweep on it is refused
+        return _session(sweep, sweep_file, out, address, resume, started)
+
+
+def _session(sweep: SweepConfig, sweep_file: Path, out: Path, address: str | None, resume: bool, started: float) -> dict[str, Any]:
+    """:func:`run_sweep` in ``out``, whose lock is held."""
+    import ray
+
     _check_directory(sweep_file, out, resume)
     if resume:
         for note in check_resumable(sweep, out):
             print(f"deadtime sweep: {note}", file=sys.stderr, flush=True)
     connect(ray, address)
     out.mkdir(parents=True, exist_ok=True)
-    write_text(out / "sweep.yaml", sweep_file.read_text())
+    write_text(out / "sweep.yaml", read_text(sweep_file))
     with SessionRecord(out, resume, ray.cluster_resources().get("CPU"), started=started) as session:
         results = _train_all(sweep, out, resume)
         failed = {name: error for name, error in results.items() if error is not None}

@@ -11,16 +11,18 @@ sessions had a status are finished sessions.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from agents.files.reader import DamagedFileError, read_record
+from agents.files.writer import write_json
 from agents.runtime import git_commit, versions
-from agents.training.files import read_record, write_json
 
-__all__ = ["HEARTBEAT_S", "SessionRecord", "interrupted_sessions"]
+__all__ = ["HEARTBEAT_S", "SessionRecord", "interrupted_sessions", "read_sessions"]
 
 HEARTBEAT_S = 60.0
 """Seconds between two rewrites of a running session's entry."""
@@ -28,6 +30,24 @@ HEARTBEAT_S = 60.0
 
 def _now() -> str:
     return datetime.now(UTC).isoformat(timespec="seconds")
+
+
+def read_sessions(path: Path) -> list[dict[str, Any]]:
+    """The entries of ``sessions.json`` (none if there is no file), each checked: a mapping whose
+    ``wall_time_s`` is a finite number >= 0 (the summary adds them).
+
+    Raises
+    ------
+    DamagedFileError
+        Naming the file and the entry.
+    """
+    sessions = read_record(path, list) or []
+    for number, session in enumerate(sessions, start=1):
+        wall = session.get("wall_time_s") if isinstance(session, dict) else None
+        if isinstance(wall, bool) or not isinstance(wall, int | float) or not math.isfinite(wall) or wall < 0:
+            raise DamagedFileError(f"{path} is damaged: entry {number} is not a session with a wall_time_s >= 0 "
+                                   f"(got {wall!r:.40}); restore it, or move it away to start its record afresh")
+    return sessions
 
 
 def interrupted_sessions(sessions: list[dict[str, Any]]) -> int:
@@ -46,7 +66,7 @@ class SessionRecord:
     def __init__(self, out: Path, resume: bool, cpus: float | None, *, started: float | None = None,
                  heartbeat_s: float = HEARTBEAT_S) -> None:
         self.path = out / "sessions.json"
-        earlier = read_record(self.path, list) or []
+        earlier = read_sessions(self.path)
         for session in earlier:
             if session.get("status") == "running":
                 session["status"] = "interrupted"

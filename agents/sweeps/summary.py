@@ -34,12 +34,12 @@ from typing import Any
 
 import numpy as np
 
-from agents.compressed import exists, open_text, read_json
 from agents.evaluation.policies import ROLES, TRAINED
 from agents.evaluation.seed_statistics import SeedStatistics, seed_statistics
+from agents.files.reader import FileProblem, exists, read_csv, read_json
+from agents.files.writer import atomic_write_all
 from agents.sweeps.config import SweepConfig, Trial, evaluation_directory
 from agents.sweeps.sessions import interrupted_sessions
-from agents.training.files import atomic_write_all
 
 __all__ = ["per_plant_costs", "summary_texts", "write_summary"]
 
@@ -47,22 +47,36 @@ ORACLES = ("oracle", "oracle-full")
 
 
 def per_plant_costs(directory: Path) -> dict[str, dict[tuple, float]]:
-    """``{policy: {(index, plant, seed): cost}}`` of an evaluation's ``per_plant.csv``."""
+    """``{policy: {(index, plant, seed): cost}}`` of an evaluation's ``per_plant.csv``.
+
+    Raises
+    ------
+    FileProblem
+        Naming the file (and the line): missing, cut, empty, not a table (:func:`agents.files.reader.read_csv`),
+        a cost that is not a finite number >= 0, a plant given twice for one policy, or a policy that
+        lacks plants the others have.
+    """
     path = directory / "per_plant.csv"
     if not exists(path):
-        raise ValueError(f"{path}: missing (the evaluation did not finish; run the sweep again with --resume)")
+        raise FileProblem(f"{path}: missing (the evaluation did not finish; run the sweep again with --resume)")
+    again = "delete the file and run the sweep again with --resume to evaluate again"
     costs: dict[str, dict[tuple, float]] = {}
-    with open_text(path) as file:
-        for line, row in enumerate(csv.DictReader(file), start=2):
-            try:
-                cost = float(row["cost"])
-                where = (int(row["index"]), row["plant"], int(row["seed"]))
-            except (KeyError, TypeError, ValueError):
-                cost, where = math.nan, None
-            if where is None or not math.isfinite(cost):
-                raise ValueError(f"{path}, line {line}: not a finite cost of a plant ({row.get('cost')!r}); delete the "
-                                 "file and run the sweep again with --resume to evaluate again")
-            costs.setdefault(row["policy"], {})[where] = cost
+    for line, row in enumerate(read_csv(path, ("index", "plant", "seed", "policy", "cost")), start=2):
+        try:
+            cost = float(row["cost"])
+            where = (int(row["index"]), row["plant"], int(row["seed"]))
+        except ValueError:
+            cost, where = math.nan, None
+        if where is None or not (math.isfinite(cost) and cost >= 0):
+            raise FileProblem(f"{path}, line {line}: not a finite cost >= 0 of a plant ({row['cost'][:40]!r}); {again}")
+        if where in costs.setdefault(row["policy"], {}):
+            raise FileProblem(f"{path}, line {line}: plant {where[0]} of policy {row['policy'][:40]!r} a second time; {again}")
+        costs[row["policy"]][where] = cost
+    plants = set().union(*map(set, costs.values()))
+    for policy, found in costs.items():
+        if len(found) != len(plants):
+            raise FileProblem(f"{path}: policy {policy[:40]!r} lacks {len(plants) - len(found)} of the {len(plants)} plants "
+                              f"the others have (a row missing); {again}")
     return costs
 
 
@@ -75,7 +89,7 @@ def _vector(costs: dict[tuple, float], plants: list[tuple], where: str) -> np.nd
 def _trained_kind(directory: Path) -> str:
     """``agent``, or ``learned-rule`` where the trial's evaluation played a learned rule (its role)."""
     try:
-        policies = read_json(directory / "results.json")["policies"]
+        policies = read_json(directory / "results.json", dict)["policies"]
     except (OSError, ValueError, KeyError, TypeError):
         return "agent"
     role = next((p.get("role") for p in policies if p.get("name") == "agent"), None)
@@ -107,7 +121,7 @@ def _environment(sweep: SweepConfig, env_id: str, trials: list[Trial], out: Path
         raise ValueError(f"sweep {sweep.name}: evaluation.policies must include at least one rule")
     best_rule = min(rules, key=lambda name: (float(rules[name].mean()), name))
     results = evaluation_directory(out, env_id, "baselines") / "results.json"
-    own_rule = read_json(results).get("best_rule") if exists(results) else None
+    own_rule = read_json(results, dict).get("best_rule") if exists(results) else None
     rows, normalized = [], {}
 
     def statistics(costs: np.ndarray) -> SeedStatistics:
@@ -136,7 +150,7 @@ def learning_curves(trials: list[Trial], out: Path) -> dict[str, dict[str, Any]]
         per_seed = []
         for trial in (t for t in trials if f"{t.label}/{t.env_id}" == key):
             path = out / "runs" / trial.name / "evaluations.json"
-            history = read_json(path) if exists(path) else []
+            history = read_json(path, list) if exists(path) else []
             per_seed.append({entry["num_timesteps"]: entry["mean_cost"] for entry in history})
         steps = sorted(set.intersection(*(set(s) for s in per_seed))) if per_seed else []
         values = np.array([[s[step] for step in steps] for s in per_seed]) if steps else np.empty((0, 0))

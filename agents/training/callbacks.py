@@ -27,7 +27,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.training.checkpoints import restore_action_noise, save_checkpoint
-from agents.training.files import atomic_write, write_json, write_text
+from agents.files.writer import atomic_write, write_json, write_text
 from agents.training.validation import VALIDATION_SEED, ValidationResult, validate_policy, validation_plants
 
 __all__ = [

@@ -26,7 +26,6 @@ The last two checkpoints are kept.
 from __future__ import annotations
 
 import copy
-import json
 import pickle
 import random
 import re
@@ -39,7 +38,8 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-from agents.training.files import DamagedFileError, atomic_write, file_digest, write_json
+from agents.files.reader import DamagedFileError, FileProblem, damaged, read_json
+from agents.files.writer import atomic_write, file_digest, write_json
 
 __all__ = [
     "CHECKPOINT_INDEX",
@@ -226,11 +226,9 @@ def read_manifest(path: Path) -> Checkpoint:
         If it cannot be read or is not a manifest (the message names the file and what is wrong).
     """
     try:
-        data = json.loads(path.read_text())
-    except OSError as error:
-        raise DamagedFileError(f"{path} cannot be read ({error.strerror})") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise DamagedFileError(f"{path} is damaged: not valid JSON ({error})") from None
+        data = read_json(path)
+    except FileProblem as error:
+        raise damaged(error, path) from None
     if not isinstance(data, dict) or not isinstance(data.get("num_timesteps"), int) or not isinstance(data.get("model"), str):
         raise DamagedFileError(f"{path} is damaged: not a checkpoint manifest (num_timesteps and model are required)")
     files = {role: data.get(role) for role in ROLES}

@@ -17,7 +17,7 @@ command-line overrides ``key=value`` (dotted keys reach into the mapping fields,
 Mappings merge key by key; every other value replaces.  An unknown key anywhere is a ``ValueError``
 that names it, with the closest known key if one is close: the top of a file holds only ``default``
 and entries keyed by registered environment ids.  Files and override values are read within the
-limits of :mod:`agents.yaml_input` (nesting, aliases), the sizes within :mod:`agents.limits`.
+limits of :mod:`agents.files.reader` (nesting, aliases), the sizes within :mod:`agents.limits`.
 Numbers in exponent form that YAML 1.1 reads as strings (``1e5``, ``3e-4``) are read as numbers in
 the integer fields and the hyperparameters.
 Hyperparameters and policy keyword arguments are checked against the stable-baselines3
@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from agents.files.reader import load_yaml, load_yaml_file
 from agents.limits import MAX_ENVS, MAX_EVAL_EPISODES, require_at_most
 from agents.training.learned_rule_config import LEARNED_RULE, LearnedRuleConfig, validate_learned_rule
 from agents.training.schema import (
@@ -49,7 +50,6 @@ from agents.training.schema import (
     require_field,
     yaml_number,
 )
-from agents.yaml_input import load_yaml, load_yaml_file
 
 __all__ = [
     "ALGORITHMS",
@@ -227,7 +227,7 @@ def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
 
 def parse_override(text: str) -> tuple[list[str], Any]:
     """``"hyperparameters.n_steps=32"`` -> ``(["hyperparameters", "n_steps"], 32)`` (the value read as YAML,
-    :func:`agents.yaml_input.load_yaml`)."""
+    :func:`agents.files.reader.load_yaml`)."""
     key, sep, raw = text.partition("=")
     path = key.strip().split(".")
     if not sep or not all(path):

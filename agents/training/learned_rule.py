@@ -46,6 +46,7 @@ the same), ``validation_plants``, ``margins``, ``margin_scale``, ``models``, ``q
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import sys
 import time
@@ -55,7 +56,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from agents.training.files import write_json, write_text
+from agents.files.lock import folder_lock
+from agents.files.reader import FileProblem, read_json, read_record
+from agents.files.writer import write_json, write_text
 from agents.training.interrupts import StopRequest
 from agents.training.learned_rule_config import MAX_TRAINING_PLANTS, LearnedRuleConfig, check_environment
 
@@ -111,18 +114,33 @@ def _chunk_path(run_dir: Path, first: int) -> Path:
     return run_dir / "dataset" / f"training-{first:06d}.json"
 
 
+def _records_digest(records: list[dict[str, Any]]) -> str:
+    """The SHA-256 of the records as canonical JSON (keys sorted): what a chunk file records of itself."""
+    return hashlib.sha256(json.dumps(records, sort_keys=True).encode()).hexdigest()
+
+
+def _write_chunk(path: Path, records: list[dict[str, Any]]) -> None:
+    """A chunk file of the label cache: the records and their checksum (:func:`_records_digest`)."""
+    write_json(path, {"sha256": _records_digest(records), "records": records})
+
+
 def _cached_chunk(path: Path, seeds: list[int]) -> list[dict[str, Any]]:
-    """The cached records of a file, if they are the first of ``seeds`` (a damaged file, or one of
-    other plants, is said so and labelled again)."""
+    """The cached records of a file, if its checksum holds and they are the first of ``seeds``; a file
+    damaged (a digit changed, cut, unreadable), or of other plants, is said so and labelled again."""
     if not path.is_file():
         return []
     try:
-        records = json.loads(path.read_text())[: len(seeds)]
+        data = read_json(path, dict)
+        records = data["records"]
+        if data["sha256"] != _records_digest(records):
+            raise FileProblem(f"{path} is damaged: its records differ from their SHA-256")
+        records = records[: len(seeds)]
         if [record["seed"] for record in records] == seeds[: len(records)]:
             return records
-    except (ValueError, KeyError, TypeError):
-        pass
-    print(f"deadtime train: {path} is damaged or holds other plants; labelling its plants again", file=sys.stderr)
+        problem = f"{path} holds other plants"
+    except (FileProblem, KeyError, TypeError) as error:
+        problem = str(error) if isinstance(error, FileProblem) else f"{path} is damaged: not a chunk of labels"
+    print(f"deadtime train: {problem}; labelling its plants again", file=sys.stderr)
     return []
 
 
@@ -149,9 +167,9 @@ def training_data(env: Any, config: LearnedRuleConfig, run_dir: Path) -> tuple[l
                     labelled += 1
                     bar.update()
                     if stop.requested:
-                        write_json(path, chunk)
+                        _write_chunk(path, chunk)
                         raise KeyboardInterrupt
-                write_json(path, chunk)
+                _write_chunk(path, chunk)
             records += chunk
     return records, labelled
 
@@ -243,10 +261,17 @@ def fit(config: LearnedRuleConfig, *, resume: bool = False, command: str | None 
         ``resume`` is False, or ``resume`` is True with another environment or seed.
     """
     from agents.training.config import validate
-    from agents.training.train import TrainResult, announce_config, run_provenance
 
     validate(config)
     run_dir = run_directory(config)
+    with folder_lock(run_dir, "train"):  # before the folder is checked: a second fit on it is refused
+        return _fit(config, run_dir, resume, command)
+
+
+def _fit(config: LearnedRuleConfig, run_dir: Path, resume: bool, command: str | None) -> TrainResult:
+    """:func:`fit` in ``run_dir``, whose lock is held."""
+    from agents.training.train import TrainResult, announce_config, run_provenance
+
     finished = _existing_run(config, run_dir, resume)
     if finished is not None:
         print(f"{run_dir} already holds this learned rule (fit finished)")
@@ -289,11 +314,10 @@ def _existing_run(config: LearnedRuleConfig, run_dir: Path, resume: bool) -> Tra
                if f.name not in _RESUMABLE_CHANGES and getattr(previous, f.name, None) != getattr(config, f.name)]
     if not isinstance(previous, LearnedRuleConfig) or changed:
         raise ValueError(f"cannot resume {run_dir}: the config differs from the saved one in {', '.join(changed) or 'algorithm'}")
-    try:
-        record = json.loads((run_dir / "run.json").read_text())
-        evaluations = json.loads((run_dir / "evaluations.json").read_text())
-    except (OSError, ValueError):
+    record = read_record(run_dir / "run.json", dict)
+    if record is None or not (run_dir / "evaluations.json").is_file():
         return None
+    evaluations = read_json(run_dir / "evaluations.json", list)
     saved_config = record.get("config")
     if isinstance(saved_config, dict):  # a fit from before the key had a constant margin
         saved_config = {"margin_scale": "constant", **saved_config}

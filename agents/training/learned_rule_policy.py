@@ -16,7 +16,6 @@ load, and predict the same, in the version that wrote it) is refused in one line
 
 from __future__ import annotations
 
-import json
 import pickle
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -25,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.training.files import atomic_write, file_digest, write_json
+from agents.files.reader import read_json
+from agents.files.writer import atomic_write, file_digest, write_json
 
 __all__ = ["MANIFEST", "MODEL_FILE", "LearnedRulePolicy", "is_learned_rule", "load_learned_rule", "save_learned_rule"]
 
@@ -86,7 +86,7 @@ def is_learned_rule(path: str | Path) -> bool:
         return False
     if (path / MANIFEST).is_file():
         return True
-    from agents.yaml_input import load_yaml_file
+    from agents.files.reader import load_yaml_file
 
     try:
         config = load_yaml_file(path / "config.yaml")
@@ -117,8 +117,8 @@ def load_learned_rule(path: str | Path) -> LearnedRulePolicy:
     if not manifest_path.is_file():
         raise ValueError(f"{manifest_path} is missing: no finished learned-rule fit at {path} "
                          "(finish it with deadtime train --out DIR --resume)")
+    manifest = read_json(manifest_path, dict)
     try:
-        manifest = json.loads(manifest_path.read_text())
         model_path = manifest_path.with_name(manifest["file"])
         expected = (int(manifest["size"]), str(manifest["sha256"]))
         env_id, env_kwargs = str(manifest["env_id"]), dict(manifest["env_kwargs"])

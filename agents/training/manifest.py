@@ -17,7 +17,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from agents.training.files import DamagedFileError, file_digest, read_record, write_json
+from agents.files.reader import DamagedFileError, read_record
+from agents.files.writer import file_digest, write_json
 
 __all__ = ["manifest_path", "verify_agent_files", "write_manifest"]
 

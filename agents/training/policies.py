@@ -23,7 +23,6 @@ they were saved (``<stem>.manifest.json``, or a checkpoint's ``checkpoint_<N>.js
 
 from __future__ import annotations
 
-import json
 import pickle
 import zipfile
 from dataclasses import dataclass
@@ -32,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.reader import parse_json
 from agents.training.config import ALGORITHMS, TrainConfig, load_config
 from agents.training.manifest import verify_agent_files
 
@@ -109,8 +109,8 @@ def _likely_algorithms(model_path: Path) -> list[str]:
     """Every algorithm, the likeliest first, from the saved policy class and attributes."""
     try:
         with zipfile.ZipFile(model_path) as archive:
-            data = json.loads(archive.read("data"))
-    except (KeyError, ValueError, OSError):
+            data = parse_json(archive.read("data").decode(), f"{model_path}: data", dict)
+    except (KeyError, ValueError, OSError, zipfile.BadZipFile):
         return list(ALGORITHMS)
     module = str(data.get("policy_class", {}).get("__module__", ""))
     guess = next((name for name in ("SAC", "TD3") if f".{name.lower()}." in module), None)
@@ -133,7 +133,7 @@ def _saved_with_statistics(model_path: Path) -> bool:
     """Whether ``deadtime train`` saved the model with ``VecNormalize`` statistics (its ``data`` says so)."""
     try:
         with zipfile.ZipFile(model_path) as archive:
-            data = json.loads(archive.read("data"))
+            data = parse_json(archive.read("data").decode(), f"{model_path}: data", dict)
     except (KeyError, ValueError, OSError, zipfile.BadZipFile):
         return False
     return data.get("deadtime_vecnormalize") is True

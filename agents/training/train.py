@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import json
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -255,12 +254,20 @@ def train(
     if not isinstance(config, TrainConfig):
         raise ValueError(f"train() trains a stable-baselines3 agent; a {config.algorithm} config is fitted by "  # noqa: TRY004
                          "agents.training.learned_rule.fit")
+    from agents.files.lock import folder_lock
+
+    validate(config)
+    run_dir = run_directory(config)
+    with folder_lock(run_dir, "train"):  # before the folder is checked: a second run on it is refused
+        return _session(config, run_dir, resume, command, callbacks)
+
+
+def _session(config: TrainConfig, run_dir: Path, resume: bool, command: str | None, callbacks: Sequence[Any]) -> TrainResult:
+    """:func:`train` in ``run_dir``, whose lock is held."""
     from agents.training.callbacks import make_callbacks, save_model
     from agents.training.checkpoints import restore_state
     from agents.training.interrupts import StopRequest
 
-    validate(config)
-    run_dir = run_directory(config)
     checkpoint = _existing_run(config, run_dir, resume)
     finished = _finished(run_dir, config) if resume else None
     if finished is not None:
@@ -329,7 +336,7 @@ def _existing_run(config: TrainConfig, run_dir: Path, resume: bool) -> Checkpoin
     """Check (reading only) that the run directory fits the request; the checkpoint to resume from, if any."""
     from agents.training.checkpoints import find_checkpoint
 
-    from agents.training.files import read_record
+    from agents.files.reader import read_record
 
     saved_config = run_dir / "config.yaml"
     checkpoint = None
@@ -339,6 +346,8 @@ def _existing_run(config: TrainConfig, run_dir: Path, resume: bool) -> Checkpoin
         checkpoint, note = find_checkpoint(run_dir)
         if note:
             print(f"deadtime train: {note}", file=sys.stderr)
+        if checkpoint is None and _finished(run_dir, config) is None:
+            _require_no_trained_steps(run_dir)
     elif not resume and (saved_config.exists() or (run_dir / "checkpoints").exists()):
         raise ValueError(f"{run_dir} already holds a run; pass --resume to continue it, or choose another --out")
     if checkpoint is not None and checkpoint.num_timesteps >= config.total_timesteps and not _finished(run_dir, config):
@@ -347,9 +356,27 @@ def _existing_run(config: TrainConfig, run_dir: Path, resume: bool) -> Checkpoin
     return checkpoint
 
 
+def _require_no_trained_steps(run_dir: Path) -> None:
+    """Refuse to resume from step 0 a run whose ``run.json`` records trained steps: its checkpoints are gone.
+
+    Raises
+    ------
+    DamagedFileError
+        Naming the run's ``checkpoints/`` folder and the steps ``run.json`` records.
+    """
+    from agents.files.reader import DamagedFileError, read_record
+
+    record = read_record(run_dir / "run.json", dict) or {}
+    steps = record.get("num_timesteps")
+    if isinstance(steps, int) and steps > 0:
+        raise DamagedFileError(f"{run_dir / 'checkpoints'} holds no checkpoint, but {run_dir / 'run.json'} records {steps} "
+                               "trained steps: restore the checkpoints, or start a new run in another --out "
+                               "(a run is never restarted from step 0 silently)")
+
+
 def _start_writing(run_dir: Path, config_text: str, checkpoint: Checkpoint | None) -> None:
     """Create the run directory with its config; on resume, the validation history as of the checkpoint."""
-    from agents.training.files import write_json, write_text
+    from agents.files.writer import write_json, write_text
 
     run_dir.mkdir(parents=True, exist_ok=True)
     write_text(run_dir / "config.yaml", config_text)  # on --resume: the same config, but total_timesteps may have grown
@@ -430,13 +457,12 @@ def _close(venv: Any) -> None:
 
 def _finished(run_dir: Path, config: TrainConfig) -> TrainResult | None:
     """The result of a run that already reached ``config.total_timesteps``, or None."""
-    from agents.training.files import read_record
+    from agents.files.reader import read_json, read_record
 
     record = read_record(run_dir / "run.json", dict)
-    try:
-        evaluations = json.loads((run_dir / "evaluations.json").read_text())
-    except (OSError, ValueError):
+    if not (run_dir / "evaluations.json").is_file():
         return None
+    evaluations = read_json(run_dir / "evaluations.json", list)
     if record is None or record.get("status") != "finished" or record.get("num_timesteps", 0) < config.total_timesteps:
         return None
     return TrainResult(run_dir=run_dir, num_timesteps=int(record["num_timesteps"]), session_steps=0, train_seconds=0.0,
@@ -448,7 +474,8 @@ def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str,
                     num_timesteps: int, start_steps: int, train_seconds: float, cpu_seconds: float,
                     resumed: bool) -> None:
     """Record the run; ``cpu_seconds`` is the training process's own (not its subprocess workers')."""
-    from agents.training.files import read_record, write_json
+    from agents.files.reader import read_record
+    from agents.files.writer import write_json
 
     path = run_dir / "run.json"
     previous = read_record(path, dict) or {}

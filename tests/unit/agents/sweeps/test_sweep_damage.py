@@ -44,10 +44,12 @@ def started(tmp_path: Path) -> Path:
 
 
 DAMAGES = {
-    "sessions-truncated": ("sessions.json", '[{"finished": "2026', "{out}/sessions.json is damaged, not valid JSON ("),
+    "sessions-truncated": ("sessions.json", '[{"finished": "2026', "{out}/sessions.json is damaged: not valid JSON ("),
     "sessions-not-a-list": ("sessions.json", "{}", "{out}/sessions.json is damaged: a JSON array was expected, got dict"),
-    "run-json-garbage": (f"runs/{TRIAL}/run.json", "\x00\x00", f"trial {TRIAL}: {{out}}/runs/{TRIAL}/run.json is damaged, "
+    "run-json-garbage": (f"runs/{TRIAL}/run.json", "\x00\x00", f"trial {TRIAL}: {{out}}/runs/{TRIAL}/run.json is damaged: "
                          "not valid JSON ("),
+    "sessions-wall-time-nan": ("sessions.json", '[{"status": "finished", "wall_time_s": "NaN"}]',
+                               "{out}/sessions.json is damaged: entry 1 is not a session with a wall_time_s >= 0 (got 'NaN')"),
     "checkpoint-index-garbage": (f"runs/{TRIAL}/checkpoints/latest.json", "garbage",
                                  f"trial {TRIAL}: {{out}}/runs/{TRIAL}/checkpoints/latest.json is damaged: not valid JSON ("),
 }
@@ -134,7 +136,7 @@ def test_a_truncated_experiment_state_is_said_and_the_trials_run_as_a_new_experi
     state.write_text('{"trial_data": [["{\\n  \\"stub\\": fal')
     assert _restored(tmp_path / "tune") is None
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith(f"deadtime sweep: cannot restore {experiment}: {state} is damaged ("), err
+    assert err.count("\n") == 1 and err.startswith(f"deadtime sweep: cannot restore {experiment}: {state} is damaged: not valid JSON ("), err
     assert err.rstrip().endswith("running its trials again as a new Tune experiment, each resuming its run directory")
 
 
@@ -149,14 +151,14 @@ def test_a_nan_cost_fails_the_summary_naming_the_file_and_leaves_the_old_summary
     (baselines / "per_plant.csv").write_text("index,subset,plant,seed,policy,cost\n0,test,test-0,0,oracle,nan\n")
     for name in ("summary.json", "summary.md", "summary.csv"):
         (out / name).write_text("earlier")
-    with pytest.raises(ValueError, match=r"per_plant.csv, line 2: not a finite cost of a plant \('nan'\)"):
+    with pytest.raises(ValueError, match=r"per_plant.csv, line 2: not a finite cost >= 0 of a plant \('nan'\)"):
         write_summary(sweep, sweep.trials(), out, {})
     assert {p.name: p.read_text() for p in out.glob("summary.*")} == dict.fromkeys(
         ("summary.json", "summary.md", "summary.csv"), "earlier")
 
 
 def test_files_written_together_are_all_or_none(tmp_path: Path) -> None:
-    from agents.training.files import atomic_write_all
+    from agents.files.writer import atomic_write_all
 
     for name in ("a", "b"):
         (tmp_path / name).write_text("old")
@@ -164,7 +166,7 @@ def test_files_written_together_are_all_or_none(tmp_path: Path) -> None:
     def broken(handle) -> None:
         raise OSError("disk full")
 
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(ValueError, match=r"b could not be written \(disk full\)"):
         atomic_write_all({tmp_path / "a": lambda handle: handle.write(b"new"), tmp_path / "b": broken})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "b"]  # no temporary left
     assert (tmp_path / "a").read_text() == (tmp_path / "b").read_text() == "old"
@@ -190,7 +192,7 @@ def test_a_checkpoint_fallback_of_a_trial_is_said_on_the_terminal(started: Path)
 
 def _checkpoint(run_dir: Path, steps: int) -> Path:
     """A checkpoint of ``steps`` steps as ``save_checkpoint`` writes its manifests (stand-in file contents)."""
-    from agents.training.files import atomic_write, file_digest, write_json
+    from agents.files.writer import atomic_write, file_digest, write_json
 
     directory = run_dir / "checkpoints"
     manifest = {"format": 2, "num_timesteps": steps, "periodic_checkpoint": steps, "files": {}, "evaluations": []}

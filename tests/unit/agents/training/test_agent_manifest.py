@@ -38,7 +38,7 @@ def _copy(saved: Path, tmp_path: Path) -> Path:
 
 
 def test_save_model_records_the_model_and_its_statistics(saved: Path) -> None:
-    from agents.training.files import file_digest
+    from agents.files.writer import file_digest
     from agents.training.policies import load_policy
 
     manifest = json.loads((saved / "model.manifest.json").read_text())
@@ -61,7 +61,7 @@ def _appended_model(copy: Path) -> str:
 
 def _garbage_manifest(copy: Path) -> str:
     (copy / "model.manifest.json").write_text("{")
-    return "model.manifest.json is damaged, not valid JSON"
+    return "model.manifest.json is damaged: not valid JSON"
 
 
 def _statistics_beside_a_model_without_them(copy: Path) -> str:
@@ -93,7 +93,7 @@ def test_a_file_that_differs_from_its_manifest_is_refused_before_unpickling(save
 
 
 def test_a_checkpoint_model_is_checked_against_its_checkpoint_manifest(saved: Path, tmp_path: Path) -> None:
-    from agents.training.files import file_digest
+    from agents.files.writer import file_digest
     from agents.training.policies import load_policy
 
     checkpoints = tmp_path / "run" / "checkpoints"

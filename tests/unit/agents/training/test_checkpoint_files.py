@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from agents.training.checkpoints import DamagedFileError, _check_modules, find_checkpoint, read_manifest
-from agents.training.files import atomic_write, file_digest, write_json
+from agents.files.writer import atomic_write, file_digest, write_json
 
 
 def test_atomic_write_replaces_or_leaves_the_old_file(tmp_path: Path) -> None:

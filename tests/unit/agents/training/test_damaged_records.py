@@ -18,8 +18,8 @@ from agents.training.config import load_config
 ROOT = Path(__file__).resolve().parents[4]
 
 DAMAGES = {
-    "truncated": ('{"algorithm": "SAC", "status": "interr', "is damaged, not valid JSON ("),
-    "binary": ("\x00\x01garbage", "is damaged, not valid JSON ("),
+    "truncated": ('{"algorithm": "SAC", "status": "interr', "is damaged: not valid JSON ("),
+    "binary": ("\x00\x01garbage", "is damaged: not valid JSON ("),
     "not-an-object": ("[1, 2]", "is damaged: a JSON object was expected, got list"),
 }
 

@@ -56,7 +56,7 @@ def fitted(tmp_path_factory: pytest.TempPathFactory) -> dict:
 
 
 def _records(run_dir: Path) -> list[dict]:
-    return [record for path in sorted((run_dir / "dataset").glob("training-*.json")) for record in json.loads(path.read_text())]
+    return [record for path in sorted((run_dir / "dataset").glob("training-*.json")) for record in json.loads(path.read_text())["records"]]
 
 
 def _key(plant: dict) -> str:
@@ -149,13 +149,33 @@ def test_an_interrupted_fit_resumes_from_its_cached_labels(fitted: dict, tmp_pat
     assert main(["train", "--out", str(run_dir), "--resume"]) == 0  # the config from the run itself
     captured = capsys.readouterr()
     assert "12 training plants (7 labelled by the oracle in this session" in captured.out
-    assert "training-000010.json is damaged or holds other plants" in captured.err
+    assert "training-000010.json is not valid JSON" in captured.err
     assert _records(run_dir) == _records(fitted["run_dir"])
     observations = np.array([r["observation"] for r in _records(run_dir)])
     np.testing.assert_array_equal(load_learned_rule(run_dir).predict(observations)[0],
                                   load_learned_rule(fitted["run_dir"]).predict(observations)[0])
     assert main(["train", "--out", str(run_dir), "--resume"]) == 0
     assert "already holds this learned rule" in capsys.readouterr().out
+
+
+def test_a_flipped_digit_in_the_label_cache_is_not_trusted(fitted: dict, tmp_path: Path, capsys, monkeypatch) -> None:
+    """One digit of a cached action changed (-0.18 to -9.18, outside [-1, 1]): the checksum of its file
+    no longer holds, so the file's plants are labelled again and the fit is the uninterrupted one's."""
+    from agents.training import learned_rule
+
+    monkeypatch.setattr(learned_rule, "CHUNK", CHUNK)
+    run_dir = tmp_path / "run"
+    shutil.copytree(fitted["run_dir"], run_dir)
+    for name in ("learned_rule.json", "learned_rule.pkl", "run.json", "evaluations.json"):
+        (run_dir / name).unlink()
+    path = run_dir / "dataset" / "training-000000.json"
+    data = json.loads(path.read_text())
+    data["records"][0]["action"] = -9.18
+    path.write_text(json.dumps(data))
+    capsys.readouterr()
+    assert main(["train", "--out", str(run_dir), "--resume"]) == 0
+    assert f"{path} is damaged: its records differ from their SHA-256; labelling its plants again" in capsys.readouterr().err
+    assert _records(run_dir) == _records(fitted["run_dir"])
 
 
 def test_a_violation_target_certifies_the_margin_on_resume_without_new_labels(fitted: dict, tmp_path: Path,

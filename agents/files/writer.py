@@ -1,29 +1,35 @@
-"""Atomic files of ``deadtime train``: a write either completes or leaves the previous file whole.
+"""The one writer of the files ``deadtime`` writes: a write either completes or leaves the previous file whole.
 
-Every file is written to a temporary file in the same directory, flushed to disk and moved into
+Every result file (a run's records and checkpoints, ``deadtime evaluate``'s tables, the outputs of
+``deadtime regimes``, a sweep's summary, their figures) is written to a temporary file in the same directory, flushed to disk and moved into
 place with ``os.replace``, so an interruption (Ctrl-C, SIGKILL, a full disk) never leaves a
-half-written file under the final name.  :func:`file_digest` is the checksum recorded for each
-checkpoint file, by which a file damaged later (truncated, overwritten) is recognized.
-:func:`read_record` reads back a JSON record of a run (``run.json``, a sweep's ``sessions.json``)
-before any work starts, so that a damaged one is named at once (:class:`DamagedFileError`) rather
-than failing the run when it is rewritten at the end.
+half-written file under the final name, and a write that fails (a full disk) leaves no empty file
+and says which file it could not write (:class:`agents.files.reader.FileProblem`).
+:func:`file_digest` is the checksum recorded for each checkpoint file and each file of the learned
+rule's label cache, by which a file damaged later (truncated, overwritten, a digit flipped) is recognized.
 """
 
 from __future__ import annotations
 
+import csv
+import functools
 import hashlib
+import io
 import json
 import os
 import secrets
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["DamagedFileError", "atomic_write", "atomic_write_all", "file_digest", "read_record", "write_json", "write_text"]
+from agents.files.reader import FileProblem
+
+__all__ = ["atomic_write", "atomic_write_all", "csv_text", "figure_writer", "file_digest", "text_writer", "write_csv",
+           "write_json", "write_text"]
 
 
-class DamagedFileError(ValueError):
-    """A file of a run that is missing, truncated or unreadable; the message names it."""
+def _not_written(path: Path, error: OSError) -> FileProblem:
+    return FileProblem(f"{path} could not be written ({error.strerror or error}); the previous file, if any, is unchanged")
 
 
 def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
@@ -37,6 +43,9 @@ def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(temporary, path)
+    except OSError as error:
+        temporary.unlink(missing_ok=True)
+        raise _not_written(path, error) from None
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
@@ -47,6 +56,7 @@ def atomic_write_all(writers: Mapping[Path, Callable[[IO[bytes]], None]]) -> lis
     """Write every file of ``writers`` (path to ``write(file)``) to a temporary file, then move them all
     into place: an error or an interruption while writing leaves every previous file as it was."""
     temporaries: dict[Path, Path] = {}
+    path = Path()
     try:
         for path, write in writers.items():
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -57,15 +67,39 @@ def atomic_write_all(writers: Mapping[Path, Callable[[IO[bytes]], None]]) -> lis
                 os.fsync(handle.fileno())
         for path, temporary in temporaries.items():
             os.replace(temporary, path)
+    except OSError as error:
+        raise _not_written(path, error) from None
     finally:
         for temporary in temporaries.values():
             temporary.unlink(missing_ok=True)
     return list(writers)
 
 
+def text_writer(text: str) -> Callable[[IO[bytes]], None]:
+    """A writer (for :func:`atomic_write` and :func:`atomic_write_all`) of the UTF-8 ``text``."""
+    return lambda handle: handle.write(text.encode())
+
+
+def figure_writer(figure: Any, dpi: int) -> Callable[[IO[bytes]], None]:
+    """A writer of a matplotlib ``figure`` as PNG."""
+    return functools.partial(figure.savefig, format="png", dpi=dpi)
+
+
+def csv_text(rows: Iterable[Sequence[Any]]) -> str:
+    """The CSV text of ``rows`` (the first is the header), as ``csv.writer`` writes it."""
+    buffer = io.StringIO(newline="")
+    csv.writer(buffer).writerows(rows)
+    return buffer.getvalue()
+
+
 def write_text(path: str | Path, text: str) -> Path:
     """Write a UTF-8 text file atomically."""
-    return atomic_write(path, lambda handle: handle.write(text.encode()))
+    return atomic_write(path, text_writer(text))
+
+
+def write_csv(path: str | Path, rows: Iterable[Sequence[Any]]) -> Path:
+    """Write a CSV table atomically (:func:`csv_text`)."""
+    return write_text(path, csv_text(rows))
 
 
 def write_json(path: str | Path, data: Any) -> Path:
@@ -80,29 +114,3 @@ def file_digest(path: str | Path) -> str:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
-
-
-def read_record(path: str | Path, kind: type[dict] | type[list]) -> Any:
-    """The JSON object (``kind`` dict) or array (``kind`` list) of ``path``, or None if there is no file.
-
-    Raises
-    ------
-    DamagedFileError
-        If the file cannot be read, is not valid JSON or not of ``kind``, naming it and what to do.
-    """
-    path = Path(path)
-    if not path.exists():
-        return None
-    advice = "restore it, or move it away to start its record afresh"
-    try:
-        data = json.loads(path.read_text())
-    except OSError as error:
-        raise DamagedFileError(f"{path} cannot be read ({error.strerror or error})") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise DamagedFileError(f"{path} is damaged, not valid JSON ({error}); {advice}") from None
-    except RecursionError:
-        raise DamagedFileError(f"{path} is damaged, nested too deeply; {advice}") from None
-    if not isinstance(data, kind):
-        raise DamagedFileError(f"{path} is damaged: a JSON {'object' if kind is dict else 'array'} was expected, "
-                               f"got {type(data).__name__}; {advice}")
-    return data
