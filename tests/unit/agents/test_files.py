@@ -199,7 +199,7 @@ def test_a_second_training_on_one_out_is_refused(tmp_path: Path) -> None:
 def test_a_second_sweep_on_one_out_is_refused(tmp_path: Path) -> None:
     out = tmp_path / "sweep"
     with folder_lock(out, "sweep"):
-        status, _, err = run("sweep", "--config", str(REPO / "sweeps" / "smoke.yaml"), "--out", str(out))
+        status, _, err = run("sweep", "--config", str(REPO / "configs" / "sweeps" / "smoke.yaml"), "--out", str(out))
     assert status == 2 and err.count("\n") == 1 and f"{out} is in use by another deadtime sweep" in err
 
 

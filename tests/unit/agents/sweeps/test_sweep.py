@@ -242,7 +242,7 @@ evaluation: {{policies: [fppi-eq34, plan-1-1, oracle], n: 2, resamples: 100}}
     assert "| learned | learned rule | 2 |" in (tmp_path / "out" / "summary.md").read_text()
     plants = [{json.dumps(record["plant"], sort_keys=True)
                for chunk in sorted((tmp_path / "out" / "runs" / f"learned-FPPI-v0-s{seed}" / "dataset").glob("*.json"))
-               for record in json.loads(chunk.read_text())} for seed in (0, 1)]
+               for record in json.loads(chunk.read_text())["records"]} for seed in (0, 1)]
     assert len(plants[0]) == len(plants[1]) == 12 and not plants[0] & plants[1]
 
 
