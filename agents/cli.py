@@ -31,6 +31,9 @@ __all__ = ["BROKEN_PIPE", "COMMANDS", "Command", "INTERRUPTED", "main", "shadowe
 INTERRUPTED = 130
 """Exit status after Ctrl-C (128 + SIGINT, as a shell reports a process it interrupted)."""
 
+TERMINATED = 143
+"""Exit status after SIGTERM (128 + SIGTERM), which ends a command as Ctrl-C does (:mod:`agents.interruptions`)."""
+
 BROKEN_PIPE = 141
 """Exit status when the reader of the standard output has gone (128 + SIGPIPE, as a shell reports a
 process that wrote into a closed pipe); nothing is printed."""
@@ -155,19 +158,45 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     parser, handlers = _parser()
     args = parser.parse_args(argv)
+    from agents.interruptions import descendants, signals_as_interrupts
+
+    earlier = descendants()
     try:
-        status = handlers[args.command](args)
-        sys.stdout.flush()  # a reader gone (`| head`) shows here, not at exit
-        return status
+        with signals_as_interrupts():
+            status = handlers[args.command](args)
+            sys.stdout.flush()  # a reader gone (`| head`) shows here, not at exit
+        return _ended(status, earlier)
     except BrokenPipeError:
         return _reader_gone()
-    except (ValueError, OverflowError, OSError) as error:  # CommandError is a ValueError
+    except BaseException as error:  # noqa: BLE001
+        return _ended(_failed(args.command, error), earlier)
+
+
+def _failed(command: str, error: BaseException) -> int:
+    """The exit status of a command that raised ``error``, after one line on stderr; an error that is no
+    input error nor an interruption is raised again (a traceback: a bug to report)."""
+    from agents.interruptions import Terminated, ignore_interrupts, interrupted
+
+    if interrupted(error):  # Ctrl-C, SIGTERM, or an error raised on their way out (numba, torch)
+        with ignore_interrupts():  # a second Ctrl-C while the line is printed and children end
+            print(f"\ndeadtime {command}: {'terminated' if isinstance(error, Terminated) else 'interrupted'}", file=sys.stderr)
+        return TERMINATED if isinstance(error, Terminated) else INTERRUPTED
+    if isinstance(error, ValueError | OverflowError | OSError):  # CommandError and FileProblem are ValueErrors
         status = getattr(error, "exit_status", 2)
-        print(f"deadtime {args.command}: {'error: ' if status == 2 else ''}{error}", file=sys.stderr)
+        print(f"deadtime {command}: {'error: ' if status == 2 else ''}{error}", file=sys.stderr)
         return status
-    except KeyboardInterrupt:  # a subcommand that can resume says how itself, and returns 130
-        print(f"\ndeadtime {args.command}: interrupted", file=sys.stderr)
-        return INTERRUPTED
+    raise error
+
+
+def _ended(status: int, earlier: set[int]) -> int:
+    """``status``, once every child process the command left is ended (none, unless it was interrupted:
+    a pool's workers, multiprocessing's resource tracker, a local Ray cluster)."""
+    if status in (INTERRUPTED, TERMINATED):
+        from agents.interruptions import end_children, ignore_interrupts
+
+        with ignore_interrupts():
+            end_children(earlier)
+    return status
 
 
 if __name__ == "__main__":

@@ -80,10 +80,14 @@ def run(args: argparse.Namespace) -> int:
     address = args.address or os.environ.get("RAY_ADDRESS")
     try:
         summary = run_sweep(sweep, Path(args.config), Path(args.out), address=address, resume=args.resume)
-    except KeyboardInterrupt:
-        print(f"deadtime sweep: interrupted; no summary written, the trials' checkpoints and the evaluations' caches "
-              f"are kept; continue with: {_resume_command(args)}", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as error:
+        from agents.interruptions import Terminated, ignore_interrupts
+
+        with ignore_interrupts():  # a second signal while the line is printed shows no traceback
+            print(f"deadtime sweep: {'terminated' if isinstance(error, Terminated) else 'interrupted'}; no summary written, "
+                  f"the trials' checkpoints and the evaluations' caches are kept; continue with: {_resume_command(args)}",
+                  file=sys.stderr)
+        return 143 if isinstance(error, Terminated) else 130
     if args.json:
         print(json.dumps(summary))
     else:

@@ -34,6 +34,7 @@ from typing import Any
 
 from agents.evaluation.cache import Cache
 from agents.evaluation.result import FAILURE_COST, PolicyResult
+from agents.interruptions import GRACE_S, ignore_interrupts_in_worker
 
 __all__ = ["FAILURE_COST", "Cache", "PolicyResult", "evaluate_plant", "plant_key"]
 
@@ -251,7 +252,9 @@ def fill_cache_in_parallel(
     mismatch = 0.0
     if not missing:
         return mismatch
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=ignore_interrupts_in_worker)
+    try:
         futures = [pool.submit(_worker, env_id, env_kwargs, plant, seed, rules, key, full_oracle) for plant, seed, key in missing]
         for future in as_completed(futures):
             key, results, off = future.result()
@@ -261,4 +264,23 @@ def fill_cache_in_parallel(
                     cache.put(key, name, result)
             if progress is not None:
                 progress()
+    except BaseException:
+        _end_pool(pool)
+        raise
+    pool.shutdown()
     return mismatch
+
+
+def _end_pool(pool: Any) -> None:
+    """Stop a pool at once (Ctrl-C, SIGTERM, a failed episode): its queued episodes cancelled, its workers
+    ended (their finished episodes are in the cache already).  The workers ignore SIGINT
+    (:func:`agents.interruptions.ignore_interrupts_in_worker`), so that Ctrl-C in a terminal, sent to
+    the whole process group, prints no traceback of theirs."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(GRACE_S)
+        if process.is_alive():
+            process.kill()

@@ -17,8 +17,10 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
 import socket
 import tempfile
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
@@ -30,6 +32,19 @@ __all__ = ["connect"]
 
 _TOKEN_ADVICE = ("set RAY_AUTH_TOKEN to the cluster's token (`ray get-auth-token` on its head node prints it), "
                  "or RAY_AUTH_TOKEN_PATH to a file that holds it, and RAY_AUTH_MODE=token")
+
+
+@contextlib.contextmanager
+def _own_sigterm() -> Iterator[None]:
+    """Keep the SIGTERM handler across ``ray.init``, which replaces it by ``sys.exit`` (ending the driver
+    with Ray's native dump): SIGTERM ends a sweep as Ctrl-C does (:mod:`agents.interruptions`)."""
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.getsignal(signal.SIGTERM) if main else None
+    try:
+        yield
+    finally:
+        if main and previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def connect(ray: Any, address: str | None) -> None:
@@ -46,14 +61,14 @@ def connect(ray: Any, address: str | None) -> None:
     if ray.is_initialized():
         return
     if not address or address == "local":
-        with _quiet_token_notice():
+        with _quiet_token_notice(), _own_sigterm():
             try:
                 ray.init(address="local", **options)
             except Exception as error:  # ray raises ConnectionError, RuntimeError or its own errors
                 raise ValueError(f"a local Ray instance could not start ({_first_line(error)})") from None
         return
     _check_reachable(address)
-    with _captured_stderr() as log, _quiet_token_notice():
+    with _captured_stderr() as log, _quiet_token_notice(), _own_sigterm():
         presented = _present_token()
         try:
             ray.init(address=address, **options)

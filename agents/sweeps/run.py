@@ -8,6 +8,7 @@ from __future__ import annotations
 import logging
 import os
 import pickle
+import signal
 import sys
 import time
 from pathlib import Path
@@ -162,7 +163,9 @@ def _train_all(sweep: SweepConfig, out: Path, resume: bool) -> dict[str, str | N
     with TuneStop() as stop:
         grid = tuner.fit()
     if stop.requested:
-        raise KeyboardInterrupt
+        from agents.interruptions import Terminated
+
+        raise Terminated if stop.signum == signal.SIGTERM else KeyboardInterrupt
     outcome: dict[str, str | None] = {}
     for result in grid:
         trial = result.config["trial"]
