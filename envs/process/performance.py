@@ -38,7 +38,7 @@ from envs.analysis.performance import integrated_absolute_error
 from envs.process.control_laws import discrete_law
 from envs.process.procedure import ProcessIdentification
 from envs.process.protocol import Process
-from envs.process.runs import Record, closed_loop, hold
+from envs.process.runs import Record, closed_loop, hold, reset
 from envs.systems.controllers import Controller
 from envs.validation import require_number
 
@@ -113,7 +113,7 @@ def _test(process: Process, controller: Controller, protocol: RunProtocol, setpo
     """One test: the reset, the settling, the loop; its record and ``E|y - y_0|`` of the settling's last
     tenth (the noise floor per unit time)."""
     dt = process.sample_time
-    process.reset(protocol.seed)
+    reset(process, protocol.seed)
     settle = hold(process, protocol.operating_input, int(round(protocol.settle_time / dt)))
     if settle.stopped:
         return settle, math.nan

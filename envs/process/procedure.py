@@ -68,7 +68,7 @@ from envs.identification.relay import RelayResult, relay_estimates
 from envs.identification.steady_state import SteadyStateTest, window_samples
 from envs.process.control_laws import discrete_law
 from envs.process.protocol import Process, check_process
-from envs.process.runs import Record, closed_loop, hold, relay, steady_since_previous_window
+from envs.process.runs import Record, closed_loop, hold, relay, reset, steady_since_previous_window
 from envs.systems.controllers import PID, SeriesPID
 from envs.validation import require_number
 
@@ -220,7 +220,7 @@ def identify_process(
     cap = int(math.ceil(MAX_SETTLING * process.settling_time / dt)) + 1
     window = max(int(round(process.settling_time / SETTLING_WINDOWS / dt)), 3)
     clock = _Clock(dt)
-    process.reset(seed)
+    reset(process, seed)
     point = _operating_point(process, clock, u0, cap, window, step)
     if controller is None:
         _check_input(process, u0, u0 + first_height, "input_step", first_height)

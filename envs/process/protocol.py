@@ -27,7 +27,13 @@ from typing import Protocol, runtime_checkable
 
 from envs.validation import require_number
 
-__all__ = ["Process", "Units", "check_load_step", "check_process", "ProcessStopped"]
+__all__ = ["MAX_SAMPLES_PER_SETTLING", "Process", "Units", "check_load_step", "check_process", "ProcessStopped"]
+
+MAX_SAMPLES_PER_SETTLING = 100_000
+"""Samples in one settling time of a process (``settling_time / sample_time``), at most.  An experiment
+lasts at most five settling times and a test a few, so a run of a process holds at most a few million
+samples (tens of megabytes); the TCLab has 900 (a settling time of 15 minutes at 1 s).  A process
+beyond it (``sample_time=1e-300``, ``settling_time=1e300``) is refused before anything runs."""
 
 
 @dataclass(frozen=True)
@@ -141,6 +147,13 @@ def check_process(process: object) -> Process:
     u0 = require_number(process.operating_input, "process.operating_input")
     if not low < u0 < high:
         raise ValueError(f"process.operating_input {u0:g} is outside the input limits [{low:g}, {high:g}]")
+    if process.settling_time > MAX_SAMPLES_PER_SETTLING * process.sample_time:
+        raise ValueError(f"process.settling_time {process.settling_time:g} must be at most {MAX_SAMPLES_PER_SETTLING} sample "
+                         f"times ({MAX_SAMPLES_PER_SETTLING * process.sample_time:g}; envs.process.protocol.MAX_SAMPLES_PER_SETTLING): "
+                         "an experiment takes up to five settling times of samples")
+    units = process.units
+    if not all(isinstance(getattr(units, name, None), str) for name in ("time", "input", "output", "load")):
+        raise ValueError(f"process.units must be a Units (names of the time, input, output and load units), got {units!r:.60}")
     if process.settling_time < 15 * process.sample_time:
         raise ValueError(f"process.settling_time {process.settling_time:g} must be at least 15 sample times "
                          f"({15 * process.sample_time:g}): a steady-state window is a fifth of it, of at least 3 samples")

@@ -8,8 +8,9 @@ relay) and applied over ``[k dt, (k + 1) dt)``: the convention of the simulated 
 records (``control[k]`` held over sample ``k``, ``output[k] = y(k dt)``), so that their identification
 arithmetic reads these records unchanged.
 
-A measurement that is not a finite number stops the run there (:attr:`Record.stopped` says so); the
-samples before it are kept.  A run may also end early once a test on its samples so far passes
+A measurement that is not a finite number, or a ``measure`` or ``apply`` of the process that raises
+(a fault of the process: a serial port gone, a bug in a user's process), stops the run there
+(:attr:`Record.stopped` says so); the samples before it are kept.  A run may also end early once a test on its samples so far passes
 (``until``): steady state, or a periodic relay.
 """
 
@@ -23,10 +24,10 @@ import numpy as np
 
 from envs.identification.relay import relay_periodic
 from envs.process.control_laws import DiscreteFPPI, DiscretePID
-from envs.process.protocol import Process
+from envs.process.protocol import Process, ProcessStopped
 from envs.simulation._run_kernels import CONFIDENCE, STEADY_STATE_TOLERANCE
 
-__all__ = ["Record", "hold", "closed_loop", "relay", "steady_since_previous_window"]
+__all__ = ["Record", "hold", "closed_loop", "relay", "reset", "steady_since_previous_window"]
 
 
 @dataclass(frozen=True)
@@ -86,8 +87,17 @@ class _Samples:
         return Record(np.arange(output.size) * dt, control, computed, output, setpoint, load, settled, stopped)
 
 
+def _fault(process: Process, call: str, error: Exception, k: int, dt: float) -> str:
+    """Why a run stopped when the process's ``call`` raised ``error`` (its own fault: the run keeps the samples so far)."""
+    return (f"the process's {call} raised {type(error).__name__}: {' '.join(str(error).split())[:200]} at t = {k * dt:g} "
+            f"{process.units.time}").rstrip()
+
+
 def _measure(process: Process, k: int, dt: float) -> tuple[float, str | None]:
-    value = process.measure()
+    try:
+        value = process.measure()
+    except Exception as error:  # noqa: BLE001  (a fault of the user's process stops the run, named)
+        return math.nan, _fault(process, "measure()", error, k, dt)
     try:
         value = float(value)
     except (TypeError, ValueError):
@@ -95,6 +105,30 @@ def _measure(process: Process, k: int, dt: float) -> tuple[float, str | None]:
     if not math.isfinite(value):
         return value, f"the process returned {value} at t = {k * dt:g} {process.units.time}".rstrip()
     return value, None
+
+
+def reset(process: Process, seed: int) -> None:
+    """``process.reset(seed)``.
+
+    Raises
+    ------
+    ProcessStopped
+        If it raised, naming the exception (a fault of the process).
+    """
+    try:
+        process.reset(seed)
+    except Exception as error:  # noqa: BLE001  (as in _measure)
+        raise ProcessStopped(f"the process's reset({seed}) raised {type(error).__name__}: "
+                             f"{' '.join(str(error).split())[:200]}") from None
+
+
+def _apply(process: Process, control: float, load: float, k: int, dt: float) -> str | None:
+    """``process.apply(control, load)``; why the run stops if it raised, else None."""
+    try:
+        process.apply(control, load)
+    except Exception as error:  # noqa: BLE001  (as in _measure)
+        return _fault(process, "apply()", error, k, dt)
+    return None
 
 
 def _clip(process: Process, value: float) -> float:
@@ -118,7 +152,9 @@ def hold(
         if stopped:
             return samples.record(dt, False, stopped)
         samples.add(applied, control, y, math.nan, load)
-        process.apply(applied, load)
+        stopped = _apply(process, applied, load, k, dt)
+        if stopped:
+            return samples.record(dt, False, stopped)
         if until is not None and until(samples.output):
             return samples.record(dt, True, None)
     return samples.record(dt, False, None)
@@ -144,7 +180,9 @@ def closed_loop(
             return samples.record(dt, False, stopped)
         computed, applied = law.update(setpoint, y)
         samples.add(applied, computed, y, setpoint, load)
-        process.apply(applied, load)
+        stopped = _apply(process, applied, load, k, dt)
+        if stopped:
+            return samples.record(dt, False, stopped)
         if until is not None and until(samples.output, controls):
             return samples.record(dt, True, None)
     return samples.record(dt, False, None)
@@ -196,7 +234,9 @@ def relay(
         applied = _clip(process, bias + sign * amplitude * state)
         samples.add(applied, bias + sign * amplitude * state, y, setpoint, 0.0)
         times.append(k * dt)
-        process.apply(applied, 0.0)
+        stopped = _apply(process, applied, 0.0, k, dt)
+        if stopped:
+            return RelayRecord(samples.record(dt, False, stopped), np.asarray(switches))
         if crossed and relay_periodic(switches, times, samples.output, period_tolerance):
             return RelayRecord(samples.record(dt, True, None), np.asarray(switches))
     return RelayRecord(samples.record(dt, False, None), np.asarray(switches))
