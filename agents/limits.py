@@ -5,10 +5,12 @@ below) and low enough that a value just under it still runs in bounded time and 
 above is refused before anything is computed or written, in one line naming the field and the
 limit (exit status 2 on the command line).  The help texts quote these constants.
 
-Two limits live beside what they bound: the size of a plant is a property of the plant, so
+Three limits live beside what they bound: the size of a plant is a property of the plant, so
 :data:`envs.systems.plants.MAX_COEFFICIENTS` (101 coefficients in ``num`` and in ``den``) sits with its
 other documented ranges (``GAIN_RANGE``, ``TIME_SCALE_RANGE``); a learned rule's training plants are
-bounded by the stride of its seeds, :data:`agents.training.learned_rule_config.MAX_TRAINING_PLANTS`.
+bounded by the stride of its seeds, :data:`agents.training.learned_rule_config.MAX_TRAINING_PLANTS`;
+the samples of a run on a sampled process by :data:`envs.process.protocol.MAX_SAMPLES_PER_SETTLING`
+(100000 samples in a settling time).
 
 This module imports no numerics, so that the command line's help texts quote it without loading
 numpy, envs or torch.
@@ -29,7 +31,10 @@ __all__ = [
     "MAX_NESTING",
     "MAX_RESAMPLES",
     "MAX_SEEDS",
+    "MAX_PADE_ORDER",
+    "MAX_REFERENCE_SAMPLES",
     "MAX_TEST_PLANTS",
+    "MAX_TIMESTEPS",
     "MAX_WORKERS",
     "MAX_YAML_NODES",
     "require_at_most",
@@ -66,8 +71,23 @@ MAX_RESAMPLES = 100_000
 """Bootstrap resamples of an evaluation (``--resamples``, a sweep's ``evaluation.resamples``); the
 bootstrap holds ``resamples x plants`` indices at once (default 2000)."""
 
-MAX_WORKERS = 1_024
-"""Processes of ``deadtime evaluate --workers``."""
+MAX_WORKERS = 64
+"""Processes of ``deadtime evaluate --workers``: each holds the environment and the oracle's compiled
+code, about 270 MB; one per core is the honest use."""
+
+MAX_TIMESTEPS = 100_000_000
+"""Training steps of one run (``total_timesteps``): the configs train 10^4 to 10^6; at the measured tens
+to hundreds of steps per second, 10^8 steps is days of training."""
+
+MAX_PADE_ORDER = 14
+"""Order of the Padé approximation of the dead time in ``deadtime bench``'s python-control reference
+(``--pade-order``, default 8).  Measured on ``1/(10s+1) e^{-2s}`` with a PI: orders 8 to 14 give the
+same IAEs within 0.1%, order 16 drifts by 1 to 3% (the coefficients pass 10^20 and the simulation loses
+its digits), order 20 gives an infinite IAE, and higher orders divide by zero."""
+
+MAX_REFERENCE_SAMPLES = 10_000
+"""Samples per plant time scale of ``deadtime bench``'s python-control reference (``--reference-samples``,
+default 50): over its horizon of up to 1280 time scales a simulation holds 10^7 samples at the limit."""
 
 MAX_ENVS = 256
 """Training environments of one run (``n_envs``): one environment per core is the honest use."""

@@ -18,6 +18,7 @@ import subprocess
 import sys
 from typing import Any
 
+from agents.limits import MAX_PADE_ORDER, MAX_REFERENCE_SAMPLES, require_at_most
 from agents.runtime import REPO, THREAD_VARIABLES
 
 __all__ = ["CHILD_VARIABLE", "add_arguments", "run"]
@@ -32,9 +33,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="a smoke run (4 loops, one episode per setting: its rates are not measurements)")
     parser.add_argument("--skip-envs", action="store_true", help="skip the environment episodes")
     parser.add_argument("--skip-ppo", action="store_true", help="skip the training shares (PPO and SAC)")
-    parser.add_argument("--pade-order", type=int, default=None, help="Padé order of the python-control reference")
+    parser.add_argument("--pade-order", type=int, default=None,
+                        help=f"Padé order of the python-control reference (default 8, at most {MAX_PADE_ORDER})")
     parser.add_argument("--reference-samples", type=int, default=None,
-                        help="python-control reference steps per plant time scale T_ar")  # fmt: skip
+                        help=f"python-control reference steps per plant time scale T_ar (default 50, at most {MAX_REFERENCE_SAMPLES})")  # fmt: skip
 
 
 def _in_child(args: argparse.Namespace) -> dict[str, Any]:
@@ -58,9 +60,11 @@ def _in_child(args: argparse.Namespace) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Run the bench and print the table or the JSON object."""
-    for name, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
+    for name, value, limit in (("--pade-order", args.pade_order, MAX_PADE_ORDER),
+                               ("--reference-samples", args.reference_samples, MAX_REFERENCE_SAMPLES)):
         if value is not None and value < 1:
             raise ValueError(f"{name} must be >= 1, got {value}")
+        require_at_most(value, limit, name)
     from agents.bench.bench import bench, format_table
 
     if os.environ.get(CHILD_VARIABLE) == "1":

@@ -340,6 +340,7 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
     }
     from agents.evaluation.report import results_json, write_tables
 
+    n = n if given is None else len(given)  # the test plants evaluated: those given, where --plants gives them
     if out is None:
         return results_json(env_id, n, seed, subsets, roles, extra)
     notes = _notes(best_rule, own) + _failure_notes(results, plants)

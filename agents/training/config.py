@@ -38,7 +38,8 @@ from pathlib import Path
 from typing import Any
 
 from agents.files.reader import load_yaml, load_yaml_file
-from agents.limits import MAX_ENVS, MAX_EVAL_EPISODES, require_at_most
+from agents.limits import MAX_ENVS, MAX_EVAL_EPISODES, MAX_TIMESTEPS, require_at_most
+from agents.training.hyperparameters import INTEGER_KEYS
 from agents.training.learned_rule_config import LEARNED_RULE, LearnedRuleConfig, validate_learned_rule
 from agents.training.schema import (
     check_env_kwargs,
@@ -48,6 +49,8 @@ from agents.training.schema import (
     plain_value,
     probe_environment,
     require_field,
+    whole_number,
+    whole_numbers,
     yaml_number,
 )
 
@@ -166,6 +169,7 @@ class TrainConfig:
                 value = int(value)
                 object.__setattr__(self, name, value)
             require_field(isinstance(value, int) and not isinstance(value, bool) and value >= low, name, f"an integer >= {low}", value)
+        require_at_most(self.total_timesteps, MAX_TIMESTEPS, "total_timesteps")
         require_at_most(self.n_envs, MAX_ENVS, "n_envs")
         require_at_most(self.n_eval_episodes, MAX_EVAL_EPISODES, "n_eval_episodes")
         for name in ("normalize", "normalize_reward", "progress_bar"):
@@ -181,6 +185,9 @@ class TrainConfig:
                 require_field(isinstance(key, str), f"{name} key", "a string", key)
             if name == "hyperparameters":
                 value = {key: yaml_number(item) for key, item in value.items()}
+                value = {key: whole_number(item) if key in INTEGER_KEYS else item for key, item in value.items()}
+            if name == "policy_kwargs" and "net_arch" in value:
+                value = {**value, "net_arch": whole_numbers(value["net_arch"])}
             object.__setattr__(self, name, frozen_mapping(value))
 
     @property

@@ -74,6 +74,10 @@ OFF_POLICY = {"buffer_size": _integer(1), "learning_starts": _integer(0), "batch
               "tau": _number(0.0, 1.0, open_low=True), "gradient_steps": (lambda v: _integer(1)[0](v) or v == -1,
                                                                           "an integer >= 1, or -1"),
               "optimize_memory_usage": _boolean(), "n_steps": _integer(1)}
+INTEGER_KEYS = frozenset({"sde_sample_freq", "stats_window_size", "n_steps", "buffer_size", "learning_starts", "batch_size",
+                          "gradient_steps", "n_epochs", "target_update_interval", "policy_delay"})
+"""The hyperparameters that are counts: written ``1e3`` or ``3E4`` (a float), a whole number is read as the integer."""
+
 RULES: dict[str, dict[str, tuple[Check, str]]] = {
     "PPO": {**COMMON, **ON_POLICY, "batch_size": _integer(1), "n_epochs": _integer(1), "clip_range": SCHEDULE,
             "clip_range_vf": _optional(_number(0.0, open_low=True)), "target_kl": _optional(_number(0.0, open_low=True))},

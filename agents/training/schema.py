@@ -20,7 +20,7 @@ from types import MappingProxyType
 from typing import Any
 
 __all__ = ["check_env_kwargs", "did_you_mean", "frozen_mapping", "parameters", "plain_value", "probe_environment",
-           "refused_as", "require_field", "yaml_number"]
+           "refused_as", "require_field", "whole_number", "whole_numbers", "yaml_number"]
 
 
 def frozen_mapping(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
@@ -28,6 +28,22 @@ def frozen_mapping(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
     return MappingProxyType(dict(mapping))
 
 _EXPONENT_NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
+
+
+def whole_number(value: Any) -> Any:
+    """A float that is a whole number (``1e3`` read as ``1000.0``) as the integer; any other value unchanged."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+def whole_numbers(value: Any) -> Any:
+    """:func:`whole_number` of every number in a list or mapping of lists (``net_arch: [1e3]``, ``{pi: [64]}``)."""
+    if isinstance(value, Mapping):
+        return {key: whole_numbers(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [whole_number(item) for item in value]
+    return whole_number(value)
 
 
 def yaml_number(value: Any) -> Any:

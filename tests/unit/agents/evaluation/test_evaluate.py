@@ -241,6 +241,7 @@ def test_plants_file_is_the_test_set_and_no_plots_says_so(capsys, tmp_path):
     assert err.splitlines()[-1] == f"wrote {out / 'results.md'} (and .csv, .json, per_plant.csv)"
     assert {row["plant"] for row in _per_plant(out).values()} == {"user-0", "user-1"}
     assert not list(out.glob("*.png"))
+    assert json.loads((out / "results.json").read_text())["n"] == 2  # the plants given, not --n's default
 
 
 @pytest.mark.parametrize(
