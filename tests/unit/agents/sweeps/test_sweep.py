@@ -141,27 +141,31 @@ def test_smoke_sweep_equals_the_runs_done_one_by_one(smoke: Path, tmp_path: Path
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGINT], ids=["SIGKILL", "Ctrl-C"])
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGINT, signal.SIGTERM], ids=["SIGKILL", "Ctrl-C", "SIGTERM"])
 def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path, how: signal.Signals) -> None:
-    """SIGKILL of the driver and the local Ray instance it started, or Ctrl-C (SIGINT to the process
-    group, as a terminal sends it): exit status 130, one line saying how to resume, no summary."""
+    """SIGKILL of the driver and the local Ray instance it started, Ctrl-C (SIGINT to the process
+    group, as a terminal sends it), or SIGTERM to the driver (as a scheduler ends a job): exit status
+    130 or 143, one line saying how to resume, no summary."""
     out = tmp_path / "killed"
     driver = subprocess.Popen(_sweep_command(out), cwd=REPO, env=_environment(), stdout=subprocess.DEVNULL,
                               stderr=subprocess.PIPE, text=True, start_new_session=True)
     deadline = time.monotonic() + 600
     while not list(out.glob("runs/*/checkpoints/latest.json")) and time.monotonic() < deadline and driver.poll() is None:
         time.sleep(0.2)
-    os.killpg(driver.pid, how)
+    if how == signal.SIGTERM:
+        os.kill(driver.pid, how)
+    else:
+        os.killpg(driver.pid, how)
     _, err = driver.communicate(timeout=300)
-    if how == signal.SIGINT:
-        assert driver.returncode == 130, err[-2000:]
+    if how != signal.SIGKILL:
+        assert driver.returncode == 128 + how, err[-2000:]
         assert err.rstrip().splitlines()[-1] == (
-            "deadtime sweep: interrupted; no summary written, the trials' checkpoints and the evaluations' caches are "
-            f"kept; continue with: deadtime sweep --config {SMOKE} --out {out} --resume")
-        assert "Tuner.restore" not in err
+            f"deadtime sweep: {'interrupted' if how == signal.SIGINT else 'terminated'}; no summary written, the trials' "
+            f"checkpoints and the evaluations' caches are kept; continue with: deadtime sweep --config {SMOKE} --out {out} --resume")
+        assert "Tuner.restore" not in err and "Traceback" not in err
     assert not any(out.glob("summary.*"))
     (session,) = json.loads((out / "sessions.json").read_text())  # on record, with the time it spent
-    assert session["status"] == ("interrupted" if how == signal.SIGINT else "running") and session["wall_time_s"] >= 0
+    assert session["status"] == ("running" if how == signal.SIGKILL else "interrupted") and session["wall_time_s"] >= 0
     done = subprocess.run(_sweep_command(out, "--resume", "--json"), cwd=REPO, env=_environment(), capture_output=True,
                           text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
