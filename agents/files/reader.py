@@ -40,7 +40,7 @@ import yaml
 from agents.limits import MAX_CSV_FIELD, MAX_FILE_BYTES, MAX_NESTING, MAX_YAML_NODES
 
 __all__ = ["DamagedFileError", "FileProblem", "damaged", "exists", "load_yaml", "load_yaml_file", "parse_json", "read_csv",
-           "read_json", "read_record", "read_text", "read_yaml", "stored_path"]
+           "read_json", "read_record", "read_text", "stored_path"]
 
 
 class FileProblem(ValueError):
@@ -300,9 +300,6 @@ def load_yaml(text: str, where: str, kind: type | tuple[type, ...] | None = None
 def load_yaml_file(path: str | Path, kind: type | tuple[type, ...] | None = None) -> Any:
     """:func:`load_yaml` of the file ``path``, named in every message."""
     return load_yaml(read_text(path), str(path), kind)
-
-
-read_yaml = load_yaml_file
 
 
 # -------------------------------------------------------------------------------------- CSV
