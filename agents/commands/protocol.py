@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         result = coverage(Path(args.sweeps), args.n, args.replicates, (0.95, 1 - 0.05 / args.comparisons), args.seed)
         text = json.dumps(result, indent=1)
         if args.out:
-            from agents.training.files import write_text
+            from agents.files.writer import write_text
 
             write_text(args.out, text + "\n")
             print(f"smallest coverage {result['smallest_coverage']} over {len(result['populations'])} populations; "

@@ -28,7 +28,7 @@ come from ``numpy.random.SeedSequence(entropy, spawn_key=(family,))``; the train
 learners' own (their configs' seeds, :mod:`agents.training.learned_rule`).  The test entropy must be
 registered in ``configs/protocols/test_seeds.json`` with this file's sha256 before the run.
 
-The file is read with :func:`agents.yaml_input.load_yaml_file`; an unknown key is an error that
+The file is read with :func:`agents.files.reader.load_yaml_file`; an unknown key is an error that
 names it.  :attr:`Protocol.sha256` is the SHA-256 of the file's bytes: any change to the file
 (a comment too) is a changed protocol.
 """
@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from agents.limits import MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
-from agents.yaml_input import load_yaml_file
+from agents.files.reader import load_yaml_file
 
 if TYPE_CHECKING:
     from agents.sweeps.config import Trial

@@ -13,14 +13,13 @@ its Monte Carlo standard error ``sqrt(c (1 - c) / replicates)``.
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy import stats
 
-from agents.compressed import open_text
+from agents.files.reader import read_csv
 
 __all__ = ["coverage", "populations", "t_coverage"]
 
@@ -30,10 +29,9 @@ _NOT_RULES = ("oracle", "oracle-full", "amplitude-rule")
 def _costs(path: Path) -> dict[str, dict[str, float]]:
     """``policy -> plant -> cost`` of the random test plants of an evaluation's ``per_plant.csv``."""
     found: dict[str, dict[str, float]] = {}
-    with open_text(path) as file:
-        for row in csv.DictReader(file):
-            if row["subset"] == "test":
-                found.setdefault(row["policy"], {})[row["plant"]] = float(row["cost"])
+    for row in read_csv(path, ("subset", "policy", "plant", "cost")):
+        if row["subset"] == "test":
+            found.setdefault(row["policy"], {})[row["plant"]] = float(row["cost"])
     return found
 
 

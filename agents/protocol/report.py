@@ -21,10 +21,10 @@ its adjusted intervals are not final.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
+from agents.files.reader import read_json
 from agents.protocol.config import Protocol
 from agents.protocol.run import PER_PLANT, matrices, read_per_plant
 from agents.protocol.statistics import holm, paired_difference, plant_violations, verdict
@@ -44,13 +44,13 @@ def _declared(protocol: Protocol) -> int:
 
 def protocol_results(protocol: Protocol, out: Path) -> dict[str, Any]:
     """The ``protocol_results.json`` object of the run in ``out`` (module docstring)."""
-    record = json.loads((out / "protocol.json").read_text())
+    record = read_json(out / "protocol.json", dict)
     regimes, differences = [], []
     for regime in protocol.regimes:
         folder = out / regime.name
         if not (folder / PER_PLANT).exists():
             continue
-        selection = json.loads((folder / "selection.json").read_text())
+        selection = read_json(folder / "selection.json", dict)
         chosen = selection["chosen"]
         rows = read_per_plant(folder / PER_PLANT)
         plants, table = matrices(rows, "test")
@@ -131,7 +131,7 @@ def forest_plot(results: dict[str, Any], path: Path) -> None:
 
 def write_report(protocol: Protocol, out: Path) -> dict[str, Any]:
     """Write ``protocol_results.json``, ``results.md`` and ``forest.png`` into ``out``; returns the results."""
-    from agents.training.files import write_json, write_text
+    from agents.files.writer import write_json, write_text
 
     results = protocol_results(protocol, out)
     write_json(out / "protocol_results.json", results)

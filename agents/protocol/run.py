@@ -28,7 +28,6 @@ import csv
 import gzip
 import hashlib
 import io
-import json
 import subprocess
 import sys
 from pathlib import Path
@@ -36,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.reader import read_csv, read_json
 from agents.protocol.config import Protocol, Regime
 from agents.protocol.selection import choose_primary, least_mean
 from agents.protocol.statistics import paired_difference, plant_means, plant_violations
@@ -87,7 +87,7 @@ def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
         raise ProtocolRefused(str(error)) from None
     record_path = out / "protocol.json"
     if record_path.exists():
-        record = json.loads(record_path.read_text())
+        record = read_json(record_path, dict)
         if record.get("protocol_sha256") != protocol.sha256:
             raise ProtocolRefused(f"{out} holds the run of protocol sha256 {str(record.get('protocol_sha256'))[:12]}, "
                                   f"{protocol.path} has {protocol.sha256[:12]}: a changed protocol takes a fresh test seed")
@@ -99,7 +99,7 @@ def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
             raise ProtocolRefused(f"{changed[0]} changed since the run in {out} started: its learners would not be the "
                                   "protocol's; restore it (the run's commit is in protocol.json)")
         return record
-    from agents.training.files import write_json
+    from agents.files.writer import write_json
 
     out.mkdir(parents=True, exist_ok=True)
     record = {"protocol": protocol.path, "protocol_sha256": protocol.sha256, "commit": _commit(),
@@ -112,16 +112,14 @@ def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
 def read_per_plant(path: Path, learners: dict[str, str] | None = None) -> list[dict[str, Any]]:
     """Rows ``(subset, plant, policy, seed, cost, feasible)`` of an evaluation's ``per_plant.csv`` or of a
     protocol's gzip table; ``learners`` maps an evaluation's policy names to ``(label, seed)`` text ``label@seed``."""
-    opener = gzip.open if path.suffix == ".gz" else open
     rows = []
-    with opener(path, "rt", newline="") as file:
-        for row in csv.DictReader(file):
-            policy, seed = row["policy"], row.get("seed", "")
-            if learners is not None:
-                label, _, trained = learners.get(policy, f"{policy}@").partition("@")
-                policy, seed = label, trained
-            rows.append({"subset": row["subset"], "plant": row["plant"], "policy": policy, "seed": seed,
-                         "cost": float(row["cost"]), "feasible": row["feasible"] == "True"})
+    for row in read_csv(path, ("subset", "plant", "policy", "cost", "feasible")):
+        policy, seed = row["policy"], row.get("seed", "")
+        if learners is not None:
+            label, _, trained = learners.get(policy, f"{policy}@").partition("@")
+            policy, seed = label, trained
+        rows.append({"subset": row["subset"], "plant": row["plant"], "policy": policy, "seed": seed,
+                     "cost": float(row["cost"]), "feasible": row["feasible"] == "True"})
     return rows
 
 
@@ -131,7 +129,7 @@ def _write_table(path: Path, rows: list[dict[str, Any]]) -> None:
     writer.writeheader()
     for row in rows:
         writer.writerow({**row, "cost": f"{row['cost']:.7g}"})
-    from agents.training.files import atomic_write
+    from agents.files.writer import atomic_write
 
     data = gzip.compress(text.getvalue().encode(), compresslevel=9, mtime=0)
     atomic_write(path, lambda handle: handle.write(data))
@@ -208,11 +206,11 @@ def _rule_names(protocol: Protocol, regime: Regime) -> list[str]:
 
 def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[str, Any]:
     """Steps 1-3 of the module docstring; returns (and writes) ``selection.json``."""
-    from agents.training.files import write_json
+    from agents.files.writer import write_json
 
     path = out / regime.name / "selection.json"
     if path.exists():
-        return json.loads(path.read_text())
+        return read_json(path, dict)
     labels = [(mode, learner.label) for mode in ("fixed", "plan") for learner in regime.candidates(mode)]
     learners, names = _learner_policies(protocol, work, regime, labels)
     family = _family(regime)
@@ -268,7 +266,7 @@ def _regime_summary(protocol: Protocol, selection: dict[str, Any], rows: list[di
 
 def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selection: dict[str, Any]) -> dict[str, Any]:
     """Step 4 of the module docstring: the chosen policies on the test stream and the benchmark batch."""
-    from agents.training.files import write_json
+    from agents.files.writer import write_json
 
     chosen = selection["chosen"]
     labels = [(mode, chosen[mode]) for mode in ("fixed", "plan") if mode in chosen]

@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.reader import read_json
+
 __all__ = ["REGISTRY", "TestSeedRefused", "check_test_seed", "plant_stream", "read_registry", "register_test_seed"]
 
 REGISTRY = Path("configs/protocols/test_seeds.json")
@@ -53,7 +55,7 @@ def read_registry(path: Path = REGISTRY) -> list[dict[str, Any]]:
     """The registry's entries, ``{"entropy", "protocol", "sha256"}`` each (an absent file: none)."""
     if not path.exists():
         return []
-    entries = json.loads(path.read_text())
+    entries = read_json(path)
     if not isinstance(entries, list) or not all(isinstance(e, dict) and {"entropy", "protocol", "sha256"} <= e.keys()
                                                  for e in entries):
         raise ValueError(f"{path}: must be a JSON list of {{entropy, protocol, sha256}}")
@@ -93,7 +95,7 @@ def register_test_seed(entropy: int, protocol: str, sha256: str, path: Path = RE
             raise TestSeedRefused(f"test seed {entropy} is already registered to {entry['protocol']} "
                                   f"(sha256 {entry['sha256'][:12]}): choose a fresh one")
     entry = {"entropy": entropy, "protocol": protocol, "sha256": sha256}
-    from agents.training.files import write_text
+    from agents.files.writer import write_text
 
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text(path, json.dumps([*entries, entry], indent=2) + "\n")
