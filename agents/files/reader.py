@@ -39,12 +39,16 @@ import yaml
 
 from agents.limits import MAX_CSV_FIELD, MAX_FILE_BYTES, MAX_NESTING, MAX_YAML_NODES
 
-__all__ = ["DamagedFileError", "FileProblem", "damaged", "exists", "load_yaml", "load_yaml_file", "parse_json", "read_csv",
+__all__ = ["DamagedFileError", "FileProblem", "MissingFile", "damaged", "exists", "load_yaml", "load_yaml_file", "parse_json", "read_csv",
            "read_json", "read_record", "read_text", "stored_path"]
 
 
 class FileProblem(ValueError):
     """A file that cannot be read, or does not hold what it must; the message is one line naming it."""
+
+
+class MissingFile(FileProblem, FileNotFoundError):
+    """A file that is not there (also a ``FileNotFoundError``, for callers that ask for one)."""
 
 
 class DamagedFileError(FileProblem):
@@ -85,6 +89,8 @@ def read_text(path: str | Path, limit: int = MAX_FILE_BYTES) -> str:
     try:
         with (gzip.open(path, "rb") if path.suffix == ".gz" else open(path, "rb")) as handle:
             data = handle.read(limit + 1)
+    except FileNotFoundError as error:
+        raise MissingFile(f"{path} cannot be read ({error.strerror or error})") from None
     except OSError as error:  # gzip.BadGzipFile too
         raise FileProblem(f"{path} cannot be read ({error.strerror or error})") from None
     except (EOFError, zlib.error) as error:

@@ -151,12 +151,12 @@ def check_process(process: object) -> Process:
         raise ValueError(f"process.settling_time {process.settling_time:g} must be at most {MAX_SAMPLES_PER_SETTLING} sample "
                          f"times ({MAX_SAMPLES_PER_SETTLING * process.sample_time:g}; envs.process.protocol.MAX_SAMPLES_PER_SETTLING): "
                          "an experiment takes up to five settling times of samples")
-    units = process.units
-    if not all(isinstance(getattr(units, name, None), str) for name in ("time", "input", "output", "load")):
-        raise ValueError(f"process.units must be a Units (names of the time, input, output and load units), got {units!r:.60}")
     if process.settling_time < 15 * process.sample_time:
         raise ValueError(f"process.settling_time {process.settling_time:g} must be at least 15 sample times "
                          f"({15 * process.sample_time:g}): a steady-state window is a fifth of it, of at least 3 samples")
+    units = process.units
+    if not all(isinstance(getattr(units, name, None), str) for name in ("time", "input", "output", "load")):
+        raise ValueError(f"process.units must be a Units (names of the time, input, output and load units), got {units!r:.60}")
     return process
 
 

@@ -113,7 +113,7 @@ CASES: dict[str, Case] = {
     "evaluate --resamples 1e12": Case([*EVALUATE, "--resamples", str(10**12), "--out", "out"], "--resamples must be at most 100000"),
     "evaluate --n 1e12": Case([*EVALUATE, "--n", str(10**12), "--out", "out"], "--n must be at most 10000"),
     "evaluate --n 1e12 as typed": Case([*EVALUATE, "--n", "1e12", "--out", "out"], "argument --n: invalid int value: '1e12'"),
-    "evaluate --workers 1e6": Case([*EVALUATE, "--workers", str(10**6), "--out", "out"], "--workers must be at most 1024"),
+    "evaluate --workers 1e6": Case([*EVALUATE, "--workers", str(10**6), "--out", "out"], "--workers must be at most 64"),
     "evaluate max_episode_steps -1": Case([*EVALUATE, "--env-kwargs", '{"max_episode_steps": -1}', "--out", "out"],
                                           "max_episode_steps must be null or an integer >= 1, got -1"),
     "evaluate a regime no episode survives": Case([*EVALUATE, "--env-kwargs", '{"noise_std": 1e300}', "--out", "out"],
