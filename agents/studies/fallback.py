@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from agents.compressed import read_json
 from agents.evaluation.seed_statistics import bootstrap_interval
 
 
@@ -149,7 +150,7 @@ def pilot(run_dir: Path, rule: str, safe_below: float) -> tuple[dict[str, Any], 
     from agents.training.learned_rule_policy import load_learned_rule
 
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
-    fit = json.loads((run_dir / "learned_rule.json").read_text())
+    fit = read_json(run_dir / "learned_rule.json")
     env = make_env(config["env_id"], config["env_kwargs"])
     observations, violates = rule_labels(env, config, rule)
     episodes = validation_episodes(env, load_learned_rule(run_dir), config["validation_plants"], rule)

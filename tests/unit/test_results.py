@@ -90,3 +90,19 @@ def test_every_results_folder_has_a_row_in_the_readme():
     assert sorted(linked) == sorted(_folders())
     assert all(line.rstrip(" |").endswith(("current", "superseded")) for line in rows)
     assert all(("superseded/" in target) == line.rstrip(" |").endswith("superseded") for target, line in zip(linked, rows))
+
+
+def test_the_readme_headlines_are_their_folders_numbers():
+    """Every ``value [low, high]`` of a row of results/README.md is printed in one of its folder's Markdown files."""
+    import re
+
+    interval = r"-?[\d.e+-]+ \[-?[\d.e+-]+, -?[\d.e+-]+\]"
+    rows = [line for line in (RESULTS / "README.md").read_text().splitlines() if line.startswith("| [")]
+    checked = 0
+    for line in rows:
+        folder = RESULTS / line.split("](")[1].split(")")[0]
+        texts = "\n".join(path.read_text() for path in folder.rglob("*.md"))
+        for quoted in re.findall(interval, line):
+            assert quoted in texts, (folder.name, quoted)
+            checked += 1
+    assert checked >= 40
