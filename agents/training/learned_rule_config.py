@@ -197,7 +197,7 @@ def check_environment(config: LearnedRuleConfig) -> Any:
 
 def validate_learned_rule(config: LearnedRuleConfig) -> None:
     """Check the environment of ``config``: ``env_kwargs``' keys, an action of one component
-    (:func:`check_environment`) and ``env_kwargs``' values (one reset with the seed).
+    (:func:`check_environment`) and ``env_kwargs``' values (a reset of that environment with the seed).
 
     Raises
     ------
@@ -205,5 +205,8 @@ def validate_learned_rule(config: LearnedRuleConfig) -> None:
         Naming the first unknown key or invalid value.
     """
     check_env_kwargs(config)
-    check_environment(config).close()
-    probe_environment(config)
+    env = check_environment(config)
+    try:
+        probe_environment(config, env)
+    finally:
+        env.close()

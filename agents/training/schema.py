@@ -114,17 +114,19 @@ def check_env_kwargs(config: Any) -> None:
             raise ValueError(f"unknown env_kwargs key {key!r} for {config.env_id} "
                              f"(known: {', '.join(sorted(accepted - {'self'}))})")
 
-def probe_environment(config: Any) -> None:
-    """Make one environment and reset it with the training seed: ``env_kwargs`` values that only an
-    episode uses (a family's config, a render mode) are refused here, before anything is written."""
+def probe_environment(config: Any, env: Any = None) -> None:
+    """Reset one environment of ``config`` with its seed: ``env_kwargs`` values that only an episode
+    uses (a family's config, a render mode) are refused here, before anything is written.  The
+    environment is ``env`` if given (left open), else one made for the probe (closed)."""
     from agents.environments import make_env
 
-    env = None
+    made = None
     try:
-        env = make_env(config.env_id, config.env_kwargs)
+        if env is None:
+            env = made = make_env(config.env_id, config.env_kwargs)
         env.reset(seed=config.seed)
     except (ValueError, TypeError, KeyError, AssertionError, OverflowError) as error:
         raise ValueError(f"env_kwargs: refused by {config.env_id}: {error or error.__class__.__name__}") from None
     finally:
-        if env is not None:
-            env.close()
+        if made is not None:
+            made.close()
