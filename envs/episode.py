@@ -67,6 +67,7 @@ __all__ = [
     "FEATURES",
     "LEAST_SQUARES_FEATURES",
     "MEASURED_FEATURES",
+    "DESIGN_MODELS",
     "IdentificationFailed",
     "RELAY_HYSTERESIS",
     "Evidence",
@@ -237,10 +238,16 @@ def evidence_from_identification(
     )  # fmt: skip
 
 
-def start_fixed(plant: Plant, rng: np.random.Generator, options: EpisodeOptions = DEFAULT_OPTIONS) -> tuple[Identification, Evidence]:
+def start_fixed(
+    plant: Plant, rng: np.random.Generator, options: EpisodeOptions = DEFAULT_OPTIONS, structure: str | None = None
+) -> tuple[Identification, Evidence]:
     """The fixed mode's start: the fixed procedure (:func:`~envs.identification.procedure.identify`, at the
     options' amplitude, with their disturbances) and its evidence; with ``identification="least-squares"``,
-    its open-loop step's record fitted too and read by the design (:func:`identification`)."""
+    its open-loop step's record fitted too and read by the design (:func:`identification`).
+
+    With ``structure``, an identification without the model of its design (:data:`DESIGN_MODELS`) raises
+    :class:`IdentificationFailed`, as a procedure whose closed-loop steps failed raises
+    :class:`~envs.identification.procedure.ProcedureFailed`."""
     amplitude, noise_std = options.seed_amplitude, options.noise_std
     if options.disturbances.active or amplitude != 1.0 or options.production:
         attempts = DISTURBED_ATTEMPTS if options.disturbances.active else 1
@@ -249,10 +256,12 @@ def start_fixed(plant: Plant, rng: np.random.Generator, options: EpisodeOptions 
     else:
         found = identify(plant, rng, noise_std)  # the v0 call
     evidence = evidence_from_identification(found, options, amplitude)
-    if not options.least_squares:
-        return found, evidence
-    evidence = _with_fit(evidence, "open-loop-step", found.open_loop, amplitude)
-    return _least_squares_identification(found, evidence), evidence
+    if options.least_squares:
+        evidence = _with_fit(evidence, "open-loop-step", found.open_loop, amplitude)
+        found = _least_squares_identification(found, evidence)
+    if structure is not None:
+        _require_design_model(found, evidence, structure)
+    return found, evidence
 
 
 def failed_start(failure: ProcedureFailed, integrating: bool, options: EpisodeOptions) -> Evidence:
@@ -477,12 +486,26 @@ def feature_names(evidence: Evidence) -> tuple[str, ...]:
 
 
 class IdentificationFailed(ValueError):
-    """No closed-loop step identified a usable gain and residence time; ``evidence`` holds the runs
-    that failed (charged, and counted in ``aborted``)."""
+    """The experiments identified nothing the design can read: no closed-loop step a usable gain and
+    residence time, or no experiment the model of the design (:data:`DESIGN_MODELS`); ``evidence``
+    holds the runs (charged, and the one that failed counted in ``aborted``)."""
 
-    def __init__(self, evidence: Evidence) -> None:
-        super().__init__("the closed-loop step identified no usable gain and residence time")
+    def __init__(self, evidence: Evidence, reason: str = "the closed-loop step identified no usable gain and residence time") -> None:
+        super().__init__(reason)
         self.evidence = evidence
+
+
+DESIGN_MODELS = {"pid": "sopdt", "fppi": "fopdt", "msp": "integrating_model"}
+"""The field of :class:`~envs.identification.procedure.Identification` each structure's design reads."""
+
+
+def _require_design_model(found: Identification, evidence: Evidence, structure: str) -> None:
+    """Raise :class:`IdentificationFailed` if ``found`` has no model for ``structure``'s design: the FPPI's
+    FOPDT model comes from an open-loop step or ramp that settled, which a drift or a load can prevent
+    (the experiment is then counted as failed)."""
+    if getattr(found, DESIGN_MODELS[structure]) is None:
+        failed = replace(evidence, aborted=evidence.aborted + 1)
+        raise IdentificationFailed(failed, f"the experiments identified no {DESIGN_MODELS[structure]} model for the design")
 
 
 def identification(
@@ -536,4 +559,5 @@ def identification(
     )
     if evidence.options.least_squares:
         found = _least_squares_identification(found, evidence)
+    _require_design_model(found, evidence, structure)
     return found, evidence

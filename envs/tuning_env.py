@@ -325,8 +325,8 @@ class DeadTimeTuningEnv(gym.Env):
         return plant
 
     def _start(self, plant: Plant, given: bool = False) -> None:
-        """Start on ``plant``.  A drawn plant whose procedure fails (fixed mode) raises, and is drawn
-        again; a given one, with ``measured_observation``, starts an episode that can only end without a
+        """Start on ``plant``.  A drawn plant whose procedure fails, or identifies no model for the design
+        (fixed mode), raises, and is drawn again; a given one, with ``measured_observation``, starts an episode that can only end without a
         design (:meth:`_no_design`), its failed steps charged and observed."""
         if plant.integrating != self.integrating:
             raise ValueError(f"family {self.family!r} drew a plant of the wrong kind for {type(self).__name__}")
@@ -343,11 +343,15 @@ class DeadTimeTuningEnv(gym.Env):
                 self.identification, self.evidence = None, failure.evidence
         elif self.mode == "fixed":
             try:
-                self.identification, self.evidence = start_fixed(plant, self.np_random, self.options)
+                self.identification, self.evidence = start_fixed(plant, self.np_random, self.options, self.structure)
             except ProcedureFailed as failure:
                 if not (given and self.options.measured):
                     raise
                 self.identification, self.evidence = None, failed_start(failure, self.integrating, self.options)
+            except IdentificationFailed as failure:
+                if not (given and self.options.measured):
+                    raise
+                self.identification, self.evidence = None, failure.evidence
         else:
             self.identification = None
             self.evidence = Evidence.empty(self.integrating, self.options)
@@ -685,7 +689,12 @@ _SHARED_DOC = """
     With ``measured_observation=True`` (v3) a commit whose closed-loop step identifies no usable gain
     and ``T_ar`` is a failed experiment (charged, counted in ``failed_experiments``, reward 0, info
     ``identified=False``): the episode goes on while the budget lasts, else it terminates without a
-    design at cost 26 (``NO_DESIGN_COST``, that of an unstable loop).
+    design at cost 26 (``NO_DESIGN_COST``, that of an unstable loop).  An identification without the
+    model the design reads is a failed identification too (the FPPI's FOPDT model needs an open-loop
+    step or ramp that settles, which a drift or a load can prevent; the experiment counts as failed):
+    the fixed mode draws another plant, as when its closed-loop steps fail (a given plant: with
+    ``measured_observation=True`` an episode that ends without a design, else a ``ValueError``); the
+    plan and agent modes treat it as a commit that identifies nothing (v0-v2: a ``ValueError``).
 
     ## Arguments
     | argument          | default                     | meaning                                                  |

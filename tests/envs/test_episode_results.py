@@ -1,0 +1,49 @@
+"""Episodes that once raised or grew without bound return a result: an identification without the
+design's model, an experiment longer than the sample cap, a least-squares search without a budget."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils import seeding
+
+import envs  # noqa: F401
+from envs.episode import IdentificationFailed, start_fixed
+from envs.systems.families import sample_plant
+from envs.tuning_env import NO_DESIGN_COST
+
+DRIFT = {"drift": 0.1}
+
+
+# ----------------------------------------------------------------------------- no model for the design
+def test_a_fixed_start_without_the_design_model_is_a_failed_identification():
+    """FPPI-v3's first plant of seed 2 under a drift of 0.1: the open-loop step never settles, so there
+    is no FOPDT model; the start raises the one-line failure the environment handles, not an AttributeError."""
+    env = gym.make("DeadTime/FPPI-v3", disturbances=DRIFT)
+    rng = seeding.np_random(2)[0]
+    plant = sample_plant("stable", rng)
+    with pytest.raises(IdentificationFailed, match="no fopdt model") as failure:
+        start_fixed(plant, rng, env.unwrapped.options, "fppi")
+    assert failure.value.evidence.aborted == 1 and failure.value.evidence.closed_loop is not None
+
+
+@pytest.mark.parametrize("version", ["v0", "v1", "v3"])
+def test_the_fixed_mode_draws_another_plant_when_the_design_has_no_model(version):
+    env = gym.make(f"DeadTime/FPPI-{version}", disturbances=DRIFT)
+    env.reset(seed=2)
+    assert env.unwrapped.identification.fopdt is not None
+    _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
+    assert terminated and np.isfinite(reward) and "score" in info
+
+
+def test_the_plan_mode_without_the_design_model_ends_without_a_design_in_v3_and_raises_one_line_before():
+    env = gym.make("DeadTime/FPPI-v3", experiments="plan", disturbances=DRIFT)
+    env.reset(seed=2)
+    _, reward, terminated, _, info = env.step(np.zeros(3, dtype=np.float32))
+    assert terminated and reward == -NO_DESIGN_COST and info["identified"] is False
+    assert info["features"]["failed_experiments"] > 0
+    v0 = gym.make("DeadTime/FPPI-v0", experiments="plan", disturbances=DRIFT)
+    v0.reset(seed=2)
+    with pytest.raises(ValueError, match="no fopdt model"):  # v0-v2: a failed identification raises
+        v0.step(np.zeros(3, dtype=np.float32))
