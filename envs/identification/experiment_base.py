@@ -126,6 +126,16 @@ def cap_steps(scale: float, dt: float, max_duration: float | None, minimum: floa
     return max(int(math.ceil(wanted)) + 1, 4) if wanted < MAX_RUN_SAMPLES else MAX_RUN_SAMPLES
 
 
+def fixed_length_steps(intervals: float) -> tuple[int, bool]:
+    """``(samples, cut)`` of a run of a fixed length of ``intervals`` sample intervals (an open-loop ramp,
+    a PRBS: a length set by the identified ``T_ar``): ``ceil(intervals) + 1`` samples, at most
+    :data:`~envs.simulation.delay_systems.MAX_RUN_SAMPLES`; ``cut`` if the bound shortened the run (its
+    experiment then stops there unfinished, as an aborted one: its time charged, no result)."""
+    if intervals <= MAX_RUN_SAMPLES - 1:
+        return int(math.ceil(intervals)) + 1, False
+    return MAX_RUN_SAMPLES, True
+
+
 # --------------------------------------------------------------------------- results and runs
 @dataclass(frozen=True)
 class ExperimentResult:
@@ -146,7 +156,8 @@ class ExperimentResult:
     relative_duration : float
         ``duration / T`` with ``T = plant.step_time_scale()`` (``T_ar`` of the true plant).
     aborted : bool
-        The true output left ``[-excursion_limit, excursion_limit]`` (or the loop diverged).
+        The true output left ``[-excursion_limit, excursion_limit]`` (or the loop diverged), or a
+        run of fixed length was cut at the sample bound (:func:`fixed_length_steps`).
     """
 
     timepts: np.ndarray

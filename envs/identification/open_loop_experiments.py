@@ -27,6 +27,7 @@ import numpy as np
 from envs.identification.experiment_base import (
     ExperimentResult,
     cap_steps,
+    fixed_length_steps,
     check_plant,
     check_rng,
     excursion_index,
@@ -343,7 +344,8 @@ def open_loop_ramp(
     augmented with an integrator at its input (``x' = A x + B z``, ``z' = h``, ``y = C x + D z``) and
     driven by a step of height ``h`` through the exact simulation, so the response is exact.  The
     experiment lasts ``T_ar`` (section 2.2: "The length of the open loop experiment is always
-    ``T_ar``").
+    ``T_ar``").  A ``T_ar`` longer than :data:`~envs.simulation.delay_systems.MAX_RUN_SAMPLES` samples
+    (an identification far off, e.g. under a load) stops the ramp there unfinished, as an aborted one.
 
     Parameters
     ----------
@@ -358,11 +360,13 @@ def open_loop_ramp(
     gain = require_number(gain, "gain", nonzero=True)
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     dt, scale = sample_time(plant, dt), plant.step_time_scale()
-    steps = int(math.ceil(residence_time / dt - 1e-9)) + 1
+    steps, cut = fixed_length_steps(residence_time / dt - 1e-9)
     noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt).first(steps)  # the ramp runs to its end
     y = open_loop_response(_with_input_integrator(plant.state_space()), plant.dead_time, np.full(steps, rate), dt)
     t = np.arange(steps) * dt
     abort = excursion_index(y, excursion_limit)
+    if abort is None and cut:
+        abort = steps - 1
     run = ExperimentRun(t, rate * t, y + noise, y, steps - 1 if abort is None else abort, abort is None, abort is not None)
     record = record_fields(run, scale)
     if abort is not None:

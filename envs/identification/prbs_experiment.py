@@ -34,6 +34,7 @@ from envs.identification.experiment_base import (
     ExperimentRun,
     check_rng,
     excursion_index,
+    fixed_length_steps,
     measurement_noise,
     record_fields,
     sample_time,
@@ -41,7 +42,7 @@ from envs.identification.experiment_base import (
 )
 from envs.identification.least_squares import LeastSquaresFit, least_squares_fit
 from envs.identification.models import FOPDTModel, SOPDTModel
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.delay_systems import MAX_RUN_SAMPLES, open_loop_response
 from envs.systems.plants import Plant
 from envs.validation import require_number
 
@@ -138,6 +139,9 @@ def open_loop_prbs(
         As in :func:`~envs.identification.closed_loop_experiment.closed_loop_step`.
     order : {1, 2}
         Of the least-squares model (FOPDT or SOPDT).
+
+    A period longer than :data:`~envs.simulation.delay_systems.MAX_RUN_SAMPLES` samples (an identified
+    ``T_ar`` far off, e.g. under a load) stops the sequence there unfinished, as an aborted one (no fit).
     """
     if not isinstance(plant, Plant) or plant.integrating:
         raise ValueError("plant must be a self-regulating envs.systems.plants.Plant for open_loop_prbs")
@@ -146,12 +150,16 @@ def open_loop_prbs(
     residence_time = require_number(residence_time, "residence_time", positive=True)
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     dt, scale = sample_time(plant, dt), plant.step_time_scale()
-    per_clock = max(int(math.ceil(snap_to_integer(PRBS_CLOCK * residence_time / dt))), 1)
-    inputs = height * np.repeat(prbs_levels(), per_clock)
-    steps = inputs.size
+    levels = prbs_levels()
+    clock = snap_to_integer(PRBS_CLOCK * residence_time / dt)
+    per_clock = max(int(math.ceil(clock)), 1) if clock < MAX_RUN_SAMPLES else MAX_RUN_SAMPLES
+    steps, cut = fixed_length_steps(levels.size * per_clock - 1)
+    inputs = height * levels[np.arange(steps) // per_clock]  # np.repeat(levels, per_clock), cut at the bound
     noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt).first(steps)
     y = open_loop_response(plant.state_space(), plant.dead_time, inputs, dt)
     abort = excursion_index(y, excursion_limit)
+    if abort is None and cut:
+        abort = steps - 1
     end = steps - 1 if abort is None else abort
     run = ExperimentRun(np.arange(steps) * dt, inputs, y + noise, y, end, abort is None, abort is not None)
     result = OpenLoopPRBSResult(**record_fields(run, scale), height=height, clock=per_clock * dt, fit=None)

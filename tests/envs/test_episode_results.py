@@ -10,7 +10,10 @@ from gymnasium.utils import seeding
 
 import envs  # noqa: F401
 from envs.episode import IdentificationFailed, start_fixed
+from envs.identification.prbs_experiment import open_loop_prbs
+from envs.simulation.delay_systems import MAX_RUN_SAMPLES
 from envs.systems.families import sample_plant
+from envs.systems.plants import Plant
 from envs.tuning_env import NO_DESIGN_COST
 
 DRIFT = {"drift": 0.1}
@@ -47,3 +50,34 @@ def test_the_plan_mode_without_the_design_model_ends_without_a_design_in_v3_and_
     v0.reset(seed=2)
     with pytest.raises(ValueError, match="no fopdt model"):  # v0-v2: a failed identification raises
         v0.step(np.zeros(3, dtype=np.float32))
+
+
+# ----------------------------------------------------------------------------- the sample cap
+def _choose(env, kind: str) -> np.ndarray:
+    action = np.full(env.action_space.shape, -1.0, dtype=np.float32)
+    action[1 + env.unwrapped.experiment_names.index(kind)], action[-2] = 1.0, 1.0
+    return action
+
+
+def test_a_ramp_longer_than_the_sample_cap_stops_there_as_a_failed_experiment():
+    """Under a load the closed-loop step identifies a ``T_ar`` far above the plant's: the ramp over that
+    ``T_ar`` (483 million samples, 19 GB) stops at ``MAX_RUN_SAMPLES``, charged and counted as failed."""
+    env = gym.make("DeadTime/PID-v1", experiments="agent", amplitude_limit=2e-6, disturbances={"load": 4.06})
+    env.reset(seed=545583)
+    for kind in ("open-loop-step", "closed-loop-step"):
+        env.step(_choose(env, kind))
+    before = env.unwrapped.evidence
+    assert before.closed_loop.residence_time / env.unwrapped.plant.residence_time > 1e5
+    env.step(_choose(env, "open-loop-ramp"))
+    after = env.unwrapped.evidence
+    assert after.aborted == before.aborted + 1 and "open-loop-ramp" not in after.results
+    dt = env.unwrapped.plant.step_time_scale() / 200
+    assert after.experiment_time - before.experiment_time == pytest.approx((MAX_RUN_SAMPLES - 1) * dt)
+
+
+def test_a_prbs_longer_than_the_sample_cap_stops_there_without_a_fit():
+    plant = Plant.from_dict({"num": [1.0], "den": [10.0, 1.0], "delay": 2.0})
+    result = open_loop_prbs(plant, np.random.default_rng(0), 1.0, 1e4 * plant.residence_time, noise_std=0.01)
+    assert result.timepts.size == MAX_RUN_SAMPLES and result.aborted and result.fit is None
+    whole = open_loop_prbs(plant, np.random.default_rng(0), 1.0, plant.residence_time, noise_std=0.01)
+    assert whole.timepts.size == 15 * 67 and not whole.aborted and whole.fit is not None  # clock ceil(200/3)
