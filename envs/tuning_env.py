@@ -174,6 +174,8 @@ class DeadTimeTuningEnv(gym.Env):
         self.constraints = _dataclass_argument(constraints, Constraints, "constraints") if constraints is not None else self.default_constraints()
         if self.constraints.violation_cost != violation_cost:
             self.constraints = replace(self.constraints, violation_cost=violation_cost)
+        if self.constraints.zero_delay is None:  # the environments' convention (envs.analysis.scoring)
+            self.constraints = replace(self.constraints, zero_delay="residence-time")
         self.weights = _dataclass_argument(weights, CostWeights, "weights")
         if isinstance(budget, bool) or not isinstance(budget, (int, float, np.integer, np.floating)) \
                 or not math.isfinite(budget) or int(budget) != budget or not 1 <= budget <= MAX_BUDGET:

@@ -32,7 +32,17 @@ An unstable loop's margins are undefined and not graded.  Two maps (``Constraint
   costs more than every feasible one, every unstable loop at least as much as every stable one, and
   the cost grows strictly with ``g`` (half the band at ``g = 1``, e.g. ``Ms = 4`` against ``Ms <= 2``).
 
-The delay margin is relative to the true dead time ``L`` (to ``T_ar`` if ``L = 0``).
+The delay margin is relative to the true dead time ``L``.  A plant without dead time is judged in
+one of two ways (``Constraints.zero_delay``):
+
+* ``"limit"`` (:func:`score`'s default, and so the standalone oracle's and every caller's that does
+  not choose): as the limit of small dead times, ``DM/L -> inf`` for a stable loop (``DM > 0``), so
+  the delay margin constraint holds; ``L = 0`` and ``L = 1e-300`` cost the same.
+* ``"residence-time"`` (the environments' convention, every version): ``DM/T_ar``, the true ``T_ar``
+  standing in for the missing dead time.  The environments keep it so that no episode's cost changes:
+  the benchmark family draws Gorez-Klan's P1 and P2, which have no dead time, and the papers'
+  reproductions and the recorded results score them this way.  It is stricter than the limit (a
+  stable loop may violate it), never looser.
 
 A feasible design whose cost is capped is simulated only until that is certain: the IAE terms
 are non-negative integrals, so once ``w_load J_load + w_setpoint J_setpoint`` over the horizon
@@ -59,7 +69,7 @@ from envs.validation import require_number
 
 __all__ = [
     "Constraints", "CostWeights", "Score", "score", "constraint_violations", "violation_cost", "FEASIBLE_CAP",
-    "UNSTABLE_GRADE", "VIOLATION_BAND", "VIOLATION_COSTS",
+    "UNSTABLE_GRADE", "VIOLATION_BAND", "VIOLATION_COSTS", "ZERO_DELAY_CONVENTIONS",
 ]
 
 FEASIBLE_CAP = 20.0
@@ -69,6 +79,8 @@ VIOLATION_BAND = 5.0
 """The width of the ``"bounded"`` map's band of violating costs above ``FEASIBLE_CAP + 1``; an unstable
 loop costs its top, ``FEASIBLE_CAP + 1 + VIOLATION_BAND``, the same as in the ``"graded"`` map."""
 VIOLATION_COSTS = ("graded", "bounded")
+ZERO_DELAY_CONVENTIONS = ("limit", "residence-time")
+"""The ways of judging the delay margin of a plant without dead time (module docstring)."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +98,10 @@ class Constraints:
     violation_cost : {"graded", "bounded"}
         How a violating design is charged (:func:`violation_cost`; the environments set it from
         their ``violation_cost`` argument).
+    zero_delay : {"limit", "residence-time"} or None
+        How the delay margin of a plant without dead time is judged (module docstring).  None:
+        the caller's convention, ``"limit"`` for :func:`score`, ``"residence-time"`` for the
+        environments.
     """
 
     max_sensitivity: float | None = 2.0
@@ -93,12 +109,16 @@ class Constraints:
     min_gain_margin: float | None = None
     min_phase_margin_deg: float | None = None
     violation_cost: str = "graded"
+    zero_delay: str | None = None
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
             if name == "violation_cost":
                 if value not in VIOLATION_COSTS:
                     raise ValueError(f"constraints.violation_cost must be one of {', '.join(VIOLATION_COSTS)}, got {value!r}")
+            elif name == "zero_delay":
+                if value is not None and value not in ZERO_DELAY_CONVENTIONS:
+                    raise ValueError(f"constraints.zero_delay must be one of {', '.join(ZERO_DELAY_CONVENTIONS)}, got {value!r}")
             elif value is not None:
                 require_number(value, f"constraints.{name}", positive=True)
 
@@ -185,6 +205,16 @@ def violation_cost(violations: dict[str, float], stable: bool, kind: str = "grad
     return FEASIBLE_CAP + 1 + VIOLATION_BAND * grade / (1 + grade)
 
 
+def _relative_delay_margin(delay_margin: float, plant: Plant, zero_delay: str | None) -> float:
+    """``DM/L``; without dead time ``DM/T_ar`` (``"residence-time"``) or the limit ``L -> 0``: ``inf`` for
+    ``DM > 0``, else 0 (module docstring)."""
+    if plant.dead_time > 0:
+        return delay_margin / plant.dead_time
+    if zero_delay == "residence-time":
+        return delay_margin / plant.residence_time
+    return math.inf if delay_margin > 0 else 0.0
+
+
 @single_threaded
 def score(
     plant: Plant,
@@ -206,8 +236,7 @@ def score(
     """
     scale = plant.residence_time
     margins = plant_margins(plant, controller)
-    reference = plant.dead_time if plant.dead_time > 0 else scale
-    relative_dm = margins.delay_margin / reference
+    relative_dm = _relative_delay_margin(margins.delay_margin, plant, constraints.zero_delay)
     violations = constraint_violations(margins, relative_dm, constraints)
     experiment_cost = weights.experiment * experiment_time / scale
     if weights.production != 0.0:  # without a price of production the v0 cost, bit for bit

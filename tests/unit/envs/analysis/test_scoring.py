@@ -111,8 +111,38 @@ def test_disabled_constraints_admit_a_design_that_the_defaults_refuse():
         (lambda: CostWeights(load=-1.0), "weights.load"),
         (lambda: CostWeights(setpoint=float("inf")), "weights.setpoint"),
         (lambda: CostWeights(experiment=True), "weights.experiment"),
+        (lambda: Constraints(zero_delay="zero"), "constraints.zero_delay"),
     ],
 )
 def test_bad_constraints_and_weights_are_refused_naming_the_field(make, field):
     with pytest.raises(ValueError, match=field):
         make()
+
+
+# The plant without dead time: 1/(10 s + 1) under the PI with ``L = 1/s`` (delay margin pi/2 = 0.157 T_ar,
+# below the 0.2 T_ar the environments' convention asks for), and a PID with a derivative.
+_ZERO_DELAY_CONTROLLERS = [PID(kp=10.0, ti=10.0, td=0.0, n=10.0), PID(kp=3.0, ti=8.0, td=1.0, n=10.0)]
+
+
+@pytest.mark.parametrize("controller", _ZERO_DELAY_CONTROLLERS)
+def test_a_plant_without_dead_time_costs_the_limit_of_small_dead_times(controller):
+    """Delay 0 and 1e-300 cost the same (bit for bit here; the IAE of a delay of 1e-9 T_ar, 1e-8 away)."""
+    costs = [score(Plant((1.0,), (10.0, 1.0), dead_time=delay), controller).cost for delay in (0.0, 1e-300, 1e-8)]
+    assert costs[0] == costs[1] and costs[2] == pytest.approx(costs[0], rel=1e-6)
+
+
+def test_the_environments_judge_a_plant_without_dead_time_against_its_residence_time():
+    """The environments' convention (every version): the PI's delay margin of 0.157 T_ar violates 0.2 T_ar."""
+    import gymnasium as gym
+
+    import envs  # noqa: F401
+
+    plant, controller = Plant((1.0,), (10.0, 1.0), dead_time=0.0), _ZERO_DELAY_CONTROLLERS[0]
+    assert score(plant, controller).feasible
+    assert not score(plant, controller, constraints=Constraints(zero_delay="residence-time")).feasible
+    for version in ("v0", "v3"):
+        env = gym.make(f"DeadTime/PID-{version}", constraints={"max_sensitivity": 2.0}).unwrapped
+        assert env.constraints.zero_delay == "residence-time"
+        assert gym.make(f"DeadTime/FPPI-{version}").unwrapped.constraints.zero_delay == "residence-time"
+    chosen = gym.make("DeadTime/PID-v3", constraints={"zero_delay": "limit"}).unwrapped
+    assert chosen.constraints.zero_delay == "limit"
