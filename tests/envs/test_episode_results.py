@@ -81,3 +81,22 @@ def test_a_prbs_longer_than_the_sample_cap_stops_there_without_a_fit():
     assert result.timepts.size == MAX_RUN_SAMPLES and result.aborted and result.fit is None
     whole = open_loop_prbs(plant, np.random.default_rng(0), 1.0, plant.residence_time, noise_std=0.01)
     assert whole.timepts.size == 15 * 67 and not whole.aborted and whole.fit is not None  # clock ceil(200/3)
+
+
+# ----------------------------------------------------------------------------- the least-squares budget
+@pytest.mark.slow
+def test_the_least_squares_search_of_a_step_that_never_settled_keeps_its_budget(monkeypatch):
+    """Under a load the fixed procedure's open-loop step runs to the sample cap unsettled; its search
+    took 232 s one fit per dead time.  Within the budget: a few seconds, and a result."""
+    from envs.identification import least_squares
+
+    fitted = []
+    original = least_squares.instrumental_variables
+    monkeypatch.setattr(least_squares, "instrumental_variables",
+                        lambda *args, **kwargs: fitted.append(1) or original(*args, **kwargs))
+    env = gym.make("DeadTime/FPPI-v3", identification="least-squares", amplitude_limit=0.0234,
+                   disturbances={"load": 49.35}, action="robustness")
+    env.reset(seed=38484)
+    assert len(fitted) <= least_squares.MAX_FITS + 2
+    _, reward, terminated, _, _ = env.step(np.zeros(1, dtype=np.float32))
+    assert terminated and np.isfinite(reward)

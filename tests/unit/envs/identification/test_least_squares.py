@@ -245,3 +245,21 @@ def test_the_search_finds_the_exhaustive_optimum_on_the_seeds_step_records():
         quick = least_squares_fit(record.control, record.output, dt, delays=delays)
         every = least_squares_fit(record.control, record.output, dt, delays=delays, exhaustive=True)
         assert quick.delay == every.delay and quick.dead_time == every.dead_time
+
+
+def test_the_search_stops_at_its_budget(monkeypatch):
+    """A criterion that keeps falling with the dead time (as on a step that never settled under a load)
+    walks the local descent one fit per ``Gamma``; the budget stops it and the best fit so far is the result."""
+    from envs.identification import least_squares
+
+    calls = []
+
+    def falling(control, output, delay, order=1):
+        calls.append(delay)
+        return least_squares.ARXFit(delay, (0.9, 0.1), 1e6 - delay, 100)
+
+    monkeypatch.setattr(least_squares, "instrumental_variables", falling)
+    u = np.ones(20000)
+    fit = least_squares.least_squares_fit(u, u, 1.0, delays=range(0, 19000))
+    assert len(fit.candidates) <= least_squares.MAX_FITS + 1 and len(calls) <= least_squares.MAX_FITS + 2
+    assert fit.delay == max(f.delay for f in fit.candidates)
