@@ -67,7 +67,6 @@ __all__ = [
     "FEATURES",
     "LEAST_SQUARES_FEATURES",
     "MEASURED_FEATURES",
-    "DESIGN_MODELS",
     "IdentificationFailed",
     "RELAY_HYSTERESIS",
     "Evidence",
@@ -245,7 +244,7 @@ def start_fixed(
     options' amplitude, with their disturbances) and its evidence; with ``identification="least-squares"``,
     its open-loop step's record fitted too and read by the design (:func:`identification`).
 
-    With ``structure``, an identification without the model of its design (:data:`DESIGN_MODELS`) raises
+    With ``structure``, an identification without the model of its design (:attr:`envs.structures.Structure.model`) raises
     :class:`IdentificationFailed`, as a procedure whose closed-loop steps failed raises
     :class:`~envs.identification.procedure.ProcedureFailed`."""
     amplitude, noise_std = options.seed_amplitude, options.noise_std
@@ -487,7 +486,7 @@ def feature_names(evidence: Evidence) -> tuple[str, ...]:
 
 class IdentificationFailed(ValueError):
     """The experiments identified nothing the design can read: no closed-loop step a usable gain and
-    residence time, or no experiment the model of the design (:data:`DESIGN_MODELS`); ``evidence``
+    residence time, or no experiment the model of the design (:attr:`envs.structures.Structure.model`); ``evidence``
     holds the runs (charged, and the one that failed counted in ``aborted``)."""
 
     def __init__(self, evidence: Evidence, reason: str = "the closed-loop step identified no usable gain and residence time") -> None:
@@ -495,17 +494,14 @@ class IdentificationFailed(ValueError):
         self.evidence = evidence
 
 
-DESIGN_MODELS = {"pid": "sopdt", "fppi": "fopdt", "msp": "integrating_model"}
-"""The field of :class:`~envs.identification.procedure.Identification` each structure's design reads."""
-
-
 def _require_design_model(found: Identification, evidence: Evidence, structure: str) -> None:
-    """Raise :class:`IdentificationFailed` if ``found`` has no model for ``structure``'s design: the FPPI's
-    FOPDT model comes from an open-loop step or ramp that settled, which a drift or a load can prevent
-    (the experiment is then counted as failed)."""
-    if getattr(found, DESIGN_MODELS[structure]) is None:
+    """Raise :class:`IdentificationFailed` if ``found`` has no model for ``structure``'s design
+    (:attr:`envs.structures.Structure.model`): an FOPDT model comes from an open-loop step or ramp that
+    settled, which a drift or a load can prevent (the experiment is then counted as failed)."""
+    model = STRUCTURES[structure].model
+    if getattr(found, model) is None:
         failed = replace(evidence, aborted=evidence.aborted + 1)
-        raise IdentificationFailed(failed, f"the experiments identified no {DESIGN_MODELS[structure]} model for the design")
+        raise IdentificationFailed(failed, f"the experiments identified no {model} model for the design")
 
 
 def identification(
