@@ -55,6 +55,9 @@ __all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "PIEnv", "MODES",
 MODES = ("fixed", "agent", "plan")
 OBSERVATION_BOUND = 5.0
 MAX_SAMPLING_ATTEMPTS = 10
+"""Plants the fixed mode draws at most for an episode whose procedure identifies the design's model; with
+``measured_observation`` (v3) the last one drawn is kept even if it fails, and the episode ends without a
+design (``NO_DESIGN_COST``), else (v0-v2) the reset raises ``RuntimeError``."""
 MAX_BUDGET = 100
 """The largest ``budget`` (agent mode's experiments per episode): far above any useful identification
 (the procedure runs two), and an episode of an agent that never commits stays short."""
@@ -299,10 +302,10 @@ class DeadTimeTuningEnv(gym.Env):
         ``given``, as ``options["plant"]``) and, in the fixed mode, identify it.  The native vector
         environment (:mod:`envs.vector_env`) starts its episodes with it."""
         self.plant = self._given_plant(given) if given is not None else None
-        for _ in range(MAX_SAMPLING_ATTEMPTS):
+        for attempt in range(MAX_SAMPLING_ATTEMPTS):
             plant = self.plant if given is not None else sample_plant(self.family, self.np_random, self.family_config)
-            try:
-                self._start(plant, given is not None)
+            try:  # the last draw is kept as a given plant is (measured_observation: an episode without a design)
+                self._start(plant, given is not None or attempt == MAX_SAMPLING_ATTEMPTS - 1)
                 break
             except ValueError:
                 if given is not None:
@@ -694,8 +697,9 @@ _SHARED_DOC = """
     design at cost 26 (``NO_DESIGN_COST``, that of an unstable loop).  An identification without the
     model the design reads is a failed identification too (the FPPI's FOPDT model needs an open-loop
     step or ramp that settles, which a drift or a load can prevent; the experiment counts as failed):
-    the fixed mode draws another plant, as when its closed-loop steps fail (a given plant: with
-    ``measured_observation=True`` an episode that ends without a design, else a ``ValueError``); the
+    the fixed mode draws another plant, as when its closed-loop steps fail, up to 10 plants (a given
+    plant, or the tenth drawn: with ``measured_observation=True`` an episode that ends without a design,
+    else a ``ValueError`` or, after ten draws, a ``RuntimeError``); the
     plan and agent modes treat it as a commit that identifies nothing (v0-v2: a ``ValueError``).
 
     ## Arguments

@@ -100,3 +100,16 @@ def test_the_least_squares_search_of_a_step_that_never_settled_keeps_its_budget(
     assert len(fitted) <= least_squares.MAX_FITS + 2
     _, reward, terminated, _, _ = env.step(np.zeros(1, dtype=np.float32))
     assert terminated and np.isfinite(reward)
+
+
+def test_a_fixed_start_that_fails_on_every_draw_ends_without_a_design_in_v3():
+    """Ten drawn plants whose procedure identifies nothing (a drift of 0.2 against an amplitude of 2e-4):
+    v3 keeps the tenth and ends the episode without a design; v0-v2 raise one line."""
+    settings = {"noise_std": 0.0216, "amplitude_limit": 2.03e-4, "disturbances": {"drift": 0.197}}
+    env = gym.make("DeadTime/FPPI-v3", **settings)
+    _, info = env.reset(seed=4)
+    assert env.unwrapped.identification is None and info["features"]["failed_experiments"] > 0
+    _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
+    assert terminated and reward == -NO_DESIGN_COST and info["identified"] is False
+    with pytest.raises(RuntimeError, match="10 draws"):
+        gym.make("DeadTime/FPPI-v2", **settings).reset(seed=4)

@@ -1,6 +1,6 @@
 """Nothing hangs, nothing explodes, nothing raises: random agents on every id and mode (v0, and v3 at
-1% to 20% noise with amplitudes at the ends of the range), the plant that hung PPO, and dead times
-down to 1e-12 ``T_ar``.
+1% to 20% noise with amplitudes at the ends of the range), the plant that hung PPO, dead times
+down to 1e-12 ``T_ar``, and v3 episodes under disturbances (:func:`test_disturbed_v3_episodes_are_bounded`).
 
 Actions are uniform over the action space.  Bounds asserted:
 * samples: every experiment's record has at most ``MAX_RUN_SAMPLES`` samples (the bound of the
@@ -15,6 +15,7 @@ Actions are uniform over the action space.  Bounds asserted:
 
 from __future__ import annotations
 
+import math
 import resource
 import time
 
@@ -131,3 +132,84 @@ def test_the_plant_that_hung_ppo_runs_its_relay_within_the_bound():
     plant = Plant.from_dict(HUNG_PPO)
     result = _timed(relay_feedback, plant, np.random.default_rng(0), 0.1 / abs(plant.gain), 0.03, noise_std=0.01)
     assert result.timepts.size <= MAX_RUN_SAMPLES
+
+
+# ----------------------------------------------------------------------------- disturbed v3 episodes
+EPISODE_SECONDS = 60.0
+"""The documented bound on one v3 episode (reset and every step) under the conditions of
+:func:`_disturbed_settings`, on a 2-core machine shared with other work: the slowest measured took
+about 15 s (a least-squares fit of an open-loop step that ran to the sample cap unsettled, at the fit
+budget :data:`envs.identification.least_squares.MAX_FITS`); a hang detector, not a performance claim."""
+V3_IDS = ("DeadTime/PID-v3", "DeadTime/FPPI-v3", "DeadTime/MSP-v3")
+V3_MODES = ("fixed", "plan", "agent")
+
+
+def _disturbed_settings(env_id: str, rng: np.random.Generator) -> dict:
+    """The arguments of one disturbed episode: a drift of 0.05 to 0.2 (per ``sqrt(T_ar)``), in a quarter of
+    them (PID, FPPI) a load of 0.1 to 50, noise up to 2 and an amplitude limit down to 1e-4 (both log-uniform), and
+    the least-squares identification in half of them (PID and FPPI: the MSP has none)."""
+    disturbances = {"drift": float(rng.uniform(0.05, 0.2))}
+    if "MSP" not in env_id and rng.random() < 0.25:  # a lasting load needs a self-regulating plant
+        disturbances["load"] = float(10.0 ** rng.uniform(-1.0, math.log10(50.0)))
+    settings = {"disturbances": disturbances, "noise_std": float(10.0 ** rng.uniform(-2.0, math.log10(2.0))),
+                "amplitude_limit": float(10.0 ** rng.uniform(-4.0, 1.0))}
+    if "MSP" not in env_id and rng.random() < 0.5:
+        settings["identification"] = "least-squares"
+    return settings
+
+
+def disturbed_episode(env_id: str, mode: str, seed: int) -> tuple[float, dict]:
+    """One disturbed episode of uniform random actions (:func:`_disturbed_settings` of ``seed``): its wall
+    time and final info; raises AssertionError if it breaks a bound or returns a non-finite reward."""
+    rng = np.random.default_rng([seed, V3_IDS.index(env_id), V3_MODES.index(mode)])
+    env = gym.make(env_id, experiments=mode, **_disturbed_settings(env_id, rng))
+    start = time.perf_counter()
+    env.reset(seed=seed)
+    done, info = False, {}
+    while not done:
+        action = rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32)
+        _, reward, terminated, truncated, info = env.step(action)
+        assert np.isfinite(reward), (env_id, mode, seed)
+        done = terminated or truncated
+    seconds = time.perf_counter() - start
+    assert seconds < EPISODE_SECONDS, (env_id, mode, seed, seconds)
+    for result in env.unwrapped.evidence.results.values():
+        assert result.timepts.size <= MAX_RUN_SAMPLES
+    return seconds, info
+
+
+def disturbed_cases(episodes: int, seed0: int, ids=V3_IDS, modes=V3_MODES) -> dict:
+    """``episodes`` disturbed episodes (seeds from ``seed0``) per id and mode, asserting the bounds; returns
+    the numbers the audit reports: episodes, the slowest (seconds, id, mode, seed), the growth of the
+    peak resident memory, and the episodes that ended without a design."""
+    start = _peak_rss_bytes()
+    report = {"episodes": 0, "slowest": (0.0, None, None, None), "no_design": 0}
+    for env_id in ids:
+        for mode in modes:
+            for seed in range(seed0, seed0 + episodes):
+                seconds, info = disturbed_episode(env_id, mode, seed)
+                report["episodes"] += 1
+                report["no_design"] += "score" not in info
+                report["slowest"] = max(report["slowest"], (seconds, env_id, mode, seed), key=lambda r: r[0])
+    report["memory_growth_mb"] = (_peak_rss_bytes() - start) / 1e6
+    assert report["memory_growth_mb"] * 1e6 < MEMORY_BYTES, report
+    return report
+
+
+def test_disturbed_v3_episodes_are_bounded():
+    """18 episodes: 2 per v3 id and mode."""
+    disturbed_cases(2, 0)
+
+
+@pytest.mark.slow
+def test_disturbed_v3_episodes_are_bounded_long():
+    """180 episodes: 20 per v3 id and mode."""
+    disturbed_cases(20, 100)
+
+
+@pytest.mark.audit
+def test_disturbed_v3_episodes_audit():
+    """The audit (``make test-audit``, hours on 2 cores): 1000 episodes per v3 id and mode, no exception,
+    none over the bounds; prints its numbers (``pytest -s``).  Parts of it: :func:`disturbed_cases` with
+    fewer episodes, other seeds, ids or modes."""
+    print(disturbed_cases(1000, 10000))
