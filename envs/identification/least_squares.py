@@ -105,8 +105,9 @@ MAX_FITS = 60
 """The search's budget: its local descent stops once this many dead times are fitted, and the best
 of them is the result.  The environments' searches fit 13 to 27 (FPPI and PID ``-v3`` with
 ``identification="least-squares"``, fixed, plan and agent modes, 1% and 10% noise, 16 seeds each),
-so the budget changes none of them; a record whose criterion keeps falling over thousands of dead
-times (an open-loop step that never settled under a load) took one fit per ``Gamma``, 232 s.  A fit
+so the budget changes none of them; on a record whose criterion keeps falling over thousands of dead
+times (an open-loop step that never settled under a load) the descent would fit one ``Gamma`` at a
+time, for minutes.  A fit
 reads at most :data:`~envs.simulation.delay_systems.MAX_RUN_SAMPLES` samples, so a search is
 bounded too (about 60 fits of 0.1-0.5 s on the longest record)."""
 
