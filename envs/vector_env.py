@@ -51,7 +51,7 @@ from gymnasium.vector.utils import batch_space
 
 from envs.threads import single_threaded
 from envs.validation import require_real_array
-from envs.tuning_env import OBSERVATION_BOUND, DeadTimeTuningEnv, FPPIEnv, MSPEnv, PIDEnv, PIEnv
+from envs.tuning_env import NO_DESIGN_COST, OBSERVATION_BOUND, DeadTimeTuningEnv, FPPIEnv, MSPEnv, PIDEnv, PIEnv
 
 __all__ = ["DeadTimeVectorEnv", "PIDVectorEnv", "FPPIVectorEnv", "MSPVectorEnv"]
 
@@ -128,8 +128,11 @@ class DeadTimeVectorEnv(VectorEnv):
         parameters = self._parameter_actions(actions)
         final = {key: np.empty(self.num_envs, dtype=bool if key == "feasible" else np.float64) for key in self._final_keys}
         for i, env in enumerate(self.envs):
-            relative, _, result = env.commit_design(parameters[i])
-            final["cost"][i], final["feasible"][i], final["parameter"][i] = result.cost, result.feasible, relative
+            if env.identification is None:  # a v3 start whose ten draws identified nothing: no design
+                final["cost"][i], final["feasible"][i], final["parameter"][i] = NO_DESIGN_COST, False, np.nan
+            else:
+                relative, _, result = env.commit_design(parameters[i])
+                final["cost"][i], final["feasible"][i], final["parameter"][i] = result.cost, result.feasible, relative
             final["experiment_time"][i] = env.evidence.experiment_time / env.plant.residence_time
             if "experiment_deviation" in final:
                 final["experiment_deviation"][i] = env.evidence.experiment_deviation / env.plant.residence_time

@@ -113,3 +113,7 @@ def test_a_fixed_start_that_fails_on_every_draw_ends_without_a_design_in_v3():
     assert terminated and reward == -NO_DESIGN_COST and info["identified"] is False
     with pytest.raises(RuntimeError, match="10 draws"):
         gym.make("DeadTime/FPPI-v2", **settings).reset(seed=4)
+    vector = gym.make_vec("DeadTime/FPPI-v3", num_envs=2, vectorization_mode="vector_entry_point", **settings)
+    vector.reset(seed=4)
+    _, rewards, terminated, _, infos = vector.step(np.zeros((2, 1), dtype=np.float32))
+    assert rewards[0] == -NO_DESIGN_COST and terminated.all() and not infos["final_info"]["feasible"][0]
