@@ -140,7 +140,7 @@ EPISODE_SECONDS = 60.0
 :func:`_disturbed_settings`, on a 2-core machine shared with other work: the slowest measured took
 about 15 s (a least-squares fit of an open-loop step that ran to the sample cap unsettled, at the fit
 budget :data:`envs.identification.least_squares.MAX_FITS`); a hang detector, not a performance claim."""
-V3_IDS = ("DeadTime/PID-v3", "DeadTime/FPPI-v3", "DeadTime/MSP-v3")
+V3_IDS = ("DeadTime/PID-v3", "DeadTime/PI-v3", "DeadTime/FPPI-v3", "DeadTime/MSP-v3")
 V3_MODES = ("fixed", "plan", "agent")
 
 
@@ -197,13 +197,13 @@ def disturbed_cases(episodes: int, seed0: int, ids=V3_IDS, modes=V3_MODES) -> di
 
 
 def test_disturbed_v3_episodes_are_bounded():
-    """18 episodes: 2 per v3 id and mode."""
+    """24 episodes: 2 per v3 id and mode."""
     disturbed_cases(2, 0)
 
 
 @pytest.mark.slow
 def test_disturbed_v3_episodes_are_bounded_long():
-    """180 episodes: 20 per v3 id and mode."""
+    """240 episodes: 20 per v3 id and mode."""
     disturbed_cases(20, 100)
 
 
