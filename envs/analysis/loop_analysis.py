@@ -44,7 +44,9 @@ __all__ = ["LoopAnalysis", "MAX_STIFFNESS", "STIFF_AGREEMENT", "STIFF_LOOP", "an
 STIFF_LOOP = 100.0
 """The stiffness above which :func:`analyze` checks the compiled IAE against the reference (module docstring)."""
 STIFF_AGREEMENT = 1e-6
-"""The relative agreement of the two IAE methods that :func:`analyze` asks of a stiff loop."""
+"""The agreement of the two IAE methods that :func:`analyze` asks of a stiff loop: relative to the IAE, or
+to its unit in the cost (``|K| T_ar`` for the load, ``T_ar`` for the set point,
+:mod:`envs.analysis.scoring`) where the IAE is smaller (a loop far faster than ``T_ar``)."""
 MAX_STIFFNESS = 1e8
 """The stiffness above which :func:`analyze` refuses the loop (module docstring)."""
 
@@ -152,9 +154,11 @@ def analyze(plant: Plant, controller: Controller) -> LoopAnalysis:
         raise ValueError(f"the loop is too stiff for its IAE: its fastest mode is {stiffness:.3g} times the sample "
                          f"rate (at most {MAX_STIFFNESS:g}); use a smaller derivative filter n")
     reference = iae(plant, controller, method="reference")
+    scale = plant.residence_time
+    units = {"load": abs(plant.gain) * scale * (scale if plant.integrating else 1.0), "setpoint": scale}
     for name in ("load", "setpoint"):
         fast, slow = getattr(performance, name), getattr(reference, name)
-        if not (fast == slow or abs(fast - slow) <= STIFF_AGREEMENT * abs(slow)):
+        if not (fast == slow or abs(fast - slow) <= STIFF_AGREEMENT * max(abs(slow), units[name])):
             raise ValueError(f"the {name} IAE of this stiff loop is uncertain: {fast:.6g} (compiled) against {slow:.6g} "
                              f"(reference) at a stiffness of {stiffness:.3g}; use a smaller derivative filter n")
     return LoopAnalysis(margins, performance)

@@ -193,8 +193,9 @@ def test_reset_with_a_given_plant_and_wrong_kind_refused():
 
 
 def test_msp_default_constraints_are_the_delay_margin_only():
-    assert MSPEnv().constraints == Constraints(max_sensitivity=None, min_relative_delay_margin=0.2)
-    assert PIDEnv().constraints == Constraints()
+    environments = "residence-time"  # the environments' judgement of a plant without dead time (envs.analysis.scoring)
+    assert MSPEnv().constraints == Constraints(max_sensitivity=None, min_relative_delay_margin=0.2, zero_delay=environments)
+    assert PIDEnv().constraints == Constraints(zero_delay=environments)
 
 
 def _scaled(plant: Plant, gain: float, time: float) -> Plant:
