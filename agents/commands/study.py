@@ -12,7 +12,6 @@ What each computes: its module in :mod:`agents.studies`.  The command line only 
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Callable
 
@@ -147,9 +146,10 @@ def _noise_kinds(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespac
     parser.add_argument("--n", type=int, default=80)
 
     def call(args: argparse.Namespace) -> None:
+        from agents.commands.arguments import load_json_argument
         from agents.studies.noise_kinds import noise_kinds
 
-        noise_kinds(json.loads(args.kwargs), args.noises, args.env, args.rule, args.no_oracle, args.n)
+        noise_kinds(load_json_argument(args.kwargs, "--kwargs"), args.noises, args.env, args.rule, args.no_oracle, args.n)
     return call
 
 

@@ -17,14 +17,13 @@ consistent with a 1% rate).  Prints a Markdown table.
 
 from __future__ import annotations
 
-import csv
 import re
 from collections import defaultdict
 from pathlib import Path
 
 from scipy.stats import binomtest
 
-from agents.compressed import exists, open_text, read_json
+from agents.files.reader import exists, read_csv, read_json
 
 GROUP = re.compile(r"^(?P<label>.+)-(?P<env>[A-Z]+-v\d+)-s(?P<seed>\d+)$")
 
@@ -36,8 +35,8 @@ def group_rows(sweep: Path) -> dict[tuple[str, str], list[list[dict[str, str]]]]
         match = GROUP.match(folder.name)
         if not match or not exists(folder / "per_plant.csv"):
             continue
-        with open_text(folder / "per_plant.csv") as handle:
-            rows = [row for row in csv.DictReader(handle) if row["subset"] == "test" and row["policy"] == "agent"]
+        rows = [row for row in read_csv(folder / "per_plant.csv", ("subset", "policy"))
+                if row["subset"] == "test" and row["policy"] == "agent"]
         found[(match["env"], match["label"])].append(rows)
     return found
 

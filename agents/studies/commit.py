@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 from pathlib import Path
 
-from agents.compressed import compress_file, compressed_bytes, read_json
+from agents.compressed import compress_file, compressed_bytes
+from agents.files.reader import read_csv, read_json
 from agents.sweeps.config import load_sweep
 from agents.sweeps.summary import write_summary
 
@@ -29,10 +29,9 @@ KEPT = ("index", "subset", "plant", "seed", "policy", "cost", "feasible", "failu
 
 def _per_plant(source: Path, agent_only: bool) -> bytes:
     table = io.StringIO(newline="")
-    with source.open(newline="") as read:
-        writer = csv.DictWriter(table, fieldnames=KEPT, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(row for row in csv.DictReader(read) if not agent_only or row["policy"] == "agent")
+    writer = csv.DictWriter(table, fieldnames=KEPT, extrasaction="ignore")
+    writer.writeheader()
+    writer.writerows(row for row in read_csv(source, ("policy",)) if not agent_only or row["policy"] == "agent")
     return table.getvalue().encode()
 
 
@@ -54,6 +53,6 @@ def commit(source: Path, target: Path) -> None:
     sweep = load_sweep(source / "sweep.yaml")
     failed = read_json(source / "summary.json").get("failed", {})
     trials = [t for t in sweep.trials() if t.name not in failed]
-    write_summary(sweep, trials, target, failed, json.loads((target / "sessions.json").read_text()))
+    write_summary(sweep, trials, target, failed, read_json(target / "sessions.json", list))
     for name in ("summary.csv", "summary.json"):
         compress_file(target / name)

@@ -41,10 +41,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from agents.compressed import read_json
 from agents.evaluation.seed_statistics import bootstrap_interval
+from agents.files.reader import load_yaml_file, read_json
 
 
 def _rule(env: Any, name: str) -> tuple[float, bool]:
@@ -149,8 +148,8 @@ def pilot(run_dir: Path, rule: str, safe_below: float) -> tuple[dict[str, Any], 
     from agents.environments import make_env
     from agents.training.learned_rule_policy import load_learned_rule
 
-    config = yaml.safe_load((run_dir / "config.yaml").read_text())
-    fit = read_json(run_dir / "learned_rule.json")
+    config = load_yaml_file(run_dir / "config.yaml", dict)
+    fit = read_json(run_dir / "learned_rule.json", dict)
     env = make_env(config["env_id"], config["env_kwargs"])
     observations, violates = rule_labels(env, config, rule)
     episodes = validation_episodes(env, load_learned_rule(run_dir), config["validation_plants"], rule)

@@ -15,17 +15,15 @@ Prints a Markdown table.
 
 from __future__ import annotations
 
-import csv
 from collections import defaultdict
 from pathlib import Path
 from statistics import fmean
 
-from agents.compressed import open_text
+from agents.files.reader import read_csv
 
 
 def _rows(path: Path) -> list[dict[str, str]]:
-    with open_text(path) as handle:
-        return list(csv.DictReader(handle))
+    return read_csv(path, ())
 
 
 def group_costs(sweep: Path, env: str, group: str) -> dict[tuple[str, str], float]:

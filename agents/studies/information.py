@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.files.reader import read_json
+
 
 def privileged(plant) -> list[float]:
     """The true plant's parameters the privileged rule reads."""
@@ -125,7 +127,7 @@ def table(results: dict[str, dict]) -> str:
 def information(runs: list[Path], plants: int = 600, out: Path = Path("information.json")) -> str:
     """The study of ``runs`` on ``plants`` validation plants, each run's costs kept in ``out`` (resumable);
     returns the table of the runs."""
-    results = json.loads(out.read_text()) if out.is_file() else {}
+    results = read_json(out, dict) if out.is_file() else {}
     for run in runs:
         if run.name not in results:
             results[run.name] = study(run, plants)

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.compressed import compressed_bytes, exists, open_text, read_json
+from agents.compressed import compressed_bytes
+from agents.files.reader import exists, read_csv, read_json
 
 STRUCTURES = ("PID", "FPPI", "MSP")
 NOISES = (0.01, 0.1)
@@ -36,10 +37,9 @@ def _regimes():
 
 
 def _costs(folder: Path) -> dict[str, dict[int, float]]:
-    with open_text(folder / "per_plant.csv") as file:
-        costs: dict[str, dict[int, float]] = {}
-        for row in csv.DictReader(file):
-            costs.setdefault(row["policy"], {})[int(row["index"])] = float(row["cost"])
+    costs: dict[str, dict[int, float]] = {}
+    for row in read_csv(folder / "per_plant.csv", ("index", "policy", "cost")):
+        costs.setdefault(row["policy"], {})[int(row["index"])] = float(row["cost"])
     return costs
 
 

@@ -14,22 +14,19 @@ changed.
 
 from __future__ import annotations
 
-import csv
-import json
 from pathlib import Path
 
 import numpy as np
 
-from agents.compressed import open_text, read_json
+from agents.files.reader import read_csv, read_json
 
 
 def _rows(folder: Path) -> tuple[dict, dict]:
     results = read_json(folder / "results.json")
     policies = {p["name"]: p for p in results["policies"]}
-    with open_text(folder / "per_plant.csv") as file:
-        costs: dict[str, dict[int, float]] = {}
-        for row in csv.DictReader(file):
-            costs.setdefault(row["policy"], {})[int(row["index"])] = float(row["cost"])
+    costs: dict[str, dict[int, float]] = {}
+    for row in read_csv(folder / "per_plant.csv", ("index", "policy", "cost")):
+        costs.setdefault(row["policy"], {})[int(row["index"])] = float(row["cost"])
     return policies, costs
 
 
