@@ -6,9 +6,10 @@ Python's default would end the process at once and leave its children (the worke
 evaluate --workers``, multiprocessing's resource tracker, a local Ray cluster) running.  A command that
 stops at a boundary of its own (``deadtime train``: a checkpoint first) installs its handlers inside.
 
-When the command has been interrupted, :func:`end_children` ends every process it started: Ray is
-shut down, then every descendant started since the command began gets SIGTERM, and SIGKILL after
-:data:`GRACE_S` seconds.  While it does so, and while the one line is printed, further signals are
+When the command has been interrupted, :func:`end_children` ends every process it started: the
+descendants started since the command began are listed first (a local Ray cluster's workers would be
+orphaned once it shuts down, and no longer found below this process), Ray is shut down, then those
+still running get SIGTERM, and SIGKILL after :data:`GRACE_S` seconds.  While it does so, and while the one line is printed, further signals are
 ignored, so that a second Ctrl-C never shows a traceback.  :func:`interrupted` recognizes an
 interruption that a library turned into another exception on its way out (a ``SystemError`` of a
 compiled numba call, an error of torch's archive writer): one whose chain holds a ``KeyboardInterrupt``.
@@ -138,6 +139,26 @@ def _shutdown_ray() -> None:
         pass
 
 
+def _alive(pids: set[int]) -> set[int]:
+    """Those of ``pids`` still running (a zombie has ended: its parent collects its status)."""
+    alive = set()
+    for pid in pids:
+        try:
+            stat = Path(f"/proc/{pid}/stat").read_text()
+        except FileNotFoundError:
+            continue
+        except OSError:  # no /proc: ask the process
+            try:
+                os.kill(pid, 0)
+            except (ProcessLookupError, PermissionError):
+                continue
+            alive.add(pid)
+            continue
+        if stat[stat.rindex(")") + 2:].split()[0] != "Z":
+            alive.add(pid)
+    return alive
+
+
 def _signal(pids: set[int], number: int) -> None:
     for pid in pids:
         try:
@@ -149,17 +170,18 @@ def _signal(pids: set[int], number: int) -> None:
 def end_children(earlier: set[int] = frozenset(), grace_s: float = GRACE_S) -> None:
     """End every process started below this one, except ``earlier`` (those running before the command
     began, and theirs): Ray shut down, then SIGTERM, then SIGKILL after ``grace_s`` seconds."""
-    _shutdown_ray()
     spare = set(earlier)
     for pid in earlier:
         spare |= descendants(pid)
-    pids = descendants() - spare
+    pids = descendants() - spare  # before Ray shuts down: its workers would be orphaned, no longer below this one
+    _shutdown_ray()
+    pids = _alive(pids)
     if not pids:
         return
     _signal(pids, signal.SIGTERM)
     deadline = time.monotonic() + grace_s
     while time.monotonic() < deadline:
-        pids &= descendants()  # a zombie counts as ended: its parent collects its status
+        pids = _alive(pids)
         if not pids:
             return
         time.sleep(0.05)
