@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 from agents.limits import MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
 from agents.files.reader import load_yaml_file
+from agents.training.schema import integer_field as _integer, mapping_field as _mapping
 
 if TYPE_CHECKING:
     from agents.sweeps.config import Trial
@@ -123,24 +124,6 @@ class Protocol:
 
 
 # ------------------------------------------------------------------------------------ reading
-def _mapping(value: Any, where: str, known: Sequence[str], required: Sequence[str] = ()) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise ValueError(f"{where} must be a mapping, got {type(value).__name__}")
-    unknown = [key for key in value if key not in known]
-    if unknown:
-        raise ValueError(f"unknown key {unknown[0]!r} in {where} (known keys: {', '.join(known)})")
-    missing = [key for key in required if key not in value]
-    if missing:
-        raise ValueError(f"{where} needs {missing[0]!r}")
-    return value
-
-
-def _integer(value: Any, where: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise ValueError(f"{where} must be an integer >= {minimum}, got {value!r}")
-    return value
-
-
 def _fraction(value: Any, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 1:
         raise ValueError(f"{where} must be a number in (0, 1), got {value!r}")

@@ -39,6 +39,7 @@ from typing import Any
 from agents.limits import MAX_RESAMPLES, MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
 from agents.training.config import TrainConfig, load_config
 from agents.files.reader import load_yaml_file
+from agents.training.schema import integer_field as _integer, mapping_field as _mapping
 
 __all__ = ["Evaluation", "Failure", "SweepConfig", "Trial", "TrialGroup", "evaluation_directory", "load_sweep"]
 
@@ -135,21 +136,6 @@ def evaluation_directory(out: Path, env_id: str, name: str) -> Path:
 
 
 # ------------------------------------------------------------------------------------ reading
-def _mapping(value: Any, where: str, known: Sequence[str]) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise ValueError(f"{where} must be a mapping, got {type(value).__name__}")
-    unknown = [key for key in value if key not in known]
-    if unknown:
-        raise ValueError(f"unknown key {unknown[0]!r} in {where} (known keys: {', '.join(known)})")
-    return value
-
-
-def _integer(value: Any, where: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise ValueError(f"{where} must be an integer >= {minimum}, got {value!r}")
-    return value
-
-
 def _strings(value: Any, where: str) -> tuple[str, ...]:
     if isinstance(value, str):
         value = [value]

@@ -19,7 +19,7 @@ from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
 from typing import Any
 
-__all__ = ["check_env_kwargs", "did_you_mean", "frozen_mapping", "parameters", "plain_value", "probe_environment",
+__all__ = ["check_env_kwargs", "did_you_mean", "frozen_mapping", "integer_field", "mapping_field", "parameters", "plain_value", "probe_environment",
            "refused_as", "require_field", "whole_number", "whole_numbers", "yaml_number"]
 
 
@@ -51,6 +51,26 @@ def yaml_number(value: Any) -> Any:
     reads as a string, as a float; any other value unchanged."""
     if isinstance(value, str) and _EXPONENT_NUMBER.fullmatch(value.strip()):
         return float(value)
+    return value
+
+
+def mapping_field(value: Any, where: str, known: Sequence[str], required: Sequence[str] = ()) -> Mapping[str, Any]:
+    """``value`` as a mapping of only the ``known`` keys and every ``required`` one, else one line naming ``where``."""
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{where} must be a mapping, got {type(value).__name__}")
+    unknown = [key for key in value if key not in known]
+    if unknown:
+        raise ValueError(f"unknown key {unknown[0]!r} in {where} (known keys: {', '.join(known)})")
+    missing = [key for key in required if key not in value]
+    if missing:
+        raise ValueError(f"{where} needs {missing[0]!r}")
+    return value
+
+
+def integer_field(value: Any, where: str, minimum: int) -> int:
+    """``value`` as an integer of at least ``minimum`` (not a bool), else one line naming ``where``."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise ValueError(f"{where} must be an integer >= {minimum}, got {value!r}")
     return value
 
 
