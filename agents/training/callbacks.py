@@ -136,6 +136,7 @@ class Checkpointer(BaseCallback):
         self.directory = self.run_dir / "checkpoints"
         self.stopping = False
         self.stopped_at: int | None = None
+        self.written = False  # whether this session wrote a checkpoint
 
     def _on_training_start(self) -> None:
         if self.resumed is not None and self.resumed.get("state") is not None:
@@ -156,7 +157,9 @@ class Checkpointer(BaseCallback):
         """Write a checkpoint now (``periodic``: it counts as the periodic one)."""
         if periodic:
             self.periodic = self.model.num_timesteps
-        return save_checkpoint(self.directory, self.model, self.vecnormalize, self.validator.history, self.periodic)
+        path = save_checkpoint(self.directory, self.model, self.vecnormalize, self.validator.history, self.periodic)
+        self.written = True
+        return path
 
 
 class Progress(BaseCallback):

@@ -304,8 +304,9 @@ def _session(config: TrainConfig, run_dir: Path, resume: bool, command: str | No
             status = "interrupted" if checkpointer.stopped_at is not None else "finished"
         finally:
             train_seconds = time.perf_counter() - started
+            checkpointed = checkpointer.written or (status == "finished" and config.checkpoint_freq > 0)  # saved below
             _write_run_json(run_dir, config, provenance, status, model.num_timesteps, start_steps, train_seconds,
-                            time.process_time() - cpu_started, checkpoint is not None)
+                            time.process_time() - cpu_started, checkpoint is not None, checkpointed)
         if status == "finished":
             save_model(model, run_dir / "model.zip", vecnormalize)
             final = validator.validate(model).mean_cost
@@ -359,6 +360,10 @@ def _existing_run(config: TrainConfig, run_dir: Path, resume: bool) -> Checkpoin
 def _require_no_trained_steps(run_dir: Path) -> None:
     """Refuse to resume from step 0 a run whose ``run.json`` records trained steps: its checkpoints are gone.
 
+    A run stopped before its first checkpoint (``run.json``'s ``checkpointed`` false; a sweep's trial
+    stopped by Ctrl-C early) has nothing to resume: it starts again from step 0, and says so.  A record
+    without ``checkpointed`` (an older run) counts as checkpointed.
+
     Raises
     ------
     DamagedFileError
@@ -368,7 +373,10 @@ def _require_no_trained_steps(run_dir: Path) -> None:
 
     record = read_record(run_dir / "run.json", dict) or {}
     steps = record.get("num_timesteps")
-    if isinstance(steps, int) and steps > 0:
+    if isinstance(steps, int) and steps > 0 and record.get("checkpointed") is False:
+        print(f"deadtime train: {run_dir} was stopped after {steps} steps, before its first checkpoint: "
+              "it starts again from step 0", file=sys.stderr)
+    elif isinstance(steps, int) and steps > 0:
         raise DamagedFileError(f"{run_dir / 'checkpoints'} holds no checkpoint, but {run_dir / 'run.json'} records {steps} "
                                "trained steps: restore the checkpoints, or start a new run in another --out "
                                "(a run is never restarted from step 0 silently)")
@@ -472,8 +480,12 @@ def _finished(run_dir: Path, config: TrainConfig) -> TrainResult | None:
 
 def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str, Any], status: str,
                     num_timesteps: int, start_steps: int, train_seconds: float, cpu_seconds: float,
-                    resumed: bool) -> None:
-    """Record the run; ``cpu_seconds`` is the training process's own (not its subprocess workers')."""
+                    resumed: bool, checkpointed: bool) -> None:
+    """Record the run; ``cpu_seconds`` is the training process's own (not its subprocess workers').
+
+    ``checkpointed`` (whether this session wrote a checkpoint) is recorded as whether the run ever
+    wrote one: a run stopped before its first checkpoint has nothing to resume and starts again.
+    """
     from agents.files.reader import read_record
     from agents.files.writer import write_json
 
@@ -489,6 +501,7 @@ def _write_run_json(run_dir: Path, config: TrainConfig, provenance: Mapping[str,
     write_json(path, {
         "algorithm": config.algorithm, "env_id": config.env_id, "seed": config.seed,
         "status": status, "num_timesteps": num_timesteps, "total_timesteps": config.total_timesteps,
+        "checkpointed": checkpointed or resumed or previous.get("checkpointed", False),
         "command": provenance["command"], "commit": provenance["commit"], "versions": provenance["versions"],
         "train_seconds": round(sum(s["train_seconds"] for s in segments), 3),
         "segments": segments,

@@ -169,6 +169,7 @@ def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path,
     done = subprocess.run(_sweep_command(out, "--resume", "--json"), cwd=REPO, env=_environment(), capture_output=True,
                           text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
+    assert not json.loads(done.stdout)["failed"]  # a trial stopped before its first checkpoint starts again
     sessions = json.loads(done.stdout)["sessions"]
     assert [s["status"] for s in sessions] == ["interrupted", "finished"]
     assert json.loads(done.stdout)["wall_time_s"] == pytest.approx(sum(s["wall_time_s"] for s in sessions), abs=0.05)

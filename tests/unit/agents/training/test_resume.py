@@ -125,6 +125,42 @@ def test_a_killed_run_resumes_exactly(tmp_path: Path, uninterrupted: dict[str, P
     _assert_same_run(run_dir, uninterrupted[algorithm])
 
 
+class _Stopped(Exception):
+    """What stops a run from outside at a step (as Ray Tune stops a sweep's trial)."""
+
+
+def test_a_run_stopped_before_its_first_checkpoint_starts_again_and_ends_as_the_uninterrupted_run(
+        tmp_path: Path, uninterrupted: dict[str, Path], capsys: Any) -> None:
+    """Stopped at step 40 of SAC, before its first checkpoint (64): ``run.json`` records the steps and no
+    checkpoint, and ``--resume`` starts again from step 0, says so in one line, and ends bit for bit as the
+    uninterrupted run.  A run that did write checkpoints and lost them is refused instead
+    (tests/unit/agents/test_files.py)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from agents.training.config import load_config
+    from agents.training.train import train
+
+    class StopAt(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.model.num_timesteps >= 40:
+                raise _Stopped
+            return True
+
+    run_dir = tmp_path / "run"
+    config = load_config(_config(tmp_path, "SAC"), overrides=[f"output_dir={run_dir}"])
+    with pytest.raises(_Stopped):
+        train(config, resume=True, callbacks=[StopAt()])
+    record = json.loads((run_dir / "run.json").read_text())
+    assert (record["status"], record["num_timesteps"], record["checkpointed"]) == ("interrupted", 40, False)
+    assert not list((run_dir / "checkpoints").glob("checkpoint_*.json"))
+    capsys.readouterr()
+    assert main(["train", "--out", str(run_dir), "--resume"]) == 0
+    assert (f"deadtime train: {run_dir} was stopped after 40 steps, before its first checkpoint: it starts again "
+            "from step 0") in capsys.readouterr().err
+    assert json.loads((run_dir / "run.json").read_text())["segments"][-1]["from_timesteps"] == 0
+    _assert_same_run(run_dir, uninterrupted["SAC"])
+
+
 def test_sigterm_checkpoints_at_the_next_boundary_and_resumes_exactly(tmp_path: Path, uninterrupted: dict[str, Path],
                                                                       capsys: Any) -> None:
     """In process: SIGTERM at step 70 of PPO (rollouts of 32) stops at 96 with a checkpoint there."""
