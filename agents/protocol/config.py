@@ -50,8 +50,9 @@ if TYPE_CHECKING:
 
 __all__ = ["COMPARISON_SIDES", "Learner", "Protocol", "Regime", "Selection", "Stream", "load_protocol", "trial"]
 
-COMPARISON_SIDES = {"first": ("fixed", "plan"), "second": ("best-rule", "fixed-procedure", "best-plan")}
-"""What a declared comparison may name: a primary first, a baseline chosen on validation second."""
+COMPARISON_SIDES = {"first": ("fixed", "plan"), "second": ("best-rule", "base-rule", "fixed-procedure", "best-plan")}
+"""What a declared comparison may name: a primary first; second a baseline chosen on validation, or
+``base-rule``, the structure's own rule (:attr:`envs.structures.Structure.base_rule`, fixed in advance)."""
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,7 @@ def _declared(protocol: Protocol) -> int:
     count = 0
     for regime in protocol.regimes:
         modes = {"fixed"} | ({"plan"} if regime.plan else set())
-        seconds = {"best-rule", "fixed-procedure"} | ({"best-plan"} if protocol.selection.plans else set())
+        seconds = {"best-rule", "base-rule", "fixed-procedure"} | ({"best-plan"} if protocol.selection.plans else set())
         count += sum(1 for first, second in protocol.comparisons if first in modes and second in seconds)
     return count
 

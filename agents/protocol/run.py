@@ -193,15 +193,31 @@ def _baselines(protocol: Protocol) -> list[str]:
     return list(dict.fromkeys([*selection.rules, *selection.plans, selection.fixed_procedure, "oracle"]))
 
 
-def _rule_names(protocol: Protocol, regime: Regime) -> list[str]:
-    """The rules that ``selection.rules`` expands to in the regime's structure."""
+def _structure(regime: Regime) -> str:
+    """The name of the regime's structure."""
     from agents.environments import make_env
-    from agents.evaluation.policies import parse_policies
 
     env = make_env(regime.env, {"experiments": "fixed", **regime.env_kwargs})
     structure = env.unwrapped.structure
     env.close()
+    return structure
+
+
+def _rule_names(protocol: Protocol, regime: Regime) -> list[str]:
+    """The rules that ``selection.rules`` expands to in the regime's structure."""
+    from agents.evaluation.policies import parse_policies
+
+    structure = _structure(regime)
     return [spec.name for spec in parse_policies(",".join(protocol.selection.rules), structure) if spec.kind == "rule"]
+
+
+def _base_rule(protocol: Protocol, regime: Regime) -> dict[str, str]:
+    """``{"base-rule": name}`` where a comparison names the structure's own rule, else nothing."""
+    if not any(second == "base-rule" for _, second in protocol.comparisons):
+        return {}
+    from envs.structures import structure
+
+    return {"base-rule": structure(_structure(regime)).base_rule}
 
 
 def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[str, Any]:
@@ -216,12 +232,15 @@ def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[st
     family = _family(regime)
     plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
     directory = work / regime.name / "validation"
-    _evaluate(regime, [*_baselines(protocol), *learners], plants, protocol.validation.episode_seed, directory, benchmark=False)
+    base = _base_rule(protocol, regime)
+    _evaluate(regime, [*_baselines(protocol), *base.values(), *learners], plants, protocol.validation.episode_seed, directory,
+              benchmark=False)
     _, table = matrices(read_per_plant(directory / "per_plant.csv", names), "test")
     mean_of = {name: plant_means(table[name][0]) for name in table}
     chosen: dict[str, Any] = {
         "best-rule": least_mean({name: mean_of[name] for name in _rule_names(protocol, regime)}),
         "fixed-procedure": protocol.selection.fixed_procedure,
+        **base,
     }
     if protocol.selection.plans:
         chosen["best-plan"] = least_mean({name: mean_of[name] for name in protocol.selection.plans})
@@ -271,7 +290,7 @@ def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selec
     chosen = selection["chosen"]
     labels = [(mode, chosen[mode]) for mode in ("fixed", "plan") if mode in chosen]
     learners, names = _learner_policies(protocol, work, regime, labels)
-    baselines = list(dict.fromkeys([chosen[role] for role in ("best-rule", "fixed-procedure", "best-plan") if role in chosen]))
+    baselines = list(dict.fromkeys([chosen[role] for role in ("best-rule", "base-rule", "fixed-procedure", "best-plan") if role in chosen]))
     plants = plant_stream(selection["family"], protocol.test.entropy, protocol.test.plants)
     directory = work / regime.name / "test"
     _evaluate(regime, [*baselines, "oracle", *learners], plants, protocol.test.episode_seed, directory, benchmark=True)

@@ -90,3 +90,39 @@ def test_a_tiny_protocol_runs_resumes_and_reports(tmp_path):
     selection = json.loads((regime / "selection.json").read_text())
     assert selection["chosen_on"] == "validation" and selection["validation_plants"] == 5
     assert (out / "results.md").read_text().count("\n| pid-tiny") == 4 and (out / "forest.png").exists()
+
+
+PI_PROTOCOL = """name: tiny-pi
+seeds: {{first: 0, count: 2}}
+alpha: 0.05
+streams:
+  validation: {{entropy: 21, plants: 4, episode_seed: 50000000}}
+  test: {{entropy: 22, plants: 5, episode_seed: 60000000}}
+selection:
+  violation_target: 0.5
+  confidence: 0.95
+  rules: [amigo-pi]
+comparisons: [[fixed, best-rule], [fixed, base-rule]]
+regimes:
+  - name: pi-tiny
+    env: DeadTime/PI-v3
+    env_kwargs: {{noise_std: 0.01}}
+    fixed:
+      - {{label: tiny-fixed, config: {rule}, overrides: ["env_id=DeadTime/PI-v3"]}}
+"""
+
+
+@pytest.mark.slow
+def test_the_base_rule_is_compared_where_declared_and_scored_though_not_among_the_rules(tmp_path):
+    """``base-rule`` is the structure's own rule (on the PI: ``simc-pi``), fixed in advance, not chosen."""
+    (tmp_path / "rule.yaml").write_text(RULE)
+    path = tmp_path / "tiny-pi.yaml"
+    path.write_text(PI_PROTOCOL.format(rule=tmp_path / "rule.yaml"))
+    protocol = load_protocol(path)
+    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
+    out = tmp_path / "out"
+    assert run_protocol(protocol, out) == ["pi-tiny"]
+    selection = json.loads((out / "pi-tiny" / "selection.json").read_text())
+    assert selection["chosen"]["best-rule"] == "amigo-pi" and selection["chosen"]["base-rule"] == "simc-pi"
+    entry = write_report(protocol, out)["regimes"][0]
+    assert [(c["first"], c["second"]) for c in entry["comparisons"]] == [("tiny-fixed", "amigo-pi"), ("tiny-fixed", "simc-pi")]
