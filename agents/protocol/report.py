@@ -123,7 +123,7 @@ def forest_plot(results: dict[str, Any], path: Path) -> None:
         axes.plot(c["estimate"]["mean"], y, "o", color=color)
     axes.axvline(0.0, color="black", linewidth=0.8)
     axes.set_yticks(range(len(rows)), [f"{name}: {c['roles'][0]} - {c['roles'][1]}" for name, c in reversed(rows)], fontsize=7)
-    axes.set_xlabel("first - second, cost units (mean and Holm-adjusted interval; negative: the first is cheaper)")
+    axes.set_xlabel("first - second, cost units\n(mean and Holm-adjusted interval; negative: the first is cheaper)", fontsize=8)
     figure.tight_layout()
     figure.savefig(path, dpi=120)
     plt.close(figure)
