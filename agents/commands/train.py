@@ -5,8 +5,9 @@
     deadtime train --config configs/ppo.yaml [--env ID] [--out DIR] [--seed N] [--resume] [key=value ...]
 
 The config is resolved (:func:`agents.training.config.load_config`), and here, once, its ``algorithm``
-chooses the fit: a stable-baselines3 agent (:func:`agents.training.train.train`) or, for
-``algorithm: learned-rule``, the learned rule (:func:`agents.training.learned_rule.fit`).  What a run
+chooses the fit: a stable-baselines3 agent (:func:`agents.training.train.train`), for
+``algorithm: learned-rule`` the learned rule (:func:`agents.training.learned_rule.fit`), for
+``algorithm: selector`` a selector (:func:`agents.training.selector.fit`).  What a run
 writes, how it resumes and what its seed drives: :mod:`agents.training.train` and
 :mod:`agents.training.learned_rule`.
 
@@ -30,6 +31,7 @@ from agents.limits import MAX_BUFFER_SIZE, MAX_ENVS, MAX_EVAL_EPISODES, MAX_LAYE
 if TYPE_CHECKING:
     from agents.training.config import TrainConfig
     from agents.training.learned_rule_config import LearnedRuleConfig
+    from agents.training.selector_config import SelectorConfig
 
 __all__ = ["add_arguments", "run"]
 
@@ -55,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
     """``deadtime train``: resolve the config, train or fit, report where the agent is."""
     from agents.training.config import load_config
     from agents.training.learned_rule_config import LearnedRuleConfig
+    from agents.training.selector_config import SelectorConfig
     from agents.training.train import with_seed
 
     if args.config is None:
@@ -73,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
     command = shlex.join(_command_from(args))
     if isinstance(config, LearnedRuleConfig):
         return _fit_learned_rule(config, resume=args.resume, command=command)
+    if isinstance(config, SelectorConfig):
+        return _fit_selector(config, resume=args.resume, command=command)
     return _train_agent(config, resume=args.resume, command=command)
 
 
@@ -140,4 +145,21 @@ def _fit_learned_rule(config: LearnedRuleConfig, *, resume: bool, command: str) 
     if rule.get("certification"):
         print(certification_line(rule["certification"]))
     print(f"learned rule: {result.run_dir / 'learned_rule.json'} (deadtime evaluate --policies learned={result.run_dir})")
+    return 0
+
+
+def _fit_selector(config: SelectorConfig, *, resume: bool, command: str) -> int:
+    """Fit a selector, report where it is (exit 130 on Ctrl-C: a selector's fit starts again, its own
+    learned design's labels are kept)."""
+    from agents.training.selector import fit, run_directory
+
+    try:
+        result = fit(config, resume=resume, command=command)
+    except (KeyboardInterrupt, SystemError) as error:
+        if isinstance(error, SystemError) and not isinstance(error.__context__, KeyboardInterrupt):
+            raise
+        kept = "a finished fit of its learned candidate is kept"
+        print(f"\n{_interrupted_advice(run_directory(config), kept)}", file=sys.stderr)
+        return 130
+    print(f"selector: {result.run_dir / 'selector.json'} (deadtime evaluate --policies selector={result.run_dir})")
     return 0

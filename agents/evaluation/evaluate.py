@@ -337,13 +337,14 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
         "resamples": resamples,
         "wall_time_s": round(elapsed, 2),
         **({"env_kwargs": regime} if regime else {}),
+        **_choices(results, list(agents)),
     }
     from agents.evaluation.report import results_json, write_tables
 
     n = n if given is None else len(given)  # the test plants evaluated: those given, where --plants gives them
     if out is None:
         return results_json(env_id, n, seed, subsets, roles, extra)
-    notes = _notes(best_rule, own) + _failure_notes(results, plants)
+    notes = _notes(best_rule, own) + _failure_notes(results, plants) + _choice_notes(extra)
     result = write_tables(out, env_id, n, seed, subsets, roles, extra, per_plant, notes)
     if plots:
         _plots(out, env_id, plants, results, shown, roles, best_rule, list(agents), unwrapped.constraints)
@@ -407,6 +408,23 @@ def _score_plants(
     if cache.note() is not None:
         warn(cache.note())
     return results, rows, mismatch
+
+
+def _choices(results: list[dict[str, Any]], names: list[str]) -> dict[str, Any]:
+    """``{"choices": {selector: {candidate: share of plants}}}`` for the selectors among ``names`` (else nothing)."""
+    from collections import Counter
+
+    choices = {}
+    for name in names:
+        picked = Counter(found[name].choice for found in results)
+        if None not in picked:
+            choices[name] = {candidate: count / len(results) for candidate, count in picked.most_common()}
+    return {"choices": choices} if choices else {}
+
+
+def _choice_notes(extra: dict[str, Any]) -> list[str]:
+    return [f"{name} gave the plants to " + ", ".join(f"`{c}` {share:.1%}" for c, share in shares.items())
+            for name, shares in extra.get("choices", {}).items()]
 
 
 def _print_warning(line: str) -> None:

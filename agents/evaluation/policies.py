@@ -20,6 +20,11 @@ A policy is one of
   its ``learned_rule.json``; :mod:`agents.training.learned_rule`), recognized by its files and loaded
   by ``agents.training.learned_rule_policy.load_learned_rule``.  It plays like an agent (one action
   from the observation) and has the role ``learned rule`` in the tables;
+* a path to a selector (``PATH`` or ``NAME=PATH``, ``NAME`` starting with ``selector``: the run
+  directory of a ``selector`` fit, :mod:`agents.training.selector`), loaded by
+  ``agents.training.selector_policy.load_selector``.  Per plant it chooses a candidate from the
+  observation and plays it (:func:`agents.evaluation.run.selector_result`); it has the role
+  ``selector``, and the results give the share of plants given to each candidate;
 * a procedure of :mod:`baselines.procedures`: ``plan-A1-A2`` (the fixed procedure's two experiments at
   amplitudes ``A1`` and ``A2`` for every plant, then the structure's base rule; ``plan-1-1`` is the
   fixed procedure), ``plan-best`` (the plan of the least mean cost on the validation plants in the
@@ -48,24 +53,22 @@ from envs.structures import STRUCTURES
 STRUCTURE_CONTROLLER = {name: s.controller for name, s in STRUCTURES.items()}
 """The controller type of each environment structure's design (the rules of its own structure)."""
 
-_PLANT_KINDS = {name: (s.plant_kind, "both") for name, s in STRUCTURES.items()}
 
-
-TRAINED = ("agent", "learned-rule")
+TRAINED = ("agent", "learned-rule", "selector")
 """The kinds of policy loaded from a path and played from the observation."""
 
 PLAYED = (*TRAINED, "procedure")
 """The kinds of policy that play episodes of their own (the others design on the fixed mode's
 identification)."""
 
-ROLES = {"agent": "agent", "learned-rule": "learned rule", "procedure": "procedure"}
+ROLES = {"agent": "agent", "learned-rule": "learned rule", "selector": "selector", "procedure": "procedure"}
 """The role in the tables of each kind of :data:`PLAYED`."""
 
 
 @dataclass(frozen=True)
 class PolicySpec:
     """One policy to evaluate: ``kind`` is ``"rule"``, ``"oracle"``, ``"oracle-full"``, ``"agent"``,
-    ``"learned-rule"`` or ``"procedure"``."""
+    ``"learned-rule"``, ``"selector"`` or ``"procedure"``."""
 
     name: str
     kind: str
@@ -143,12 +146,11 @@ def split_policies(policies: Any) -> tuple[str | None, dict[str, Any]]:
 
 
 def applicable_rules(structure: str) -> list[str]:
-    """Names of the rules for the plants of an environment of ``structure`` (``all-rules``)."""
-    from baselines.rules.registry import RULES
+    """Names of the rules for the plants of an environment of ``structure`` (``all-rules``):
+    :func:`baselines.rules.registry.applicable_rules`."""
+    from baselines.rules.registry import applicable_rules as rules_for
 
-    kinds, own = _PLANT_KINDS[structure], STRUCTURE_CONTROLLER[structure]
-    classes = {"pid", "pid-series", own}
-    return [name for name, rule in RULES.items() if rule.plants in kinds and rule.controller in classes]
+    return rules_for(structure)
 
 
 def own_rules(structure: str) -> list[str]:
@@ -206,8 +208,11 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
             if not path:
                 raise ValueError(f"policy {item!r} names no agent path after '='")
             from agents.training.learned_rule_policy import is_learned_rule
+            from agents.training.selector_policy import is_selector
 
-            kind = "learned-rule" if is_learned_rule(path) else "agent"
+            kind = "selector" if is_selector(path) else "learned-rule" if is_learned_rule(path) else "agent"
+            if kind == "selector" and name and not name.startswith("selector"):
+                raise ValueError(f"policy {item!r}: a selector's name starts with 'selector' (e.g. selector={path})")
             specs.append(PolicySpec(name, kind, path))  # name "" -> the policy's own name
         else:
             _unknown(item)
@@ -252,6 +257,11 @@ def load_agent(spec: PolicySpec) -> tuple[str, Any]:
 
         policy = load_learned_rule(spec.path)
         return spec.name or policy.name, policy
+    if spec.kind == "selector":
+        from agents.training.selector_policy import load_selector
+
+        policy = load_selector(spec.path)
+        return spec.name or (policy.name if policy.name.startswith("selector") else f"selector-{policy.name}"), policy
     try:
         from agents.training.policies import load_policy, resolve_model_path
     except ImportError as error:

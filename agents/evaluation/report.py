@@ -116,7 +116,7 @@ def write_tables(
             rows.append([name, s.name, roles.get(s.name, "rule"), s.n, *values])
     texts["results.csv"] = csv_text(rows)
     if per_plant:
-        columns = list(per_plant[0])
+        columns = list(dict.fromkeys(column for row in per_plant for column in row))  # a selector's rows add "choice"
         texts["per_plant.csv"] = csv_text([columns, *([row.get(c, "") for c in columns] for row in per_plant)])
     atomic_write_all({out / name: text_writer(text) for name, text in texts.items()})
     return result

@@ -19,7 +19,8 @@ class PolicyResult:
 
     ``controller`` is the controller's JSON (``None`` on failure); ``parameter`` the dimensionless
     design parameter where the policy has one (``mu``, ``T_r/T_n`` or ``T_r/L_n``, as the agent's
-    and the oracle's), else ``None``; ``error`` the failure's message.
+    and the oracle's), else ``None``; ``error`` the failure's message; ``choice`` a selector's chosen
+    candidate (left out of :meth:`to_dict` for every other policy).
     """
 
     cost: float
@@ -29,9 +30,13 @@ class PolicyResult:
     controller: dict[str, Any] | None = None
     parameter: float | None = None
     error: str | None = None
+    choice: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        data = asdict(self)
+        if data["choice"] is None:
+            del data["choice"]
+        return data
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PolicyResult:
@@ -74,6 +79,7 @@ def _check(data: dict[str, Any]) -> None:
         "controller": lambda v: v is None or isinstance(v, dict),
         "parameter": lambda v: v is None or _number(v),
         "error": lambda v: v is None or isinstance(v, str),
+        "choice": lambda v: v is None or isinstance(v, str),
     }
     for name, valid in checks.items():
         if name in data and not valid(data[name]):

@@ -32,11 +32,13 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from agents.evaluation.cache import Cache
 from agents.evaluation.result import FAILURE_COST, PolicyResult
 from agents.interruptions import GRACE_S, ignore_interrupts_in_worker
 
-__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "evaluate_plant", "plant_key"]
+__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "evaluate_plant", "plant_key", "rule_result", "selector_result"]
 
 
 CACHE_VERSION = 3
@@ -74,7 +76,7 @@ def _finite(x: Any) -> float | None:
     return float(x) if x is not None and math.isfinite(float(x)) else None
 
 
-def _rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
+def rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
     from baselines.rules.registry import RuleInputs, get_rule
 
     rule = get_rule(name)
@@ -123,8 +125,6 @@ def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[Policy
 
 
 def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
-    import numpy as np
-
     observation, info = env.reset(seed=seed, options={"plant": plant})
     for _ in range(10_000):
         action, _ = policy.predict(observation, deterministic=True)
@@ -133,6 +133,29 @@ def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
             break
     else:
         raise ValueError("the agent's episode did not end within 10000 steps")
+    return _step_result(info)
+
+
+def selector_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
+    """A selector's episode (:mod:`agents.training.selector_policy`): reset with the plant and seed, the
+    candidate it chooses from the observation, then that candidate's design on this identification: a
+    rule scored as :func:`rule_result` scores it, a learned design's action stepped as an agent's."""
+    import dataclasses
+
+    observation, _ = env.reset(seed=seed, options={"plant": plant})
+    unwrapped = env.unwrapped
+    choice = policy.choose(observation)
+    rule = policy.rule_of(choice)
+    if rule is not None and unwrapped.identification is not None:
+        result = rule_result(env, rule, unwrapped.evidence.experiment_time / plant.residence_time)
+    else:  # a learned design, or no identification (the step ends the episode without a design)
+        action = policy.action(choice, observation) if rule is None else np.zeros(env.action_space.shape)
+        info = env.step(np.asarray(action, dtype=np.float32).reshape(env.action_space.shape))[4]
+        result = _step_result(info)
+    return dataclasses.replace(result, choice=choice)
+
+
+def _step_result(info: dict[str, Any]) -> PolicyResult:
     return PolicyResult(
         float(info["cost"]), bool(info["feasible"]), info.get("identified") is False,
         float(info.get("experiment_time", math.nan)), info.get("controller"), _finite(info.get("parameter")),
@@ -193,12 +216,13 @@ def evaluate_plant(
                 results[name], off = _oracle_result(env, name == "oracle-full", experiment_time)
                 mismatch = max(mismatch, off) if name == "oracle" else mismatch
             else:
-                results[name] = _rule_result(env, name, experiment_time)
+                results[name] = rule_result(env, name, experiment_time)
             cache.put(key, name, results[name])
     for name, (policy, agent_env, identity) in agents.items():
         result = None if identity is None else cache.get(key, identity)
         if result is None:
-            result = _agent_result(agent_env, policy, seed, plant)
+            play = selector_result if hasattr(policy, "rule_of") else _agent_result
+            result = play(agent_env, policy, seed, plant)
             if identity is not None:
                 cache.put(key, identity, result)
         results[name] = result

@@ -2,7 +2,7 @@
 
 A learner of a regime is the sweep trial ``Trial(label, env, seed, config, overrides, env_kwargs)``
 (:class:`agents.sweeps.config.Trial`), trained by :func:`agents.training.train.train` (a learned rule
-fitted by :func:`agents.training.learned_rule.fit`) with ``resume=True``: a finished fit is read back, an interrupted one continues from its checkpoint.  The
+fitted by :func:`agents.training.learned_rule.fit`, a selector by :func:`agents.training.selector.fit`) with ``resume=True``: a finished fit is read back, an interrupted one continues from its checkpoint.  The
 run directory is named by what determines the fit (environment, regime, config file and overrides),
 so two regimes that declare the same learner in the same environment and regime share its fits.
 """
@@ -35,6 +35,7 @@ def train_learner(work: Path, regime: Regime, learner: Learner, seed: int) -> Pa
         If the fit was interrupted (it resumes when called again) or its config changed since it started.
     """
     from agents.training.learned_rule_config import LearnedRuleConfig
+    from agents.training.selector_config import SelectorConfig
 
     directory = run_directory(work, regime, learner, seed)
     config = trial(regime, learner, seed).train_config(directory)
@@ -43,6 +44,10 @@ def train_learner(work: Path, regime: Regime, learner: Learner, seed: int) -> Pa
         from agents.training.learned_rule import fit
 
         result = fit(config, resume=True, command=command)
+    elif isinstance(config, SelectorConfig):
+        from agents.training.selector import fit as fit_selector
+
+        result = fit_selector(config, resume=True, command=command)
     else:
         from agents.training.train import train
 

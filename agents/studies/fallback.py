@@ -47,9 +47,9 @@ from agents.files.reader import load_yaml_file, read_json
 
 
 def _rule(env: Any, name: str) -> tuple[float, bool]:
-    from agents.evaluation.run import _rule_result
+    from agents.evaluation.run import rule_result
 
-    result = _rule_result(env, name, 0.0)
+    result = rule_result(env, name, 0.0)
     return result.cost, result.feasible
 
 

@@ -83,14 +83,17 @@ def trial_function(config: dict[str, Any]) -> None:
     """One Tune trial: ``deadtime train`` of ``config["trial"]`` into ``config["out"]/runs/NAME`` (an agent
     trained, or a learned rule fitted)."""
     from agents.training.learned_rule_config import LearnedRuleConfig
+    from agents.training.selector_config import SelectorConfig
 
     trial = Trial.from_dict(config["trial"])
     run_dir = Path(config["out"]) / "runs" / trial.name
     train_config = trial.train_config(run_dir)
     command = f"deadtime sweep (trial {trial.name})"
-    if isinstance(train_config, LearnedRuleConfig):  # a learned-rule fit reports when it ends only
-        from agents.training.learned_rule import fit
+    if isinstance(train_config, LearnedRuleConfig | SelectorConfig):  # a fit that reports when it ends only
+        from agents.training.learned_rule import fit as fit_learned_rule
+        from agents.training.selector import fit as fit_selector
 
+        fit = fit_learned_rule if isinstance(train_config, LearnedRuleConfig) else fit_selector
         result = fit(train_config, resume=True, command=command)
     else:
         from agents.sweeps.reporter import TuneReporter

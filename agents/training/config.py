@@ -41,6 +41,7 @@ from agents.files.reader import load_yaml, load_yaml_file
 from agents.limits import MAX_ENVS, MAX_EVAL_EPISODES, MAX_TIMESTEPS, require_at_most
 from agents.training.hyperparameters import INTEGER_KEYS
 from agents.training.learned_rule_config import LEARNED_RULE, LearnedRuleConfig, validate_learned_rule
+from agents.training.selector_config import SELECTOR, SelectorConfig, validate_selector
 from agents.training.schema import (
     check_env_kwargs,
     did_you_mean,
@@ -325,7 +326,7 @@ def _check_top_level(data: Mapping[str, Any], path: Path) -> None:
 
     import envs  # noqa: F401  (registers the DeadTime ids)
 
-    fields = list(dict.fromkeys(f.name for schema in (TrainConfig, LearnedRuleConfig) for f in dataclasses.fields(schema)))
+    fields = list(dict.fromkeys(f.name for schema in (TrainConfig, LearnedRuleConfig, SelectorConfig) for f in dataclasses.fields(schema)))
     for key in data:
         if key == "default" or (isinstance(key, str) and key in gymnasium.registry):
             continue
@@ -339,8 +340,10 @@ def _check_top_level(data: Mapping[str, Any], path: Path) -> None:
 
 
 def _schema(algorithm: Any) -> type:
-    """:class:`TrainConfig`, or for ``algorithm: learned-rule`` the learned rule's config."""
-    return LearnedRuleConfig if isinstance(algorithm, str) and algorithm.lower() == LEARNED_RULE else TrainConfig
+    """:class:`TrainConfig`, or for ``algorithm: learned-rule`` the learned rule's config, for ``algorithm:
+    selector`` the selector's."""
+    name = algorithm.lower() if isinstance(algorithm, str) else None
+    return {LEARNED_RULE: LearnedRuleConfig, SELECTOR: SelectorConfig}.get(name, TrainConfig)
 
 
 def _override_value(overrides: Sequence[str], key: str) -> Any:
@@ -372,6 +375,9 @@ def validate(config: TrainConfig) -> None:
     """
     if isinstance(config, LearnedRuleConfig):
         validate_learned_rule(config)
+        return
+    if isinstance(config, SelectorConfig):
+        validate_selector(config)
         return
     import stable_baselines3
 

@@ -27,7 +27,7 @@ import numpy as np
 from agents.files.reader import read_json
 from agents.files.writer import atomic_write, file_digest, write_json
 
-__all__ = ["MANIFEST", "MODEL_FILE", "LearnedRulePolicy", "is_learned_rule", "load_learned_rule", "save_learned_rule"]
+__all__ = ["MANIFEST", "MODEL_FILE", "LearnedRulePolicy", "check_version", "is_learned_rule", "load_learned_rule", "save_learned_rule"]
 
 MODEL_FILE = "learned_rule.pkl"
 MANIFEST = "learned_rule.json"
@@ -126,7 +126,7 @@ def load_learned_rule(path: str | Path) -> LearnedRulePolicy:
         raise ValueError(f"{manifest_path} is damaged: not a learned-rule manifest ({error.__class__.__name__}: {error})") from None
     if not model_path.is_file() or (model_path.stat().st_size, file_digest(model_path)) != expected:
         raise ValueError(f"{model_path} is damaged or missing: its size or SHA-256 differs from {manifest_path.name}'s")
-    _check_version(manifest, model_path)
+    check_version(manifest, model_path)
     try:
         with model_path.open("rb") as handle:
             rule = pickle.load(handle)  # noqa: S301  (the run's own file, checksummed by its manifest)
@@ -137,7 +137,8 @@ def load_learned_rule(path: str | Path) -> LearnedRulePolicy:
     return LearnedRulePolicy(manifest_path.parent.name, model_path, rule, env_id, env_kwargs, manifest)
 
 
-def _check_version(manifest: Mapping[str, Any], model_path: Path) -> None:
+def check_version(manifest: Mapping[str, Any], model_path: Path) -> None:
+    """Refuse, naming ``model_path``, a model pickled by another scikit-learn than the installed one."""
     from importlib import metadata
 
     fitted = (manifest.get("versions") or {}).get("scikit-learn")

@@ -60,6 +60,7 @@ from envs.identification.procedure import PULSE_LENGTH, Identification, Identifi
 
 __all__ = [
     "DM_TARGETS",
+    "applicable_rules",
     "FPPI_DEAD_TIME_ERROR",
     "MATCHED",
     "MSP_RELATIVE_DEAD_TIME_ERROR",
@@ -488,3 +489,14 @@ def get_rule(name: str) -> Rule:
         close = difflib.get_close_matches(str(name), list(RULES), n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise ValueError(f"unknown rule {name!r}{hint}; `deadtime tune --list` names the {len(RULES)} rules") from None
+
+
+def applicable_rules(structure: str) -> list[str]:
+    """Names of the rules for the plants of an environment of ``structure`` (``all-rules`` of ``deadtime
+    evaluate``): every PI/PID rule and those of the structure's own controller, among the rules for its
+    plant kind (self-regulating or integrating; ``both`` counts for either)."""
+    from envs.structures import STRUCTURES
+
+    kind = STRUCTURES[structure]
+    classes = {"pid", "pid-series", kind.controller}
+    return [name for name, rule in RULES.items() if rule.plants in (kind.plant_kind, "both") and rule.controller in classes]

@@ -1,0 +1,169 @@
+"""A fitted selector on disk, and played as a policy: ``load_selector(path).choose(observation)``.
+
+A selector's fit (:mod:`agents.training.selector`) writes into its run directory
+
+* ``selector.pkl``: the :class:`Selector` (per candidate a classifier of "violates" and a regression
+  of the cost where it does not, the threshold, and the learned designs among the candidates), pickled;
+* ``selector.json``: its manifest, written after the model: the environment id and keyword arguments,
+  the candidates, the threshold and the validation table that chose it, the size and SHA-256 of the
+  model file and the package versions.
+
+:func:`load_selector` takes the run directory, the manifest or the model file, and refuses in one line
+a model file whose size or checksum differs from the manifest's, or one pickled by another
+scikit-learn.
+"""
+
+from __future__ import annotations
+
+import pickle
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.files.reader import read_json
+from agents.files.writer import atomic_write, file_digest, write_json
+
+__all__ = ["MANIFEST", "MODEL_FILE", "Selector", "SelectorPolicy", "is_selector", "load_selector", "save_selector"]
+
+MODEL_FILE = "selector.pkl"
+MANIFEST = "selector.json"
+FORMAT = 1
+
+
+@dataclass(frozen=True)
+class Selector:
+    """The per-plant choice among candidate designs.
+
+    For an observation, each candidate ``k`` has a predicted probability of violating ``p_k`` and a
+    predicted cost ``c_k`` (where it does not violate).  The choice is the candidate of least ``c_k``
+    among those with ``p_k <= threshold`` (ties: the first in order); where none is, the one of least
+    ``p_k``.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The candidates' names, in order.
+    rules : tuple of str or None
+        Per candidate, the rule's name, or None for a learned design.
+    learned : dict of str to baselines.learned_rule.LearnedRule
+        The learned designs by name.
+    violation_models, cost_models : tuple
+        Per candidate a fitted scikit-learn model, or a number where the training plants admit none
+        (one class only; fewer than :data:`agents.training.selector.MIN_FEASIBLE` feasible plants).
+    threshold : float
+    """
+
+    names: tuple[str, ...]
+    rules: tuple[str | None, ...]
+    learned: Mapping[str, Any] = field(repr=False)
+    violation_models: tuple[Any, ...] = field(repr=False)
+    cost_models: tuple[Any, ...] = field(repr=False)
+    threshold: float = 0.1
+
+    def predictions(self, observations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(p, c)``, each ``(plants, candidates)``: the predicted probability of violating and cost."""
+        rows = np.atleast_2d(np.asarray(observations, dtype=float))
+        p = np.column_stack([_predict(model, rows, probability=True) for model in self.violation_models])
+        c = np.column_stack([_predict(model, rows, probability=False) for model in self.cost_models])
+        return p, c
+
+    def choices(self, observations: np.ndarray, threshold: float | None = None) -> np.ndarray:
+        """The index of the chosen candidate per row of ``observations`` (at ``threshold``, default the fitted one)."""
+        p, c = self.predictions(observations)
+        return choose(p, c, self.threshold if threshold is None else threshold)
+
+    def choose(self, observation: np.ndarray) -> str:
+        """The chosen candidate's name for one observation."""
+        return self.names[int(self.choices(observation)[0])]
+
+
+def choose(p: np.ndarray, c: np.ndarray, threshold: float) -> np.ndarray:
+    """Per row, the index of least ``c`` among the columns with ``p <= threshold``, else of least ``p``."""
+    allowed = p <= threshold
+    costs = np.where(allowed, c, np.inf)
+    return np.where(allowed.any(axis=1), np.argmin(costs, axis=1), np.argmin(p, axis=1))
+
+
+def _predict(model: Any, rows: np.ndarray, probability: bool) -> np.ndarray:
+    if isinstance(model, int | float):
+        return np.full(len(rows), float(model))
+    if probability:
+        return model.predict_proba(rows)[:, list(model.classes_).index(True)]
+    return model.predict(rows)
+
+
+@dataclass(frozen=True)
+class SelectorPolicy:
+    """A fitted selector, played by ``deadtime evaluate`` (:func:`agents.evaluation.run.selector_result`)."""
+
+    name: str
+    path: Path
+    selector: Selector = field(repr=False)
+    env_id: str
+    env_kwargs: Mapping[str, Any]
+    manifest: Mapping[str, Any] = field(repr=False)
+
+    def choose(self, observation: np.ndarray) -> str:
+        return self.selector.choose(observation)
+
+    def rule_of(self, choice: str) -> str | None:
+        """The rule's name of the candidate ``choice``, or None for a learned design."""
+        return self.selector.rules[self.selector.names.index(choice)]
+
+    def action(self, choice: str, observation: np.ndarray) -> np.ndarray:
+        """The action of the learned design ``choice``."""
+        return self.selector.learned[choice].predict(observation)
+
+
+def save_selector(run_dir: Path, selector: Selector, manifest: Mapping[str, Any]) -> Path:
+    """Write ``selector.pkl`` then its manifest, both atomically; returns the manifest's path."""
+    from agents.runtime import versions
+
+    model = atomic_write(run_dir / MODEL_FILE, lambda handle: pickle.dump(selector, handle, protocol=pickle.HIGHEST_PROTOCOL))
+    record = {"format": FORMAT, "file": MODEL_FILE, "size": model.stat().st_size, "sha256": file_digest(model),
+              "versions": versions(), **manifest}
+    return write_json(run_dir / MANIFEST, record)
+
+
+def is_selector(path: str | Path) -> bool:
+    """Whether ``path`` names a selector: its manifest or model file, or a run directory holding one."""
+    path = Path(path)
+    return path.name in (MANIFEST, MODEL_FILE) or (path.is_dir() and (path / MANIFEST).is_file())
+
+
+def load_selector(path: str | Path) -> SelectorPolicy:
+    """The selector of a run directory, manifest or model file.
+
+    Raises
+    ------
+    ValueError
+        Naming the file: no manifest, an unreadable one, a model file that differs from it, a
+        scikit-learn other than the fitting one, or a model file that holds no selector.
+    """
+    from agents.training.learned_rule_policy import check_version
+
+    path = Path(path)
+    manifest_path = path / MANIFEST if path.is_dir() else path.with_name(MANIFEST)
+    if not manifest_path.is_file():
+        raise ValueError(f"{manifest_path} is missing: no finished selector at {path}")
+    manifest = read_json(manifest_path, dict)
+    try:
+        model_path = manifest_path.with_name(manifest["file"])
+        expected = (int(manifest["size"]), str(manifest["sha256"]))
+        env_id, env_kwargs = str(manifest["env_id"]), dict(manifest["env_kwargs"])
+    except (ValueError, KeyError, TypeError) as error:
+        raise ValueError(f"{manifest_path} is damaged: not a selector manifest ({error.__class__.__name__}: {error})") from None
+    if not model_path.is_file() or (model_path.stat().st_size, file_digest(model_path)) != expected:
+        raise ValueError(f"{model_path} is damaged or missing: its size or SHA-256 differs from {manifest_path.name}'s")
+    check_version(manifest, model_path)
+    try:
+        with model_path.open("rb") as handle:
+            selector = pickle.load(handle)  # noqa: S301  (the run's own file, checksummed by its manifest)
+    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, ValueError, TypeError) as error:
+        raise ValueError(f"{model_path} cannot be read ({error.__class__.__name__}: {error})") from None
+    if not isinstance(selector, Selector):
+        raise ValueError(f"{model_path} holds a {type(selector).__name__}, not a selector")
+    return SelectorPolicy(manifest_path.parent.name, model_path, selector, env_id, env_kwargs, manifest)
