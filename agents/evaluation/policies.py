@@ -20,8 +20,8 @@ A policy is one of
   its ``learned_rule.json``; :mod:`agents.training.learned_rule`), recognized by its files and loaded
   by ``agents.training.learned_rule_policy.load_learned_rule``.  It plays like an agent (one action
   from the observation) and has the role ``learned rule`` in the tables;
-* a path to a selector (``PATH`` or ``NAME=PATH``, ``NAME`` starting with ``selector``: the run
-  directory of a ``selector`` fit, :mod:`agents.training.selector`), loaded by
+* a path to a selector (``PATH`` or ``NAME=PATH``: the run directory of a ``selector`` fit,
+  :mod:`agents.training.selector`; unnamed, its name starts with ``selector``), loaded by
   ``agents.training.selector_policy.load_selector``.  Per plant it chooses a candidate from the
   observation and plays it (:func:`agents.evaluation.run.selector_result`); it has the role
   ``selector``, and the results give the share of plants given to each candidate;
@@ -211,8 +211,6 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
             from agents.training.selector_policy import is_selector
 
             kind = "selector" if is_selector(path) else "learned-rule" if is_learned_rule(path) else "agent"
-            if kind == "selector" and name and not name.startswith("selector"):
-                raise ValueError(f"policy {item!r}: a selector's name starts with 'selector' (e.g. selector={path})")
             specs.append(PolicySpec(name, kind, path))  # name "" -> the policy's own name
         else:
             _unknown(item)
