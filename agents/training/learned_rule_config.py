@@ -19,12 +19,13 @@ from typing import Any
 from agents.limits import MAX_EVAL_EPISODES
 from agents.training.schema import (
     check_env_kwargs,
-    did_you_mean,
+    config_from_dict,
     frozen_mapping,
     plain_value,
     probe_environment,
     refused_as,
     require_field,
+    set_integer_fields,
     yaml_number,
 )
 from baselines.learned_rule import MARGIN_SCALES, QUANTILE
@@ -105,14 +106,8 @@ class LearnedRuleConfig:
                  self.algorithm)
         object.__setattr__(self, "algorithm", LEARNED_RULE)
         require_field(isinstance(self.env_id, str) and bool(self.env_id), "env_id", "a non-empty string", self.env_id)
-        for name, low, high in (("seed", 0, math.inf), ("training_plants", 10, MAX_TRAINING_PLANTS),
-                                ("validation_plants", 1, MAX_EVAL_EPISODES)):
-            value = yaml_number(getattr(self, name))
-            if isinstance(value, float) and value.is_integer():
-                value = int(value)
-                object.__setattr__(self, name, value)
-            what = f"an integer >= {low}" + ("" if high == math.inf else f" and <= {high}")
-            require_field(isinstance(value, int) and not isinstance(value, bool) and low <= value <= high, name, what, value)
+        set_integer_fields(self, (("seed", 0, math.inf), ("training_plants", 10, MAX_TRAINING_PLANTS),
+                                 ("validation_plants", 1, MAX_EVAL_EPISODES)))
         require_field(isinstance(self.env_kwargs, Mapping) and all(isinstance(k, str) for k in self.env_kwargs),
                  "env_kwargs", "a mapping with string keys", self.env_kwargs)
         object.__setattr__(self, "env_kwargs", frozen_mapping(self.env_kwargs))
@@ -139,15 +134,7 @@ class LearnedRuleConfig:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "config") -> LearnedRuleConfig:
         """Build from a mapping of field names; unknown or missing keys are errors naming them."""
-        known = [f.name for f in dataclasses.fields(cls)]
-        for key in data:
-            if key not in known:
-                raise ValueError(f"unknown config key {key!r} in {where}{did_you_mean(key, known)} (known keys of a {LEARNED_RULE} config: "
-                                 f"{', '.join(known)})")
-        missing = [name for name in ("algorithm", "env_id") if name not in data]
-        if missing:
-            raise ValueError(f"{where} is missing the required key(s) {', '.join(missing)}")
-        return cls(**data)
+        return config_from_dict(cls, data, where, ("algorithm", "env_id"), LEARNED_RULE)
 
 
 def _fraction(name: str, value: Any, optional: bool) -> float | None:

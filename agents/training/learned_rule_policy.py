@@ -16,7 +16,6 @@ load, and predict the same, in the version that wrote it) is refused in one line
 
 from __future__ import annotations
 
-import pickle
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,14 +23,12 @@ from typing import Any
 
 import numpy as np
 
-from agents.files.reader import read_json
-from agents.files.writer import atomic_write, file_digest, write_json
+from agents.training.model_files import load_model_file, save_model_file
 
-__all__ = ["MANIFEST", "MODEL_FILE", "LearnedRulePolicy", "check_version", "is_learned_rule", "load_learned_rule", "save_learned_rule"]
+__all__ = ["MANIFEST", "MODEL_FILE", "LearnedRulePolicy", "is_learned_rule", "load_learned_rule", "save_learned_rule"]
 
 MODEL_FILE = "learned_rule.pkl"
 MANIFEST = "learned_rule.json"
-FORMAT = 1
 
 
 @dataclass(frozen=True)
@@ -67,13 +64,8 @@ class LearnedRulePolicy:
 
 def save_learned_rule(run_dir: Path, rule: Any, manifest: Mapping[str, Any]) -> Path:
     """Write ``learned_rule.pkl`` then its manifest (``manifest`` plus the file's size and checksum),
-    both atomically; returns the manifest's path."""
-    from agents.runtime import versions
-
-    model = atomic_write(run_dir / MODEL_FILE, lambda handle: pickle.dump(rule, handle, protocol=pickle.HIGHEST_PROTOCOL))
-    record = {"format": FORMAT, "file": MODEL_FILE, "size": model.stat().st_size, "sha256": file_digest(model),
-              "versions": versions(), **manifest}
-    return write_json(run_dir / MANIFEST, record)
+    both atomically (:func:`agents.training.model_files.save_model_file`); returns the manifest's path."""
+    return save_model_file(run_dir / MODEL_FILE, run_dir / MANIFEST, rule, manifest)
 
 
 def is_learned_rule(path: str | Path) -> bool:
@@ -117,32 +109,6 @@ def load_learned_rule(path: str | Path) -> LearnedRulePolicy:
     if not manifest_path.is_file():
         raise ValueError(f"{manifest_path} is missing: no finished learned-rule fit at {path} "
                          "(finish it with deadtime train --out DIR --resume)")
-    manifest = read_json(manifest_path, dict)
-    try:
-        model_path = manifest_path.with_name(manifest["file"])
-        expected = (int(manifest["size"]), str(manifest["sha256"]))
-        env_id, env_kwargs = str(manifest["env_id"]), dict(manifest["env_kwargs"])
-    except (OSError, ValueError, KeyError, TypeError) as error:
-        raise ValueError(f"{manifest_path} is damaged: not a learned-rule manifest ({error.__class__.__name__}: {error})") from None
-    if not model_path.is_file() or (model_path.stat().st_size, file_digest(model_path)) != expected:
-        raise ValueError(f"{model_path} is damaged or missing: its size or SHA-256 differs from {manifest_path.name}'s")
-    check_version(manifest, model_path)
-    try:
-        with model_path.open("rb") as handle:
-            rule = pickle.load(handle)  # noqa: S301  (the run's own file, checksummed by its manifest)
-    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, ValueError, TypeError) as error:
-        raise ValueError(f"{model_path} cannot be read ({error.__class__.__name__}: {error})") from None
-    if not isinstance(rule, LearnedRule):
-        raise ValueError(f"{model_path} holds a {type(rule).__name__}, not a learned rule")
+    rule, model_path, manifest = load_model_file(manifest_path, "learned rule", LearnedRule)
+    env_id, env_kwargs = str(manifest["env_id"]), dict(manifest["env_kwargs"])
     return LearnedRulePolicy(manifest_path.parent.name, model_path, rule, env_id, env_kwargs, manifest)
-
-
-def check_version(manifest: Mapping[str, Any], model_path: Path) -> None:
-    """Refuse, naming ``model_path``, a model pickled by another scikit-learn than the installed one."""
-    from importlib import metadata
-
-    fitted = (manifest.get("versions") or {}).get("scikit-learn")
-    installed = metadata.version("scikit-learn")
-    if fitted != installed:
-        raise ValueError(f"{model_path} was fitted with scikit-learn {fitted}, this is {installed}: "
-                         "fit it again (deadtime train with its config.yaml)")

@@ -19,8 +19,9 @@ from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
 from typing import Any
 
-__all__ = ["check_env_kwargs", "did_you_mean", "frozen_mapping", "integer_field", "mapping_field", "parameters", "plain_value", "probe_environment",
-           "refused_as", "require_field", "whole_number", "whole_numbers", "yaml_number"]
+__all__ = ["check_env_kwargs", "config_from_dict", "did_you_mean", "frozen_mapping", "integer_field", "mapping_field", "parameters",
+           "plain_value", "probe_environment", "refused_as", "require_field", "set_integer_fields", "whole_number", "whole_numbers",
+           "yaml_number"]
 
 
 def frozen_mapping(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
@@ -150,3 +151,33 @@ def probe_environment(config: Any, env: Any = None) -> None:
     finally:
         if made is not None:
             made.close()
+
+
+def config_from_dict(schema: type, data: Mapping[str, Any], where: str, required: Sequence[str], algorithm: str) -> Any:
+    """``schema(**data)`` of a config dataclass whose ``algorithm`` is ``algorithm``; an unknown key (with the
+    closest known one) or a missing ``required`` one is a ``ValueError`` naming it and ``where``."""
+    import dataclasses
+
+    known = [f.name for f in dataclasses.fields(schema)]
+    for key in data:
+        if key not in known:
+            raise ValueError(f"unknown config key {key!r} in {where}{did_you_mean(key, known)} (known keys of a {algorithm} "
+                             f"config: {', '.join(known)})")
+    missing = [name for name in required if name not in data]
+    if missing:
+        raise ValueError(f"{where} is missing the required key(s) {', '.join(missing)}")
+    return schema(**data)
+
+
+def set_integer_fields(config: Any, bounds: Sequence[tuple[str, float, float]]) -> None:
+    """Check (and set, read as integers) the fields ``(name, low, high)`` of a frozen config: each an
+    integer in ``[low, high]`` (``1e3`` read as 1000), else a ``ValueError`` naming it."""
+    import math
+
+    for name, low, high in bounds:
+        value = yaml_number(getattr(config, name))
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+            object.__setattr__(config, name, value)
+        what = f"an integer >= {low}" + ("" if high == math.inf else f" and <= {high}")
+        require_field(isinstance(value, int) and not isinstance(value, bool) and low <= value <= high, name, what, value)

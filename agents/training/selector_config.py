@@ -18,7 +18,7 @@ from typing import Any
 
 from agents.limits import MAX_EVAL_EPISODES
 from agents.training.learned_rule_config import MAX_TRAINING_PLANTS
-from agents.training.schema import did_you_mean, frozen_mapping, plain_value, require_field, yaml_number
+from agents.training.schema import config_from_dict, frozen_mapping, plain_value, require_field, set_integer_fields, yaml_number
 
 __all__ = ["LEARNED", "SELECTOR", "SelectorConfig", "validate_selector"]
 
@@ -94,14 +94,8 @@ class SelectorConfig:
                       self.algorithm)
         object.__setattr__(self, "algorithm", SELECTOR)
         require_field(isinstance(self.env_id, str) and bool(self.env_id), "env_id", "a non-empty string", self.env_id)
-        for name, low, high in (("seed", 0, math.inf), ("training_plants", 10, MAX_TRAINING_PLANTS // 2),
-                                ("validation_plants", 1, MAX_EVAL_EPISODES)):
-            value = yaml_number(getattr(self, name))
-            if isinstance(value, float) and value.is_integer():
-                value = int(value)
-                object.__setattr__(self, name, value)
-            what = f"an integer >= {low}" + ("" if high == math.inf else f" and <= {high}")
-            require_field(isinstance(value, int) and not isinstance(value, bool) and low <= value <= high, name, what, value)
+        set_integer_fields(self, (("seed", 0, math.inf), ("training_plants", 10, MAX_TRAINING_PLANTS // 2),
+                                 ("validation_plants", 1, MAX_EVAL_EPISODES)))
         require_field(isinstance(self.env_kwargs, Mapping) and all(isinstance(k, str) for k in self.env_kwargs),
                       "env_kwargs", "a mapping with string keys", self.env_kwargs)
         require_field(self.env_kwargs.get("experiments", "fixed") == "fixed", "env_kwargs",
@@ -143,15 +137,7 @@ class SelectorConfig:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "config") -> SelectorConfig:
         """Build from a mapping of field names; unknown or missing keys are errors naming them."""
-        known = [f.name for f in dataclasses.fields(cls)]
-        for key in data:
-            if key not in known:
-                raise ValueError(f"unknown config key {key!r} in {where}{did_you_mean(key, known)} (known keys of a {SELECTOR} "
-                                 f"config: {', '.join(known)})")
-        missing = [name for name in ("algorithm", "env_id", "candidates") if name not in data]
-        if missing:
-            raise ValueError(f"{where} is missing the required key(s) {', '.join(missing)}")
-        return cls(**data)
+        return config_from_dict(cls, data, where, ("algorithm", "env_id", "candidates"), SELECTOR)
 
 
 def _name(candidate: str) -> str:

@@ -15,7 +15,6 @@ scikit-learn.
 
 from __future__ import annotations
 
-import pickle
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,14 +22,12 @@ from typing import Any
 
 import numpy as np
 
-from agents.files.reader import read_json
-from agents.files.writer import atomic_write, file_digest, write_json
+from agents.training.model_files import load_model_file, save_model_file
 
 __all__ = ["MANIFEST", "MODEL_FILE", "Selector", "SelectorPolicy", "is_selector", "load_selector", "save_selector"]
 
 MODEL_FILE = "selector.pkl"
 MANIFEST = "selector.json"
-FORMAT = 1
 
 
 @dataclass(frozen=True)
@@ -119,13 +116,9 @@ class SelectorPolicy:
 
 
 def save_selector(run_dir: Path, selector: Selector, manifest: Mapping[str, Any]) -> Path:
-    """Write ``selector.pkl`` then its manifest, both atomically; returns the manifest's path."""
-    from agents.runtime import versions
-
-    model = atomic_write(run_dir / MODEL_FILE, lambda handle: pickle.dump(selector, handle, protocol=pickle.HIGHEST_PROTOCOL))
-    record = {"format": FORMAT, "file": MODEL_FILE, "size": model.stat().st_size, "sha256": file_digest(model),
-              "versions": versions(), **manifest}
-    return write_json(run_dir / MANIFEST, record)
+    """Write ``selector.pkl`` then its manifest, both atomically (:func:`agents.training.model_files.save_model_file`);
+    returns the manifest's path."""
+    return save_model_file(run_dir / MODEL_FILE, run_dir / MANIFEST, selector, manifest)
 
 
 def is_selector(path: str | Path) -> bool:
@@ -143,27 +136,10 @@ def load_selector(path: str | Path) -> SelectorPolicy:
         Naming the file: no manifest, an unreadable one, a model file that differs from it, a
         scikit-learn other than the fitting one, or a model file that holds no selector.
     """
-    from agents.training.learned_rule_policy import check_version
-
     path = Path(path)
     manifest_path = path / MANIFEST if path.is_dir() else path.with_name(MANIFEST)
     if not manifest_path.is_file():
         raise ValueError(f"{manifest_path} is missing: no finished selector at {path}")
-    manifest = read_json(manifest_path, dict)
-    try:
-        model_path = manifest_path.with_name(manifest["file"])
-        expected = (int(manifest["size"]), str(manifest["sha256"]))
-        env_id, env_kwargs = str(manifest["env_id"]), dict(manifest["env_kwargs"])
-    except (ValueError, KeyError, TypeError) as error:
-        raise ValueError(f"{manifest_path} is damaged: not a selector manifest ({error.__class__.__name__}: {error})") from None
-    if not model_path.is_file() or (model_path.stat().st_size, file_digest(model_path)) != expected:
-        raise ValueError(f"{model_path} is damaged or missing: its size or SHA-256 differs from {manifest_path.name}'s")
-    check_version(manifest, model_path)
-    try:
-        with model_path.open("rb") as handle:
-            selector = pickle.load(handle)  # noqa: S301  (the run's own file, checksummed by its manifest)
-    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, ValueError, TypeError) as error:
-        raise ValueError(f"{model_path} cannot be read ({error.__class__.__name__}: {error})") from None
-    if not isinstance(selector, Selector):
-        raise ValueError(f"{model_path} holds a {type(selector).__name__}, not a selector")
-    return SelectorPolicy(manifest_path.parent.name, model_path, selector, env_id, env_kwargs, manifest)
+    selector, model_path, manifest = load_model_file(manifest_path, "selector", Selector)
+    return SelectorPolicy(manifest_path.parent.name, model_path, selector, str(manifest["env_id"]), dict(manifest["env_kwargs"]),
+                          manifest)
