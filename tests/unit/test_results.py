@@ -106,3 +106,13 @@ def test_the_readme_headlines_are_their_folders_numbers():
             assert quoted in texts, (folder.name, quoted)
             checked += 1
     assert checked >= 40
+
+
+def test_the_readme_protocol_tables_are_the_committed_reports():
+    """Every verdict row of the README's Results is a row of a committed protocol report (``results.md`` of
+    ``deadtime protocol report``), and every row of those reports is in the README."""
+    readme = (RESULTS.parent / "README.md").read_text()
+    rows = {line for line in readme.splitlines() if line.startswith("| ") and line.endswith(("| better |", "| worse |", "| tie |"))}
+    reports = {line for path in RESULTS.glob("protocol_v*/results.md") for line in path.read_text().splitlines()
+               if line.startswith("| ") and line.endswith(("| better |", "| worse |", "| tie |"))}
+    assert rows and rows == reports
