@@ -159,16 +159,14 @@ def fit_models(data: dict[str, np.ndarray], seed: int) -> tuple[tuple[Any, ...],
 def threshold_table(selector: Any, data: dict[str, np.ndarray], thresholds: tuple[float, ...], target: float | None,
                     confidence: float) -> tuple[list[dict[str, Any]], int]:
     """Per threshold its row on the validation plants, and the index of the chosen row (module docstring, step 4)."""
+    from agents.training.selector_policy import choose
     from baselines.learned_rule import violation_bound
 
     p, c = selector.predictions(data["observation"])
     rows, plants = [], len(data["cost"])
     for threshold in thresholds:
-        from agents.training.selector_policy import choose
-
         chosen = choose(p, c, threshold)
-        picked = np.arange(plants)
-        cost, feasible = data["cost"][picked, chosen], data["feasible"][picked, chosen]
+        cost, feasible = data["cost"][np.arange(plants), chosen], data["feasible"][np.arange(plants), chosen]
         violations = int((~feasible).sum())
         rows.append({"threshold": threshold, "mean_cost": float(cost.mean()), "violating_plants": violations, "plants": plants,
                      "violation_bound": violation_bound(violations, plants, confidence),
