@@ -479,15 +479,20 @@ class DeadTimeTuningEnv(gym.Env):
         """End the episode with the design of ``parameter_action`` (a number in [-1, 1]) on the current
         identification: ``(relative parameter, controller, score)``.  Step's work in the fixed mode
         before its observation and info; the native vector environment commits with it."""
-        relative = self.parameter_from_action(parameter_action)
-        controller = self.design(relative)
+        relative, controller, result = self.score_action(parameter_action)
         self._controller = controller
-        result = self.score_controller(controller)
         self._design = (relative, float(result.cost))
         self._done = True
         return relative, controller, result
 
     # ------------------------------------------------------------------ scoring
+    def score_action(self, parameter_action: float) -> tuple[float, Any, Score]:
+        """What committing ``parameter_action`` would give, ``(relative parameter, controller, score)``,
+        the episode left as it is (a selector scores several designs on one identification)."""
+        relative = self.parameter_from_action(parameter_action)
+        controller = self.design(relative)
+        return relative, controller, self.score_controller(controller)
+
     def model(self):
         """The identified model the design reads (SOPDT, FOPDT or integrating)."""
         return self.kind.model_of(self.identification)

@@ -156,13 +156,14 @@ def matrices(rows: list[dict[str, Any]], subset: str) -> tuple[list[str], dict[s
 
 
 # ------------------------------------------------------------------------------------ one regime
-def _family(regime: Regime) -> str:
+def _structure_and_family(regime: Regime) -> tuple[str, str]:
+    """The name of the regime's structure and its plant family (from one environment, made and closed)."""
     from agents.environments import make_env
 
     env = make_env(regime.env, {"experiments": "fixed", **regime.env_kwargs})
-    family = env.unwrapped.family
+    found = env.unwrapped.structure, env.unwrapped.family
     env.close()
-    return family
+    return found
 
 
 def _evaluate(regime: Regime, policies: list[str], plants: list[Any], episode_seed: int, directory: Path,
@@ -193,31 +194,20 @@ def _baselines(protocol: Protocol) -> list[str]:
     return list(dict.fromkeys([*selection.rules, *selection.plans, selection.fixed_procedure, "oracle"]))
 
 
-def _structure(regime: Regime) -> str:
-    """The name of the regime's structure."""
-    from agents.environments import make_env
-
-    env = make_env(regime.env, {"experiments": "fixed", **regime.env_kwargs})
-    structure = env.unwrapped.structure
-    env.close()
-    return structure
-
-
-def _rule_names(protocol: Protocol, regime: Regime) -> list[str]:
-    """The rules that ``selection.rules`` expands to in the regime's structure."""
+def _rule_names(protocol: Protocol, structure: str) -> list[str]:
+    """The rules that ``selection.rules`` expands to in ``structure``."""
     from agents.evaluation.policies import parse_policies
 
-    structure = _structure(regime)
     return [spec.name for spec in parse_policies(",".join(protocol.selection.rules), structure) if spec.kind == "rule"]
 
 
-def _base_rule(protocol: Protocol, regime: Regime) -> dict[str, str]:
+def _base_rule(protocol: Protocol, structure: str) -> dict[str, str]:
     """``{"base-rule": name}`` where a comparison names the structure's own rule, else nothing."""
     if not any(second == "base-rule" for _, second in protocol.comparisons):
         return {}
-    from envs.structures import structure
+    from envs.structures import structure as structure_of
 
-    return {"base-rule": structure(_structure(regime)).base_rule}
+    return {"base-rule": structure_of(structure).base_rule}
 
 
 def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[str, Any]:
@@ -229,16 +219,16 @@ def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[st
         return read_json(path, dict)
     labels = [(mode, learner.label) for mode in ("fixed", "plan") for learner in regime.candidates(mode)]
     learners, names = _learner_policies(protocol, work, regime, labels)
-    family = _family(regime)
+    structure, family = _structure_and_family(regime)
     plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
     directory = work / regime.name / "validation"
-    base = _base_rule(protocol, regime)
+    base = _base_rule(protocol, structure)
     _evaluate(regime, [*_baselines(protocol), *base.values(), *learners], plants, protocol.validation.episode_seed, directory,
               benchmark=False)
     _, table = matrices(read_per_plant(directory / "per_plant.csv", names), "test")
     mean_of = {name: plant_means(table[name][0]) for name in table}
     chosen: dict[str, Any] = {
-        "best-rule": least_mean({name: mean_of[name] for name in _rule_names(protocol, regime)}),
+        "best-rule": least_mean({name: mean_of[name] for name in _rule_names(protocol, structure)}),
         "fixed-procedure": protocol.selection.fixed_procedure,
         **base,
     }

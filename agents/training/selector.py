@@ -131,7 +131,7 @@ def score_candidates(env: Any, names: tuple[str, ...], learned: dict[str, Any], 
 def _learned_score(unwrapped: Any, policy: Any, observation: np.ndarray) -> tuple[float, bool]:
     """The cost and feasibility of a learned design's action, as its step would score it (float32, clipped)."""
     action = float(np.clip(np.asarray(policy.predict(observation)[0], dtype=np.float32).reshape(-1)[0], -1.0, 1.0))
-    score = unwrapped.score_controller(unwrapped.design(unwrapped.parameter_from_action(action)))
+    score = unwrapped.score_action(action)[2]
     return float(score.cost), bool(score.feasible)
 
 
