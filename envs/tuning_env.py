@@ -16,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from envs.discrete_action import DiscreteLayout
 from envs.base_design import (
     ACTIONS,
     DESIGN_FEATURES,
@@ -148,6 +149,7 @@ class DeadTimeTuningEnv(gym.Env):
         measured_observation: bool = False,
         experiment_set: str = "all",
         plan: Any = None,
+        discrete_action: bool = False,
     ) -> None:
         if experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {experiments!r}")
@@ -200,6 +202,9 @@ class DeadTimeTuningEnv(gym.Env):
         self._design_pending = False
         size = {"fixed": 1, "agent": len(self.experiment_names) + 3, "plan": 3}[self.mode]
         self.action_space = spaces.Box(-1.0, 1.0, shape=(size,), dtype=np.float32)
+        self.discrete = self._discrete_argument(discrete_action)
+        if self.discrete is not None:
+            self.action_space = spaces.Discrete(self.discrete.size)
         bound = OBSERVATION_BOUND
         self.observation_space = spaces.Box(-bound, bound, shape=(len(self.feature_names),), dtype=np.float32)
         self.plant: Plant | None = None
@@ -223,6 +228,17 @@ class DeadTimeTuningEnv(gym.Env):
         if not all(low <= a <= high for a in amplitudes):
             raise ValueError(f"plan amplitudes must lie in [{low:g}, {high:g}], got {list(plan)!r}")
         return amplitudes
+
+    def _discrete_argument(self, discrete_action: Any) -> DiscreteLayout | None:
+        """``discrete_action``: the layout of the agent mode's discrete action (:mod:`envs.discrete_action`), or None."""
+        if not isinstance(discrete_action, bool):
+            raise ValueError(f"discrete_action must be true or false, got {discrete_action!r}")
+        if not discrete_action:
+            return None
+        if self.mode != "agent" or not self.design_step:
+            raise ValueError("discrete_action needs experiments='agent' with design_step=True (the v2-v3 agent mode), "
+                             f"got experiments={self.mode!r}")
+        return DiscreteLayout(self.experiment_names)
 
     @property
     def noise_std(self) -> float:
@@ -366,6 +382,8 @@ class DeadTimeTuningEnv(gym.Env):
         """Run an experiment (agent mode) or commit the design; see the class docstring."""
         if self._done:
             raise RuntimeError("step() called on a finished episode; call reset() first")
+        if self.discrete is not None:
+            return self._discrete_step(action)
         action = self._checked_action(action)
         action = np.clip(action, -1.0, 1.0)
         if self.mode == "fixed" and self.identification is None:  # the procedure failed on a given plant
@@ -380,6 +398,36 @@ class DeadTimeTuningEnv(gym.Env):
                 return self._identify(action[-2])
         return self._commit(action[-1])
 
+    def _discrete_step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
+        """``discrete_action=True``: the step of the index's meaning (:mod:`envs.discrete_action`)."""
+        meaning = self.discrete.meaning(self._checked_index(action))
+        amplitude = self.options.limited(1.0 if meaning.kind == "design" else meaning.value)
+        if self._design_pending:
+            result = self._commit(meaning.value if meaning.kind == "design" else 0.0)
+        elif meaning.kind in ("commit", "design") or self.evidence.runs >= self.budget:
+            result = self._identify_at(amplitude)
+        else:
+            result = self._experiment_at(meaning.kind, amplitude)
+        observation, reward, terminated, truncated, info = result
+        return observation, reward, terminated, truncated, {**info, "action": meaning.name}
+
+    def _checked_index(self, action: Any) -> int:
+        """The discrete action as an index; anything but one integer in range is a ``ValueError`` naming it."""
+        raw = np.asarray(action)
+        size = self.discrete.size
+        if raw.shape not in ((), (1,)) or raw.dtype.kind not in "iu" or not 0 <= int(raw.reshape(-1)[0]) < size:
+            raise ValueError(f"action must be one integer index from 0 to {size - 1}, got {action!r}")
+        return int(raw.reshape(-1)[0])
+
+    def action_masks(self) -> np.ndarray:
+        """``discrete_action=True``: which indices mean something now (sb3-contrib's ``MaskablePPO``
+        reads it; :meth:`envs.discrete_action.DiscreteLayout.masks`)."""
+        if self.discrete is None:
+            raise RuntimeError("action_masks() needs discrete_action=True")
+        budget_left = self.evidence is None or self.evidence.runs < self.budget
+        return self.discrete.masks(design_pending=self._design_pending, budget_left=budget_left,
+                                   amplitude_limit=self.options.amplitude_limit)
+
     def _amplitude(self, amplitude_action: float) -> float:
         """The experiment amplitude of an action's component: log scale over AMPLITUDE_RANGE, cut to the limit."""
         low, high = (math.log10(v) for v in AMPLITUDE_RANGE)
@@ -388,7 +436,9 @@ class DeadTimeTuningEnv(gym.Env):
     def _identify(self, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         """``design_step=True``: the commit completes the identification (the fixed procedure's missing
         experiments at the commit's amplitude) and shows it; the next step designs."""
-        amplitude = self._amplitude(amplitude_action)
+        return self._identify_at(self._amplitude(amplitude_action))
+
+    def _identify_at(self, amplitude: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         try:
             self.identification, self.evidence = identification(
                 self.evidence, self.structure, self.plant, self.np_random, amplitude=amplitude
@@ -458,7 +508,9 @@ class DeadTimeTuningEnv(gym.Env):
         return observation, -NO_DESIGN_COST, True, False, info
 
     def _experiment(self, kind: str, amplitude_action: float) -> tuple[np.ndarray, float, bool, bool, dict]:
-        amplitude = self._amplitude(amplitude_action)
+        return self._experiment_at(kind, self._amplitude(amplitude_action))
+
+    def _experiment_at(self, kind: str, amplitude: float) -> tuple[np.ndarray, float, bool, bool, dict]:
         self.evidence = run_experiment(self.evidence, kind, self.plant, self.np_random, amplitude, self.excursion_limit)
         observation, named = self._observation_and_features()
         info = {"experiment": kind, "amplitude": amplitude, "features": named}
@@ -632,6 +684,19 @@ _SHARED_DOC = """
 
     Actions outside [-1, 1] are clipped to it; a NaN or infinite action raises ``ValueError``.
 
+    ``discrete_action=True`` (agent mode with ``design_step``, v2-v3): ``Discrete(5 (n + 1) + 21)``,
+    for learners that choose among actions (sb3-contrib's ``MaskablePPO``), each index one ``Box``
+    action of the same meaning (:mod:`envs.discrete_action`): indices 0-4 commit at amplitude 0.1, 0.3,
+    1, 3 or 10; then five per experiment type (in the order of ``experiment_names``), the experiment at
+    those amplitudes; then 21 design levels, the residual action -1, -0.9, ..., 1 (0: the base rule).
+    ``action_masks()`` gives the indices that mean something now: in the design step the 21 design
+    levels only; before it the commits, and the experiments while the budget lasts; amplitudes above
+    ``amplitude_limit`` masked (v3: 10).  A masked index still acts as its ``Box`` action: an experiment
+    beyond the budget commits, a design level before the design step commits at amplitude 1, a commit
+    or experiment in the design step designs at the base rule.  The step's info names the index
+    (``action``: ``"open-loop-step@3"``, ``"commit@1"``, ``"design@-0.2"``).  An index out of range, or
+    not an integer, raises ``ValueError``.
+
     ## Observation Space
     ``Box(-5, 5, (10 + n + 1,), float32)``, every entry dimensionless (identified ``T_ar`` and
     ``K_n`` as units): the ten identified features of :data:`envs.episode.FEATURES` (``tau``,
@@ -728,6 +793,7 @@ _SHARED_DOC = """
     | `measured_observation` | `False` (v3: `True`)   | the noise level estimated from the records (never the configured `noise_std`), failed experiments observed, and a failed commit charged instead of raised (Observation Space, Episode End) |
     | `plan`            | `None`                      | fixed mode: run the closed-loop step and the second experiment at these two amplitudes, as the plan mode's first step does (None: the procedure at amplitude 1 of the earlier versions) |
     | `experiment_set`  | `"all"` (v3: `"design"`)    | the agent mode's experiment types: all of the plant's kind, or those the design reads (Action Space) |
+    | `discrete_action` | `False`                     | agent mode with `design_step`: a `Discrete` action with `action_masks()` instead of the `Box` (Action Space; :mod:`envs.discrete_action`) |
     | `disturbances`    | `None` (none)               | `{kind: level}` beyond the white noise, kinds `"drift"` (random walk, `level` per `sqrt(T_ar)`) and, for self-regulating plants, `"load"` (unmeasured input step during the experiment, `level` of output) (:mod:`envs.identification.disturbances`) |
 
     ``identification="seeds"`` is the identification of the source papers (the method of moments and the
