@@ -124,11 +124,23 @@ def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[Policy
     )  # fmt: skip
 
 
+def _agent_action(env: Any, policy: Any, observation: np.ndarray) -> Any:
+    """The agent's deterministic action for ``env.step``: an index chosen among the environment's action
+    masks (the agent mode's discrete action), else the ``Box`` action in the space's shape."""
+    from agents.training.validation import action_masks
+
+    masks = action_masks(env)
+    if masks is not None:
+        action, _ = policy.predict(observation, deterministic=True, action_masks=masks)
+        return int(np.asarray(action).reshape(-1)[0])
+    action, _ = policy.predict(observation, deterministic=True)
+    return np.asarray(action, dtype=np.float32).reshape(env.action_space.shape)
+
+
 def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
     observation, info = env.reset(seed=seed, options={"plant": plant})
     for _ in range(10_000):
-        action, _ = policy.predict(observation, deterministic=True)
-        observation, _, terminated, truncated, info = env.step(np.asarray(action, dtype=np.float32).reshape(env.action_space.shape))
+        observation, _, terminated, truncated, info = env.step(_agent_action(env, policy, observation))
         if terminated or truncated:
             break
     else:

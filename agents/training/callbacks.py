@@ -28,7 +28,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.training.checkpoints import restore_action_noise, save_checkpoint
 from agents.files.writer import atomic_write, write_json, write_text
-from agents.training.validation import VALIDATION_SEED, ValidationResult, validate_policy, validation_plants
+from agents.training.validation import VALIDATION_SEED, ValidationResult, action_masks, validate_policy, validation_plants
 
 __all__ = [
     "VALIDATION_SEED",
@@ -92,7 +92,10 @@ class Validator(BaseCallback):
     def _predict(self, observation: np.ndarray) -> np.ndarray:
         if self.vecnormalize is not None:
             observation = self.vecnormalize.normalize_obs(observation)
-        return self.model.predict(observation, deterministic=True)[0]
+        masks = action_masks(self.eval_env)
+        if masks is None:
+            return self.model.predict(observation, deterministic=True)[0]
+        return self.model.predict(observation, deterministic=True, action_masks=masks)[0]
 
     def validate(self, model: Any) -> ValidationResult:
         """Validate ``model`` now: log, print and record the result, and keep the best model."""

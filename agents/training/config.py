@@ -66,7 +66,10 @@ __all__ = [
     "validate",
 ]
 
-ALGORITHMS = ("A2C", "PPO", "SAC", "TD3")
+ALGORITHMS = ("A2C", "PPO", "SAC", "TD3", "MaskablePPO")
+"""The algorithms a config can name (any case): stable-baselines3's four, and sb3-contrib's ``MaskablePPO``
+for the agent mode's discrete action with its masks (``env_kwargs.discrete_action: true``)."""
+_BY_UPPER = {name.upper(): name for name in ALGORITHMS}
 OFF_POLICY = ("SAC", "TD3")
 VEC_ENVS = ("dummy", "subproc", "native")
 # Fields that hold open mappings (dotted override keys reach into them).
@@ -93,7 +96,7 @@ class TrainConfig:
     Attributes
     ----------
     algorithm : str
-        One of ``A2C``, ``PPO``, ``SAC``, ``TD3`` (stable-baselines3).
+        One of ``A2C``, ``PPO``, ``SAC``, ``TD3`` (stable-baselines3) or ``MaskablePPO`` (sb3-contrib; any case).
     env_id : str
         A registered Gymnasium id, e.g. ``DeadTime/PID-v0``.
     total_timesteps : int
@@ -157,9 +160,9 @@ class TrainConfig:
     progress_bar: bool = True
 
     def __post_init__(self) -> None:
-        if not isinstance(self.algorithm, str) or self.algorithm.upper() not in ALGORITHMS:
+        if not isinstance(self.algorithm, str) or self.algorithm.upper() not in _BY_UPPER:
             raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)} (or learned-rule), got {self.algorithm!r}")
-        object.__setattr__(self, "algorithm", self.algorithm.upper())
+        object.__setattr__(self, "algorithm", _BY_UPPER[self.algorithm.upper()])
         for name in ("env_id", "policy", "device"):
             value = getattr(self, name)
             require_field(isinstance(value, str) and bool(value), name, "a non-empty string", value)
@@ -310,8 +313,8 @@ def load_config(path: str | Path, env_id: str | None = None, overrides: Sequence
             raise ValueError(f"{path}: the entry {chosen!r} must not set env_id (it is the entry's key)")
         resolved = merge(default, entry)
         resolved["env_id"] = chosen
-        if "algorithm" not in resolved and path.stem.upper() in ALGORITHMS:
-            resolved["algorithm"] = path.stem.upper()
+        if "algorithm" not in resolved and path.stem.upper() in _BY_UPPER:
+            resolved["algorithm"] = _BY_UPPER[path.stem.upper()]
     schema = _schema(_override_value(overrides, "algorithm") or resolved.get("algorithm"))
     resolved = apply_overrides(resolved, overrides, schema)
     if env_id is not None:
@@ -379,9 +382,7 @@ def validate(config: TrainConfig) -> None:
     if isinstance(config, SelectorConfig):
         validate_selector(config)
         return
-    import stable_baselines3
-
-    algorithm = getattr(stable_baselines3, config.algorithm)
+    algorithm = algorithm_class(config.algorithm)
     accepted, _ = parameters(algorithm.__init__)
     for key in config.hyperparameters:
         if key in _RESERVED:
@@ -433,3 +434,14 @@ def _validate_native(config: TrainConfig) -> None:
     if mode != "fixed":
         raise ValueError(f"vec_env: native runs the fixed mode only, but env_kwargs.experiments is {mode!r} "
                          "(use dummy or subproc)")
+
+
+def algorithm_class(name: str) -> type:
+    """The class of an algorithm of :data:`ALGORITHMS` (imports stable-baselines3, or sb3-contrib)."""
+    if name == "MaskablePPO":
+        from sb3_contrib import MaskablePPO
+
+        return MaskablePPO
+    import stable_baselines3
+
+    return getattr(stable_baselines3, name)

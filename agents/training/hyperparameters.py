@@ -88,6 +88,7 @@ RULES: dict[str, dict[str, tuple[Check, str]]] = {
     "TD3": {**COMMON, **OFF_POLICY, "policy_delay": _integer(1), "target_policy_noise": _number(0.0),
             "target_noise_clip": _number(0.0)},
 }
+RULES["MaskablePPO"] = RULES["PPO"]  # sb3-contrib's PPO with action masks: PPO's hyperparameters
 # Constructor arguments that take classes or objects, which a YAML file cannot give.
 NOT_FROM_CONFIG = ("rollout_buffer_class", "rollout_buffer_kwargs", "replay_buffer_class", "replay_buffer_kwargs")
 
@@ -136,7 +137,7 @@ def check_hyperparameters(algorithm: str, hyperparameters: Mapping[str, Any], n_
         _check_train_freq(hyperparameters["train_freq"], n_envs)
     if "action_noise" in hyperparameters:
         _check_action_noise(hyperparameters["action_noise"])
-    if algorithm == "PPO":
+    if algorithm in ("PPO", "MaskablePPO"):
         _check_ppo(hyperparameters, n_envs)
 
 

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from agents.files.reader import parse_json
-from agents.training.config import ALGORITHMS, TrainConfig, load_config
+from agents.training.config import ALGORITHMS, TrainConfig, algorithm_class, load_config
 from agents.training.manifest import verify_agent_files
 
 __all__ = ["MODEL_FILES", "LoadedPolicy", "load_policy", "resolve_model_path"]
@@ -49,7 +49,7 @@ class LoadedPolicy:
     path : Path
         The model file.
     algorithm : str
-        ``A2C``, ``PPO``, ``SAC`` or ``TD3``.
+        ``A2C``, ``PPO``, ``SAC``, ``TD3`` or ``MaskablePPO``.
     model : BaseAlgorithm
         The stable-baselines3 model.
     config : TrainConfig or None
@@ -65,12 +65,17 @@ class LoadedPolicy:
     config: TrainConfig | None = None
     normalization: Any = None
 
-    def predict(self, observation: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
-        """``(action, None)`` for one observation (or a batch, first axis), as stable-baselines3's ``predict``."""
+    def predict(self, observation: np.ndarray, deterministic: bool = True,
+                action_masks: np.ndarray | None = None) -> tuple[np.ndarray, None]:
+        """``(action, None)`` for one observation (or a batch, first axis), as stable-baselines3's ``predict``;
+        ``action_masks`` (the environment's, for a ``MaskablePPO`` agent) restrict it to the allowed actions."""
         observation = np.asarray(observation, dtype=np.float32)
         if self.normalization is not None:
             observation = self.normalization.normalize_obs(observation).astype(np.float32)
-        action, _ = self.model.predict(observation, deterministic=deterministic)
+        if action_masks is not None and self.algorithm == "MaskablePPO":
+            action, _ = self.model.predict(observation, deterministic=deterministic, action_masks=action_masks)
+        else:
+            action, _ = self.model.predict(observation, deterministic=deterministic)
         return action, None
 
     @property
@@ -114,6 +119,8 @@ def _likely_algorithms(model_path: Path) -> list[str]:
         return list(ALGORITHMS)
     module = str(data.get("policy_class", {}).get("__module__", ""))
     guess = next((name for name in ("SAC", "TD3") if f".{name.lower()}." in module), None)
+    if guess is None and ".maskable." in module:
+        guess = "MaskablePPO"
     if guess is None:
         guess = "PPO" if "clip_range" in data else "A2C"
     return [guess, *(name for name in ALGORITHMS if name != guess)]
@@ -185,13 +192,11 @@ def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
     required = _saved_with_statistics(model_path) or (config is not None and config.normalize)
     verify_agent_files(model_path, _statistics_path(model_path))  # before anything of the folder is unpickled
     normalization = _load_statistics(model_path, required)
-    import stable_baselines3
-
     candidates = [config.algorithm] if config is not None else _likely_algorithms(model_path)
     errors = []
     for algorithm in candidates:
         try:
-            model = getattr(stable_baselines3, algorithm).load(model_path, device=device)
+            model = algorithm_class(algorithm).load(model_path, device=device)
         except Exception as error:  # noqa: BLE001  (each algorithm refuses the others' files its own way)
             errors.append(f"{algorithm}: {error.__class__.__name__}")
             continue

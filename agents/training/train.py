@@ -46,7 +46,7 @@ import yaml
 
 from agents.environments import make_env
 from agents.runtime import git_commit, versions
-from agents.training.config import TrainConfig, load_config, validate
+from agents.training.config import TrainConfig, algorithm_class, load_config, validate
 from agents.training.schema import refused_as
 
 if TYPE_CHECKING:
@@ -405,9 +405,7 @@ def _environments(config: TrainConfig) -> tuple[Any, Any]:
 
 def new_model(config: TrainConfig, venv: Any, tensorboard: str | None = None) -> Any:
     """A new stable-baselines3 model of ``config`` (algorithm, policy, hyperparameters, seed) on ``venv``."""
-    import stable_baselines3
-
-    algorithm = getattr(stable_baselines3, config.algorithm)
+    algorithm = algorithm_class(config.algorithm)
     return algorithm(config.policy, venv, seed=config.seed, device=config.device, verbose=0, tensorboard_log=tensorboard,
                      policy_kwargs=_policy_kwargs(config), **_hyperparameters(config, venv.action_space))
 
@@ -427,11 +425,9 @@ def _model(config: TrainConfig, checkpoint: Checkpoint | None, venv: Any, tensor
 
 
 def _restored_model(config: TrainConfig, checkpoint: Checkpoint, venv: Any, tensorboard: str) -> tuple[Any, Any, Any]:
-    import stable_baselines3
-
     from agents.training.checkpoints import DamagedFileError, load_file, read_pickle
 
-    algorithm = getattr(stable_baselines3, config.algorithm)
+    algorithm = algorithm_class(config.algorithm)
     vecnormalize = None
     if config.normalize:
         if checkpoint.path("vecnormalize") is None:

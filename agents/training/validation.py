@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["VALIDATION_SEED", "ValidationResult", "validate_policy", "validation_plants"]
+__all__ = ["VALIDATION_SEED", "ValidationResult", "action_masks", "validate_policy", "validation_plants"]
 
 # Reset seed of validation plant k is VALIDATION_SEED + k: disjoint from the training environments
 # (seed + i) and from deadtime evaluate's (seed + i, seed + 1_000_000 + j).
@@ -56,6 +56,12 @@ def validation_plants(env: Any, n: int, family: str | None = None) -> list[Any] 
     if family is None:
         family = STRUCTURES[unwrapped.structure].family
     return list(plant_set(family, "validation", n))
+
+
+def action_masks(env: Any) -> np.ndarray | None:
+    """The environment's action masks now (the agent mode's discrete action, :mod:`envs.discrete_action`), or None."""
+    unwrapped = env.unwrapped
+    return unwrapped.action_masks() if getattr(unwrapped, "discrete", None) is not None else None
 
 
 def validate_policy(

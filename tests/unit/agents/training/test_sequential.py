@@ -1,0 +1,46 @@
+"""The sequential agent: MaskablePPO on the agent mode's discrete action, trained, loaded and played
+with the environment's masks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import envs  # noqa: F401
+from agents.cli import main
+from agents.training.config import load_config
+
+SMALL = ["total_timesteps=128", "eval_freq=64", "n_eval_episodes=4", "checkpoint_freq=64", "progress_bar=false",
+         "hyperparameters.n_steps=64", "hyperparameters.batch_size=32", "hyperparameters.n_epochs=2"]
+
+
+@pytest.mark.parametrize("spelling", ["MaskablePPO", "maskableppo", "MASKABLEPPO"])
+def test_the_config_names_maskableppo_in_any_case(spelling: str) -> None:
+    config = load_config("configs/sequential.yaml", env_id="DeadTime/FPPI-v3", overrides=[f"algorithm={spelling}"])
+    assert config.algorithm == "MaskablePPO" and config.env_kwargs["discrete_action"] is True
+    assert config.run_name == "maskableppo-FPPI-v3-s0"
+
+
+@pytest.mark.slow
+def test_a_trained_sequential_agent_loads_and_plays_only_allowed_actions(tmp_path: Path) -> None:
+    from agents.evaluation.run import _agent_action
+    from agents.training.policies import load_policy
+
+    run = tmp_path / "seq"
+    status = main(["train", "--config", "configs/sequential.yaml", "--env", "DeadTime/MSP-v3", "--out", str(run), *SMALL])
+    assert status == 0 and (run / "model.zip").is_file()
+    policy = load_policy(run)
+    assert policy.algorithm == "MaskablePPO"
+    env = gym.make("DeadTime/MSP-v3", experiments="agent", discrete_action=True, noise_std=0.1).unwrapped
+    for seed in range(5):
+        observation, _ = env.reset(seed=seed)
+        done = False
+        while not done:
+            masks = env.action_masks()
+            action = _agent_action(env, policy, observation)
+            assert isinstance(action, int) and masks[action]
+            observation, _, done, _, info = env.step(action)
+        assert np.isfinite(info["cost"])
