@@ -92,6 +92,43 @@ def _information(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespac
     return call
 
 
+def _headroom(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace], str | None]:
+    parser.add_argument("--protocol", type=Path, default=Path("configs/protocols/v1.yaml"),
+                        help="the protocol whose validation plants and regimes are used (default v1)")
+    parser.add_argument("--plants", type=int, default=2000, help="validation plants per regime (default 2000)")
+    parser.add_argument("--replicates", type=int, default=4, help="noise draws of each continuation (default 4, even)")
+    parser.add_argument("--design", choices=("base", "oracle", "learned"), default="base",
+                        help="the design of every episode: the base rule (default), the per-episode oracle, or the "
+                             "learned designs of --fits")
+    parser.add_argument("--fits", nargs="+", type=Path, default=[], metavar="RUN_DIR",
+                        help="--design learned: learned-rule fits of fixed plans [A1, A2], one per second amplitude")
+    parser.add_argument("--out", type=Path, default=Path("results/sequential"), help="where headroom.md/json go")
+
+    def call(args: argparse.Namespace) -> str:
+        from agents.studies.headroom import headroom
+
+        if args.design == "learned":
+            from agents.studies.headroom import learned_headroom
+
+            if not args.fits:
+                raise ValueError("--design learned needs --fits RUN_DIR ... (learned-rule fits of fixed plans)")
+            return learned_headroom(args.protocol, args.fits, args.plants, args.replicates, args.out)
+        return headroom(args.protocol, args.plants, args.replicates, args.out, args.design)
+    return call
+
+
+def _sequential_replay(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace], str | None]:
+    parser.add_argument("runs", nargs="+", type=Path, metavar="RUN_DIR", help="agents of the discrete agent mode")
+    parser.add_argument("--plants", type=int, default=500, help="validation plants (default 500)")
+    parser.add_argument("--out", type=Path, help="write DIR/replay.md, replay.json and replay.png")
+
+    def call(args: argparse.Namespace) -> str:
+        from agents.studies.sequential_replay import replay
+
+        return replay(args.runs, args.plants, args.out)
+    return call
+
+
 def _procedures(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace], str | None]:
     parser.add_argument("runs", type=Path, help="the evaluations' directory (resumable)")
     parser.add_argument("out", type=Path, help="where procedures.md and per_plant_costs.csv.gz go")
@@ -180,6 +217,9 @@ STUDIES: dict[str, tuple[str, Callable[[argparse.ArgumentParser], Callable[[argp
     "commit": ("copy a finished sweep into results/, compressed, and write its summary", _commit),
     "fallback": ("a learned design falling back to a rule where predicted safe, on validation plants", _fallback),
     "information": ("the learned rule with the true plant's parameters against the observation alone", _information),
+    "headroom": ("what choosing the second experiment after the first could gain at most, on validation plants", _headroom),
+    "sequential-replay": ("what a sequential agent does on validation plants, against the noise it measured",
+                          _sequential_replay),
     "procedures": ("the experiment procedures against the fixed procedure in the twelve regimes", _procedures),
     "rescore": ("two evaluations of the same plants under two versions, side by side", _rescore),
     "scaled-margin": ("a constant margin against a spread-scaled one, on validation plants", _scaled_margin),
