@@ -22,6 +22,7 @@ A protocol declares, before any of its test plants is evaluated, everything its 
         fixed:                          # candidates of the fixed-mode primary
           - {label: learned-fixed, config: configs/learned_plan.yaml, overrides: [], origin: configs/sweeps/X.yaml}
         plan: [...]                     # candidates of the plan-mode primary (may be empty)
+        seq: [...]                      # candidates of the sequential primary (may be empty)
 
 Streams of plants (:mod:`agents.protocol.streams`): the validation and test plants of each structure
 come from ``numpy.random.SeedSequence(entropy, spawn_key=(family,))``; the training plants are the
@@ -48,11 +49,16 @@ from agents.training.schema import integer_field as _integer, mapping_field as _
 if TYPE_CHECKING:
     from agents.sweeps.config import Trial
 
-__all__ = ["COMPARISON_SIDES", "Learner", "Protocol", "Regime", "Selection", "Stream", "load_protocol", "trial"]
+__all__ = ["COMPARISON_SIDES", "PRIMARIES", "Learner", "Protocol", "Regime", "Selection", "Stream", "load_protocol", "trial"]
 
-COMPARISON_SIDES = {"first": ("fixed", "plan"), "second": ("best-rule", "base-rule", "fixed-procedure", "best-plan")}
-"""What a declared comparison may name: a primary first; second a baseline chosen on validation, or
-``base-rule``, the structure's own rule (:attr:`envs.structures.Structure.base_rule`, fixed in advance)."""
+PRIMARIES: tuple[str, ...] = ("fixed", "plan", "seq")
+"""The primaries a regime may have: the fixed mode's learned design, the plan mode's (experiments
+planned before the first measurement) and the sequential agent's (the next experiment chosen from the
+last one's record; ``configs/sequential.yaml``)."""
+COMPARISON_SIDES = {"first": PRIMARIES, "second": ("best-rule", "base-rule", "fixed-procedure", "best-plan", *PRIMARIES)}
+"""What a declared comparison may name: a primary first; second a baseline chosen on validation,
+``base-rule``, the structure's own rule (:attr:`envs.structures.Structure.base_rule`, fixed in advance),
+or another primary."""
 
 
 @dataclass(frozen=True)
@@ -77,9 +83,10 @@ class Regime:
     env_kwargs: Mapping[str, Any]
     fixed: tuple[Learner, ...]
     plan: tuple[Learner, ...] = ()
+    seq: tuple[Learner, ...] = ()
 
     def candidates(self, mode: str) -> tuple[Learner, ...]:
-        return self.fixed if mode == "fixed" else self.plan
+        return {"fixed": self.fixed, "plan": self.plan, "seq": self.seq}[mode]
 
 
 @dataclass(frozen=True)
@@ -178,7 +185,7 @@ def _learner(value: Any, where: str) -> Learner:
 
 
 def _regime(value: Any, where: str) -> Regime:
-    value = _mapping(value, where, ("name", "env", "env_kwargs", "fixed", "plan"), ("name", "env", "fixed"))
+    value = _mapping(value, where, ("name", "env", "env_kwargs", *PRIMARIES), ("name", "env", "fixed"))
     name, env = value["name"], value["env"]
     if not isinstance(name, str) or not name or "/" in name:
         raise ValueError(f"{where}.name must be a non-empty name without '/', got {name!r}")
@@ -188,7 +195,7 @@ def _regime(value: Any, where: str) -> Regime:
     if not isinstance(env_kwargs, Mapping) or "experiments" in env_kwargs:
         raise ValueError(f"{where}.env_kwargs must be a mapping of environment arguments without 'experiments', got {env_kwargs!r}")
     learners = {}
-    for mode in ("fixed", "plan"):
+    for mode in PRIMARIES:
         items = value.get(mode) or []
         if not isinstance(items, list) or (mode == "fixed" and not items):
             raise ValueError(f"{where}.{mode} must be a {'non-empty ' if mode == 'fixed' else ''}list of learners")
@@ -196,10 +203,11 @@ def _regime(value: Any, where: str) -> Regime:
         labels = [learner.label for learner in learners[mode]]
         if len(set(labels)) != len(labels):
             raise ValueError(f"{where}.{mode} repeats a label: {labels}")
-    shared = {learner.label for learner in learners["fixed"]} & {learner.label for learner in learners["plan"]}
+    labels = [learner.label for mode in PRIMARIES for learner in learners[mode]]
+    shared = sorted({label for label in labels if labels.count(label) > 1})
     if shared:
-        raise ValueError(f"{where}: the label {sorted(shared)[0]!r} names a fixed and a plan candidate; give them distinct labels")
-    return Regime(name, env, dict(env_kwargs), learners["fixed"], learners["plan"])
+        raise ValueError(f"{where}: the label {shared[0]!r} names candidates of two primaries; give them distinct labels")
+    return Regime(name, env, dict(env_kwargs), learners["fixed"], learners["plan"], learners["seq"])
 
 
 def _comparisons(value: Any) -> tuple[tuple[str, str], ...]:
@@ -208,9 +216,9 @@ def _comparisons(value: Any) -> tuple[tuple[str, str], ...]:
     pairs = []
     for i, pair in enumerate(value):
         if (not isinstance(pair, list) or len(pair) != 2 or pair[0] not in COMPARISON_SIDES["first"]
-                or pair[1] not in COMPARISON_SIDES["second"]):
+                or pair[1] not in COMPARISON_SIDES["second"] or pair[0] == pair[1]):
             raise ValueError(f"comparisons[{i}] must be [first, second] with first one of {COMPARISON_SIDES['first']} "
-                             f"and second one of {COMPARISON_SIDES['second']}, got {pair!r}")
+                             f"and second another of {COMPARISON_SIDES['second']}, got {pair!r}")
         pairs.append((pair[0], pair[1]))
     return tuple(pairs)
 
@@ -255,7 +263,7 @@ def _check_learners(protocol: Protocol) -> None:
     from agents.training.config import validate
 
     for regime in protocol.regimes:
-        for mode in ("fixed", "plan"):
+        for mode in PRIMARIES:
             for learner in regime.candidates(mode):
                 try:
                     validate(trial(regime, learner, protocol.seeds[0]).train_config(Path("unused")))

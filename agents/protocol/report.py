@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.files.reader import read_json
-from agents.protocol.config import Protocol
+from agents.protocol.config import PRIMARIES, Protocol
 from agents.protocol.run import PER_PLANT, matrices, read_per_plant
 from agents.protocol.statistics import holm, paired_difference, plant_violations, verdict
 
@@ -36,8 +36,8 @@ def _declared(protocol: Protocol) -> int:
     """The number of comparisons the protocol declares (the size of Holm's family)."""
     count = 0
     for regime in protocol.regimes:
-        modes = {"fixed"} | ({"plan"} if regime.plan else set())
-        seconds = {"best-rule", "base-rule", "fixed-procedure"} | ({"best-plan"} if protocol.selection.plans else set())
+        modes = {mode for mode in PRIMARIES if regime.candidates(mode)}
+        seconds = {"best-rule", "base-rule", "fixed-procedure"} | ({"best-plan"} if protocol.selection.plans else set()) | modes
         count += sum(1 for first, second in protocol.comparisons if first in modes and second in seconds)
     return count
 

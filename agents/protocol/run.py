@@ -7,7 +7,7 @@ For each regime, in the protocol's order (or the ones named), until its ``summar
 2. the declared rules, plans, the fixed procedure and every candidate's seeds are scored on the
    validation stream (:func:`agents.evaluation.evaluate.evaluate`, whose per-plant cache resumes an
    interrupted evaluation);
-3. the best rule, the best plan and the two primaries are chosen on it (:mod:`agents.protocol.selection`)
+3. the best rule, the best plan and the primaries (fixed, plan, sequential) are chosen on it (:mod:`agents.protocol.selection`)
    and written to ``OUT/REGIME/selection.json``;
 4. only then the test stream, and the papers' benchmark batch beside it, are scored for the chosen
    policies and the oracle; ``OUT/REGIME/test_per_plant.csv.gz`` holds every per-plant result (the
@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from agents.files.reader import read_csv, read_json
-from agents.protocol.config import Protocol, Regime
+from agents.protocol.config import PRIMARIES, Protocol, Regime
 from agents.protocol.selection import choose_primary, least_mean
 from agents.protocol.statistics import paired_difference, plant_means, plant_violations
 from agents.protocol.streams import check_test_seed, plant_stream
@@ -65,7 +65,7 @@ def _commit() -> str:
 
 def _config_digests(protocol: Protocol) -> dict[str, str]:
     """The sha256 of every training config the protocol's learners name, by path."""
-    configs = sorted({learner.config for regime in protocol.regimes for mode in ("fixed", "plan")
+    configs = sorted({learner.config for regime in protocol.regimes for mode in PRIMARIES
                       for learner in regime.candidates(mode)})
     return {path: hashlib.sha256(Path(path).read_bytes()).hexdigest() for path in configs}
 
@@ -217,7 +217,7 @@ def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[st
     path = out / regime.name / "selection.json"
     if path.exists():
         return read_json(path, dict)
-    labels = [(mode, learner.label) for mode in ("fixed", "plan") for learner in regime.candidates(mode)]
+    labels = [(mode, learner.label) for mode in PRIMARIES for learner in regime.candidates(mode)]
     learners, names = _learner_policies(protocol, work, regime, labels)
     structure, family = _structure_and_family(regime)
     plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
@@ -236,7 +236,7 @@ def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[st
         chosen["best-plan"] = least_mean({name: mean_of[name] for name in protocol.selection.plans})
     candidates = {}
     target, confidence = protocol.selection.violation_target, protocol.selection.confidence
-    for mode in ("fixed", "plan"):
+    for mode in PRIMARIES:
         modes = [learner.label for learner in regime.candidates(mode)]
         if modes:
             label, records = choose_primary({m: table[m][0] for m in modes}, {m: table[m][1] for m in modes}, target, confidence)
@@ -278,7 +278,7 @@ def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selec
     from agents.files.writer import write_json
 
     chosen = selection["chosen"]
-    labels = [(mode, chosen[mode]) for mode in ("fixed", "plan") if mode in chosen]
+    labels = [(mode, chosen[mode]) for mode in PRIMARIES if mode in chosen]
     learners, names = _learner_policies(protocol, work, regime, labels)
     baselines = list(dict.fromkeys([chosen[role] for role in ("best-rule", "base-rule", "fixed-procedure", "best-plan") if role in chosen]))
     plants = plant_stream(selection["family"], protocol.test.entropy, protocol.test.plants)

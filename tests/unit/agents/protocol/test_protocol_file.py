@@ -116,3 +116,22 @@ def test_a_training_config_changed_after_the_start_is_refused(tmp_path):
     (out / "protocol.json").write_text(json.dumps({**record, "configs_sha256": {config: "0" * 64}}))
     with pytest.raises(ProtocolRefused, match=f"{config} changed since the run"):
         start(protocol, out, resume=True)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("comparisons: [[fixed, best-rule]", "comparisons: [[fixed, fixed], [fixed, best-rule]"), r"comparisons\[0\]"),
+    (("comparisons: [[fixed, best-rule]", "comparisons: [[seq, oracle], [fixed, best-rule]"), r"comparisons\[0\]"),
+])
+def test_a_primary_is_compared_with_another_one_never_with_itself(tmp_path, edit, message):
+    path = tmp_path / "bad.yaml"
+    path.write_text(V1.read_text().replace(*edit, 1))
+    with pytest.raises(ValueError, match=message):
+        load_protocol(path)
+
+
+def test_a_label_names_the_candidates_of_one_primary_only(tmp_path):
+    path = tmp_path / "bad.yaml"
+    text = V1.read_text().replace("    plan:\n      - {label: learned-plan,", "    seq:\n      - {label: learned-fixed, config: configs/sequential.yaml}\n    plan:\n      - {label: learned-plan,", 1)
+    path.write_text(text)
+    with pytest.raises(ValueError, match="'learned-fixed' names candidates of two primaries"):
+        load_protocol(path)

@@ -126,3 +126,49 @@ def test_the_base_rule_is_compared_where_declared_and_scored_though_not_among_th
     assert selection["chosen"]["best-rule"] == "amigo-pi" and selection["chosen"]["base-rule"] == "simc-pi"
     entry = write_report(protocol, out)["regimes"][0]
     assert [(c["first"], c["second"]) for c in entry["comparisons"]] == [("tiny-fixed", "amigo-pi"), ("tiny-fixed", "simc-pi")]
+
+
+SEQ_PROTOCOL = """name: tiny-seq
+seeds: {{first: 0, count: 2}}
+alpha: 0.05
+streams:
+  validation: {{entropy: 31, plants: 4, episode_seed: 50000000}}
+  test: {{entropy: 32, plants: 5, episode_seed: 60000000}}
+selection:
+  violation_target: 0.5
+  confidence: 0.95
+  rules: [simc-pi]
+  plans: [plan-1-1]
+  fixed_procedure: plan-1-1
+comparisons: [[fixed, best-rule], [seq, best-rule], [seq, plan], [seq, fixed-procedure]]
+regimes:
+  - name: msp-tiny
+    env: DeadTime/MSP-v3
+    env_kwargs: {{noise_std: 0.1}}
+    fixed:
+      - {{label: tiny-fixed, config: {rule}, overrides: ["env_id=DeadTime/MSP-v3"]}}
+    plan:
+      - {{label: tiny-plan, config: {rule}, overrides: ["env_id=DeadTime/MSP-v3", "env_kwargs.plan=[3, 0.1]"]}}
+    seq:
+      - {{label: tiny-seq, config: configs/sequential.yaml, overrides: [total_timesteps=64, eval_freq=64, n_eval_episodes=2,
+           checkpoint_freq=64, progress_bar=false, hyperparameters.n_steps=32, hyperparameters.batch_size=16,
+           hyperparameters.n_epochs=1]}}
+"""
+
+
+@pytest.mark.slow
+def test_a_sequential_primary_is_trained_chosen_and_compared_with_the_plan_primary(tmp_path):
+    (tmp_path / "rule.yaml").write_text(RULE)
+    path = tmp_path / "tiny-seq.yaml"
+    path.write_text(SEQ_PROTOCOL.format(rule=tmp_path / "rule.yaml"))
+    protocol = load_protocol(path)
+    assert [learner.label for learner in protocol.regimes[0].seq] == ["tiny-seq"]
+    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
+    out = tmp_path / "out"
+    assert run_protocol(protocol, out) == ["msp-tiny"]
+    selection = json.loads((out / "msp-tiny" / "selection.json").read_text())
+    assert selection["chosen"]["seq"] == "tiny-seq" and selection["candidates"]["seq"][0]["plants"] == 4
+    results = write_report(protocol, out)
+    assert results["complete"] and results["comparisons_declared"] == 4
+    pairs = [(c["roles"][0], c["roles"][1], c["second"]) for c in results["regimes"][0]["comparisons"]]
+    assert pairs[2] == ("seq", "plan", "tiny-plan") and pairs[3] == ("seq", "fixed-procedure", "plan-1-1")
