@@ -129,6 +129,19 @@ def _sequential_replay(parser: argparse.ArgumentParser) -> Callable[[argparse.Na
     return call
 
 
+def _selector_choices(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace], str | None]:
+    parser.add_argument("protocol", type=Path, help="the protocol file, e.g. configs/protocols/v3.yaml")
+    parser.add_argument("run_dir", type=Path, help="its run folder, with the work/ the run left (e.g. results/protocol_v3)")
+    parser.add_argument("regimes", nargs="+", help="regimes whose validation holds a selector")
+    parser.add_argument("--out", type=Path, help="write DIR/choices.md, choices.json and choices.png")
+
+    def call(args: argparse.Namespace) -> str:
+        from agents.studies.selector_choices import choices
+
+        return choices(args.protocol, args.run_dir, args.regimes, args.out)
+    return call
+
+
 def _procedures(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace], str | None]:
     parser.add_argument("runs", type=Path, help="the evaluations' directory (resumable)")
     parser.add_argument("out", type=Path, help="where procedures.md and per_plant_costs.csv.gz go")
@@ -220,6 +233,8 @@ STUDIES: dict[str, tuple[str, Callable[[argparse.ArgumentParser], Callable[[argp
     "headroom": ("what choosing the second experiment after the first could gain at most, on validation plants", _headroom),
     "sequential-replay": ("what a sequential agent does on validation plants, against the noise it measured",
                           _sequential_replay),
+    "selector-choices": ("where a selector keeps the rule and where it overrides it, by normalized dead time",
+                         _selector_choices),
     "procedures": ("the experiment procedures against the fixed procedure in the twelve regimes", _procedures),
     "rescore": ("two evaluations of the same plants under two versions, side by side", _rescore),
     "scaled-margin": ("a constant margin against a spread-scaled one, on validation plants", _scaled_margin),
