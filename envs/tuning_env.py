@@ -537,6 +537,14 @@ class DeadTimeTuningEnv(gym.Env):
         self._done = True
         return relative, controller, result
 
+    def observe(self, identification: Identification, evidence: Evidence) -> np.ndarray:
+        """The observation of experiments run elsewhere (a real process: ``agents.evaluation.process_policies``):
+        ``identification`` and ``evidence`` become the episode's, with no plant to score a design on (the
+        episode is over for :meth:`step`); in plan mode the design step is the one pending."""
+        self.plant, self.identification, self.evidence, self._base = None, identification, evidence, None
+        self._design_pending, self._done = self.mode == "plan", True
+        return self._observation_and_features()[0]
+
     # ------------------------------------------------------------------ scoring
     def score_action(self, parameter_action: float) -> tuple[float, Any, Score]:
         """What committing ``parameter_action`` would give, ``(relative parameter, controller, score)``,

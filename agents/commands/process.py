@@ -155,8 +155,9 @@ def run(args: argparse.Namespace) -> int:
     table = markdown_table(rows, process.units)
     agents = [row for row in rows if row["role"] == "agent"]
     ranked = sum(row["rank"] is not None for row in rows)
-    summary = [f"{row['name']} (agent) ranks {row['rank']} of {ranked}" if row["rank"] else
-               f"{row['name']} (agent): {row['error'] or row['stopped']}" for row in agents]
+    summary = [(f"{row['name']} (agent) ranks {row['rank']} of {ranked}" if row["rank"] else
+                f"{row['name']} (agent): {row['error'] or row['stopped']}") + (f" ({row['note']})" if row.get("note") else "")
+               for row in agents]
     text = "\n".join([*lines, "", table, "", *summary, f"({elapsed:.1f} s: identification {identified:.1f} s)"]).strip()
     if args.out is not None:
         write_outputs(Path(args.out), found, results, rows, data, text, process.units, plots=not args.no_plots)

@@ -25,7 +25,7 @@ from envs.process.procedure import ProcessIdentification
 __all__ = ["model_summary", "policy_rows", "markdown_table", "process_json", "write_outputs", "describe"]
 
 _FIELDS = ("rank", "name", "role", "cost", "iae_setpoint", "iae_load", "overshoot", "saturated_fraction", "model_ms",
-           "model_delay_margin", "parameter", "feasible", "controller", "stopped", "error")
+           "model_delay_margin", "parameter", "feasible", "controller", "stopped", "error", "note")
 
 
 def _finite(value: Any) -> float | None:
@@ -84,6 +84,7 @@ def policy_rows(results: list[ProcessPolicyResult]) -> list[dict[str, Any]]:
             "noise_floor": None if p is None else _finite(p.noise_floor),
             "stopped": None if p is None else p.stopped,
             "error": r.error,
+            "note": r.note,
         })
     rows.sort(key=lambda row: (row["cost"] is None, row["cost"] if row["cost"] is not None else 0.0, row["name"]))
     for rank, row in enumerate(rows, start=1):
@@ -123,6 +124,8 @@ def markdown_table(rows: list[dict[str, Any]], units: Any) -> str:
         note = row["error"] or row["stopped"] or ("" if row["feasible"] else "outside Ms <= 2, DM >= 0.2 L on the model")
         if row["model_stable"] is False:
             note = "unstable on the model"
+        if row.get("note"):
+            note = f"{note}; {row['note']}" if note else row["note"]
         lines.append(
             f"| {row['rank'] or '-'} | {name} | {row['role']} | {_controller_text(row['controller'])} | {_number(row['cost'])} "
             f"| {_number(row['iae_setpoint'], 4)} | {_number(row['iae_load'], 4)} | {_number(row['overshoot'], 2)} "

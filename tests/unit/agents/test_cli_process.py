@@ -28,9 +28,11 @@ import textwrap
 import zipfile
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
+import envs  # noqa: F401
 from agents.cli import main
 
 
@@ -202,7 +204,7 @@ class _AgentMode(_Constant):
 def test_an_agent_reads_the_environments_observation_and_ranks(tmp_path, monkeypatch):
     import agents.training.policies
     from agents.environments import make_env
-    from agents.evaluation.process_policies import agent_observation
+    from agents.evaluation.process_policies import process_observation
     from envs.episode import evidence_from_identification
     from envs.episode_options import EpisodeOptions
     from envs.process.procedure import identify_process
@@ -224,7 +226,7 @@ def test_an_agent_reads_the_environments_observation_and_ranks(tmp_path, monkeyp
     env = make_env("DeadTime/PID-v0").unwrapped
     env.evidence = evidence_from_identification(found.identification, EpisodeOptions(noise_std=found.noise_ratio))
     expected, _ = env._observation_and_features()
-    assert np.array_equal(_Constant.seen[0], expected) and np.array_equal(agent_observation(found, env.budget), expected)
+    assert np.array_equal(_Constant.seen[0], expected) and np.array_equal(process_observation(env, found), expected)
     assert _Constant.seen[0][5] == pytest.approx(math.log10(found.operating_point.noise_std / 10.0))  # noise / 10 degC
 
 
@@ -321,3 +323,89 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, monkeypatch, args, message):
     status, printed, err = run(*args)
     assert status == 2 and printed == ""
     assert err.count("\n") == 1 and err.startswith(message.replace("{bad}", bad).replace("{nan}", nan)), err
+
+
+class _V3Agent(_Constant):
+    """A fixed-mode agent of PID-v3 (measured observation, design features) playing the base rule."""
+
+    name = "v3"
+    env_id = "DeadTime/PID-v3"
+    env_kwargs = {"noise_std": 0.01}
+
+
+class _Selector:
+    """A selector that always chooses the rule simc-pi."""
+
+    name = "selector-x"
+    env_id = "DeadTime/PID-v3"
+    env_kwargs = {"noise_std": 0.01}
+    seen: list = []
+
+    def choose(self, observation):
+        self.seen.append(np.array(observation))
+        return "simc-pi"
+
+    def rule_of(self, choice):
+        return choice
+
+    def action(self, choice, observation):
+        raise AssertionError("a rule was chosen")
+
+
+def test_a_v3_agent_and_a_selector_read_the_v3_observation_of_the_process(monkeypatch):
+    import agents.evaluation.policies
+    from agents.evaluation.process_policies import evaluate_policies, process_observation
+    from agents.evaluation.policies import PolicySpec
+    from envs.episode import LOG_CLIP, evidence_from_identification
+    from envs.identification.steady_state import noise_level
+    from envs.process.performance import RunProtocol
+    from envs.process.procedure import identify_process
+    from envs.process.tclab_process import TCLabProcess
+
+    policies = {"v3": _V3Agent(), "sel": _Selector()}
+    monkeypatch.setattr(agents.evaluation.policies, "load_agent", lambda spec: (spec.name, policies[spec.name]))
+    process = TCLabProcess()
+    found = identify_process(process)
+    _V3Agent.seen, _Selector.seen = [], []
+    specs = [PolicySpec("v3", "agent", "v3"), PolicySpec("sel", "agent", "sel"), PolicySpec("simc-pi", "rule")]
+    results = {r.name: r for r in evaluate_policies(process, found, RunProtocol.from_identification(found, 1.0), specs)}
+    env = gym.make("DeadTime/PID-v3").unwrapped
+    names = env.feature_names
+    expected = env.observe(found.identification, evidence_from_identification(found.identification, env.options,
+                                                                                abs(found.setpoint_step)))
+    assert np.array_equal(_V3Agent.seen[0], expected) and np.array_equal(process_observation(env, found), expected)
+    assert len(expected) == len(names) and "check_ms" in names and "failed_experiments" in names
+    # measured from the record, as in simulation: the emulator's quantized readings give a zero estimate
+    # (the log's floor), which the out-of-distribution check names
+    sigma = noise_level(found.identification.closed_loop.output)
+    ratio = math.log10(sigma / abs(found.setpoint_step)) if sigma > 0 else -LOG_CLIP
+    assert expected[names.index("log_noise_ratio")] == pytest.approx(ratio, abs=1e-6)
+    assert "log_noise_ratio" in (results["v3"].note or "") or sigma > 0
+    assert results["v3"].parameter == pytest.approx(env.parameter_from_action(0.0)) and results["v3"].score is not None
+    assert np.array_equal(_Selector.seen[0], expected)
+    assert results["sel"].controller.to_dict() == results["simc-pi"].controller.to_dict()
+    assert results["sel"].note.startswith("chose simc-pi") and results["sel"].role == "agent"
+
+
+def test_a_process_outside_the_training_family_is_flagged_and_still_played(monkeypatch):
+    import agents.evaluation.policies
+    import agents.evaluation.process_policies as process_policies
+    from agents.evaluation.policies import PolicySpec
+    from envs.process.performance import RunProtocol
+    from envs.process.procedure import identify_process
+    from envs.process.tclab_process import TCLabProcess
+
+    monkeypatch.setattr(agents.evaluation.policies, "load_agent", lambda spec: (spec.name, _V3Agent()))
+    monkeypatch.setattr(process_policies, "_training_ranges", lambda env_id, kwargs: {"tau": (0.9, 0.95), "theta": (-100.0, 100.0)})
+    process = TCLabProcess()
+    found = identify_process(process)
+    result = process_policies.evaluate_policies(process, found, RunProtocol.from_identification(found, 1.0), [PolicySpec("v3", "agent", "v3")])[1]
+    assert result.score is not None and result.note.startswith("out of distribution: tau ") and "theta" not in result.note
+
+
+def test_the_training_ranges_hold_the_family_and_name_only_plant_features():
+    from agents.evaluation.process_policies import CHECKED_FEATURES, _training_ranges
+
+    ranges = _training_ranges("DeadTime/FPPI-v3", {"noise_std": 0.1})
+    assert set(ranges) <= set(CHECKED_FEATURES) and {"tau", "dead_time_fraction", "log_noise_ratio"} <= set(ranges)
+    assert all(low < high for low, high in ranges.values())
