@@ -186,6 +186,8 @@ def summarize(costs: np.ndarray, test_plants: int, comparisons: int, alpha: floa
     the amplitudes ``firsts`` and ``seconds`` along the two middle axes."""
     from scipy import stats
 
+    from envs.analysis.scoring import FEASIBLE_CAP
+
     expected = costs.mean(axis=3)
     means = expected.mean(axis=0)
     i, m = np.unravel_index(np.argmin(means), means.shape)
@@ -207,6 +209,7 @@ def summarize(costs: np.ndarray, test_plants: int, comparisons: int, alpha: floa
         "plants": n, "replicates": int(costs.shape[3]),
         "fixed_procedure": fixed,
         "best_plan": f"plan-{firsts[i]:g}-{seconds[m]:g}", "best_plan_cost": float(means[i, m]),
+        "best_plan_violating_plants": int(np.sum((costs[:, i, m, :] > FEASIBLE_CAP).any(axis=1))),
         "adaptive_first": firsts[best_first], "adaptive_cost": float(adaptive[:, best_first].mean()),
         "adaptive_second_choices": dict(zip([f"{a:g}" for a in seconds], chosen)),
         "headroom": float(difference.mean()), "headroom_interval": [float(difference.mean() - half_width),
@@ -246,7 +249,8 @@ def markdown(rows: list[dict[str, Any]], test_plants: int, comparisons: int) -> 
         reference = row.get("protocol", {})
         primary = reference.get("primary")
         lines.append(
-            f"| {row['regime']} | {_number(row['fixed_procedure'])} | {row['best_plan_cost']:.3g} ({row['best_plan']}) "
+            f"| {row['regime']} | {_number(row['fixed_procedure'])} | {row['best_plan_cost']:.3g} ({row['best_plan']}; "
+            f"{row['best_plan_violating_plants']} violating) "
             f"| {row['adaptive_cost']:.3g} ({row['adaptive_first']:g}; {choices}) "
             f"| {_number(row['headroom'])} [{_number(low)}, {_number(high)}] | {_number(row['resolvable'])} | {_number(reference.get('plan-1-1'))} "
             f"| {_number(reference.get('primary_cost'))}{f' ({primary})' if primary else ''} |")
@@ -288,6 +292,35 @@ def headroom(protocol_path: Path, plants: int, replicates: int, out: Path, desig
     return table
 
 
+def _agent_regime(run_dir: Path) -> tuple[str, float, float]:
+    """``(env_id, noise, production)`` of a trained agent's run (its ``config.yaml``)."""
+    from agents.training.config import load_config
+
+    config = load_config(Path(run_dir) / "config.yaml")
+    kwargs = config.env_kwargs
+    return (config.env_id, float(kwargs.get("noise_std", 0.01)),
+            float(dict(kwargs.get("weights") or {}).get("production", 0.05)))
+
+
+def _learners_markdown(rows: list[dict[str, Any]]) -> str:
+    found = [row for row in rows if "learners" in row]
+    if not found:
+        return ""
+    lines = ["", "| regime | learners (seeds) | mean cost [95%] | IQM of the seeds' means | minus the best single plan [95%] "
+             "| share of the headroom reached | plants violating in any seed [95%] |", "|---|---|---|---|---|---|---|"]
+    for row in found:
+        learners = row["learners"]
+        low, high = learners["mean_interval"]
+        d, dl, dh = learners["minus_best_plan"]
+        share = learners["share_of_headroom"]
+        lines.append(f"| {row['regime']} | {learners['seeds']} | {learners['mean_cost']:.3g} [{low:.3g}, {high:.3g}] "
+                     f"| {learners['iqm_of_seed_means']:.3g} | {d:.3g} [{dl:.3g}, {dh:.3g}] "
+                     f"| {'-' if share is None else f'{share:.0%}'} "
+                     f"| {100 * learners['violations']['rate']:.2f}% [{100 * learners['violations']['interval'][0]:.2f}, "
+                     f"{100 * learners['violations']['interval'][1]:.2f}]% |")
+    return "\n".join(lines) + "\n"
+
+
 def _fit_key(policy: Any) -> tuple[str, float, float, float]:
     kwargs = policy.env_kwargs
     plan = kwargs.get("plan")
@@ -306,10 +339,50 @@ def _matching_regime(protocol: Any, env_id: str, noise: float, production: float
     raise ValueError(f"{protocol.path}: no agent-mode regime of {env_id} at noise {noise:g}, production {production:g}")
 
 
-def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replicates: int, out: Path) -> str:
+def agent_costs(run_dir: Path, plants: list[Any], episode_seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A trained agent's cost and feasibility on each plant, reset with seed ``episode_seed + k`` as the
+    protocol's evaluation resets it, in its own environment (its ``config.yaml``), with the environment's masks."""
+    from agents.environments import make_env
+    from agents.evaluation.run import _agent_action
+    from agents.training.policies import load_policy
+
+    policy = load_policy(run_dir)
+    env = make_env(policy.config.env_id, policy.config.env_kwargs).unwrapped
+    costs, feasible = [], []
+    for k, plant in enumerate(plants):
+        observation, _ = env.reset(seed=episode_seed + k, options={"plant": plant})
+        done, info = False, {}
+        while not done:
+            observation, _, done, _, info = env.step(_agent_action(env, policy, observation))
+        costs.append(float(info["cost"]))
+        feasible.append(bool(info.get("feasible", False)))
+    return np.array(costs), np.array(feasible)
+
+
+def _learners(rows: np.ndarray, feasible: np.ndarray, best_plan: np.ndarray, headroom: float) -> dict[str, Any]:
+    """The learners' costs ``(seeds, plants)`` against the best single plan's per-plant expected costs,
+    and the plants where a seed's design violates."""
+    from agents.protocol.statistics import plant_violations
+
+    from agents.evaluation.seed_statistics import bootstrap_interval, iqm, paired_difference
+
+    mean = float(rows.mean())
+    difference = paired_difference(rows, best_plan[None, :])
+    return {"seeds": int(rows.shape[0]), "mean_cost": mean,
+            "mean_interval": bootstrap_interval(rows, lambda r, _: r.mean(axis=(-2, -1))),
+            "iqm_of_seed_means": iqm(rows.mean(axis=1)), "per_seed_mean_cost": [float(v) for v in rows.mean(axis=1)],
+            "minus_best_plan": difference,
+            "share_of_headroom": None if headroom <= 0 else float(-difference[0] / headroom),
+            "violations": plant_violations(feasible).to_dict()}
+
+
+def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replicates: int, out: Path,
+                     agents: list[Path] = ()) -> str:
     """The headroom with a learned design per second amplitude: ``fits`` are learned-rule fits of fixed
     plans ``[A1, A2]`` (``configs/learned_plan.yaml``), grouped by environment, regime and ``A1``; each
-    continuation ``A2`` is designed by its own fit.  Writes ``OUT/headroom_learned_design.{md,json}``."""
+    continuation ``A2`` is designed by its own fit.  ``agents`` (sequential agents, one run per seed)
+    are played on the same plants and reported against the best single plan, with the share of the
+    headroom they reach.  Writes ``OUT/headroom_learned_design.{md,json}``."""
     import gymnasium as gym
 
     import envs  # noqa: F401
@@ -334,14 +407,30 @@ def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replica
         designs = {a: policy_design(by_second[a]) for a in seconds}
         family = env.kind.family
         stream = plant_stream(family, protocol.validation.entropy, plants)
-        costs = np.stack([plant_costs(env, plant, protocol.validation.episode_seed + k, replicates, weights,
-                                      firsts=(first,), designs=designs) for k, plant in enumerate(stream)])
+        cache = out / "work" / f"{regime.name}-learned.npz"
+        identity = json.dumps([str(by_second[a].path) for a in seconds])
+        found = np.load(cache) if cache.exists() else None
+        if found is not None and str(found["fits"]) == identity and found["costs"].shape[0] == plants \
+                and found["costs"].shape[3] == replicates:
+            costs = found["costs"]
+        else:
+            costs = np.stack([plant_costs(env, plant, protocol.validation.episode_seed + k, replicates, weights,
+                                          firsts=(first,), designs=designs) for k, plant in enumerate(stream)])
+            cache.parent.mkdir(parents=True, exist_ok=True)
+            np.savez_compressed(cache, costs=costs, fits=identity)
         row = {"regime": regime.name, "fits": {f"{a:g}": str(by_second[a].path.parent) for a in seconds},
                **summarize(costs[..., 0], protocol.test.plants, comparisons, protocol.alpha, (first,), seconds)}
         row["protocol"] = _protocol_reference(protocol.name, regime.name)
+        mine = [run for run in agents if _agent_regime(run) == (env_id, noise, production)]
+        if mine:
+            i, m = np.unravel_index(np.argmin(costs[..., 0].mean(axis=(0, 3))), costs.shape[1:3])
+            played = [agent_costs(run, stream, protocol.validation.episode_seed) for run in mine]
+            row["learners"] = {"runs": [str(run) for run in mine],
+                               **_learners(np.stack([c for c, _ in played]), np.stack([f for _, f in played]),
+                                           costs[:, i, m, :, 0].mean(axis=1), row["headroom"])}
         rows.append(row)
         print(f"headroom {regime.name}, learned designs: {row['headroom']:.3g}", file=sys.stderr, flush=True)
-    table = markdown(rows, protocol.test.plants, comparisons)
+    table = markdown(rows, protocol.test.plants, comparisons) + _learners_markdown(rows)
     out.mkdir(parents=True, exist_ok=True)
     (out / "headroom_learned_design.md").write_text(table)
     (out / "headroom_learned_design.json").write_text(json.dumps(

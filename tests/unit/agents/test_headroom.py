@@ -115,3 +115,16 @@ def test_a_policy_designs_from_the_observation_the_fixed_plan_environment_shows(
     costs = plant_costs(ours, plant, 7, 2, [CostWeights(production=0.05)], firsts=(3.0,),
                         designs={0.3: policy_design(_Policy()), 3.0: "base"})
     assert costs.shape == (1, 2, 2, 1) and np.isfinite(costs).all()
+
+
+def test_the_learners_share_of_the_headroom_and_their_violating_plants() -> None:
+    from agents.studies.headroom import _learners
+
+    best_plan = np.full(50, 4.0)
+    rows = np.full((3, 50), 3.9)
+    feasible = np.ones((3, 50), dtype=bool)
+    feasible[1, 7] = feasible[2, 7] = feasible[0, 9] = False  # two plants violate in some seed
+    found = _learners(rows, feasible, best_plan, headroom=0.2)
+    assert found["minus_best_plan"][0] == pytest.approx(-0.1) and found["share_of_headroom"] == pytest.approx(0.5)
+    assert found["violations"]["violating_plants"] == 2 and found["seeds"] == 3
+    assert _learners(rows, feasible, best_plan, headroom=0.0)["share_of_headroom"] is None
