@@ -104,6 +104,8 @@ def _headroom(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace],
                         help="--design learned: learned-rule fits of fixed plans [A1, A2], one per second amplitude")
     parser.add_argument("--agents", nargs="+", type=Path, default=[], metavar="RUN_DIR",
                         help="--design learned: sequential agents (one run per seed) played on the same plants")
+    parser.add_argument("--training-plants", type=int, default=0,
+                        help="--design learned: train the learned continuation on this many plants of its own stream")
     parser.add_argument("--out", type=Path, default=Path("results/sequential"), help="where headroom.md/json go")
 
     def call(args: argparse.Namespace) -> str:
@@ -114,7 +116,8 @@ def _headroom(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace],
 
             if not args.fits:
                 raise ValueError("--design learned needs --fits RUN_DIR ... (learned-rule fits of fixed plans)")
-            return learned_headroom(args.protocol, args.fits, args.plants, args.replicates, args.out, args.agents)
+            return learned_headroom(args.protocol, args.fits, args.plants, args.replicates, args.out, args.agents,
+                                    args.training_plants)
         return headroom(args.protocol, args.plants, args.replicates, args.out, args.design)
     return call
 

@@ -292,6 +292,15 @@ def headroom(protocol_path: Path, plants: int, replicates: int, out: Path, desig
     return table
 
 
+def _t_interval(values: np.ndarray) -> list[float]:
+    """``[mean, low, high]``: the 95% Student-t interval of the mean over the plants."""
+    from scipy import stats
+
+    n = len(values)
+    half = float(stats.t.ppf(0.975, n - 1) * values.std(ddof=1) / math.sqrt(n))
+    return [float(values.mean()), float(values.mean() - half), float(values.mean() + half)]
+
+
 def _agent_regime(run_dir: Path) -> tuple[str, float, float]:
     """``(env_id, noise, production)`` of a trained agent's run (its ``config.yaml``)."""
     from agents.training.config import load_config
@@ -300,6 +309,21 @@ def _agent_regime(run_dir: Path) -> tuple[str, float, float]:
     kwargs = config.env_kwargs
     return (config.env_id, float(kwargs.get("noise_std", 0.01)),
             float(dict(kwargs.get("weights") or {}).get("production", 0.05)))
+
+
+def _continuation_markdown(rows: list[dict[str, Any]]) -> str:
+    found = [row for row in rows if "continuation" in row]
+    if not found:
+        return ""
+    lines = ["", "| regime | seq-continuation (training plants) | mean cost | minus the best single plan [95%] "
+             "| share of the headroom reached | A2 chosen |", "|---|---|---|---|---|---|"]
+    for row in found:
+        c = row["continuation"]
+        d, dl, dh = c["minus_best_plan"]
+        share = c["share_of_headroom"]
+        lines.append(f"| {row['regime']} | {c['training_plants']} | {c['mean_cost']:.3g} | {d:.3g} [{dl:.3g}, {dh:.3g}] "
+                     f"| {'-' if share is None else f'{share:.0%}'} | {'/'.join(str(v) for v in c['choices'].values())} |")
+    return "\n".join(lines) + "\n"
 
 
 def _learners_markdown(rows: list[dict[str, Any]]) -> str:
@@ -376,8 +400,53 @@ def _learners(rows: np.ndarray, feasible: np.ndarray, best_plan: np.ndarray, hea
             "violations": plant_violations(feasible).to_dict()}
 
 
+CONTINUATION_ENTROPY = 20261205
+"""The stream of the learned continuation's training plants (none of the protocols' streams)."""
+CONTINUATION_EPISODE_SEED = 70_000_000
+
+
+def _first_features(env: Any, plant: Any, seed: int, first: float) -> tuple[np.ndarray, Any]:
+    """The observation's features after the closed-loop step at ``first`` (its noise as in :func:`plant_costs`)."""
+    from envs.episode import Evidence, features
+
+    env.reset(seed=seed, options={"plant": plant})
+    env.evidence = Evidence.empty(env.integrating, env.options)
+    after_first = first_experiment(env, np.random.default_rng([seed, GRID.index(first)]), first)
+    return features(after_first, env.budget), after_first
+
+
+def continuation_training(env: Any, plants: list[Any], episode_seed: int, first: float, designs: dict[float, Any],
+                          weights: list[Any]) -> tuple[np.ndarray, np.ndarray]:
+    """Features after the first experiment and each second amplitude's cost (one noise draw), per plant."""
+    rows, labels = [], []
+    for k, plant in enumerate(plants):
+        seed = episode_seed + k
+        x, after_first = _first_features(env, plant, seed, first)
+        rows.append(x)
+        labels.append([continuation_costs(env, after_first, np.random.default_rng([seed, GRID.index(first), 1]), first,
+                                          second, weights, design)[0] for second, design in designs.items()])
+    return np.array(rows), np.array(labels)
+
+
+def learned_continuation(env: Any, designs: dict[float, Any], weights: list[Any], first: float, training: list[Any],
+                         validation: list[Any], validation_seed: int, expected: np.ndarray) -> dict[str, Any]:
+    """``seq-continuation``: the second amplitude of least predicted cost, read from the first experiment's
+    record by one gradient-boosted regressor per amplitude (trained on ``training`` plants of their own
+    stream), and its value on the validation plants (``expected``: each plant's expected cost per second
+    amplitude, the headroom's)."""
+    from sklearn.ensemble import HistGradientBoostingRegressor
+
+    x, y = continuation_training(env, training, CONTINUATION_EPISODE_SEED, first, designs, weights)
+    models = [HistGradientBoostingRegressor(random_state=0).fit(x, y[:, m]) for m in range(y.shape[1])]
+    x_valid = np.array([_first_features(env, plant, validation_seed + k, first)[0] for k, plant in enumerate(validation)])
+    choice = np.column_stack([model.predict(x_valid) for model in models]).argmin(axis=1)
+    chosen = expected[np.arange(len(validation)), choice]
+    return {"training_plants": len(training), "per_plant": chosen,
+            "choices": dict(zip([f"{a:g}" for a in designs], np.bincount(choice, minlength=len(designs)).tolist()))}
+
+
 def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replicates: int, out: Path,
-                     agents: list[Path] = ()) -> str:
+                     agents: list[Path] = (), training_plants: int = 0) -> str:
     """The headroom with a learned design per second amplitude: ``fits`` are learned-rule fits of fixed
     plans ``[A1, A2]`` (``configs/learned_plan.yaml``), grouped by environment, regime and ``A1``; each
     continuation ``A2`` is designed by its own fit.  ``agents`` (sequential agents, one run per seed)
@@ -421,16 +490,24 @@ def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replica
         row = {"regime": regime.name, "fits": {f"{a:g}": str(by_second[a].path.parent) for a in seconds},
                **summarize(costs[..., 0], protocol.test.plants, comparisons, protocol.alpha, (first,), seconds)}
         row["protocol"] = _protocol_reference(protocol.name, regime.name)
+        i, m = np.unravel_index(np.argmin(costs[..., 0].mean(axis=(0, 3))), costs.shape[1:3])
+        if training_plants:
+            training = plant_stream(family, CONTINUATION_ENTROPY, training_plants)
+            found = learned_continuation(env, designs, weights, first, training, stream, protocol.validation.episode_seed,
+                                         costs[:, 0, :, :, 0].mean(axis=2))
+            difference = found.pop("per_plant") - costs[:, i, m, :, 0].mean(axis=1)
+            row["continuation"] = {**found, "mean_cost": float(costs[:, i, m, :, 0].mean() + difference.mean()),
+                                   "minus_best_plan": _t_interval(difference),
+                                   "share_of_headroom": None if row["headroom"] <= 0 else float(-difference.mean() / row["headroom"])}
         mine = [run for run in agents if _agent_regime(run) == (env_id, noise, production)]
         if mine:
-            i, m = np.unravel_index(np.argmin(costs[..., 0].mean(axis=(0, 3))), costs.shape[1:3])
             played = [agent_costs(run, stream, protocol.validation.episode_seed) for run in mine]
             row["learners"] = {"runs": [str(run) for run in mine],
                                **_learners(np.stack([c for c, _ in played]), np.stack([f for _, f in played]),
                                            costs[:, i, m, :, 0].mean(axis=1), row["headroom"])}
         rows.append(row)
         print(f"headroom {regime.name}, learned designs: {row['headroom']:.3g}", file=sys.stderr, flush=True)
-    table = markdown(rows, protocol.test.plants, comparisons) + _learners_markdown(rows)
+    table = markdown(rows, protocol.test.plants, comparisons) + _continuation_markdown(rows) + _learners_markdown(rows)
     out.mkdir(parents=True, exist_ok=True)
     (out / "headroom_learned_design.md").write_text(table)
     (out / "headroom_learned_design.json").write_text(json.dumps(

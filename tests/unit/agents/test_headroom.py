@@ -128,3 +128,18 @@ def test_the_learners_share_of_the_headroom_and_their_violating_plants() -> None
     assert found["minus_best_plan"][0] == pytest.approx(-0.1) and found["share_of_headroom"] == pytest.approx(0.5)
     assert found["violations"]["violating_plants"] == 2 and found["seeds"] == 3
     assert _learners(rows, feasible, best_plan, headroom=0.0)["share_of_headroom"] is None
+
+
+def test_the_learned_continuation_is_scored_by_the_expected_cost_of_its_choice() -> None:
+    from agents.studies.headroom import learned_continuation
+
+    env = gym.make("DeadTime/FPPI-v3", noise_std=0.1, plan=[1.0, 1.0]).unwrapped
+    designs = {0.1: "base", 3.0: "base"}
+    from agents.protocol.streams import plant_stream
+
+    training, validation = plant_stream("stable", 99, 40), list(plant_set("stable", "validation", 12))
+    expected = np.random.default_rng(0).uniform(1.0, 5.0, (12, 2))
+    found = learned_continuation(env, designs, [CostWeights(production=0.05)], 1.0, training, validation, 5, expected)
+    assert found["training_plants"] == 40 and sum(found["choices"].values()) == 12
+    chosen = found["per_plant"]
+    assert all(value in row for value, row in zip(chosen, expected))
