@@ -315,13 +315,14 @@ def _continuation_markdown(rows: list[dict[str, Any]]) -> str:
     found = [row for row in rows if "continuation" in row]
     if not found:
         return ""
-    lines = ["", "| regime | seq-continuation (training plants) | mean cost | minus the best single plan [95%] "
-             "| share of the headroom reached | A2 chosen |", "|---|---|---|---|---|---|"]
+    lines = ["", "| regime | seq-continuation (training plants) | thresholds (cross-fitted) | mean cost "
+             "| minus the best single plan [95%] | share of the headroom reached | A2 chosen |", "|---|---|---|---|---|---|---|"]
     for row in found:
         c = row["continuation"]
         d, dl, dh = c["minus_best_plan"]
         share = c["share_of_headroom"]
-        lines.append(f"| {row['regime']} | {c['training_plants']} | {c['mean_cost']:.3g} | {d:.3g} [{dl:.3g}, {dh:.3g}] "
+        lines.append(f"| {row['regime']} | {c['training_plants']} | {', '.join(f'{t:g}' for t in c['thresholds'])} "
+                     f"| {c['mean_cost']:.3g} | {d:.3g} [{dl:.3g}, {dh:.3g}] "
                      f"| {'-' if share is None else f'{share:.0%}'} | {'/'.join(str(v) for v in c['choices'].values())} |")
     return "\n".join(lines) + "\n"
 
@@ -428,20 +429,50 @@ def continuation_training(env: Any, plants: list[Any], episode_seed: int, first:
     return np.array(rows), np.array(labels)
 
 
+THRESHOLDS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, math.inf)
+"""The predicted cost reductions tried as the learned continuation's threshold (inf: never deviate)."""
+
+
+def _threshold_choice(predicted: np.ndarray, default: int, threshold: float) -> np.ndarray:
+    """Per plant the amplitude of least predicted cost where it is predicted cheaper than ``default``
+    by more than ``threshold``, else ``default``."""
+    best = predicted.argmin(axis=1)
+    reduction = predicted[:, default] - predicted[np.arange(len(predicted)), best]
+    return np.where(reduction > threshold, best, default)
+
+
+def _cross_fitted_threshold(predicted: np.ndarray, expected: np.ndarray, default: int) -> tuple[np.ndarray, list[float]]:
+    """Each plant's choice under the threshold chosen on the other half of the plants (even and odd),
+    and the two thresholds."""
+    index = np.arange(len(predicted))
+    choice, chosen = np.empty(len(predicted), dtype=int), []
+    for fold in (0, 1):
+        fit, use = index[index % 2 != fold], index[index % 2 == fold]
+        value = [expected[fit, _threshold_choice(predicted[fit], default, t)].mean() for t in THRESHOLDS]
+        threshold = THRESHOLDS[int(np.argmin(value))]
+        chosen.append(threshold)
+        choice[use] = _threshold_choice(predicted[use], default, threshold)
+    return choice, chosen
+
+
 def learned_continuation(env: Any, designs: dict[float, Any], weights: list[Any], first: float, training: list[Any],
                          validation: list[Any], validation_seed: int, expected: np.ndarray) -> dict[str, Any]:
-    """``seq-continuation``: the second amplitude of least predicted cost, read from the first experiment's
-    record by one gradient-boosted regressor per amplitude (trained on ``training`` plants of their own
-    stream), and its value on the validation plants (``expected``: each plant's expected cost per second
-    amplitude, the headroom's)."""
+    """``seq-continuation``: after the first experiment, the second amplitude of least predicted cost,
+    read from its record by one gradient-boosted regressor per amplitude (trained on ``training`` plants
+    of their own stream), taken only where it is predicted cheaper than the best single plan's by more
+    than a threshold: the stopping rule's form (another choice only if its predicted gain exceeds what
+    it risks).  The threshold is chosen on the validation plants, cross-fitted (chosen on the even
+    plants for the odd ones and back); ``expected`` is each validation plant's expected cost per second
+    amplitude (the headroom's), whose least mean gives the best single plan."""
     from sklearn.ensemble import HistGradientBoostingRegressor
 
     x, y = continuation_training(env, training, CONTINUATION_EPISODE_SEED, first, designs, weights)
     models = [HistGradientBoostingRegressor(random_state=0).fit(x, y[:, m]) for m in range(y.shape[1])]
     x_valid = np.array([_first_features(env, plant, validation_seed + k, first)[0] for k, plant in enumerate(validation)])
-    choice = np.column_stack([model.predict(x_valid) for model in models]).argmin(axis=1)
+    predicted = np.column_stack([model.predict(x_valid) for model in models])
+    choice, thresholds = _cross_fitted_threshold(predicted, expected, int(np.argmin(expected.mean(axis=0))))
     chosen = expected[np.arange(len(validation)), choice]
-    return {"training_plants": len(training), "per_plant": chosen,
+    return {"training_plants": len(training), "per_plant": chosen, "thresholds": thresholds,
             "choices": dict(zip([f"{a:g}" for a in designs], np.bincount(choice, minlength=len(designs)).tolist()))}
 
 

@@ -143,3 +143,18 @@ def test_the_learned_continuation_is_scored_by_the_expected_cost_of_its_choice()
     assert found["training_plants"] == 40 and sum(found["choices"].values()) == 12
     chosen = found["per_plant"]
     assert all(value in row for value, row in zip(chosen, expected))
+
+
+def test_the_threshold_keeps_the_default_unless_the_predicted_gain_exceeds_it() -> None:
+    from agents.studies.headroom import _cross_fitted_threshold, _threshold_choice
+
+    predicted = np.array([[1.0, 1.05], [1.0, 2.0], [3.0, 1.0]])
+    assert list(_threshold_choice(predicted, 0, 0.1)) == [0, 0, 1] and list(_threshold_choice(predicted, 0, np.inf)) == [0, 0, 0]
+    # predictions that are right where they deviate: the cross-fitted threshold lets them deviate
+    rng = np.random.default_rng(3)
+    expected = rng.uniform(1.0, 2.0, (200, 3))
+    choice, thresholds = _cross_fitted_threshold(expected.copy(), expected, 0)
+    assert np.array_equal(choice, expected.argmin(axis=1)) and thresholds == [0.0, 0.0]
+    # predictions that are noise: deviating costs, and the threshold stops it
+    choice, thresholds = _cross_fitted_threshold(rng.uniform(0.0, 1.0, (200, 3)), expected + np.array([0.0, 1.0, 1.0]), 0)
+    assert (choice == 0).all() and min(thresholds) >= 1.0  # the least threshold that never deviates (ties: the first)
