@@ -38,7 +38,7 @@ from agents.evaluation.cache import Cache
 from agents.evaluation.result import FAILURE_COST, PolicyResult
 from agents.interruptions import GRACE_S, ignore_interrupts_in_worker
 
-__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "evaluate_plant", "plant_key", "rule_result", "selector_result"]
+__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "agent_action", "evaluate_plant", "plant_key", "rule_result", "selector_result"]
 
 
 CACHE_VERSION = 3
@@ -124,7 +124,7 @@ def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[Policy
     )  # fmt: skip
 
 
-def _agent_action(env: Any, policy: Any, observation: np.ndarray) -> Any:
+def agent_action(env: Any, policy: Any, observation: np.ndarray) -> Any:
     """The agent's deterministic action for ``env.step``: an index chosen among the environment's action
     masks (the agent mode's discrete action), else the ``Box`` action in the space's shape."""
     from agents.training.validation import action_masks
@@ -140,7 +140,7 @@ def _agent_action(env: Any, policy: Any, observation: np.ndarray) -> Any:
 def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
     observation, info = env.reset(seed=seed, options={"plant": plant})
     for _ in range(10_000):
-        observation, _, terminated, truncated, info = env.step(_agent_action(env, policy, observation))
+        observation, _, terminated, truncated, info = env.step(agent_action(env, policy, observation))
         if terminated or truncated:
             break
     else:

@@ -368,7 +368,7 @@ def agent_costs(run_dir: Path, plants: list[Any], episode_seed: int) -> tuple[np
     """A trained agent's cost and feasibility on each plant, reset with seed ``episode_seed + k`` as the
     protocol's evaluation resets it, in its own environment (its ``config.yaml``), with the environment's masks."""
     from agents.environments import make_env
-    from agents.evaluation.run import _agent_action
+    from agents.evaluation.run import agent_action
     from agents.training.policies import load_policy
 
     policy = load_policy(run_dir)
@@ -378,7 +378,7 @@ def agent_costs(run_dir: Path, plants: list[Any], episode_seed: int) -> tuple[np
         observation, _ = env.reset(seed=episode_seed + k, options={"plant": plant})
         done, info = False, {}
         while not done:
-            observation, _, done, _, info = env.step(_agent_action(env, policy, observation))
+            observation, _, done, _, info = env.step(agent_action(env, policy, observation))
         costs.append(float(info["cost"]))
         feasible.append(bool(info.get("feasible", False)))
     return np.array(costs), np.array(feasible)

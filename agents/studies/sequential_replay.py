@@ -34,12 +34,12 @@ NOISE_BINS: tuple[float, ...] = (0.03, 0.3)
 
 
 def _episode(env: Any, policy: Any, plant: Any, seed: int) -> dict[str, Any]:
-    from agents.evaluation.run import _agent_action
+    from agents.evaluation.run import agent_action
 
     observation, _ = env.reset(seed=seed, options={"plant": plant})
     actions, sigma, done, info = [], None, False, {}
     while not done:
-        action = _agent_action(env, policy, observation)
+        action = agent_action(env, policy, observation)
         observation, _, done, _, info = env.step(action)
         actions.append(info["action"])
         if sigma is None and info.get("experiment") == "closed-loop-step":

@@ -144,7 +144,7 @@ def test_v2_is_v1_with_production_priced(structure, play):
     assert agent.step(step)[4]["amplitude"] == 3.0
 
 
-def _agent_action(size: int, choice: int, amplitude: float, design: float) -> np.ndarray:
+def agent_action(size: int, choice: int, amplitude: float, design: float) -> np.ndarray:
     action = np.full(size, -1.0, dtype=np.float32)
     action[choice], action[-2], action[-1] = 1.0, amplitude, design
     return action
@@ -163,7 +163,7 @@ def test_v2_agent_mode_designs_in_a_step_of_its_own(structure):
     assert env.unwrapped.feature_names[-1] == "design_step"
     observation, _ = env.reset(seed=1)
     assert observation[-1] == 0.0
-    observation, reward, terminated, _, info = env.step(_agent_action(size, 0, 0.0, -1.0))  # commit at amplitude 1
+    observation, reward, terminated, _, info = env.step(agent_action(size, 0, 0.0, -1.0))  # commit at amplitude 1
     evidence = env.unwrapped.evidence
     assert (reward, terminated, observation[-1]) == (0.0, False, 1.0)
     assert info["amplitude"] == pytest.approx(1.0) and evidence.noise_ratio == pytest.approx(0.01)
@@ -171,17 +171,17 @@ def test_v2_agent_mode_designs_in_a_step_of_its_own(structure):
     assert evidence.runs == runs and info["features"]["log_base_parameter"] != 0.0
     design = 0.5  # exact in float32, the action's type
     expected = env.unwrapped.score_controller(env.unwrapped.design(env.unwrapped.parameter_from_action(design))).cost
-    _, reward, terminated, _, info = env.step(_agent_action(size, 1, 0.0, design))  # its choice is ignored now
+    _, reward, terminated, _, info = env.step(agent_action(size, 1, 0.0, design))  # its choice is ignored now
     assert terminated and reward == -info["cost"] and info["cost"] == pytest.approx(expected, rel=1e-12)
     assert env.unwrapped.evidence.runs == runs
     env.reset(seed=1)
-    env.step(_agent_action(size, 0, 1.0, 0.0))  # amplitude 10, cut to 3
+    env.step(agent_action(size, 0, 1.0, 0.0))  # amplitude 10, cut to 3
     assert env.unwrapped.evidence.noise_ratio == pytest.approx(0.01 / 3.0)
 
 
 def test_v1_agent_mode_still_designs_at_the_commit():
     env = gym.make("DeadTime/FPPI-v1", experiments="agent")
     env.reset(seed=1)
-    _, _, terminated, _, info = env.step(_agent_action(env.action_space.shape[0], 0, 1.0, 0.0))
+    _, _, terminated, _, info = env.step(agent_action(env.action_space.shape[0], 0, 1.0, 0.0))
     assert terminated and env.unwrapped.evidence.noise_ratio == pytest.approx(0.01)
     assert "design_step" not in env.unwrapped.feature_names

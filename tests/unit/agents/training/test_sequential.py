@@ -26,7 +26,7 @@ def test_the_config_names_maskableppo_in_any_case(spelling: str) -> None:
 
 @pytest.mark.slow
 def test_a_trained_sequential_agent_loads_and_plays_only_allowed_actions(tmp_path: Path) -> None:
-    from agents.evaluation.run import _agent_action
+    from agents.evaluation.run import agent_action
     from agents.training.policies import load_policy
 
     run = tmp_path / "seq"
@@ -40,7 +40,7 @@ def test_a_trained_sequential_agent_loads_and_plays_only_allowed_actions(tmp_pat
         done = False
         while not done:
             masks = env.action_masks()
-            action = _agent_action(env, policy, observation)
+            action = agent_action(env, policy, observation)
             assert isinstance(action, int) and masks[action]
             observation, _, done, _, info = env.step(action)
         assert np.isfinite(info["cost"])
