@@ -409,3 +409,17 @@ def test_the_training_ranges_hold_the_family_and_name_only_plant_features():
     ranges = _training_ranges("DeadTime/FPPI-v3", {"noise_std": 0.1})
     assert set(ranges) <= set(CHECKED_FEATURES) and {"tau", "dead_time_fraction", "log_noise_ratio"} <= set(ranges)
     assert all(low < high for low, high in ranges.values())
+
+
+def test_the_worked_example_of_your_own_process_runs_as_documented(tmp_path, monkeypatch):
+    """docs/your_process.md: its Python block is a process the command takes, and the identification it
+    prints is the page's."""
+    page = (Path(__file__).resolve().parents[3] / "docs" / "your_process.md").read_text()
+    code = page.split("```python\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "hot_water_tank_doc.py").write_text(code)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    status, printed, err = run("--process", "hot_water_tank_doc:make", "--policies", "simc-pi,fppi-ms1.8", "--no-plots")
+    assert status == 0, err
+    for line in printed.splitlines()[2:6]:  # the identified models: K_n, T_ar, FOPDT, SOPDT, relay
+        assert line.strip() in page, line
