@@ -1,0 +1,42 @@
+"""The emulator's conditions: the nominal one is the emulator itself, and each changes what it says."""
+
+from __future__ import annotations
+
+import pytest
+
+from envs.process.procedure import identify_process
+from envs.process.tclab_conditions import CONDITIONS, TCLabConditions, emulator_factory
+from envs.process.tclab_process import TCLabProcess
+
+
+def _identified(conditions: TCLabConditions | None):
+    factory = None if conditions is None else emulator_factory(conditions)
+    return identify_process(TCLabProcess(lab_factory=factory), seed=3)
+
+
+def test_the_nominal_condition_is_the_emulator_bit_for_bit():
+    plain, nominal = _identified(None), _identified(CONDITIONS[0])
+    for name, record in plain.records.items():
+        assert list(record.output) == list(nominal.records[name].output)
+
+
+def test_each_condition_moves_what_it_should():
+    nominal = _identified(CONDITIONS[0])
+    by_name = {c.name: _identified(c) for c in CONDITIONS[1:]}
+    # the operating point follows the room; the gain does not (the model is linear)
+    assert by_name["cold room"].operating_point.output == pytest.approx(nominal.operating_point.output - 9.0, abs=0.5)
+    assert by_name["warm room"].operating_point.output == pytest.approx(nominal.operating_point.output + 9.0, abs=0.5)
+    # the gain scales with heater 1's power (the emulator's equations: P1/5720/0.0583 degC per %)
+    gain = nominal.identification.closed_loop.gain
+    assert by_name["heater at 75%"].identification.closed_loop.gain == pytest.approx(0.75 * gain, rel=0.03)
+    assert by_name["heater at 150%"].identification.closed_loop.gain == pytest.approx(1.5 * gain, rel=0.03)
+    # the noise level measured at the operating point follows the sensor: with the quantizer's step q it
+    # is about sqrt(sigma^2 + q^2/12) (0.098 nominal, 0.196 with sigma = 0.172)
+    assert by_name["noisy sensor"].operating_point.noise_std > 1.5 * nominal.operating_point.noise_std
+    assert by_name["no quantization"].operating_point.noise_std == pytest.approx(0.043, rel=0.25)
+
+
+@pytest.mark.parametrize("field, value", [("heater_power", 0.0), ("noise_std", -1.0), ("quantization", float("nan"))])
+def test_a_bad_condition_is_refused_naming_it(field, value):
+    with pytest.raises(ValueError, match=field):
+        TCLabConditions(**{field: value})
