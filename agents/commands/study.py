@@ -147,6 +147,25 @@ def _selector_choices(parser: argparse.ArgumentParser) -> Callable[[argparse.Nam
     return call
 
 
+def _transfer(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace], str | None]:
+    parser.add_argument("groups", nargs="+", metavar="GROUP=RUN_DIR,...",
+                        help="a learner's runs, one per training seed, under a name")
+    parser.add_argument("--seeds", type=int, default=3, help="emulator seeds per condition (default 3, at least 2)")
+    parser.add_argument("--out", type=Path, help="write DIR/transfer.md, transfer.json and transfer.png")
+
+    def call(args: argparse.Namespace) -> str:
+        from agents.studies.transfer import transfer
+
+        groups = {}
+        for item in args.groups:
+            name, _, runs = item.partition("=")
+            if not name or not runs:
+                raise ValueError(f"a group must be NAME=RUN_DIR,RUN_DIR,..., got {item!r}")
+            groups[name] = runs.split(",")
+        return transfer(groups, args.seeds, args.out)
+    return call
+
+
 def _procedures(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace], str | None]:
     parser.add_argument("runs", type=Path, help="the evaluations' directory (resumable)")
     parser.add_argument("out", type=Path, help="where procedures.md and per_plant_costs.csv.gz go")
@@ -240,6 +259,8 @@ STUDIES: dict[str, tuple[str, Callable[[argparse.ArgumentParser], Callable[[argp
                           _sequential_replay),
     "selector-choices": ("where a selector keeps the rule and where it overrides it, by normalized dead time",
                          _selector_choices),
+    "transfer": ("learners tuned in simulation on the TCLab emulator under several conditions, against every rule",
+                 _transfer),
     "procedures": ("the experiment procedures against the fixed procedure in the twelve regimes", _procedures),
     "rescore": ("two evaluations of the same plants under two versions, side by side", _rescore),
     "scaled-margin": ("a constant margin against a spread-scaled one, on validation plants", _scaled_margin),
