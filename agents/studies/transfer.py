@@ -19,7 +19,8 @@ measured cost minus the cost the simulation predicts for the same controller on 
 minimize, had the model been the plant).  The table names the best rule and each group's rank and
 gap to it; a group out of its training family's distribution says so
 (:func:`agents.evaluation.process_policies.out_of_distribution`, the notes counted).  ``--out DIR``
-writes ``DIR/transfer.md``, ``DIR/transfer.json`` and ``DIR/transfer.png``.
+writes ``DIR/transfer.md``, ``DIR/transfer.json.gz`` (every row, read in place by
+:mod:`agents.compressed`) and ``DIR/transfer.png``.
 """
 
 from __future__ import annotations
@@ -90,7 +91,7 @@ def _summary(rows: list[dict[str, Any]], groups: list[str]) -> list[dict[str, An
                             "mean_cost": float(per_seed.mean()), "interval": [float(per_seed.mean() - half), float(per_seed.mean() + half)],
                             "infeasible": float(np.mean([not row["feasible"] for row in own])),
                             "transfer_gap": float(np.mean(gaps)) if gaps else None,
-                            "out_of_distribution": sum(1 for row in own if (row["note"] or "").startswith("out of distribution")),
+                            "out_of_distribution": sum(1 for row in own if "out of distribution" in (row["note"] or "")),
                             "designs": len(own)})
         ranked = sorted((e for e in entries if e["role"] != "oracle"), key=lambda e: e["mean_cost"])
         for rank, entry in enumerate(ranked, start=1):
@@ -144,10 +145,12 @@ def plot(summary: list[dict[str, Any]], groups: list[str], path: Path) -> None:
                 continue
             xs.append(i + 0.15 * (j - (len(names) - 1) / 2))
             ys.append(entry["mean_cost"])
-            lows.append(entry["mean_cost"] - entry["interval"][0] if math.isfinite(entry["interval"][0]) else 0.0)
+            low = entry["interval"][0] if math.isfinite(entry["interval"][0]) else entry["mean_cost"]
+            lows.append(entry["mean_cost"] - max(low, 0.1))  # a log axis: an interval below 0.1 is drawn to it
             highs.append(entry["interval"][1] - entry["mean_cost"] if math.isfinite(entry["interval"][1]) else 0.0)
         axis.errorbar(xs, ys, yerr=[lows, highs], fmt="o", capsize=3, label=name)
     axis.set_xticks(range(len(conditions)), conditions, rotation=30, ha="right", fontsize=8)
+    axis.set_yscale("log")
     axis.set_ylabel("cost on the emulator (mean, 95%)")
     axis.legend(fontsize=7)
     figure.savefig(path, dpi=120, bbox_inches="tight")
@@ -156,7 +159,8 @@ def plot(summary: list[dict[str, Any]], groups: list[str], path: Path) -> None:
 
 def transfer(groups: dict[str, list[str]], seeds: int, out: Path | None, conditions: tuple[Any, ...] | None = None) -> str:
     """Run every condition (default :data:`~envs.process.tclab_conditions.CONDITIONS`) and emulator seed and
-    return the table; ``out`` writes ``transfer.{md,json,png}``."""
+    return the table; ``out`` writes ``transfer.md``, ``transfer.json.gz`` and ``transfer.png``."""
+    from agents.compressed import compressed_bytes
     from envs.process.tclab_conditions import CONDITIONS
 
     if seeds < 2:
@@ -167,7 +171,7 @@ def transfer(groups: dict[str, list[str]], seeds: int, out: Path | None, conditi
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         (out / "transfer.md").write_text(table)
-        (out / "transfer.json").write_text(json.dumps({"groups": groups, "seeds": seeds, "summary": summary, "rows": rows},
-                                                      indent=1) + "\n")
+        data = json.dumps({"groups": groups, "seeds": seeds, "summary": summary, "rows": rows}) + "\n"
+        (out / "transfer.json.gz").write_bytes(compressed_bytes(data.encode()))
         plot(summary, list(groups), out / "transfer.png")
     return table
