@@ -231,19 +231,20 @@ def test_an_agent_reads_the_environments_observation_and_ranks(tmp_path, monkeyp
 
 
 @pytest.mark.slow
-def test_a_trained_agent_runs_on_the_tclab(tmp_path):
+@pytest.mark.parametrize("env_id", ["DeadTime/PID-v0", "DeadTime/PID-v3"])
+def test_a_trained_agent_runs_on_the_tclab(tmp_path, env_id):
     config = tmp_path / "sac.yaml"
-    config.write_text(textwrap.dedent("""
+    config.write_text(textwrap.dedent(f"""
         default:
-          env_id: DeadTime/PID-v0
+          env_id: {env_id}
           total_timesteps: 48
           seed: 1
           normalize: true
           eval_freq: 0
           checkpoint_freq: 0
           progress_bar: false
-          policy_kwargs: {net_arch: [16, 16]}
-          hyperparameters: {learning_starts: 16, buffer_size: 1000, batch_size: 16}
+          policy_kwargs: {{net_arch: [16, 16]}}
+          hyperparameters: {{learning_starts: 16, buffer_size: 1000, batch_size: 16}}
     """))
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(["train", "--config", str(config), "--out", str(tmp_path / "run")]) == 0
@@ -252,6 +253,8 @@ def test_a_trained_agent_runs_on_the_tclab(tmp_path):
     row = next(p for p in json.loads(printed)["policies"] if p["name"] == "sac")
     assert row["role"] == "agent" and row["error"] is None and row["rank"] in (1, 2, 3)
     assert row["controller"]["type"] == "pid-series" and 0.3 <= row["parameter"] <= 300
+    if env_id.endswith("v3"):  # the v3 observation's noise estimate of the quantized record is named
+        assert "log_noise_ratio" in row["note"]
 
 
 NAN_MODULE = """
