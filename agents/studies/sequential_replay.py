@@ -2,7 +2,8 @@
 
     deadtime study sequential-replay RUN_DIR... [--plants 500] [--out DIR]
 
-Each ``RUN_DIR`` is a trained agent of the discrete agent mode (``configs/sequential.yaml``), played
+Each ``RUN_DIR`` is a trained agent of the discrete agent mode (``configs/sequential.yaml``); the runs
+of one folder (``FOLDER/s0``, ``FOLDER/s1``, ...: the seeds of one learner) are pooled under its name.  Each is played
 deterministically, with the environment's action masks, on the first ``--plants`` plants of the fixed
 validation set (:func:`agents.training.validation.validation_plants`, reset seed ``3_000_000 + k`` as
 ``deadtime train`` validates), in its own environment and regime (its ``config.yaml``).  Per episode:
@@ -155,9 +156,21 @@ def plot(agents: list[dict[str, Any]], path: Path) -> None:
     plt.close(figure)
 
 
+def _pooled(played: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The agents of one folder (their seeds) as one, named by the folder, episodes pooled."""
+    groups: dict[str, dict[str, Any]] = {}
+    for agent in played:
+        run = Path(agent["run"])
+        name = str(run.parent) if run.name.startswith("s") and run.name[1:].isdigit() else str(run)
+        group = groups.setdefault(name, {**agent, "run": name, "runs": [], "episodes": []})
+        group["runs"].append(agent["run"])
+        group["episodes"] = group["episodes"] + agent["episodes"]
+    return list(groups.values())
+
+
 def replay(run_dirs: list[Path], plants: int, out: Path | None) -> str:
     """Replay every agent and return the table; ``out`` writes ``replay.{md,json,png}``."""
-    agents = [replay_agent(run, plants) for run in run_dirs]
+    agents = _pooled([replay_agent(run, plants) for run in run_dirs])
     table = markdown(agents)
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
