@@ -112,7 +112,7 @@ def _headroom(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace],
         from agents.studies.headroom import headroom
 
         if args.design == "learned":
-            from agents.studies.headroom import learned_headroom
+            from agents.studies.learned_headroom import learned_headroom
 
             if not args.fits:
                 raise ValueError("--design learned needs --fits RUN_DIR ... (learned-rule fits of fixed plans)")

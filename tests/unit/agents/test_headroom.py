@@ -118,7 +118,7 @@ def test_a_policy_designs_from_the_observation_the_fixed_plan_environment_shows(
 
 
 def test_the_learners_share_of_the_headroom_and_their_violating_plants() -> None:
-    from agents.studies.headroom import _learners
+    from agents.studies.learned_headroom import _learners
 
     best_plan = np.full(50, 4.0)
     rows = np.full((3, 50), 3.9)
@@ -131,7 +131,7 @@ def test_the_learners_share_of_the_headroom_and_their_violating_plants() -> None
 
 
 def test_the_learned_continuation_is_scored_by_the_expected_cost_of_its_choice() -> None:
-    from agents.studies.headroom import learned_continuation
+    from agents.studies.continuation import learned_continuation
 
     env = gym.make("DeadTime/FPPI-v3", noise_std=0.1, plan=[1.0, 1.0]).unwrapped
     designs = {0.1: "base", 3.0: "base"}
@@ -146,7 +146,7 @@ def test_the_learned_continuation_is_scored_by_the_expected_cost_of_its_choice()
 
 
 def test_the_threshold_keeps_the_default_unless_the_predicted_gain_exceeds_it() -> None:
-    from agents.studies.headroom import _cross_fitted_threshold, _threshold_choice
+    from agents.studies.continuation import _cross_fitted_threshold, _threshold_choice
 
     predicted = np.array([[1.0, 1.05], [1.0, 2.0], [3.0, 1.0]])
     assert list(_threshold_choice(predicted, 0, 0.1)) == [0, 0, 1] and list(_threshold_choice(predicted, 0, np.inf)) == [0, 0, 0]
