@@ -841,6 +841,9 @@ _VERSION_HISTORY = """
       never an exception), and ``experiment_set="design"`` (agent mode offers only the experiments
       the structure's design reads).  Plants, the fixed mode's experiments and feasible costs are v2's (the
       relay's hysteresis follows the estimate).  The ``"plan"`` mode is new in every version.
+    * Every version with ``design_step`` in agent mode (v2, v3): the option ``discrete_action=True``,
+      a ``Discrete`` action with ``action_masks()`` whose indices are ``Box`` actions (Action Space);
+      without it every episode is unchanged.
 """
 
 
