@@ -12,7 +12,7 @@ and beside them:
 * ``--training-plants N``: the learned continuation (:mod:`agents.studies.continuation`);
 * ``--agents``: sequential agents (one run per seed, e.g. MaskablePPO on the discrete agent mode),
   played on the same plants with the protocol's episode seeds, in their own environment: their mean
-  cost [two-way bootstrap 95%], the interquartile mean of the seeds' means, the difference to the best
+  cost [two-way bootstrap 95%], the interquartile mean of the per-seed means, the difference to the best
   single plan [95%, paired on the plants], the share of the headroom reached, and the plants where
   a seed's design violates (exact 95%).
 
@@ -75,7 +75,7 @@ def _learners_markdown(rows: list[dict[str, Any]]) -> str:
     found = [row for row in rows if "learners" in row]
     if not found:
         return ""
-    lines = ["", "| regime | learners (seeds) | mean cost [95%] | IQM of the seeds' means | minus the best single plan [95%] "
+    lines = ["", "| regime | learners (seeds) | mean cost [95%] | IQM of the per-seed means | minus the best single plan [95%] "
              "| share of the headroom reached | plants violating in any seed [95%] |", "|---|---|---|---|---|---|---|"]
     for row in found:
         learners = row["learners"]
