@@ -128,6 +128,24 @@ def agent_costs(run_dir: Path, plants: list[Any], episode_seed: int) -> tuple[np
     return np.array(costs), np.array(feasible)
 
 
+def _cached_agent_costs(run_dir: Path, plants: list[Any], episode_seed: int, work: Path) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`agent_costs`, kept in ``WORK/agents/HASH.npz`` (the run's model file, the plants, the seed)."""
+    import hashlib
+
+    from agents.training.policies import resolve_model_path
+
+    model = resolve_model_path(run_dir)
+    identity = json.dumps([str(model.resolve()), model.stat().st_size, model.stat().st_mtime_ns, len(plants), episode_seed])
+    path = work / "agents" / f"{hashlib.sha256(identity.encode()).hexdigest()[:16]}.npz"
+    if path.exists():
+        found = np.load(path)
+        return found["costs"], found["feasible"]
+    costs, feasible = agent_costs(run_dir, plants, episode_seed)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, costs=costs, feasible=feasible)
+    return costs, feasible
+
+
 def _learners(rows: np.ndarray, feasible: np.ndarray, best_plan: np.ndarray, headroom: float) -> dict[str, Any]:
     """The learners' costs ``(seeds, plants)`` against the best single plan's per-plant expected costs,
     and the plants where a seed's design violates."""
@@ -201,7 +219,7 @@ def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replica
                                    "share_of_headroom": None if row["headroom"] <= 0 else float(-difference.mean() / row["headroom"])}
         mine = [run for run in agents if _agent_regime(run) == (env_id, noise, production)]
         if mine:
-            played = [agent_costs(run, stream, protocol.validation.episode_seed) for run in mine]
+            played = [_cached_agent_costs(run, stream, protocol.validation.episode_seed, out / "work") for run in mine]
             row["learners"] = {"runs": [str(run) for run in mine],
                                **_learners(np.stack([c for c, _ in played]), np.stack([f for _, f in played]),
                                            costs[:, i, m, :, 0].mean(axis=1), row["headroom"])}
