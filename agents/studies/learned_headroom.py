@@ -55,6 +55,13 @@ def _agent_regime(run_dir: Path) -> tuple[str, float, float]:
             float(dict(kwargs.get("weights") or {}).get("production", 0.05)))
 
 
+def _share(share: float | None) -> str:
+    """A share of the headroom: none where the learner costs more than the best single plan."""
+    if share is None:
+        return "-"
+    return "none (it costs more)" if share < -0.005 else f"{max(share, 0.0):.0%}"
+
+
 def _continuation_markdown(rows: list[dict[str, Any]]) -> str:
     found = [row for row in rows if "continuation" in row]
     if not found:
@@ -67,7 +74,7 @@ def _continuation_markdown(rows: list[dict[str, Any]]) -> str:
         share = c["share_of_headroom"]
         lines.append(f"| {row['regime']} | {c['training_plants']} | {', '.join(f'{t:g}' for t in c['thresholds'])} "
                      f"| {c['mean_cost']:.3g} | {d:.3g} [{dl:.3g}, {dh:.3g}] "
-                     f"| {'-' if share is None else f'{share:.0%}'} | {'/'.join(str(v) for v in c['choices'].values())} |")
+                     f"| {_share(share)} | {'/'.join(str(v) for v in c['choices'].values())} |")
     return "\n".join(lines) + "\n"
 
 
@@ -84,7 +91,7 @@ def _learners_markdown(rows: list[dict[str, Any]]) -> str:
         share = learners["share_of_headroom"]
         lines.append(f"| {row['regime']} | {learners['seeds']} | {learners['mean_cost']:.3g} [{low:.3g}, {high:.3g}] "
                      f"| {learners['iqm_of_seed_means']:.3g} | {d:.3g} [{dl:.3g}, {dh:.3g}] "
-                     f"| {'-' if share is None else f'{share:.0%}'} "
+                     f"| {_share(share)} "
                      f"| {100 * learners['violations']['rate']:.2f}% [{100 * learners['violations']['interval'][0]:.2f}, "
                      f"{100 * learners['violations']['interval'][1]:.2f}]% |")
     return "\n".join(lines) + "\n"
