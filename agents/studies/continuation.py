@@ -15,6 +15,7 @@ plant's choice is made with its own cost.  ``deadtime study headroom --design le
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -78,17 +79,25 @@ def _cross_fitted_threshold(predicted: np.ndarray, expected: np.ndarray, default
 
 
 def learned_continuation(env: Any, designs: dict[float, Any], weights: list[Any], first: float, training: list[Any],
-                         validation: list[Any], validation_seed: int, expected: np.ndarray) -> dict[str, Any]:
+                         validation: list[Any], validation_seed: int, expected: np.ndarray,
+                         cache: Path | None = None) -> dict[str, Any]:
     """``seq-continuation``: after the first experiment, the second amplitude of least predicted cost,
     read from its record by one gradient-boosted regressor per amplitude (trained on ``training`` plants
     of their own stream), taken only where it is predicted cheaper than the best single plan's by more
     than a threshold: the stopping rule's form (another choice only if its predicted gain exceeds what
     it risks).  The threshold is chosen on the validation plants, cross-fitted (chosen on the even
     plants for the odd ones and back); ``expected`` is each validation plant's expected cost per second
-    amplitude (the headroom's), whose least mean gives the best single plan."""
+    amplitude (the headroom's), whose least mean gives the best single plan.  ``cache``: an ``.npz``
+    that keeps the training data (reused while it holds as many plants)."""
     from sklearn.ensemble import HistGradientBoostingRegressor
 
-    x, y = continuation_training(env, training, CONTINUATION_EPISODE_SEED, first, designs, weights)
+    if cache is not None and cache.exists() and len(np.load(cache)["x"]) == len(training):
+        x, y = np.load(cache)["x"], np.load(cache)["y"]
+    else:
+        x, y = continuation_training(env, training, CONTINUATION_EPISODE_SEED, first, designs, weights)
+        if cache is not None:
+            cache.parent.mkdir(parents=True, exist_ok=True)
+            np.savez_compressed(cache, x=x, y=y)
     models = [HistGradientBoostingRegressor(random_state=0).fit(x, y[:, m]) for m in range(y.shape[1])]
     x_valid = np.array([_first_features(env, plant, validation_seed + k, first)[0] for k, plant in enumerate(validation)])
     predicted = np.column_stack([model.predict(x_valid) for model in models])
