@@ -80,7 +80,7 @@ def _cross_fitted_threshold(predicted: np.ndarray, expected: np.ndarray, default
 
 def learned_continuation(env: Any, designs: dict[float, Any], weights: list[Any], first: float, training: list[Any],
                          validation: list[Any], validation_seed: int, expected: np.ndarray,
-                         cache: Path | None = None) -> dict[str, Any]:
+                         cache: Path | None = None, identity: str = "") -> dict[str, Any]:
     """``seq-continuation``: after the first experiment, the second amplitude of least predicted cost,
     read from its record by one gradient-boosted regressor per amplitude (trained on ``training`` plants
     of their own stream), taken only where it is predicted cheaper than the best single plan's by more
@@ -88,16 +88,17 @@ def learned_continuation(env: Any, designs: dict[float, Any], weights: list[Any]
     it risks).  The threshold is chosen on the validation plants, cross-fitted (chosen on the even
     plants for the odd ones and back); ``expected`` is each validation plant's expected cost per second
     amplitude (the headroom's), whose least mean gives the best single plan.  ``cache``: an ``.npz``
-    that keeps the training data (reused while it holds as many plants)."""
+    that keeps the training data, reused while it holds as many plants and the same ``identity`` (the fits)."""
     from sklearn.ensemble import HistGradientBoostingRegressor
 
-    if cache is not None and cache.exists() and len(np.load(cache)["x"]) == len(training):
-        x, y = np.load(cache)["x"], np.load(cache)["y"]
+    found = np.load(cache) if cache is not None and cache.exists() else None
+    if found is not None and len(found["x"]) == len(training) and str(found["identity"]) == identity:
+        x, y = found["x"], found["y"]
     else:
         x, y = continuation_training(env, training, CONTINUATION_EPISODE_SEED, first, designs, weights)
         if cache is not None:
             cache.parent.mkdir(parents=True, exist_ok=True)
-            np.savez_compressed(cache, x=x, y=y)
+            np.savez_compressed(cache, x=x, y=y, identity=identity)
     models = [HistGradientBoostingRegressor(random_state=0).fit(x, y[:, m]) for m in range(y.shape[1])]
     x_valid = np.array([_first_features(env, plant, validation_seed + k, first)[0] for k, plant in enumerate(validation)])
     predicted = np.column_stack([model.predict(x_valid) for model in models])

@@ -219,7 +219,8 @@ def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replica
         if training_plants:
             training = plant_stream(family, CONTINUATION_ENTROPY, training_plants)
             found = learned_continuation(env, designs, weights, first, training, stream, protocol.validation.episode_seed,
-                                         costs[:, 0, :, :, 0].mean(axis=2), out / "work" / f"{regime.name}-continuation.npz")
+                                         costs[:, 0, :, :, 0].mean(axis=2), out / "work" / f"{regime.name}-continuation.npz",
+                                         identity)
             difference = found.pop("per_plant") - costs[:, i, m, :, 0].mean(axis=1)
             row["continuation"] = {**found, "mean_cost": float(costs[:, i, m, :, 0].mean() + difference.mean()),
                                    "minus_best_plan": _t_interval(difference),
