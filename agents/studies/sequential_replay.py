@@ -11,9 +11,9 @@ the actions in order (``info["action"]``, e.g. ``closed-loop-step@1``), the nois
 measured (``sigma`` of the first closed-loop step's record: ``10^log_noise_ratio`` times its amplitude,
 the observation's own estimate), the cost and whether the design violates.
 
-The table groups the episodes by the measured noise (below 3%, 3-30%, above 30% of a unit output
-change): episodes, mean experiments run before the commit, the share of each experiment type among
-them, the median amplitude of the first experiment and of the second, the mean design level, mean
+The table groups the episodes by the measured noise, in thirds (the terciles of the agent's own
+episodes; relative to a unit output change): episodes, mean experiments the agent ran before its
+commit (the commit completes the missing ones), the share of each experiment type among them, the median amplitude of the first experiment and of the second, the mean design level, mean
 cost and the share violating.  The plot shows each episode's second amplitude against its measured
 noise, one panel per agent.  ``--out DIR`` writes ``DIR/replay.md``, ``DIR/replay.json`` (every
 episode) and ``DIR/replay.png``.  No test plant is drawn.
@@ -28,10 +28,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["NOISE_BINS", "replay", "replay_agent", "summarize"]
-
-NOISE_BINS: tuple[float, ...] = (0.03, 0.3)
-"""The measured-noise bin edges (``sigma`` relative to a unit output change)."""
+__all__ = ["replay", "replay_agent", "summarize"]
 
 
 def _episode(env: Any, policy: Any, plant: Any, seed: int) -> dict[str, Any]:
@@ -43,9 +40,10 @@ def _episode(env: Any, policy: Any, plant: Any, seed: int) -> dict[str, Any]:
         action = agent_action(env, policy, observation)
         observation, _, done, _, info = env.step(action)
         actions.append(info["action"])
-        if sigma is None and info.get("experiment") == "closed-loop-step":
+        # the first closed-loop step's measured noise: the agent's own, or the one its commit completed
+        if sigma is None and (info.get("experiment") == "closed-loop-step" or info.get("identified")):
             ratio = info["features"].get("log_noise_ratio", 0.0)
-            sigma = 10.0 ** ratio * info["amplitude"] if ratio else None
+            sigma = 10.0 ** ratio * info["amplitude"] if ratio and info.get("amplitude") else None
     return {"seed": seed, "actions": actions, "sigma": sigma, "cost": float(info["cost"]),
             "feasible": bool(info.get("feasible", False))}
 
@@ -86,8 +84,9 @@ def _design(actions: list[str]) -> float | None:
 
 
 def summarize(episodes: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The rows of the table: one per measured-noise bin (module docstring), then all episodes."""
-    edges = (0.0, *NOISE_BINS, math.inf)
+    """The rows of the table: one per third of the measured noise (module docstring), then all episodes."""
+    measured = [e["sigma"] for e in episodes if e["sigma"] is not None]
+    edges = (0.0, *np.quantile(measured, [1 / 3, 2 / 3]), math.inf) if len(measured) >= 3 else (0.0, math.inf)
     rows = []
     for low, high in [*zip(edges[:-1], edges[1:]), (None, None)]:
         chosen = [e for e in episodes if low is None or (e["sigma"] is not None and low <= e["sigma"] < high)]
@@ -98,7 +97,7 @@ def summarize(episodes: list[dict[str, Any]]) -> list[dict[str, Any]]:
         total = sum(len(r) for r in runs)
         designs = [d for d in (_design(e["actions"]) for e in chosen) if d is not None]
         rows.append({
-            "noise": "all" if low is None else f"{low:g}-{high:g}",
+            "noise": "all" if low is None else f"{low:.3g}-{high:.3g}",
             "episodes": len(chosen),
             "experiments": float(np.mean([len(r) for r in runs])) if runs else 0.0,
             "shares": {kind: sum(1 for r in runs for k, _ in r if k == kind) / total for kind in kinds} if total else {},

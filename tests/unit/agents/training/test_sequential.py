@@ -50,15 +50,16 @@ def test_a_trained_sequential_agent_loads_and_plays_only_allowed_actions(tmp_pat
     assert "| seq | all | 4 |" in table and (tmp_path / "replay" / "replay.png").is_file()
 
 
-def test_the_replay_table_groups_episodes_by_measured_noise() -> None:
+def test_the_replay_table_groups_episodes_by_thirds_of_the_measured_noise() -> None:
     from agents.studies.sequential_replay import summarize
 
     quiet = {"actions": ["closed-loop-step@1", "open-loop-step@0.3", "commit@1", "design@0.2"], "sigma": 0.01,
              "cost": 2.0, "feasible": True}
     noisy = {"actions": ["closed-loop-step@3", "relay@1", "open-loop-step@3", "commit@3", "design@-0.4"], "sigma": 0.12,
              "cost": 5.0, "feasible": False}
-    rows = {row["noise"]: row for row in summarize([quiet, noisy, noisy])}
-    assert set(rows) == {"0-0.03", "0.03-0.3", "all"}
-    assert rows["0-0.03"]["experiments"] == 2 and rows["0-0.03"]["second_amplitude"] == 0.3
-    assert rows["0.03-0.3"]["shares"] == pytest.approx({"closed-loop-step": 1 / 3, "open-loop-step": 1 / 3, "relay": 1 / 3})
-    assert rows["all"]["design_level"] == pytest.approx((0.2 - 0.8) / 3) and rows["all"]["violating"] == pytest.approx(2 / 3)
+    middle = {**quiet, "sigma": 0.05}
+    rows = summarize([quiet, middle, noisy, quiet, middle, noisy])
+    assert [row["episodes"] for row in rows] == [2, 2, 2, 6] and rows[-1]["noise"] == "all"
+    assert rows[0]["experiments"] == 2 and rows[0]["second_amplitude"] == 0.3
+    assert rows[2]["shares"] == pytest.approx({"closed-loop-step": 1 / 3, "open-loop-step": 1 / 3, "relay": 1 / 3})
+    assert rows[-1]["design_level"] == pytest.approx((4 * 0.2 - 2 * 0.4) / 6) and rows[-1]["violating"] == pytest.approx(1 / 3)
