@@ -59,7 +59,7 @@ def _share(share: float | None) -> str:
     """A share of the headroom: none where the learner costs more than the best single plan."""
     if share is None:
         return "-"
-    return "none (it costs more)" if share < -0.005 else f"{max(share, 0.0):.0%}"
+    return "none (it costs more)" if share < -0.005 else f"{max(share, 0.0) + 0.0:.0%}"  # (no "-0%")
 
 
 def _continuation_markdown(rows: list[dict[str, Any]]) -> str:
