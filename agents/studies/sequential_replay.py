@@ -7,9 +7,10 @@ of one folder (``FOLDER/s0``, ``FOLDER/s1``, ...: the seeds of one learner) are 
 deterministically, with the environment's action masks, on the first ``--plants`` plants of the fixed
 validation set (:func:`agents.training.validation.validation_plants`, reset seed ``3_000_000 + k`` as
 ``deadtime train`` validates), in its own environment and regime (its ``config.yaml``).  Per episode:
-the actions in order (``info["action"]``, e.g. ``closed-loop-step@1``), the noise level the agent
-measured (``sigma`` of the first closed-loop step's record: ``10^log_noise_ratio`` times its amplitude,
-the observation's own estimate), the cost and whether the design violates.
+the actions in order (``info["action"]``, e.g. ``closed-loop-step@1``), the noise level the episode
+measured (``sigma``, the environment's estimate from the closed-loop step's record, relative to a unit
+output change: ``Evidence.noise_estimate`` of ``measured_observation``), the cost and whether the
+design violates.
 
 The table groups the episodes by the measured noise, in thirds (the terciles of the agent's own
 episodes; relative to a unit output change): episodes, mean experiments the agent ran before its
@@ -35,15 +36,15 @@ def _episode(env: Any, policy: Any, plant: Any, seed: int) -> dict[str, Any]:
     from agents.evaluation.run import agent_action
 
     observation, _ = env.reset(seed=seed, options={"plant": plant})
-    actions, sigma, done, info = [], None, False, {}
+    actions, done, info = [], False, {}
     while not done:
         action = agent_action(env, policy, observation)
         observation, _, done, _, info = env.step(action)
         actions.append(info["action"])
-        # the first closed-loop step's measured noise: the agent's own, or the one its commit completed
-        if sigma is None and (info.get("experiment") == "closed-loop-step" or info.get("identified")):
-            ratio = info["features"].get("log_noise_ratio", 0.0)
-            sigma = 10.0 ** ratio * info["amplitude"] if ratio and info.get("amplitude") else None
+    # the noise level the episode measured (the latest usable closed-loop step's, the agent's own or
+    # the one its commit completed): the environment's estimate, before its division by the amplitude
+    estimate = getattr(env.evidence, "noise_estimate", math.nan)
+    sigma = float(estimate) if math.isfinite(estimate) else None
     return {"seed": seed, "actions": actions, "sigma": sigma, "cost": float(info["cost"]),
             "feasible": bool(info.get("feasible", False))}
 
