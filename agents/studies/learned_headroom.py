@@ -59,6 +59,8 @@ def _share(share: float | None) -> str:
     """A share of the headroom: none where the learner costs more than the best single plan."""
     if share is None:
         return "-"
+    if share > 1.0:  # cheaper than the adaptive oracle of the learned designs: another design, not the experiments
+        return f"{share:.0%}: beyond it (its own design)"
     return "none (it costs more)" if share < -0.005 else f"{max(share, 0.0) + 0.0:.0%}"  # (no "-0%")
 
 
