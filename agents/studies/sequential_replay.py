@@ -16,8 +16,8 @@ The table groups the episodes by the measured noise, in thirds (the terciles of 
 episodes; relative to a unit output change): episodes, mean experiments the agent ran before its
 commit (the commit completes the missing ones), the share of each experiment type among them, the median amplitude of the first experiment and of the second, the mean design level, mean
 cost and the share violating.  The plot shows each episode's second amplitude against its measured
-noise, one panel per agent.  ``--out DIR`` writes ``DIR/replay.md``, ``DIR/replay.json`` (every
-episode) and ``DIR/replay.png``.  No test plant is drawn.
+noise, one panel per agent.  ``--out DIR`` writes ``DIR/replay.md``, ``DIR/replay.json.gz`` (every
+episode, read in place by :mod:`agents.compressed`) and ``DIR/replay.png``.  No test plant is drawn.
 """
 
 from __future__ import annotations
@@ -170,11 +170,14 @@ def _pooled(played: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 def replay(run_dirs: list[Path], plants: int, out: Path | None) -> str:
     """Replay every agent and return the table; ``out`` writes ``replay.{md,json,png}``."""
+    from agents.compressed import compressed_bytes
+
     agents = _pooled([replay_agent(run, plants) for run in run_dirs])
     table = markdown(agents)
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         (out / "replay.md").write_text(table)
-        (out / "replay.json").write_text(json.dumps({"plants": plants, "agents": agents}) + "\n")
+        data = json.dumps({"plants": plants, "agents": agents}) + "\n"
+        (out / "replay.json.gz").write_bytes(compressed_bytes(data.encode()))
         plot(agents, out / "replay.png")
     return table
