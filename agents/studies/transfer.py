@@ -56,7 +56,12 @@ def _one_run(condition: Any, seed: int, groups: dict[str, list[str]]) -> list[di
     from envs.process.tclab_process import TCLabProcess
 
     process = TCLabProcess(lab_factory=emulator_factory(condition))
-    found = identify_process(process, seed=seed)
+    try:
+        found = identify_process(process, seed=seed)
+    except ValueError as error:  # the procedure found no model: a result of the condition, recorded
+        process.close()
+        return [{"condition": condition.name, "seed": seed, "policy": "identification", "run": "identification",
+                 "role": "procedure", "cost": None, "feasible": False, "predicted": None, "note": str(error)}]
     protocol = RunProtocol.from_identification(found, process.load_step, seed=seed)
     learners = ",".join(f"{group}#{k}={run}" for group, runs in groups.items() for k, run in enumerate(runs))
     specs = parse_policies(",".join(filter(None, ["all-rules,oracle", learners])), "fppi")  # every rule for self-regulating plants

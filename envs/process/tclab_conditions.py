@@ -6,13 +6,15 @@ quantized to 0.3223 degC.  A :class:`TCLabConditions` changes them, and :func:`e
 the emulators of :class:`~envs.process.tclab_process.TCLabProcess` under them (its ``lab_factory``):
 the model starts at rest at the ambient temperature, heater 1's power scales the process gain
 (``P1/5720/0.0583`` degC per %: 0.599 at 200), and the measurement is ``quantize(T + N(0, noise_std))``
-with the quantizer's floor of step ``quantization`` (none at 0).  The noise is drawn from the module
+with the quantizer's floor of step ``quantization`` (none at 0).  ``disturbance`` (% of heater 2) is
+an unmeasured load that steps on ``disturbance_time`` seconds after each reset and stays, on top of
+what the process applies to heater 2: it hits the identification's experiments and every test alike.  The noise is drawn from the module
 global ``random``, which :class:`~envs.process.tclab_process.TCLabProcess` binds to its own seeded
 generator while it reads, as for the emulator itself: the same seed gives the same run.
 
 :data:`CONDITIONS` are the transfer study's: the emulator as shipped, a cold and a warm room, heater 1
-at three quarters and at one and a half of its power, a sensor four times noisier, and one without the
-quantizer.
+at three quarters and at one and a half of its power, a sensor four times noisier, one without the
+quantizer, and heater 2 stepping to 20% 2000 s after each reset (during the identification's experiments).
 """
 
 from __future__ import annotations
@@ -36,12 +38,16 @@ class TCLabConditions:
     heater_power: float = 200.0
     noise_std: float = 0.043
     quantization: float = 0.3223
+    disturbance: float = 0.0
+    disturbance_time: float = 2000.0
 
     def __post_init__(self) -> None:
         require_number(self.ambient, "ambient")
         require_number(self.heater_power, "heater_power", positive=True)
         require_number(self.noise_std, "noise_std", nonnegative=True)
         require_number(self.quantization, "quantization", nonnegative=True)
+        require_number(self.disturbance, "disturbance", nonnegative=True)
+        require_number(self.disturbance_time, "disturbance_time", nonnegative=True)
 
 
 CONDITIONS: tuple[TCLabConditions, ...] = (
@@ -52,6 +58,7 @@ CONDITIONS: tuple[TCLabConditions, ...] = (
     TCLabConditions("heater at 150%", heater_power=300.0),
     TCLabConditions("noisy sensor", noise_std=0.172),
     TCLabConditions("no quantization", quantization=0.0),
+    TCLabConditions("load disturbance", disturbance=20.0),
 )
 """The transfer study's conditions."""
 
@@ -65,6 +72,11 @@ def emulator_factory(conditions: TCLabConditions) -> Callable[[], Any]:
             super().__init__(synced=False)
             self.Ta = self._T1 = self._T2 = self._H1 = self._H2 = float(conditions.ambient)
             self._P1 = float(conditions.heater_power)
+
+        def Q2(self, val: float | None = None) -> float:
+            if val is not None and conditions.disturbance and self.tlast >= conditions.disturbance_time:
+                val = val + conditions.disturbance
+            return super().Q2(val)
 
         def measurement(self, T: float) -> float:
             value = T + random.normalvariate(0, conditions.noise_std)

@@ -40,3 +40,20 @@ def test_each_condition_moves_what_it_should():
 def test_a_bad_condition_is_refused_naming_it(field, value):
     with pytest.raises(ValueError, match=field):
         TCLabConditions(**{field: value})
+
+
+def test_an_unmeasured_load_steps_on_at_its_time_after_each_reset():
+    process = TCLabProcess(lab_factory=emulator_factory(TCLabConditions("load", disturbance=50.0, disturbance_time=100.0,
+                                                                        noise_std=0.0, quantization=0.0)))
+    plain = TCLabProcess(lab_factory=emulator_factory(TCLabConditions("plain", noise_std=0.0, quantization=0.0)))
+    for p in (process, plain):
+        p.reset(0)
+    outputs = {}
+    for name, p in (("load", process), ("plain", plain)):
+        values = []
+        for _ in range(400):
+            p.apply(30.0, 0.0)
+            values.append(p.measure())
+        outputs[name] = values
+    assert outputs["load"][:100] == outputs["plain"][:100]  # nothing before its time
+    assert outputs["load"][-1] > outputs["plain"][-1] + 0.1  # heater 2 warms sensor 1 after it
