@@ -106,9 +106,9 @@ def _summary(rows: list[dict[str, Any]], groups: list[str]) -> list[dict[str, An
 
 
 def markdown(summary: list[dict[str, Any]], groups: list[str]) -> str:
-    lines = ["| condition | best rule | " + " | ".join(f"`{g}`: mean [95%], rank, - best rule, transfer gap, infeasible, out of distribution"
-                                                   for g in groups) + " | oracle (PID) | oracle (FPPI) |",
-             "|---" * (4 + len(groups)) + "|"]
+    header = ["condition", "best rule", *(f"`{g}`: mean [95%], rank, - best rule, transfer gap, infeasible, out of distribution"
+                                         for g in groups), "oracle (PID)", "oracle (FPPI)"]
+    lines = ["| " + " | ".join(header) + " |", "|---" * len(header) + "|"]
     for condition in dict.fromkeys(e["condition"] for e in summary):
         mine = {e["policy"]: e for e in summary if e["condition"] == condition}
         rules = [e for e in mine.values() if e["role"] == "rule"]
@@ -125,8 +125,7 @@ def markdown(summary: list[dict[str, Any]], groups: list[str]) -> str:
                          f"{g['mean_cost'] - best['mean_cost']:+.3g}, {gap}, {g['infeasible']:.0%}, "
                          f"{g['out_of_distribution']} of {g['designs']}")
         oracle = [f"{mine[name]['mean_cost']:.3g}" if name in mine else "-" for name in ("oracle", "oracle-fppi")]
-        lines.append(f"| {condition} | `{best['policy']}` {best['mean_cost']:.3g} | " + " | ".join(cells) + " | "
-                     + " | ".join(oracle) + " |")
+        lines.append("| " + " | ".join([condition, f"`{best['policy']}` {best['mean_cost']:.3g}", *cells, *oracle]) + " |")
     return "\n".join(lines) + "\n"
 
 

@@ -38,5 +38,7 @@ def test_one_emulator_seed_is_refused():
 def test_the_study_runs_a_condition_with_a_rule_only_group(tmp_path):
     from envs.process.tclab_conditions import CONDITIONS
 
-    table = transfer({}, 2, tmp_path, conditions=CONDITIONS[-1:])
+    chosen = tuple(c for c in CONDITIONS if c.name == "no quantization")
+    table = transfer({}, 2, tmp_path, conditions=chosen)
     assert table.count("\n| no quantization |") == 1 and (tmp_path / "transfer.png").is_file()
+    assert table.splitlines()[1] == "|---|---|---|---|"  # condition, best rule, the two oracles
