@@ -26,6 +26,7 @@ commits at amplitude 1 (cut to the limit), any other index in the design step de
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -54,11 +55,12 @@ class DiscreteAction:
 
 @dataclass(frozen=True)
 class DiscreteLayout:
-    """The indices of the discrete action of an environment with these experiment types."""
+    """The indices of the discrete action of an environment with these experiment types (their meanings
+    made once: :meth:`meaning` runs at every step)."""
 
     experiment_names: tuple[str, ...]
 
-    @property
+    @cached_property
     def actions(self) -> tuple[DiscreteAction, ...]:
         commits = [DiscreteAction("commit", a) for a in AMPLITUDE_LEVELS]
         runs = [DiscreteAction(kind, a) for kind in self.experiment_names for a in AMPLITUDE_LEVELS]
@@ -67,7 +69,7 @@ class DiscreteLayout:
 
     @property
     def size(self) -> int:
-        return len(AMPLITUDE_LEVELS) * (1 + len(self.experiment_names)) + len(DESIGN_LEVELS)
+        return len(self.actions)
 
     def meaning(self, index: int) -> DiscreteAction:
         return self.actions[index]

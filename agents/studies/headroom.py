@@ -190,6 +190,7 @@ def summarize(costs: np.ndarray, test_plants: int, comparisons: int, alpha: floa
     the amplitudes ``firsts`` and ``seconds`` along the two middle axes."""
     from scipy import stats
 
+    from agents.protocol.statistics import t_interval
     from envs.analysis.scoring import FEASIBLE_CAP
 
     expected = costs.mean(axis=3)
@@ -203,7 +204,7 @@ def summarize(costs: np.ndarray, test_plants: int, comparisons: int, alpha: floa
     best_first = int(np.argmin(adaptive.mean(axis=0)))
     difference = expected[:, i, m] - adaptive[:, best_first]
     n, sd = len(difference), float(difference.std(ddof=1))
-    half_width = float(stats.t.ppf(0.975, n - 1) * sd / math.sqrt(n))
+    mean, low, high, _ = t_interval(difference)
     resolvable = (stats.norm.ppf(1 - alpha / (2 * comparisons)) + POWER_Z) * sd / math.sqrt(test_plants)
     fixed = float(means[firsts.index(1.0), seconds.index(1.0)]) if 1.0 in firsts and 1.0 in seconds else None
     chosen = [int(c) for c in np.bincount(np.concatenate([second_half[:, best_first].argmin(axis=1),
@@ -216,8 +217,7 @@ def summarize(costs: np.ndarray, test_plants: int, comparisons: int, alpha: floa
         "best_plan_violating_plants": int(np.sum((costs[:, i, m, :] > FEASIBLE_CAP).any(axis=1))),
         "adaptive_first": firsts[best_first], "adaptive_cost": float(adaptive[:, best_first].mean()),
         "adaptive_second_choices": dict(zip([f"{a:g}" for a in seconds], chosen)),
-        "headroom": float(difference.mean()), "headroom_interval": [float(difference.mean() - half_width),
-                                                                    float(difference.mean() + half_width)],
+        "headroom": mean, "headroom_interval": [low, high],
         "difference_sd": sd, "resolvable": float(resolvable),
     }
 

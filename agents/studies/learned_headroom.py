@@ -23,26 +23,17 @@ Writes ``OUT/headroom_learned_design.{md,json}``; the learned designs' costs are
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from agents.protocol.statistics import t_interval
 from agents.studies.continuation import CONTINUATION_ENTROPY, learned_continuation
 from agents.studies.headroom import _protocol_reference, markdown, plant_costs, policy_design, summarize
 
 __all__ = ["agent_costs", "learned_headroom"]
-
-
-def _t_interval(values: np.ndarray) -> list[float]:
-    """``[mean, low, high]``: the 95% Student-t interval of the mean over the plants."""
-    from scipy import stats
-
-    n = len(values)
-    half = float(stats.t.ppf(0.975, n - 1) * values.std(ddof=1) / math.sqrt(n))
-    return [float(values.mean()), float(values.mean() - half), float(values.mean() + half)]
 
 
 def _agent_regime(run_dir: Path) -> tuple[str, float, float]:
@@ -225,7 +216,7 @@ def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replica
                                          identity)
             difference = found.pop("per_plant") - costs[:, i, m, :, 0].mean(axis=1)
             row["continuation"] = {**found, "mean_cost": float(costs[:, i, m, :, 0].mean() + difference.mean()),
-                                   "minus_best_plan": _t_interval(difference),
+                                   "minus_best_plan": list(t_interval(difference)[:3]),
                                    "share_of_headroom": None if row["headroom"] <= 0 else float(-difference.mean() / row["headroom"])}
         mine = [run for run in agents if _agent_regime(run) == (env_id, noise, production)]
         if mine:

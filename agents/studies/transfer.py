@@ -80,7 +80,7 @@ def _one_run(condition: Any, seed: int, groups: dict[str, list[str]]) -> list[di
 
 def _summary(rows: list[dict[str, Any]], groups: list[str]) -> list[dict[str, Any]]:
     """Per condition and policy: mean [95% over emulator seeds], infeasible share, transfer gap, rank."""
-    from scipy import stats
+    from agents.protocol.statistics import t_interval
 
     out = []
     for condition in dict.fromkeys(row["condition"] for row in rows):
@@ -90,10 +90,10 @@ def _summary(rows: list[dict[str, Any]], groups: list[str]) -> list[dict[str, An
             own = [row for row in mine if row["policy"] == policy]
             seeds = sorted({row["seed"] for row in own})
             per_seed = np.array([np.mean([row["cost"] for row in own if row["seed"] == s]) for s in seeds])
-            half = float(stats.t.ppf(0.975, len(seeds) - 1) * per_seed.std(ddof=1) / math.sqrt(len(seeds))) if len(seeds) > 1 else math.nan
+            low, high = t_interval(per_seed)[1:3] if len(seeds) > 1 else (math.nan, math.nan)
             gaps = [row["cost"] - row["predicted"] for row in own if row["predicted"] is not None and math.isfinite(row["predicted"])]
             entries.append({"condition": condition, "policy": policy, "role": own[0]["role"] if policy not in groups else "learner",
-                            "mean_cost": float(per_seed.mean()), "interval": [float(per_seed.mean() - half), float(per_seed.mean() + half)],
+                            "mean_cost": float(per_seed.mean()), "interval": [low, high],
                             "infeasible": float(np.mean([not row["feasible"] for row in own])),
                             "transfer_gap": float(np.mean(gaps)) if gaps else None,
                             "out_of_distribution": sum(1 for row in own if "out of distribution" in (row["note"] or "")),
