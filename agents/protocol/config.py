@@ -19,7 +19,8 @@ A protocol declares, before any of its test plants is evaluated, everything its 
       - name: pid-noise01-time
         env: DeadTime/PID-v3
         env_kwargs: {noise_std: 0.01, weights: {production: 0}}
-        fixed:                          # candidates of the fixed-mode primary
+        fixed:                          # candidates of the fixed-mode primary (each list may be
+                                        # empty or absent; a regime has one candidate at least)
           - {label: learned-fixed, config: configs/learned_plan.yaml, overrides: [], origin: configs/sweeps/X.yaml}
         plan: [...]                     # candidates of the plan-mode primary (may be empty)
         seq: [...]                      # candidates of the sequential primary (may be empty)
@@ -185,7 +186,7 @@ def _learner(value: Any, where: str) -> Learner:
 
 
 def _regime(value: Any, where: str) -> Regime:
-    value = _mapping(value, where, ("name", "env", "env_kwargs", *PRIMARIES), ("name", "env", "fixed"))
+    value = _mapping(value, where, ("name", "env", "env_kwargs", *PRIMARIES), ("name", "env"))
     name, env = value["name"], value["env"]
     if not isinstance(name, str) or not name or "/" in name:
         raise ValueError(f"{where}.name must be a non-empty name without '/', got {name!r}")
@@ -197,13 +198,15 @@ def _regime(value: Any, where: str) -> Regime:
     learners = {}
     for mode in PRIMARIES:
         items = value.get(mode) or []
-        if not isinstance(items, list) or (mode == "fixed" and not items):
-            raise ValueError(f"{where}.{mode} must be a {'non-empty ' if mode == 'fixed' else ''}list of learners")
+        if not isinstance(items, list):
+            raise ValueError(f"{where}.{mode} must be a list of learners")
         learners[mode] = tuple(_learner(item, f"{where}.{mode}[{i}]") for i, item in enumerate(items))
         labels = [learner.label for learner in learners[mode]]
         if len(set(labels)) != len(labels):
             raise ValueError(f"{where}.{mode} repeats a label: {labels}")
     labels = [learner.label for mode in PRIMARIES for learner in learners[mode]]
+    if not labels:
+        raise ValueError(f"{where} has no candidates: give at least one of {', '.join(PRIMARIES)} a learner")
     shared = sorted({label for label in labels if labels.count(label) > 1})
     if shared:
         raise ValueError(f"{where}: the label {shared[0]!r} names candidates of two primaries; give them distinct labels")

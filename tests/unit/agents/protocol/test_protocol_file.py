@@ -135,3 +135,22 @@ def test_a_label_names_the_candidates_of_one_primary_only(tmp_path):
     path.write_text(text)
     with pytest.raises(ValueError, match="'learned-fixed' names candidates of two primaries"):
         load_protocol(path)
+
+
+def test_v4_declares_the_sequential_agent_against_the_learned_own_plan_and_its_test_seed_is_registered_to_it():
+    path = V1.with_name("v4.yaml")
+    protocol = load_protocol(path)
+    assert [regime.name for regime in protocol.regimes] == ["pid-noise10-time", "msp-noise10-production"]
+    assert all(not regime.fixed and [learner.label for learner in regime.seq] == ["seq-maskable-ppo"]
+               and [learner.label for learner in regime.plan] == ["learned-plan-own-3000"] for regime in protocol.regimes)
+    assert _declared(protocol) == 8 and protocol.test.plants >= 2000 and len(protocol.seeds) == 10
+    assert check_test_seed(protocol.test.entropy, protocol.sha256, path.with_name("test_seeds.json"))["protocol"] == str(path)
+
+
+def test_a_regime_without_candidates_is_refused(tmp_path):
+    path = tmp_path / "bad.yaml"
+    text = V1.with_name("v4.yaml").read_text()
+    start = text.index("  - name: msp-noise10-production")
+    path.write_text(text[:start] + "  - name: empty\n    env: DeadTime/MSP-v3\n")
+    with pytest.raises(ValueError, match=r"regimes\[1\] has no candidates"):
+        load_protocol(path)
