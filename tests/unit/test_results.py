@@ -110,9 +110,12 @@ def test_the_readme_headlines_are_their_folders_numbers():
 
 def test_the_readme_protocol_tables_are_the_committed_reports():
     """Every verdict row of the README's Results is a row of a committed protocol report (``results.md`` of
-    ``deadtime protocol report``), and every row of those reports is in the README."""
+    ``deadtime protocol report``), and every row of those reports that compares a primary with a rule or
+    with another primary is in the README (those with the fixed procedure and the best single plan are
+    in the reports only)."""
     readme = (RESULTS.parent / "README.md").read_text()
     rows = {line for line in readme.splitlines() if line.startswith("| ") and line.endswith(("| better |", "| worse |", "| tie |"))}
     reports = {line for path in RESULTS.glob("protocol_v*/results.md") for line in path.read_text().splitlines()
                if line.startswith("| ") and line.endswith(("| better |", "| worse |", "| tie |"))}
-    assert rows and rows == reports
+    assert rows and rows <= reports
+    assert {row for row in reports if "(fixed-procedure)" not in row and "(best-plan)" not in row} <= rows
