@@ -140,13 +140,11 @@ selection:
   rules: [simc-pi]
   plans: [plan-1-1]
   fixed_procedure: plan-1-1
-comparisons: [[fixed, best-rule], [seq, best-rule], [seq, plan], [seq, fixed-procedure]]
+comparisons: [[seq, best-rule], [seq, plan], [seq, fixed-procedure]]
 regimes:
   - name: msp-tiny
     env: DeadTime/MSP-v3
     env_kwargs: {{noise_std: 0.1}}
-    fixed:
-      - {{label: tiny-fixed, config: {rule}, overrides: ["env_id=DeadTime/MSP-v3"]}}
     plan:
       - {{label: tiny-plan, config: {rule}, overrides: ["env_id=DeadTime/MSP-v3", "env_kwargs.plan=[3, 0.1]"]}}
     seq:
@@ -158,6 +156,7 @@ regimes:
 
 @pytest.mark.slow
 def test_a_sequential_primary_is_trained_chosen_and_compared_with_the_plan_primary(tmp_path):
+    """As protocol v4 declares it: a sequential and a plan-mode primary, no fixed-mode candidate."""
     (tmp_path / "rule.yaml").write_text(RULE)
     path = tmp_path / "tiny-seq.yaml"
     path.write_text(SEQ_PROTOCOL.format(rule=tmp_path / "rule.yaml"))
@@ -169,6 +168,7 @@ def test_a_sequential_primary_is_trained_chosen_and_compared_with_the_plan_prima
     selection = json.loads((out / "msp-tiny" / "selection.json").read_text())
     assert selection["chosen"]["seq"] == "tiny-seq" and selection["candidates"]["seq"][0]["plants"] == 4
     results = write_report(protocol, out)
-    assert results["complete"] and results["comparisons_declared"] == 4
+    assert results["complete"] and results["comparisons_declared"] == 3
     pairs = [(c["roles"][0], c["roles"][1], c["second"]) for c in results["regimes"][0]["comparisons"]]
-    assert pairs[2] == ("seq", "plan", "tiny-plan") and pairs[3] == ("seq", "fixed-procedure", "plan-1-1")
+    assert pairs[1] == ("seq", "plan", "tiny-plan") and pairs[2] == ("seq", "fixed-procedure", "plan-1-1")
+    assert (out / "forest.png").is_file() and "tiny-seq" in (out / "results.md").read_text()
