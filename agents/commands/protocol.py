@@ -3,7 +3,7 @@
 ::
 
     deadtime protocol register configs/protocols/v1.yaml          # its test seed, before any result
-    deadtime protocol run configs/protocols/v1.yaml --out results/protocol_v1 --resume [--regime NAME ...]
+    deadtime protocol run configs/protocols/v1.yaml --out results/protocol_v1 --resume [--regime NAME ...] [--fits DIR]
     deadtime protocol report configs/protocols/v1.yaml --out results/protocol_v1
     deadtime protocol coverage --n 4000 --out results/protocol_coverage/coverage.json
 
@@ -32,6 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--out", required=True, help="the run's folder, e.g. results/protocol_v1")
     run.add_argument("--resume", action="store_true", help="continue a run of the same protocol in --out")
     run.add_argument("--regime", action="append", help="run only this regime (repeatable; default: all in order)")
+    run.add_argument("--fits", help="the learners' fits (default OUT/work/runs); one folder shared by several protocols "
+                                    "fits each learner they declare alike (environment, regime, config, overrides) once")
     run.add_argument("--validation-only", action="store_true",
                      help="stop each regime after its choices on the validation plants (selection.json), before its test")
     report = actions.add_parser("report", help="protocol_results.json, results.md and forest.png of a run")
@@ -79,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "run":
         from agents.protocol.run import run_protocol
 
-        done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only)
+        done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only,
+                            fits=Path(args.fits) if args.fits else None)
         print(f"deadtime protocol: {len(done)} regime(s) done: {', '.join(done)}", file=sys.stderr)
         return 0
     from agents.protocol.report import write_report

@@ -19,7 +19,8 @@ sha256 of each training config its learners name (each regime's ``selection.json
 the commit they were computed at); a run into a folder of another protocol's sha256, or with a training
 config changed since the run started, is refused in one line, and so is a protocol whose test
 entropy is not registered to its own sha256 (:func:`agents.protocol.streams.check_test_seed`).  The
-trained models and the evaluations' caches stay in ``OUT/work`` (not results: never committed).
+trained models (``OUT/work/runs``, or the folder given as ``fits``, which several protocols may share)
+and the evaluations' caches stay in ``OUT/work`` (not results: never committed).
 """
 
 from __future__ import annotations
@@ -174,7 +175,7 @@ def _evaluate(regime: Regime, policies: list[str], plants: list[Any], episode_se
              plots=False, plants=[plant.to_dict() for plant in plants], env_kwargs=dict(regime.env_kwargs))
 
 
-def _learner_policies(protocol: Protocol, work: Path, regime: Regime, labels: list[tuple[str, str]]) -> tuple[list[str], dict[str, str]]:
+def _learner_policies(protocol: Protocol, fits: Path, regime: Regime, labels: list[tuple[str, str]]) -> tuple[list[str], dict[str, str]]:
     """``NAME=PATH`` policies of the learners' seeds (training them where needed), and NAME -> ``label@seed``."""
     from agents.protocol.training import train_learner
 
@@ -182,7 +183,7 @@ def _learner_policies(protocol: Protocol, work: Path, regime: Regime, labels: li
     for mode, label in labels:
         learner = next(item for item in regime.candidates(mode) if item.label == label)
         for seed in protocol.seeds:
-            directory = train_learner(work, regime, learner, seed)
+            directory = train_learner(fits, regime, learner, seed)
             name = f"{mode}.{label}.s{seed}"
             policies.append(f"{name}={directory}")
             names[name] = f"{label}@{seed}"
@@ -210,7 +211,7 @@ def _base_rule(protocol: Protocol, structure: str) -> dict[str, str]:
     return {"base-rule": structure_of(structure).base_rule}
 
 
-def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[str, Any]:
+def select(protocol: Protocol, work: Path, out: Path, regime: Regime, fits: Path | None = None) -> dict[str, Any]:
     """Steps 1-3 of the module docstring; returns (and writes) ``selection.json``."""
     from agents.files.writer import write_json
 
@@ -218,7 +219,7 @@ def select(protocol: Protocol, work: Path, out: Path, regime: Regime) -> dict[st
     if path.exists():
         return read_json(path, dict)
     labels = [(mode, learner.label) for mode in PRIMARIES for learner in regime.candidates(mode)]
-    learners, names = _learner_policies(protocol, work, regime, labels)
+    learners, names = _learner_policies(protocol, fits or work / "runs", regime, labels)
     structure, family = _structure_and_family(regime)
     plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
     directory = work / regime.name / "validation"
@@ -273,13 +274,14 @@ def _regime_summary(protocol: Protocol, selection: dict[str, Any], rows: list[di
                                        for role, name in chosen.items() if name in benchmark}}}
 
 
-def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selection: dict[str, Any]) -> dict[str, Any]:
+def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selection: dict[str, Any],
+                fits: Path | None = None) -> dict[str, Any]:
     """Step 4 of the module docstring: the chosen policies on the test stream and the benchmark batch."""
     from agents.files.writer import write_json
 
     chosen = selection["chosen"]
     labels = [(mode, chosen[mode]) for mode in PRIMARIES if mode in chosen]
-    learners, names = _learner_policies(protocol, work, regime, labels)
+    learners, names = _learner_policies(protocol, fits or work / "runs", regime, labels)
     baselines = list(dict.fromkeys([chosen[role] for role in ("best-rule", "base-rule", "fixed-procedure", "best-plan") if role in chosen]))
     plants = plant_stream(selection["family"], protocol.test.entropy, protocol.test.plants)
     directory = work / regime.name / "test"
@@ -292,10 +294,11 @@ def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selec
 
 
 def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes: list[str] | None = None,
-                 validation_only: bool = False) -> list[str]:
+                 validation_only: bool = False, fits: Path | None = None) -> list[str]:
     """Run the protocol's regimes (all, or those named) into ``out``; returns the names of the regimes done.
 
-    ``validation_only`` stops each regime after its choices (``selection.json``), before its test stream."""
+    ``validation_only`` stops each regime after its choices (``selection.json``), before its test stream;
+    ``fits`` is the folder of the learners' fits (default ``out/work/runs``)."""
     start(protocol, out, resume)
     work = out / "work"
     chosen = [protocol.regime(name) for name in regimes] if regimes else list(protocol.regimes)
@@ -303,12 +306,12 @@ def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes
     for regime in chosen:
         if not (out / regime.name / SUMMARY).exists():
             print(f"deadtime protocol: {regime.name}: training and validation", file=sys.stderr, flush=True)
-            selection = select(protocol, work, out, regime)
+            selection = select(protocol, work, out, regime, fits)
             print(f"deadtime protocol: {regime.name}: chosen on validation {selection['chosen']}", file=sys.stderr, flush=True)
             if validation_only:
                 done.append(regime.name)
                 continue
             print(f"deadtime protocol: {regime.name}: the test stream", file=sys.stderr, flush=True)
-            test_regime(protocol, work, out, regime, selection)
+            test_regime(protocol, work, out, regime, selection, fits)
         done.append(regime.name)
     return done

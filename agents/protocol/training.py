@@ -4,7 +4,9 @@ A learner of a regime is the sweep trial ``Trial(label, env, seed, config, overr
 (:class:`agents.sweeps.config.Trial`), trained by :func:`agents.training.train.train` (a learned rule
 fitted by :func:`agents.training.learned_rule.fit`, a selector by :func:`agents.training.selector.fit`) with ``resume=True``: a finished fit is read back, an interrupted one continues from its checkpoint.  The
 run directory is named by what determines the fit (environment, regime, config file and overrides),
-so two regimes that declare the same learner in the same environment and regime share its fits.
+so two regimes that declare the same learner in the same environment and regime share its fits, and
+so do two protocols run with one ``--fits`` folder (a fit depends on no protocol stream: its training
+plants and episodes are its config's, its seeds the protocol's).
 """
 
 from __future__ import annotations
@@ -18,15 +20,15 @@ from agents.protocol.config import Learner, Regime, trial
 __all__ = ["run_directory", "train_learner", "trial"]
 
 
-def run_directory(work: Path, regime: Regime, learner: Learner, seed: int) -> Path:
-    """``WORK/runs/LABEL-ENV-HASH/sSEED``: HASH of the environment, regime, config file and overrides."""
+def run_directory(fits: Path, regime: Regime, learner: Learner, seed: int) -> Path:
+    """``FITS/LABEL-ENV-HASH/sSEED``: HASH of the environment, regime, config file and overrides."""
     identity = json.dumps([regime.env, dict(regime.env_kwargs), learner.label, Path(learner.config).read_text(),
                            list(learner.overrides)], sort_keys=True)
     digest = hashlib.sha256(identity.encode()).hexdigest()[:10]
-    return work / "runs" / f"{learner.label}-{regime.env.split('/')[-1]}-{digest}" / f"s{seed}"
+    return fits / f"{learner.label}-{regime.env.split('/')[-1]}-{digest}" / f"s{seed}"
 
 
-def train_learner(work: Path, regime: Regime, learner: Learner, seed: int) -> Path:
+def train_learner(fits: Path, regime: Regime, learner: Learner, seed: int) -> Path:
     """Train (or resume, or read back) one seed of ``learner`` in ``regime``; returns its run directory.
 
     Raises
@@ -37,7 +39,7 @@ def train_learner(work: Path, regime: Regime, learner: Learner, seed: int) -> Pa
     from agents.training.learned_rule_config import LearnedRuleConfig
     from agents.training.selector_config import SelectorConfig
 
-    directory = run_directory(work, regime, learner, seed)
+    directory = run_directory(fits, regime, learner, seed)
     config = trial(regime, learner, seed).train_config(directory)
     command = f"deadtime protocol run ({regime.name}, {learner.label}, seed {seed})"
     if isinstance(config, LearnedRuleConfig):

@@ -77,6 +77,12 @@ def test_a_tiny_protocol_runs_resumes_and_reports(tmp_path):
     assert (regime / PER_PLANT).read_bytes() == first
     assert [fit.stat().st_mtime_ns for fit in fits] == stamps  # no fit trained twice
 
+    # another run folder given these fits (--fits) reads them back: nothing trained, the same results
+    assert run_protocol(protocol, tmp_path / "again", validation_only=True, fits=out / "work" / "runs") == ["pid-tiny"]
+    assert [fit.stat().st_mtime_ns for fit in fits] == stamps and not (tmp_path / "again" / "work" / "runs").exists()
+    again = json.loads((tmp_path / "again" / "pid-tiny" / "selection.json").read_text())
+    assert again["validation_mean_cost"] == json.loads((regime / "selection.json").read_text())["validation_mean_cost"]
+
     results = write_report(protocol, out)
     assert results["protocol_sha256"] == protocol.sha256 and results["complete"]
     entry = results["regimes"][0]
