@@ -5,6 +5,7 @@
     deadtime protocol register configs/protocols/v1.yaml          # its test seed, before any result
     deadtime protocol run configs/protocols/v1.yaml --out results/protocol_v1 --resume [--regime NAME ...] [--fits DIR]
     deadtime protocol report configs/protocols/v1.yaml --out results/protocol_v1
+    deadtime protocol every-rule configs/protocols/v4.yaml --out results/protocol_v4   # each rule on the test plants
     deadtime protocol coverage --n 4000 --out results/protocol_coverage/coverage.json
 
 ``run`` trains, chooses on validation and tests regime after regime (:mod:`agents.protocol.run`);
@@ -36,6 +37,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                     "fits each learner they declare alike (environment, regime, config, overrides) once")
     run.add_argument("--validation-only", action="store_true",
                      help="stop each regime after its choices on the validation plants (selection.json), before its test")
+    every = actions.add_parser("every-rule", help="every declared rule on the test plants of the regimes done, beside the "
+                                                   "primaries (descriptive, outside the Holm family)")
+    every.add_argument("protocol")
+    every.add_argument("--out", required=True, help="the run's folder")
+    every.add_argument("--regime", action="append", help="only this regime (repeatable; default: every regime tested)")
     report = actions.add_parser("report", help="protocol_results.json, results.md and forest.png of a run")
     report.add_argument("protocol")
     report.add_argument("--out", required=True)
@@ -84,6 +90,12 @@ def run(args: argparse.Namespace) -> int:
         done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only,
                             fits=Path(args.fits) if args.fits else None)
         print(f"deadtime protocol: {len(done)} regime(s) done: {', '.join(done)}", file=sys.stderr)
+        return 0
+    if args.action == "every-rule":
+        from agents.protocol.every_rule import write_every_rule
+
+        entries = write_every_rule(protocol, out, args.regime)
+        print(f"every rule on the test plants of {len(entries)} regime(s); wrote {out / 'every_rule.md'}", file=sys.stderr)
         return 0
     from agents.protocol.report import write_report
 

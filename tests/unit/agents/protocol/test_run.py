@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from agents.protocol.config import load_protocol
+from agents.protocol.every_rule import write_every_rule
 from agents.protocol.report import write_report
 from agents.protocol.run import PER_PLANT, SUMMARY, run_protocol
 from agents.protocol.streams import register_test_seed
@@ -96,6 +97,16 @@ def test_a_tiny_protocol_runs_resumes_and_reports(tmp_path):
     selection = json.loads((regime / "selection.json").read_text())
     assert selection["chosen_on"] == "validation" and selection["validation_plants"] == 5
     assert (out / "results.md").read_text().count("\n| pid-tiny") == 4 and (out / "forest.png").exists()
+
+    # every declared rule on the same test plants: the best rule as the run scored it, the primaries against each
+    (table,) = write_every_rule(protocol, out)
+    assert sorted(table["rules"]) == ["gorez-klan-mu-2", "simc-pi"] and table["test_plants"] == 6
+    best = selection["chosen"]["best-rule"]
+    summary = json.loads((regime / SUMMARY).read_text())
+    assert table["rules"][best]["mean_cost"] == pytest.approx(summary["policies"]["best-rule"]["mean_cost"], rel=1e-6)
+    fixed = next(c for c in entry["comparisons"] if c["roles"] == ["fixed", "best-rule"])
+    assert table["rules"][best]["differences"]["fixed"]["mean"] == pytest.approx(fixed["estimate"]["mean"], rel=1e-5, abs=1e-6)
+    assert "`gorez-klan-mu-2`" in (out / "every_rule.md").read_text()
 
 
 PI_PROTOCOL = """name: tiny-pi
