@@ -211,7 +211,7 @@ def _base_rule(protocol: Protocol, structure: str) -> dict[str, str]:
     return {"base-rule": structure_of(structure).base_rule}
 
 
-def select(protocol: Protocol, work: Path, out: Path, regime: Regime, fits: Path | None = None) -> dict[str, Any]:
+def select(protocol: Protocol, work: Path, out: Path, regime: Regime, fits: Path) -> dict[str, Any]:
     """Steps 1-3 of the module docstring; returns (and writes) ``selection.json``."""
     from agents.files.writer import write_json
 
@@ -219,7 +219,7 @@ def select(protocol: Protocol, work: Path, out: Path, regime: Regime, fits: Path
     if path.exists():
         return read_json(path, dict)
     labels = [(mode, learner.label) for mode in PRIMARIES for learner in regime.candidates(mode)]
-    learners, names = _learner_policies(protocol, fits or work / "runs", regime, labels)
+    learners, names = _learner_policies(protocol, fits, regime, labels)
     structure, family = _structure_and_family(regime)
     plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
     directory = work / regime.name / "validation"
@@ -275,13 +275,13 @@ def _regime_summary(protocol: Protocol, selection: dict[str, Any], rows: list[di
 
 
 def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selection: dict[str, Any],
-                fits: Path | None = None) -> dict[str, Any]:
+                fits: Path) -> dict[str, Any]:
     """Step 4 of the module docstring: the chosen policies on the test stream and the benchmark batch."""
     from agents.files.writer import write_json
 
     chosen = selection["chosen"]
     labels = [(mode, chosen[mode]) for mode in PRIMARIES if mode in chosen]
-    learners, names = _learner_policies(protocol, fits or work / "runs", regime, labels)
+    learners, names = _learner_policies(protocol, fits, regime, labels)
     baselines = list(dict.fromkeys([chosen[role] for role in ("best-rule", "base-rule", "fixed-procedure", "best-plan") if role in chosen]))
     plants = plant_stream(selection["family"], protocol.test.entropy, protocol.test.plants)
     directory = work / regime.name / "test"
@@ -301,6 +301,7 @@ def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes
     ``fits`` is the folder of the learners' fits (default ``out/work/runs``)."""
     start(protocol, out, resume)
     work = out / "work"
+    fits = fits or work / "runs"
     chosen = [protocol.regime(name) for name in regimes] if regimes else list(protocol.regimes)
     done = []
     for regime in chosen:
