@@ -49,7 +49,10 @@ def regime_choices(protocol: Any, run_dir: Path, name: str) -> dict[str, Any]:
     selectors = sorted({row["policy"] for row in rows if row.get("choice")})
     if not selectors:
         raise ValueError(f"regime {name}: no selector among the validation rows")
-    candidates = sorted({row["choice"] for row in rows if row.get("choice")})
+    chosen = {row["choice"] for row in rows if row.get("choice")}
+    best_rule = selection["chosen"]["best-rule"]
+    # the best rule first, the other rules, the learned design last: one order (and colour) in every regime
+    candidates = sorted(chosen, key=lambda c: (c != best_rule, c == "learned", c))
     plants = plant_stream(selection["family"], protocol.validation.entropy, selection["validation_plants"])
     fraction = np.array([plant.dead_time / plant.residence_time for plant in plants])
     band = np.clip(np.digitize(fraction, BANDS[1:-1]), 0, len(BANDS) - 2)
@@ -57,7 +60,6 @@ def regime_choices(protocol: Any, run_dir: Path, name: str) -> dict[str, Any]:
     for row in rows:
         if row["policy"] in index:
             index[row["policy"]][int(row["index"])] = row
-    best_rule = selection["chosen"]["best-rule"]
     bands = []
     for b in range(len(BANDS) - 1):
         members = [k for k in range(len(plants)) if band[k] == b]
@@ -116,14 +118,15 @@ def plot(regimes: list[dict[str, Any]], path: Path) -> None:
         bands = [b for b in regime["bands"] if b["plants"]]
         x = np.arange(len(bands))
         bottom = np.zeros(len(bands))
+        rules = [c for c in regime["candidates"] if c != "learned"]
         for candidate in regime["candidates"]:
             share = np.array([b["shares"][candidate] for b in bands])
-            axis.bar(x, share, bottom=bottom, label=f"{candidate} chosen", alpha=0.8)
+            colour = "C1" if candidate == "learned" else f"C{0 if candidate == regime['best_rule'] else 2 + rules.index(candidate)}"
+            axis.bar(x, share, bottom=bottom, label=f"{candidate} chosen", alpha=0.8, color=colour)
             bottom += share
-        for candidate in regime["candidates"]:
-            if candidate != "learned":
-                axis.plot(x, [b["rule_violations"][candidate] for b in bands], "k--" if candidate == regime["candidates"][0]
-                          else "k:", marker="o", label=f"{candidate} violates")
+        for candidate in rules:
+            axis.plot(x, [b["rule_violations"][candidate] for b in bands], "k--" if candidate == regime["best_rule"]
+                      else "k:", marker="o", label=f"{candidate} violates")
         axis.set_xticks(x, [b["band"] for b in bands], fontsize=8)
         axis.set_xlabel("normalized dead time L/T_ar")
         axis.set_ylim(0, 1)
