@@ -6,7 +6,8 @@ Reads the validation evaluation a protocol run left in ``RUN_DIR/work/REGIME/val
 (every seed of every candidate and every rule, on the protocol's validation stream; no test plant) and
 draws the stream's plants again (:func:`agents.protocol.streams.plant_stream`) for their normalized
 dead time ``L/T_ar`` (the dead time over the true residence time).  The selector's rows carry each
-plant's ``choice`` (:mod:`agents.training.selector_policy`).
+plant's ``choice`` (:mod:`agents.training.selector_policy`); the fixed-mode selector's are read, since
+it pays the same experiments as the rules beside it (a plan-mode selector runs other experiments).
 
 Per regime and dead-time band (fifths of ``[0, 1]``): the plants, the share of (plant, seed) choices
 given to each candidate, the share of plants where each rule candidate violates the constraints, the
@@ -46,10 +47,11 @@ def regime_choices(protocol: Any, run_dir: Path, name: str) -> dict[str, Any]:
 
     selection = json.loads((run_dir / name / "selection.json").read_text())
     rows = _rows(run_dir / "work" / name / "validation" / "per_plant.csv")
-    selectors = sorted({row["policy"] for row in rows if row.get("choice")})
+    # the fixed-mode selector only: it pays the experiments the rules pay (a plan-mode selector runs others)
+    selectors = sorted({row["policy"] for row in rows if row.get("choice") and row["policy"].startswith("fixed.")})
     if not selectors:
-        raise ValueError(f"regime {name}: no selector among the validation rows")
-    chosen = {row["choice"] for row in rows if row.get("choice")}
+        raise ValueError(f"regime {name}: no fixed-mode selector among the validation rows")
+    chosen = {row["choice"] for row in rows if row["policy"] in selectors}
     best_rule = selection["chosen"]["best-rule"]
     # the best rule first, the other rules, the learned design last: one order (and colour) in every regime
     candidates = sorted(chosen, key=lambda c: (c != best_rule, c == "learned", c))
@@ -60,6 +62,8 @@ def regime_choices(protocol: Any, run_dir: Path, name: str) -> dict[str, Any]:
     for row in rows:
         if row["policy"] in index:
             index[row["policy"]][int(row["index"])] = row
+    # the best rule's violations are shown also where it is not among the selector's candidates
+    rules = [c for c in dict.fromkeys([best_rule, *candidates]) if c != "learned" and index.get(c)]
     bands = []
     for b in range(len(BANDS) - 1):
         members = [k for k in range(len(plants)) if band[k] == b]
@@ -68,7 +72,7 @@ def regime_choices(protocol: Any, run_dir: Path, name: str) -> dict[str, Any]:
         if members:
             entry["shares"] = {c: sum(1 for p in picks if p["choice"] == c) / len(picks) for c in candidates}
             entry["rule_violations"] = {c: float(np.mean([index[c][k]["feasible"] != "True" for k in members]))
-                                        for c in candidates if index.get(c)}
+                                        for c in rules}
             entry["selector_violations"] = float(np.mean([p["feasible"] != "True" for p in picks]))
             unsafe = {k for k in members if index[best_rule][k]["feasible"] != "True"}
             left = [p["choice"] != best_rule for s in selectors for k in members if k in unsafe for p in [index[s][k]]]
@@ -78,7 +82,7 @@ def regime_choices(protocol: Any, run_dir: Path, name: str) -> dict[str, Any]:
             entry["selector_cost"] = float(np.mean([float(p["cost"]) for p in picks]))
             entry["best_rule_cost"] = float(np.mean([float(index[best_rule][k]["cost"]) for k in members]))
         bands.append(entry)
-    return {"regime": name, "env": selection["env"], "best_rule": best_rule, "candidates": candidates,
+    return {"regime": name, "env": selection["env"], "best_rule": best_rule, "candidates": candidates, "rules": rules,
             "seeds": len(selectors), "plants": len(plants), "bands": bands}
 
 
@@ -89,7 +93,7 @@ def _share(value: float | None) -> str:
 def markdown(regimes: list[dict[str, Any]]) -> str:
     lines = []
     for regime in regimes:
-        rules = [c for c in regime["candidates"] if c != "learned"]
+        rules = regime["rules"]
         lines += [f"**{regime['regime']}** ({regime['env']}; {regime['plants']} validation plants x {regime['seeds']} seeds; "
                   f"best rule `{regime['best_rule']}`)", "",
                   "| L/T_ar | plants | " + " | ".join(f"`{c}` chosen" for c in regime["candidates"]) + " | "
@@ -118,7 +122,7 @@ def plot(regimes: list[dict[str, Any]], path: Path) -> None:
         bands = [b for b in regime["bands"] if b["plants"]]
         x = np.arange(len(bands))
         bottom = np.zeros(len(bands))
-        rules = [c for c in regime["candidates"] if c != "learned"]
+        rules = regime["rules"]
         for candidate in regime["candidates"]:
             share = np.array([b["shares"][candidate] for b in bands])
             colour = "C1" if candidate == "learned" else f"C{0 if candidate == regime['best_rule'] else 2 + rules.index(candidate)}"

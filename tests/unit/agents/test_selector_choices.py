@@ -38,9 +38,13 @@ def test_the_bands_count_choices_violations_and_judgement(tmp_path: Path) -> Non
             leave = k % 2 == 0 and seed == "s0"
             rows.append({"index": k, "subset": "test", "policy": f"fixed.selector.{seed}", "cost": 2.0 if leave else (21.5 if k % 2 == 0 else 3.0),
                          "feasible": leave or k % 2 != 0, "choice": "learned" if leave else "rule-a"})
+        # a plan-mode selector of the same regime runs other experiments: not read
+        rows.append({"index": k, "subset": "test", "policy": "plan.selector-plan.s0", "cost": 1.0,
+                     "feasible": False, "choice": "rule-b"})
     _write(tmp_path, rows)
     found = regime_choices(SimpleNamespace(validation=SimpleNamespace(entropy=ENTROPY)), tmp_path, "r")
     fractions = [p.dead_time / p.residence_time for p in plant_stream("stable", ENTROPY, PLANTS)]
+    assert found["seeds"] == 2 and found["candidates"] == ["rule-a", "learned"]
     assert sum(band["plants"] for band in found["bands"]) == PLANTS
     assert [band["plants"] for band in found["bands"]] == [sum(1 for f in fractions if low <= f < high or (high == 1.0 and f == 1.0))
                                                           for low, high in zip(BANDS[:-1], BANDS[1:])]
