@@ -58,7 +58,7 @@ def regime_choices(protocol: Any, run_dir: Path, name: str) -> dict[str, Any]:
     plants = plant_stream(selection["family"], protocol.validation.entropy, selection["validation_plants"])
     fraction = np.array([plant.dead_time / plant.residence_time for plant in plants])
     band = np.clip(np.digitize(fraction, BANDS[1:-1]), 0, len(BANDS) - 2)
-    index = {policy: {} for policy in {*selectors, *candidates, selection["chosen"]["best-rule"]}}
+    index = {policy: {} for policy in {*selectors, *candidates, best_rule}}
     for row in rows:
         if row["policy"] in index:
             index[row["policy"]][int(row["index"])] = row
