@@ -222,3 +222,12 @@ def test_the_tclab_model_is_what_the_procedure_identifies():
                     f"`K_u = {relay.ultimate_gain:.0f} %/degC`", f"`T_u = {relay.ultimate_period:.1f} s`"):
         assert printed in section, printed
     assert f"{point.output:.2f}" == "38.77"
+
+
+def test_the_selector_choice_tables_are_the_committed_study():
+    """docs/selector.md's tables of the selector's choices per dead-time band are rows of
+    ``deadtime study selector-choices``'s committed output."""
+    page = (DOCS / "selector.md").read_text().splitlines()
+    study = set((REPO / "results" / "protocol_v3" / "choices" / "choices.md").read_text().splitlines())
+    rows = [line for line in page if re.match(r"\| \d\.\d-\d\.\d \|", line)]
+    assert len(rows) >= 25 and [row for row in rows if row not in study] == []
