@@ -117,8 +117,12 @@ def plot(regimes: list[dict[str, Any]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, axes = plt.subplots(1, len(regimes), figsize=(4.5 * len(regimes), 3.4), squeeze=False)
-    for axis, regime in zip(axes[0], regimes):
+    columns = min(3, len(regimes))
+    rows = -(-len(regimes) // columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(4.5 * columns, 3.6 * rows), squeeze=False)
+    for axis in axes.flat[len(regimes):]:
+        axis.set_visible(False)
+    for axis, regime in zip(axes.flat, regimes):
         bands = [b for b in regime["bands"] if b["plants"]]
         x = np.arange(len(bands))
         bottom = np.zeros(len(bands))
@@ -136,7 +140,9 @@ def plot(regimes: list[dict[str, Any]], path: Path) -> None:
         axis.set_ylim(0, 1)
         axis.set_title(regime["regime"], fontsize=9)
         axis.legend(fontsize=6, loc="upper left")
-    axes[0][0].set_ylabel("share of choices / of plants violating")
+    for axis in axes[:, 0]:
+        axis.set_ylabel("share of choices / of plants violating")
+    figure.tight_layout()
     figure.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(figure)
 
