@@ -36,27 +36,19 @@ is charged and its result discarded: stopped and penalized.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from envs.identification.closed_loop_experiment import ClosedLoopStepResult, closed_loop_step
-from envs.identification.open_loop_experiments import (
-    OpenLoopPulseResult,
-    OpenLoopRampResult,
-    OpenLoopStepResult,
-    open_loop_pulse,
-    open_loop_ramp,
-    open_loop_step,
-)
+from envs.identification.open_loop_experiments import open_loop_pulse, open_loop_ramp, open_loop_step
 from envs.systems.plants import Plant
-from envs.identification.least_squares import LeastSquaresFit
-from envs.identification.models import FOPDTModel, SOPDTModel, mismatch_time
-from envs.identification.prbs_experiment import fit_record, open_loop_prbs
+from envs.identification.prbs_experiment import open_loop_prbs
 from envs.identification.procedure import PULSE_LENGTH, Identification, ProcedureFailed, experiment_deviation, identify
-from envs.identification.relay import RelayResult, relay_feedback
+from envs.identification.relay import relay_feedback
 from envs.identification.steady_state import noise_level
+from envs.episode_features import FEATURES, LEAST_SQUARES_FEATURES, LOG_CLIP, MEASURED_FEATURES, feature_names, features
+from envs.episode_fits import RecordFit, latest_model, least_squares_identification, with_fit
 from envs.episode_options import DEFAULT_OPTIONS, EpisodeOptions
 from envs.structures import STRUCTURES
 
@@ -83,78 +75,10 @@ STABLE_EXPERIMENTS: tuple[str, ...] = ("closed-loop-step", "open-loop-step", "op
 INTEGRATING_EXPERIMENTS: tuple[str, ...] = ("closed-loop-step", "pulse", "relay")
 LEAST_SQUARES_EXPERIMENTS: tuple[str, ...] = (*STABLE_EXPERIMENTS, "prbs")
 """The experiment types with ``identification="least-squares"`` (self-regulating plants only)."""
-_SEEDS_MODEL_EXPERIMENTS = {1: ("open-loop-step", "open-loop-ramp"), 2: ("closed-loop-step",)}
-"""With ``identification="least-squares"`` in agent mode, the design reads the model of the latest
-experiment that gives one: a PRBS (least squares), or these (the papers' formulas; by the order of
-the design's model: the FPPI's FOPDT model, the PID's SOPDT model)."""
 RELAY_HYSTERESIS = 3.0  # in units of the noise level sigma
 DISTURBED_ATTEMPTS = 3
 """With disturbances, the closed-loop steps a commit (or the fixed mode's start) runs at most until one
 identifies a usable model (a drift or a load can spoil one; each is charged)."""
-LOG_CLIP = 5.0  # log10 features are clipped to [-LOG_CLIP, LOG_CLIP]
-
-FEATURES: tuple[str, ...] = (
-    "tau",
-    "theta",
-    "dead_time_fraction",
-    "log_mismatch",
-    "log_pulse_area",
-    "log_noise_ratio",
-    "log_relay_gain",
-    "relay_period",
-    "ramp_time_constant",
-    "log_experiment_time",
-)
-"""Names of the identified features, in the order of :func:`features` (before the counts).
-
-=======================  ==========================================================  ============
-name                     value                                                       range
-=======================  ==========================================================  ============
-``tau``                  normalized dead time ``1 - T_a/T_ar`` (Gorez-Klan eq. 2-7)  [0, 1]
-``theta``                ``theta`` of the SOPDT model (eq. 2-10)                     [0, 1]
-``dead_time_fraction``   ``L_n/T_ar`` from the open-loop step (eq. 11)               [0, 1]
-``log_mismatch``         ``log10(T_f_bar/T_n)`` (eq. 22)                             [-5, 5]
-``log_pulse_area``       ``log10(A/(K_n L_n))`` (eq. 46; integrating plants)         [-5, 5]
-``log_noise_ratio``      ``log10(sigma/a)`` of the closed-loop step                  [-5, 5]
-``log_relay_gain``       ``log10(K_u |K_n|)`` from the relay                         [-5, 5]
-``relay_period``         ``P_u/T_ar`` from the relay, clipped                        [0, 5]
-``ramp_time_constant``   ``T_n/T_ar`` from the ramp (eq. 12)                         [0, 1]
-``log_experiment_time``  ``log10(1 + t_exp/T_ar)``, ``T_ar`` identified              [0, 5]
-=======================  ==========================================================  ============
-
-A feature whose experiment has not run (or failed) is 0; the counts that follow tell which ran.
-"""
-
-MEASURED_FEATURES: tuple[str, ...] = ("failed_experiments",)
-"""With ``options.measured`` (v3), the last entry of :func:`features`: the experiments that gave
-nothing usable (stopped at the excursion limit, or a closed-loop step without a usable gain and
-``T_ar``) over the budget."""
-
-LEAST_SQUARES_FEATURES: tuple[str, ...] = ("ls_time_constant", "ls_dead_time", "log_ls_residual")
-"""With ``identification="least-squares"``, three features follow :data:`FEATURES`: of the latest
-least-squares fit (:mod:`envs.identification.least_squares`) that gave a model, its time constant
-(``T_1 + T_2`` for the SOPDT model) and its dead time over the identified ``T_ar`` (clipped to
-[0, 5]), and ``log10`` of the standard deviation of its simulation error over the experiment's
-amplitude ``a`` ([-5, 5]); 0 before such a fit."""
-
-
-@dataclass(frozen=True)
-class RecordFit:
-    """A least-squares fit of one experiment's record.
-
-    Attributes
-    ----------
-    experiment : str
-        The experiment type whose record was fitted.
-    fit : LeastSquaresFit
-        The fit, whose ``model`` is not None.
-    amplitude : float
-        The experiment's amplitude ``a`` (intended change of the output).
-    """
-
-    experiment: str
-    fit: LeastSquaresFit
-    amplitude: float
 
 
 @dataclass(frozen=True)
@@ -256,8 +180,8 @@ def start_fixed(
         found = identify(plant, rng, noise_std)  # the v0 call
     evidence = evidence_from_identification(found, options, amplitude)
     if options.least_squares:
-        evidence = _with_fit(evidence, "open-loop-step", found.open_loop, amplitude)
-        found = _least_squares_identification(found, evidence)
+        evidence = with_fit(evidence, "open-loop-step", found.open_loop, amplitude)
+        found = least_squares_identification(found, evidence)
     if structure is not None:
         _require_design_model(found, evidence, structure)
     return found, evidence
@@ -270,58 +194,6 @@ def failed_start(failure: ProcedureFailed, integrating: bool, options: EpisodeOp
     counts = tuple(failure.attempts * (name == "closed-loop-step") for name in evidence.experiments)
     return replace(evidence, counts=counts, aborted=failure.attempts, experiment_time=failure.experiment_time,
                    experiment_deviation=failure.experiment_deviation)
-
-
-def _latest_model(evidence: Evidence, kind: str, result, amplitude: float) -> Evidence:
-    """Agent mode with least squares: the evidence after ``kind`` ran, the latest model experiment
-    deciding the design's model (a PRBS sets the fit, an experiment of the papers' formulas clears it)."""
-    if kind == "prbs":
-        return _with_fit(evidence, kind, result, amplitude)
-    if kind in _SEEDS_MODEL_EXPERIMENTS[evidence.options.order]:
-        return replace(evidence, fit=None)
-    return evidence
-
-
-def _with_fit(evidence: Evidence, kind: str, result, amplitude: float) -> Evidence:
-    """The evidence with the least-squares fit of ``result``'s record (a PRBS's own fit, or the
-    record fitted here), if it gives a model; else unchanged.
-
-    An SOPDT fit without a model of two real lags (complex poles, a pole at or below 0: typical of
-    a first-order record) falls back to the FOPDT fit, read as the SOPDT model with ``T_2 = 0``
-    (Gorez-Klan eq. 2-2), as :meth:`baselines.rules.registry.RuleInputs.from_model` reads it.
-    """
-    if result.aborted:
-        return evidence
-    scale, order = evidence.closed_loop.residence_time, evidence.options.order
-    fit = result.fit if kind == "prbs" else fit_record(result, scale, order)
-    if order == 2 and (fit is None or fit.model is None):
-        fit = fit_record(result, scale, 1)
-    if fit is None or fit.model is None:
-        return evidence
-    return replace(evidence, fit=RecordFit(kind, fit, amplitude))
-
-
-def _design_model(found: RecordFit, order: int):
-    """The fit's model in the design's form: FOPDT (order 1), SOPDT (order 2; an FOPDT fit with ``T_2 = 0``)."""
-    model = found.fit.model
-    if order == 2 and isinstance(model, FOPDTModel):
-        return SOPDTModel(gain=model.gain, time_constants=(model.time_constant, 0.0), dead_time=model.dead_time)
-    return model
-
-
-def _least_squares_identification(found: Identification, evidence: Evidence) -> Identification:
-    """``found`` with the least-squares model in place of the papers' (FOPDT or SOPDT, by its order),
-    and ``T_f_bar`` (eq. 22) of the open-loop step measured against it; unchanged without a fit."""
-    if evidence.fit is None:
-        return found
-    model = _design_model(evidence.fit, evidence.options.order)
-    if evidence.options.order == 2:
-        return replace(found, sopdt=model)
-    step: OpenLoopStepResult | None = evidence.results.get("open-loop-step")
-    mismatch = math.nan
-    if step is not None and step.settled:
-        mismatch = mismatch_time(step.timepts, step.output / step.height, model)
-    return replace(found, fopdt=model, mismatch_time=mismatch)
 
 
 def _usable(result: ClosedLoopStepResult) -> bool:
@@ -402,86 +274,8 @@ def run_experiment(
         changes["aborted"] = evidence.aborted + 1
     evidence = replace(evidence, **changes)
     if usable and evidence.options.least_squares:
-        evidence = _latest_model(evidence, kind, result, amplitude)
+        evidence = latest_model(evidence, kind, result, amplitude)
     return evidence
-
-
-def _log(value: float) -> float:
-    if not (math.isfinite(value) and value > 0):
-        return -LOG_CLIP if value == 0 else 0.0
-    return _clip(math.log10(value), -LOG_CLIP, LOG_CLIP)
-
-
-def _clip(value: float, low: float, high: float) -> float:
-    """``float(numpy.clip(value, low, high))`` of a number (NaN stays NaN)."""
-    return min(max(float(value), low), high)
-
-
-def _finite(value: float) -> float:
-    """``float(numpy.nan_to_num(value))`` of a number: NaN is 0, an infinity the largest float of its sign."""
-    value = float(value)
-    if math.isfinite(value):
-        return value
-    return 0.0 if math.isnan(value) else math.copysign(sys.float_info.max, value)
-
-
-def _names(evidence: Evidence) -> tuple[str, ...]:
-    """:data:`FEATURES`, and :data:`LEAST_SQUARES_FEATURES` with the least-squares identification."""
-    return (*FEATURES, *LEAST_SQUARES_FEATURES) if evidence.options.least_squares else FEATURES
-
-
-def _fit_features(evidence: Evidence, scale: float) -> dict[str, float]:
-    found = evidence.fit
-    if found is None:
-        return {}
-    model = found.fit.model
-    lag = sum(model.time_constants) if hasattr(model, "time_constants") else model.time_constant
-    return {
-        "ls_time_constant": _clip(lag / scale, 0.0, LOG_CLIP),
-        "ls_dead_time": _clip(model.dead_time / scale, 0.0, LOG_CLIP),
-        "log_ls_residual": _log(found.fit.noise_std / found.amplitude),
-    }
-
-
-def _identified(evidence: Evidence) -> dict[str, float]:
-    out = dict.fromkeys(_names(evidence), 0.0)
-    first = evidence.closed_loop
-    if first is None:
-        return out
-    scale = first.residence_time
-    out.update(tau=first.normalized_dead_time, theta=first.theta, log_noise_ratio=_log(evidence.noise_ratio))
-    out["log_experiment_time"] = _clip(math.log10(1.0 + evidence.experiment_time / scale), 0.0, LOG_CLIP)
-    step: OpenLoopStepResult | None = evidence.results.get("open-loop-step")
-    if step is not None and step.model is not None:
-        out["dead_time_fraction"] = step.dead_time / scale
-        out["log_mismatch"] = _log(step.mismatch_time / step.time_constant) if step.time_constant > 0 else LOG_CLIP
-    ramp: OpenLoopRampResult | None = evidence.results.get("open-loop-ramp")
-    if ramp is not None:
-        out["ramp_time_constant"] = ramp.time_constant / scale
-    pulse: OpenLoopPulseResult | None = evidence.results.get("pulse")
-    if pulse is not None:
-        out["log_pulse_area"] = _log(pulse.area / (abs(first.gain) * first.residence_time))
-    relay: RelayResult | None = evidence.results.get("relay")
-    if relay is not None and relay.converged:
-        out["log_relay_gain"] = _log(relay.ultimate_gain * abs(first.gain))
-        out["relay_period"] = _clip(relay.ultimate_period / scale, 0.0, LOG_CLIP)
-    out.update(_fit_features(evidence, scale))
-    return {k: _finite(v) for k, v in out.items()}
-
-
-def features(evidence: Evidence, budget: int) -> np.ndarray:
-    """The observation: :data:`FEATURES` (and :data:`LEAST_SQUARES_FEATURES` with the least-squares
-    identification), then each type's count over ``budget``, then runs over ``budget``."""
-    identified = _identified(evidence)
-    counts = [c / budget for c in evidence.counts]
-    failed = [evidence.aborted / budget] if evidence.options.measured else []
-    return np.array([*identified.values(), *counts, evidence.runs / budget, *failed], dtype=np.float64)
-
-
-def feature_names(evidence: Evidence) -> tuple[str, ...]:
-    """Names of the entries of :func:`features`."""
-    measured = MEASURED_FEATURES if evidence.options.measured else ()
-    return (*_names(evidence), *(f"count_{name}" for name in evidence.experiments), "budget_used", *measured)
 
 
 class IdentificationFailed(ValueError):
@@ -554,6 +348,6 @@ def identification(
         experiment_deviation=evidence.experiment_deviation,
     )
     if evidence.options.least_squares:
-        found = _least_squares_identification(found, evidence)
+        found = least_squares_identification(found, evidence)
     _require_design_model(found, evidence, structure)
     return found, evidence
