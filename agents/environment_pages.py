@@ -113,8 +113,12 @@ def _value(value: Any) -> str:
 def _defaults(spec: Any, entry_point: type, env: Any) -> dict[str, Any]:
     """Every argument's default in ``spec``: the registered keyword arguments over the constructor's;
     those the environment completes (the family, the constraints and the weights) as the made ``env`` holds them."""
-    defaults = {name: parameter.default for name, parameter in inspect.signature(entry_point.__init__).parameters.items()
-                if name != "self" and parameter.default is not inspect.Parameter.empty}
+    config = getattr(entry_point, "config_class", None)  # the arguments as one dataclass (envs.env_config.EnvConfig)
+    if config is not None:
+        defaults = {f.name: f.default for f in fields(config)}
+    else:
+        defaults = {name: parameter.default for name, parameter in inspect.signature(entry_point.__init__).parameters.items()
+                    if name != "self" and parameter.default is not inspect.Parameter.empty}
     defaults.update(spec.kwargs)
     for name in ("family", "constraints", "weights"):
         if name in defaults and getattr(env, name, None) is not None:

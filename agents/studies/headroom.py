@@ -77,7 +77,7 @@ def first_experiment(env: Any, rng: np.random.Generator, amplitude: float) -> An
 def continuation_costs(env: Any, evidence: Any, rng: np.random.Generator, first: float, second: float,
                        weights: list[Any], design: Any = "base") -> list[float]:
     """The episode's costs under each of ``weights`` after the second experiment at ``second``, as
-    ``env.step`` in plan mode gives them (:meth:`envs.tuning_env.TuningEnv._run_plan`), designed by
+    ``env.step`` in plan mode gives them (:meth:`envs.tuning_episode.TuningEpisode.run_plan`), designed by
     ``design`` (a name of :data:`DESIGNS`, or a policy read by :func:`policy_design`); an identification
     that fails ends the episode at ``NO_DESIGN_COST``."""
     from envs.analysis.scoring import score
@@ -92,7 +92,6 @@ def continuation_costs(env: Any, evidence: Any, rng: np.random.Generator, first:
         env.identification, env.evidence = identification(evidence, env.structure, plant, rng, amplitude=first)
     except IdentificationFailed:
         return [NO_DESIGN_COST] * len(weights)
-    env._base = None
     controller = env.design(_parameter(env, design))
     return [float(score(plant, controller, experiment_time=env.evidence.experiment_time,
                         experiment_deviation=env.evidence.experiment_deviation, constraints=env.constraints,
@@ -102,7 +101,7 @@ def continuation_costs(env: Any, evidence: Any, rng: np.random.Generator, first:
 def policy_design(policy: Any) -> Any:
     """A design read from the episode's observation by a policy (a learned rule, a trained agent)."""
     def design(env: Any) -> float:
-        observation, _ = env._observation_and_features()
+        observation, _ = env.observation_and_features()
         action = np.asarray(policy.predict(observation, deterministic=True)[0], dtype=np.float64).reshape(-1)
         return env.parameter_from_action(float(action[-1]))
     return design

@@ -7,7 +7,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import envs  # noqa: F401  (registers the ids)
-from envs.tuning_env import _draw_bounded
+from envs.rendering import _draw_bounded
+from envs.tuning_env import episode_of
 
 
 def test_a_diverged_curve_does_not_set_the_axis() -> None:
@@ -38,4 +39,4 @@ def test_render_shows_experiments_output_and_control() -> None:
     env.step(np.array([-1.0], dtype=np.float32))  # mu = 0.3: an unstable loop
     image = env.render()
     assert image.shape == (512, 512, 3) and image.dtype == np.uint8
-    assert env.unwrapped._design == (0.3, 26.0)
+    assert episode_of(env).committed == (0.3, 26.0)

@@ -225,7 +225,7 @@ def test_an_agent_reads_the_environments_observation_and_ranks(tmp_path, monkeyp
     found = identify_process(TCLabProcess())
     env = make_env("DeadTime/PID-v0").unwrapped
     env.evidence = evidence_from_identification(found.identification, EpisodeOptions(noise_std=found.noise_ratio))
-    expected, _ = env._observation_and_features()
+    expected, _ = env.observation_and_features()
     assert np.array_equal(_Constant.seen[0], expected) and np.array_equal(process_observation(env, found), expected)
     assert _Constant.seen[0][5] == pytest.approx(math.log10(found.operating_point.noise_std / 10.0))  # noise / 10 degC
 

@@ -10,6 +10,7 @@ import pytest
 
 import envs  # noqa: F401
 from baselines.procedures import AmplitudeRule, PlanRule, amplitude_action, is_procedure, procedure
+from envs.modes import experiment_amplitude
 
 
 def _play(env, policy, seed):
@@ -24,7 +25,7 @@ def _play(env, policy, seed):
 def test_amplitude_action_is_the_environments_inverse():
     env = gym.make("DeadTime/FPPI-v3", experiments="plan").unwrapped
     for amplitude in (0.1, 0.3, 1.0, 3.0):
-        assert env._amplitude(amplitude_action(amplitude)) == pytest.approx(amplitude, rel=1e-12)
+        assert experiment_amplitude(amplitude_action(amplitude), env.options) == pytest.approx(amplitude, rel=1e-12)
 
 
 def test_names():

@@ -367,8 +367,8 @@ def _flipped_env(**kwargs):
         def action_from_parameter(self, parameter: float) -> float:
             return -super().action_from_parameter(parameter)
 
-        def _observation_and_features(self):
-            observation, named = super()._observation_and_features()
+        def observation_and_features(self):
+            observation, named = super().observation_and_features()
             return np.append(observation, np.float32(0.5)), named
 
     return Flipped(**kwargs)
