@@ -89,9 +89,11 @@ def _table(text: str) -> tuple[str, list[list[str]], str]:
 def _make(spec: Any, **kwargs: Any) -> Any:
     import gymnasium
 
+    from envs.interface import tuning_env_of
+
     env = gymnasium.make(spec.id, disable_env_checker=True, **kwargs)
     try:
-        return env.unwrapped
+        return tuning_env_of(env)
     finally:
         env.close()
 

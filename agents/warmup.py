@@ -22,6 +22,7 @@ def warm_up() -> float:
     import gymnasium as gym
 
     import envs  # noqa: F401  (registers the ids)
+    from envs.interface import tuning_env_of
 
     started = time.perf_counter()
     cases = [(structure, mode, {}) for structure in ("PID", "FPPI", "MSP") for mode in ("fixed", "plan")]
@@ -35,7 +36,7 @@ def warm_up() -> float:
             action = np.zeros(env.action_space.shape, dtype=np.float32)
             if mode == "agent":  # each experiment type once, then commit
                 action[:] = -1.0
-                action[1 + step if step < len(env.unwrapped.experiment_names) else 0] = 1.0
+                action[1 + step if step < len(tuning_env_of(env).experiment_names) else 0] = 1.0
             _, _, done, _, _ = env.step(action)
             step += 1
     return time.perf_counter() - started

@@ -33,6 +33,7 @@ from envs.env_config import EnvConfig
 from envs.episode import Evidence
 from envs.episode_options import AMPLITUDE_RANGE, EpisodeOptions
 from envs.identification.procedure import Identification
+from envs.interface import episode_of, tuning_env_of
 from envs.modes import MAX_BUDGET, MODES, AgentMode, FixedMode, Mode, PlanMode, checked_budget, checked_plan
 from envs.observation import OBSERVATION_BOUND, ObservationLayout
 from envs.plant_source import PlantSource
@@ -52,17 +53,6 @@ MAX_SAMPLING_ATTEMPTS = 10
 """Plants the fixed mode draws at most for an episode whose procedure identifies the design's model; with
 ``measured_observation`` (v3) the last one drawn is kept even if it fails, and the episode ends without a
 design (``NO_DESIGN_COST``), else (v0-v2) the reset raises ``RuntimeError``."""
-
-
-def tuning_env_of(env: gym.Env) -> DeadTimeTuningEnv:
-    """The tuning environment under ``env``'s wrappers (``gymnasium.make`` wraps it)."""
-    return env.unwrapped
-
-
-def episode_of(env: gym.Env) -> TuningEpisode:
-    """The episode in progress of the tuning environment under ``env``'s wrappers: its plant,
-    identification, design map and score (:class:`envs.tuning_episode.TuningEpisode`)."""
-    return env.unwrapped.episode
 
 
 def _require_flag(value: Any, name: str) -> bool:

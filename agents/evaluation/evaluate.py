@@ -44,6 +44,7 @@ from typing import Any
 
 from agents.environments import make_env
 from agents.limits import MAX_RESAMPLES, MAX_TEST_PLANTS, MAX_WORKERS, require_at_most
+from envs.interface import tuning_env_of
 from envs.structures import STRUCTURES
 
 __all__ = ["evaluate"]
@@ -149,7 +150,8 @@ def _played_env(policy: Any, env_id: str, kwargs: dict[str, Any]) -> Any:
     """The environment a policy plays, bound to the policy if it reads the observation by feature names."""
     env = make_env(env_id, kwargs)
     if hasattr(policy, "bind"):  # a procedure that reads the observation by its feature names
-        policy.bind(env.unwrapped.feature_names, env.unwrapped.experiment_names)
+        base = tuning_env_of(env)
+        policy.bind(base.feature_names, base.experiment_names)
     return env
 
 
@@ -294,7 +296,7 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
     regime = _regime(env_kwargs)
     env_kwargs = {**regime, **({} if family is None else {"family": family})}
     env = make_env(env_id, {"experiments": "fixed", **env_kwargs})
-    unwrapped = env.unwrapped
+    unwrapped = tuning_env_of(env)
     structure = unwrapped.structure
     family = family or getattr(unwrapped, "family", None) or STRUCTURES[structure].family
     specs = [] if text is None else parse_policies(text, structure)
@@ -379,7 +381,7 @@ def _score_plants(
 
     cache = Cache(cache_path)
     seeds = _episode_seeds(plants, seed)
-    family = env.unwrapped.family
+    family = tuning_env_of(env).family
     environment = env_id if not regime else f"{env_id} {json.dumps(regime, sort_keys=True, default=str)}"
     keys = [
         plant_key(environment, family, seeds[i], i if subset == "test" else label, plant.to_dict())

@@ -30,8 +30,9 @@ __all__ = ["OracleInfo", "oracle_info"]
 
 
 def oracle_info(env: Any) -> dict[str, float]:
-    """``oracle_cost`` and ``oracle_parameter`` of the episode of a DeadTime environment ``env``
-    (its unwrapped instance, after the design is committed)."""
+    """``oracle_cost`` and ``oracle_parameter`` of the episode ``env`` (:func:`envs.interface.episode_of`, or
+    the unwrapped environment, which offers the same ``plant``, ``identification``, ``structure``,
+    ``constraints`` and ``weights``), after the design is committed."""
     from baselines.oracle import oracle
 
     best = oracle(env.plant, env.identification, env.structure, constraints=env.constraints, weights=env.weights)
@@ -44,5 +45,7 @@ class OracleInfo(gymnasium.Wrapper):
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         observation, reward, terminated, truncated, info = self.env.step(action)
         if terminated:
-            info = {**info, **oracle_info(self.env.unwrapped)}
+            from envs.interface import episode_of
+
+            info = {**info, **oracle_info(episode_of(self.env))}
         return observation, reward, terminated, truncated, info

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from envs.interface import tuning_env_of
 from envs.process.performance import RunProtocol
 from envs.process.procedure import ProcessIdentification
 from envs.process.protocol import Process
@@ -99,7 +100,7 @@ def _training_ranges(env_id: str, kwargs: dict[str, Any]) -> dict[str, tuple[flo
     key = json.dumps([env_id, kwargs], sort_keys=True, default=str)
     if key not in _RANGES:
         env = make_env(env_id, {**kwargs, "experiments": "fixed"})
-        names = env.unwrapped.feature_names
+        names = tuning_env_of(env).feature_names
         rows = np.array([env.reset(seed=k)[0] for k in range(FAMILY_PLANTS)])
         env.close()
         _RANGES[key] = {name: tuple(float(q) for q in np.quantile(rows[:, names.index(name)], _RANGE_QUANTILES))
@@ -148,7 +149,7 @@ def _agent(process, found, protocol, spec: Any) -> ProcessPolicyResult:
     name, policy = load_agent(spec)  # a file that cannot be loaded is bad input (one line, exit 2)
     env_id = getattr(policy, "env_id", None) or DEFAULT_AGENT_ENV
     kwargs = dict(getattr(policy, "env_kwargs", {}) or {})
-    env = make_env(env_id, kwargs).unwrapped
+    env = tuning_env_of(make_env(env_id, kwargs))
     if env.mode == "agent":
         return ProcessPolicyResult(name, "agent", error=f"the agent plays {env_id} in agent mode (it chooses its experiments); "
                                    "on a process the fixed procedure runs, so only fixed- and plan-mode agents apply")

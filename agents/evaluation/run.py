@@ -37,6 +37,7 @@ import numpy as np
 from agents.evaluation.cache import Cache
 from agents.evaluation.result import FAILURE_COST, PolicyResult
 from agents.interruptions import GRACE_S, ignore_interrupts_in_worker
+from envs.interface import episode_of
 
 __all__ = ["FAILURE_COST", "Cache", "PolicyResult", "agent_action", "evaluate_plant", "plant_key", "rule_result", "selector_result"]
 
@@ -81,10 +82,11 @@ def rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
 
     rule = get_rule(name)
     try:
-        inputs = RuleInputs.from_identification(env.unwrapped.identification)
+        episode = episode_of(env)
+        inputs = RuleInputs.from_identification(episode.identification)
         controller = rule(inputs)
         parameter = rule.relative_parameter(inputs)
-        score = env.unwrapped.score_controller(controller)
+        score = episode.score_controller(controller)
     except ValueError as error:
         return PolicyResult.failed(error, experiment_time)
     return PolicyResult(float(score.cost), bool(score.feasible), False, experiment_time, controller.to_dict(), _finite(parameter))
@@ -96,10 +98,10 @@ def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[Policy
     from envs.structures import STRUCTURES, design
     from envs.analysis.scoring import score
 
-    unwrapped = env.unwrapped
-    plant, structure = unwrapped.plant, unwrapped.structure
-    options = {"constraints": unwrapped.constraints, "weights": unwrapped.weights}
-    identification = unwrapped.identification
+    episode = episode_of(env)
+    plant, structure = episode.plant, episode.structure
+    options = {"constraints": episode.constraints, "weights": episode.weights}
+    identification = episode.identification
     try:
         if full:
             result = full_information_oracle(plant, structure, **options)
@@ -111,7 +113,7 @@ def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[Policy
         if full:
             checked = score(plant, controller, experiment_time=0.0, **options)
         else:
-            checked = unwrapped.score_controller(controller)
+            checked = episode.score_controller(controller)
     except ValueError as error:
         return PolicyResult.failed(error, 0.0 if full else experiment_time), 0.0
     mismatch = abs(float(checked.cost) - float(result.cost))
@@ -155,11 +157,11 @@ def selector_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResul
     import dataclasses
 
     observation, _ = env.reset(seed=seed, options={"plant": plant})
-    unwrapped = env.unwrapped
+    episode = episode_of(env)
     choice = policy.choose(observation)
     rule = policy.rule_of(choice)
-    if rule is not None and unwrapped.identification is not None:
-        result = rule_result(env, rule, unwrapped.evidence.experiment_time / plant.residence_time)
+    if rule is not None and episode.identification is not None:
+        result = rule_result(env, rule, episode.evidence.experiment_time / plant.residence_time)
     else:  # a learned design, or no identification (the step ends the episode without a design)
         action = policy.action(choice, observation) if rule is None else np.zeros(env.action_space.shape)
         info = env.step(np.asarray(action, dtype=np.float32).reshape(env.action_space.shape))[4]
@@ -217,8 +219,9 @@ def evaluate_plant(
     mismatch = 0.0
     if any(result is None for result in results.values()):
         env.reset(seed=seed, options={"plant": plant})
-        identified = env.unwrapped.identification is not None  # (v3: None when the fixed procedure failed)
-        experiment_time = env.unwrapped.evidence.experiment_time / plant.residence_time
+        episode = episode_of(env)
+        identified = episode.identification is not None  # (v3: None when the fixed procedure failed)
+        experiment_time = episode.evidence.experiment_time / plant.residence_time
         for name in wanted:
             if results[name] is not None:
                 continue

@@ -160,9 +160,10 @@ def matrices(rows: list[dict[str, Any]], subset: str) -> tuple[list[str], dict[s
 def _structure_and_family(regime: Regime) -> tuple[str, str]:
     """The name of the regime's structure and its plant family (from one environment, made and closed)."""
     from agents.environments import make_env
+    from envs.interface import tuning_env_of
 
     env = make_env(regime.env, {"experiments": "fixed", **regime.env_kwargs})
-    found = env.unwrapped.structure, env.unwrapped.family
+    found = tuning_env_of(env).structure, tuning_env_of(env).family
     env.close()
     return found
 

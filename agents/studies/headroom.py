@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from agents.evaluation.plan_search import PLAN_GRID
+from envs.interface import tuning_env_of
 
 __all__ = ["DESIGNS", "GRID", "continuation_costs", "first_experiment", "headroom", "summarize"]
 
@@ -164,7 +165,7 @@ def _costs(env_id: str, noise: float, regimes: list[Any], plants: list[Any], epi
         found = np.load(path)
         if found["costs"].shape[0] >= len(plants) and found["costs"].shape[3] == replicates:
             return found["costs"][: len(plants)]
-    env = gym.make(env_id, experiments="plan", noise_std=noise, weights={"production": 1.0}).unwrapped
+    env = tuning_env_of(gym.make(env_id, experiments="plan", noise_std=noise, weights={"production": 1.0}))
     weights = _weights([dict(r.env_kwargs) for r in regimes])
     rows = []
     for k, plant in enumerate(plants):

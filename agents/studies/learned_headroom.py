@@ -32,6 +32,7 @@ import numpy as np
 from agents.protocol.statistics import t_interval
 from agents.studies.continuation import CONTINUATION_ENTROPY, learned_continuation
 from agents.studies.headroom import _protocol_reference, markdown, plant_costs, policy_design, summarize
+from envs.interface import tuning_env_of
 
 __all__ = ["agent_costs", "learned_headroom"]
 
@@ -116,7 +117,7 @@ def agent_costs(run_dir: Path, plants: list[Any], episode_seed: int) -> tuple[np
     from agents.training.policies import load_policy
 
     policy = load_policy(run_dir)
-    env = make_env(policy.config.env_id, policy.config.env_kwargs).unwrapped
+    env = tuning_env_of(make_env(policy.config.env_id, policy.config.env_kwargs))
     costs, feasible = [], []
     for k, plant in enumerate(plants):
         observation, _ = env.reset(seed=episode_seed + k, options={"plant": plant})
@@ -189,7 +190,7 @@ def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replica
         regime = _matching_regime(protocol, env_id, noise, production)
         seconds = tuple(sorted(by_second))
         kwargs = dict(next(iter(by_second.values())).env_kwargs)
-        env = gym.make(env_id, **kwargs).unwrapped
+        env = tuning_env_of(gym.make(env_id, **kwargs))
         weights = [CostWeights(**dict(regime.env_kwargs.get("weights", {})))]
         designs = {a: policy_design(by_second[a]) for a in seconds}
         family = env.kind.family

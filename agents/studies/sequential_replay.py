@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from envs.interface import tuning_env_of
+
 __all__ = ["replay", "replay_agent", "summarize"]
 
 
@@ -59,10 +61,10 @@ def replay_agent(run_dir: Path, plants: int) -> dict[str, Any]:
     if policy.config is None:
         raise ValueError(f"{run_dir} has no config.yaml: the agent's environment is unknown")
     env = make_env(policy.config.env_id, policy.config.env_kwargs)
-    if getattr(env.unwrapped, "discrete", None) is None:
+    if getattr(tuning_env_of(env), "discrete", None) is None:
         raise ValueError(f"{run_dir} was not trained on the discrete agent mode (env_kwargs.discrete_action)")
     chosen = validation_plants(env, plants)
-    episodes = [_episode(env.unwrapped, policy, plant, VALIDATION_SEED + k) for k, plant in enumerate(chosen)]
+    episodes = [_episode(tuning_env_of(env), policy, plant, VALIDATION_SEED + k) for k, plant in enumerate(chosen)]
     return {"run": str(run_dir), "env": policy.config.env_id, "env_kwargs": dict(policy.config.env_kwargs),
             "episodes": episodes}
 

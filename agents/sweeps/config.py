@@ -241,11 +241,12 @@ def _check_policies(path: Path, sweep: SweepConfig) -> None:
     before any trial trains."""
     from agents.environments import make_env
     from agents.evaluation.policies import parse_policies
+    from envs.interface import tuning_env_of
 
     policies = sweep.evaluation.policies
     for env_id in sweep.envs():
         env = make_env(env_id, {"experiments": "fixed", **sweep.env_kwargs})
-        structure = env.unwrapped.structure
+        structure = tuning_env_of(env).structure
         env.close()
         try:
             specs = parse_policies(",".join(policies), structure)

@@ -206,6 +206,7 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
     from agents.environments import make_env
     from agents.training.learned_rule_policy import is_learned_rule, load_learned_rule
     from agents.training.policies import load_policy
+    from envs.interface import episode_of, tuning_env_of
     from envs.systems.plant_sets import plant_set
 
     chosen: Counter = Counter()
@@ -215,10 +216,11 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
         policy = load_learned_rule(path) if is_learned_rule(path) else load_policy(path)
         env = make_env(policy.env_id, {**dict(policy.env_kwargs or {}), **env_kwargs})
         counts, times = [], []
-        for index, plant in enumerate(plant_set(env.unwrapped.family, "validation", plants)):
+        base = tuning_env_of(env)
+        for index, plant in enumerate(plant_set(base.family, "validation", plants)):
             observation, _ = env.reset(seed=index, options={"plant": plant})
-            if env.unwrapped.plan is not None:  # the fixed mode with a plan: the same amplitudes on every plant
-                plans.append(env.unwrapped.plan)
+            if base.plan is not None:  # the fixed mode with a plan: the same amplitudes on every plant
+                plans.append(base.plan)
             steps = 0
             while True:
                 action, _ = policy.predict(observation, deterministic=True)
@@ -235,7 +237,8 @@ def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict
                 steps += 1
                 chosen[info["experiment"]] += 1
                 amplitudes.append(info["amplitude"])
-            totals = dict(zip(env.unwrapped.evidence.experiments, env.unwrapped.evidence.counts))
+            evidence = episode_of(env).evidence
+            totals = dict(zip(evidence.experiments, evidence.counts))
             completed.append(sum(totals.values()) - steps)
             counts.append(steps)
             times.append(info["experiment_time"])

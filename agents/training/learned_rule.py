@@ -99,9 +99,10 @@ def _direction(unwrapped: Any, low: float, high: float) -> float:
 def _label(env: Any, seed: int, index: int) -> dict[str, Any]:
     """One training plant drawn by the environment and its oracle's action."""
     from agents.evaluation.oracle_info import oracle_info
+    from envs.interface import tuning_env_of
 
     observation, _ = env.reset(seed=seed)
-    unwrapped = env.unwrapped
+    unwrapped = tuning_env_of(env)
     found = oracle_info(unwrapped)
     action = np.asarray(unwrapped.action_from_parameter(found["oracle_parameter"]), dtype=float).reshape(-1)
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])

@@ -170,10 +170,11 @@ def _models(value: Any) -> tuple[str, ...]:
 def check_environment(config: LearnedRuleConfig) -> Any:
     """The environment of ``config``, made; refused in one line if its action has more than one component."""
     from agents.environments import make_env
+    from envs.interface import tuning_env_of
 
     env = refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
     shape = tuple(getattr(env.action_space, "shape", None) or ())
-    mappings = all(hasattr(env.unwrapped, name) for name in ("action_from_parameter", "parameter_from_action"))
+    mappings = all(hasattr(tuning_env_of(env), name) for name in ("action_from_parameter", "parameter_from_action"))
     if shape != (1,) or not mappings:
         env.close()
         raise ValueError(f"env_kwargs: the learned rule needs a one-component action (fixed mode) and the environment's "

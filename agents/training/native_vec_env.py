@@ -55,6 +55,7 @@ class NativeVecEnv(VecEnv):
         if vector.metadata.get("autoreset_mode") is not AutoresetMode.SAME_STEP:
             raise ValueError("NativeVecEnv needs a vector environment with same-step autoreset")
         self.vector = vector
+        self.base = vector.unwrapped  # the vector environment under its wrappers (its slots, their states)
         super().__init__(vector.num_envs, vector.single_observation_space, vector.single_action_space)
         self._actions: np.ndarray | None = None
         self._returns = np.zeros(self.num_envs)
@@ -103,13 +104,12 @@ class NativeVecEnv(VecEnv):
 
     def checkpoint_snapshot(self, index: int) -> bytes:
         """Slot ``index`` pickled whole, with its monitor counters."""
-        base = self.vector.unwrapped
-        return pickle.dumps((base.slot_state(index), float(self._returns[index]), int(self._lengths[index])))
+        return pickle.dumps((self.base.slot_state(index), float(self._returns[index]), int(self._lengths[index])))
 
     def checkpoint_restore(self, index: int, snapshot: bytes) -> None:
         """Put back a :meth:`checkpoint_snapshot` into slot ``index``."""
         state, self._returns[index], self._lengths[index] = pickle.loads(snapshot)  # noqa: S301  (our own checkpoint)
-        self.vector.unwrapped.set_slot_state(index, state)
+        self.base.set_slot_state(index, state)
 
     def env_method(self, method_name: str, *method_args: Any, indices: None | int | Iterable[int] = None,
                    **method_kwargs: Any) -> list[Any]:
@@ -117,15 +117,15 @@ class NativeVecEnv(VecEnv):
             return [self.checkpoint_snapshot(i) for i in self._indices(indices)]
         if method_name == "checkpoint_restore":
             return [self.checkpoint_restore(i, *method_args) for i in self._indices(indices)]
-        envs = self.vector.unwrapped.envs
+        envs = self.base.envs
         return [getattr(envs[i], method_name)(*method_args, **method_kwargs) for i in self._indices(indices)]
 
     def get_attr(self, attr_name: str, indices: None | int | Iterable[int] = None) -> list[Any]:
-        envs = self.vector.unwrapped.envs
+        envs = self.base.envs
         return [getattr(envs[i], attr_name) for i in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: None | int | Iterable[int] = None) -> None:
-        envs = self.vector.unwrapped.envs
+        envs = self.base.envs
         for i in self._indices(indices):
             setattr(envs[i], attr_name, value)
 

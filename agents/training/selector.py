@@ -54,6 +54,7 @@ from agents.files.lock import folder_lock
 from agents.files.reader import read_json, read_record
 from agents.files.writer import write_json, write_text
 from agents.training.selector_config import LEARNED, SelectorConfig, validate_selector
+from envs.interface import episode_of, tuning_env_of
 
 if TYPE_CHECKING:
     from agents.training.train import TrainResult
@@ -107,16 +108,16 @@ def score_candidates(env: Any, names: tuple[str, ...], learned: dict[str, Any], 
     observations, costs, feasible = [], [], []
     for seed, plant in episodes:
         observation, _ = env.reset(seed=seed, options=None if plant is None else {"plant": plant})
-        unwrapped = env.unwrapped
+        episode = episode_of(env)
         row = []
-        if unwrapped.identification is None:  # the procedure failed: no candidate designs
+        if episode.identification is None:  # the procedure failed: no candidate designs
             info = env.step(np.zeros(env.action_space.shape, dtype=np.float32))[4]
             row = [(float(info["cost"]), False)] * len(names)
         else:
-            experiment_time = unwrapped.evidence.experiment_time / unwrapped.plant.residence_time
+            experiment_time = episode.evidence.experiment_time / episode.plant.residence_time
             for name in names:
                 if name in learned:
-                    row.append(_learned_score(unwrapped, learned[name], observation))
+                    row.append(_learned_score(env, learned[name], observation))
                 else:
                     result = rule_result(env, name, experiment_time)
                     row.append((result.cost, result.feasible))
@@ -128,10 +129,10 @@ def score_candidates(env: Any, names: tuple[str, ...], learned: dict[str, Any], 
     return {"observation": np.array(observations), "cost": np.array(costs, dtype=float), "feasible": np.array(feasible, dtype=bool)}
 
 
-def _learned_score(unwrapped: Any, policy: Any, observation: np.ndarray) -> tuple[float, bool]:
+def _learned_score(env: Any, policy: Any, observation: np.ndarray) -> tuple[float, bool]:
     """The cost and feasibility of a learned design's action, as its step would score it (float32, clipped)."""
     action = float(np.clip(np.asarray(policy.predict(observation)[0], dtype=np.float32).reshape(-1)[0], -1.0, 1.0))
-    score = unwrapped.score_action(action)[2]
+    score = tuning_env_of(env).score_action(action)[2]
     return float(score.cost), bool(score.feasible)
 
 

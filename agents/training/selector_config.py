@@ -157,12 +157,13 @@ def validate_selector(config: SelectorConfig) -> None:
     from agents.environments import make_env
     from agents.training.schema import check_env_kwargs, probe_environment, refused_as
     from baselines.rules.registry import applicable_rules
+    from envs.interface import tuning_env_of
 
     check_env_kwargs(config)
     env = refused_as("env_kwargs", config.env_id, lambda: make_env(config.env_id, config.env_kwargs))
     try:
         probe_environment(config, env)
-        rules = applicable_rules(env.unwrapped.structure)
+        rules = applicable_rules(tuning_env_of(env).structure)
     finally:
         env.close()
     for candidate in config.candidates:

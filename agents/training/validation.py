@@ -42,10 +42,12 @@ class ValidationResult:
 def validation_plants(env: Any, n: int, family: str | None = None) -> list[Any] | None:
     """The validation plants of a ``DeadTime`` environment (None for other environments).
 
-    ``family`` defaults to the environment's own (``env.unwrapped.family`` if it has one, else
+    ``family`` defaults to the environment's own (its ``family`` if it has one, else
     ``integrating`` for the MSP structure and ``stable`` otherwise).
     """
-    unwrapped = env.unwrapped
+    from envs.interface import tuning_env_of
+
+    unwrapped = tuning_env_of(env)
     if not hasattr(unwrapped, "structure"):
         return None
     from envs.structures import STRUCTURES
@@ -60,7 +62,9 @@ def validation_plants(env: Any, n: int, family: str | None = None) -> list[Any] 
 
 def action_masks(env: Any) -> np.ndarray | None:
     """The environment's action masks now (the agent mode's discrete action, :mod:`envs.discrete_action`), or None."""
-    unwrapped = env.unwrapped
+    from envs.interface import tuning_env_of
+
+    unwrapped = tuning_env_of(env)
     return unwrapped.action_masks() if getattr(unwrapped, "discrete", None) is not None else None
 
 
