@@ -36,7 +36,7 @@ is charged and its result discarded: stopped and penalized.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -48,7 +48,8 @@ from envs.identification.procedure import PULSE_LENGTH, Identification, Procedur
 from envs.identification.relay import relay_feedback
 from envs.identification.steady_state import noise_level
 from envs.episode_features import FEATURES, LEAST_SQUARES_FEATURES, LOG_CLIP, MEASURED_FEATURES, feature_names, features
-from envs.episode_fits import RecordFit, latest_model, least_squares_identification, with_fit
+from envs.episode_fits import latest_model, least_squares_identification, with_fit
+from envs.evidence import INTEGRATING_EXPERIMENTS, LEAST_SQUARES_EXPERIMENTS, STABLE_EXPERIMENTS, Evidence, RecordFit
 from envs.episode_options import DEFAULT_OPTIONS, EpisodeOptions
 from envs.structures import STRUCTURES
 
@@ -59,6 +60,8 @@ __all__ = [
     "FEATURES",
     "LEAST_SQUARES_FEATURES",
     "MEASURED_FEATURES",
+    "LOG_CLIP",
+    "RecordFit",
     "IdentificationFailed",
     "RELAY_HYSTERESIS",
     "Evidence",
@@ -71,78 +74,10 @@ __all__ = [
     "identification",
 ]
 
-STABLE_EXPERIMENTS: tuple[str, ...] = ("closed-loop-step", "open-loop-step", "open-loop-ramp", "relay")
-INTEGRATING_EXPERIMENTS: tuple[str, ...] = ("closed-loop-step", "pulse", "relay")
-LEAST_SQUARES_EXPERIMENTS: tuple[str, ...] = (*STABLE_EXPERIMENTS, "prbs")
-"""The experiment types with ``identification="least-squares"`` (self-regulating plants only)."""
 RELAY_HYSTERESIS = 3.0  # in units of the noise level sigma
 DISTURBED_ATTEMPTS = 3
 """With disturbances, the closed-loop steps a commit (or the fixed mode's start) runs at most until one
 identifies a usable model (a drift or a load can spoil one; each is charged)."""
-
-
-@dataclass(frozen=True)
-class Evidence:
-    """The experiments of one episode so far.
-
-    Attributes
-    ----------
-    experiments : tuple of str
-        The experiment types of the episode (:data:`STABLE_EXPERIMENTS` or
-        :data:`INTEGRATING_EXPERIMENTS`).
-    counts : tuple of int
-        How many times each type ran (aborted runs included).
-    results : dict of str to ExperimentResult
-        The latest usable result of each type.
-    experiment_time : float
-        Total duration of every experiment run, in the plant's time units.
-    aborted : int
-        Number of experiments stopped at the excursion limit.
-    noise_ratio : float
-        ``sigma/a`` of the latest usable closed-loop step (nan before one; module docstring).
-    options : EpisodeOptions
-        The episode's identification settings (:mod:`envs.episode_options`; default: the v0
-        environments').
-    fit : RecordFit or None
-        With ``options.identification == "least-squares"``: the least-squares fit the design reads
-        (fixed mode: of the fixed procedure's open-loop step; agent mode: of the latest PRBS, unless an
-        experiment whose model the papers' formulas give ran after it).
-    experiment_deviation : float
-        ``int |y| dt`` of the true output over every experiment run (aborted ones included), the
-        production they disturbed (:func:`envs.identification.procedure.experiment_deviation`);
-        tracked only with ``options.production`` (else 0).
-    noise_estimate : float
-        With ``options.measured``: the noise level estimated from the latest usable closed-loop
-        step's record (nan before one).
-    """
-
-    experiments: tuple[str, ...]
-    counts: tuple[int, ...]
-    results: dict
-    experiment_time: float = 0.0
-    aborted: int = 0
-    noise_ratio: float = math.nan
-    options: EpisodeOptions = DEFAULT_OPTIONS
-    fit: RecordFit | None = None
-    experiment_deviation: float = 0.0
-    noise_estimate: float = math.nan
-
-    @classmethod
-    def empty(cls, integrating: bool, options: EpisodeOptions = DEFAULT_OPTIONS) -> Evidence:
-        experiments = INTEGRATING_EXPERIMENTS if integrating else STABLE_EXPERIMENTS
-        if options.least_squares and not integrating:
-            experiments = LEAST_SQUARES_EXPERIMENTS
-        if options.experiment_types is not None:
-            experiments = options.experiment_types
-        return cls(experiments, (0,) * len(experiments), {}, options=options)
-
-    @property
-    def closed_loop(self) -> ClosedLoopStepResult | None:
-        return self.results.get("closed-loop-step")
-
-    @property
-    def runs(self) -> int:
-        return int(sum(self.counts))
 
 
 def evidence_from_identification(

@@ -12,8 +12,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from envs.evidence import Evidence
+
 if TYPE_CHECKING:
-    from envs.episode import Evidence
     from envs.identification.open_loop_experiments import OpenLoopPulseResult, OpenLoopRampResult, OpenLoopStepResult
     from envs.identification.relay import RelayResult
 

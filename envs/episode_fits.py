@@ -8,16 +8,15 @@ one: a PRBS fitted by least squares, or the papers' experiments by their formula
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from envs.identification.least_squares import LeastSquaresFit
+from envs.evidence import Evidence, RecordFit
 from envs.identification.models import FOPDTModel, SOPDTModel, mismatch_time
 from envs.identification.prbs_experiment import fit_record
 from envs.identification.procedure import Identification
 
 if TYPE_CHECKING:
-    from envs.episode import Evidence
     from envs.identification.open_loop_experiments import OpenLoopStepResult
 
 __all__ = ["RecordFit", "latest_model", "with_fit", "least_squares_identification"]
@@ -26,25 +25,6 @@ _SEEDS_MODEL_EXPERIMENTS = {1: ("open-loop-step", "open-loop-ramp"), 2: ("closed
 """With ``identification="least-squares"`` in agent mode, the design reads the model of the latest
 experiment that gives one: a PRBS (least squares), or these (the papers' formulas; by the order of
 the design's model: the FPPI's FOPDT model, the PID's SOPDT model)."""
-
-
-@dataclass(frozen=True)
-class RecordFit:
-    """A least-squares fit of one experiment's record.
-
-    Attributes
-    ----------
-    experiment : str
-        The experiment type whose record was fitted.
-    fit : LeastSquaresFit
-        The fit, whose ``model`` is not None.
-    amplitude : float
-        The experiment's amplitude ``a`` (intended change of the output).
-    """
-
-    experiment: str
-    fit: LeastSquaresFit
-    amplitude: float
 
 
 def latest_model(evidence: Evidence, kind: str, result, amplitude: float) -> Evidence:

@@ -33,7 +33,6 @@ from envs.env_config import EnvConfig
 from envs.episode import Evidence
 from envs.episode_options import AMPLITUDE_RANGE, EpisodeOptions
 from envs.identification.procedure import Identification
-from envs.interface import episode_of, tuning_env_of
 from envs.modes import MAX_BUDGET, MODES, AgentMode, FixedMode, Mode, PlanMode, checked_budget, checked_plan
 from envs.observation import OBSERVATION_BOUND, ObservationLayout
 from envs.plant_source import PlantSource
@@ -45,8 +44,7 @@ from envs.threads import single_threaded
 from envs.tuning_episode import NO_DESIGN_COST, TuningEpisode, scoring_of
 from envs.validation import require_number
 
-__all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "PIEnv", "MODES", "AMPLITUDE_RANGE", "EnvConfig",
-           "episode_of", "tuning_env_of"]
+__all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "PIEnv", "MODES", "AMPLITUDE_RANGE", "EnvConfig"]
 __all__ += ["MAX_BUDGET", "NO_DESIGN_COST", "OBSERVATION_BOUND"]  # (the names this module has always offered)
 
 MAX_SAMPLING_ATTEMPTS = 10

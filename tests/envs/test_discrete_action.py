@@ -10,6 +10,7 @@ from gymnasium.utils.env_checker import check_env
 import envs  # noqa: F401
 from baselines.procedures import amplitude_action
 from envs.discrete_action import AMPLITUDE_LEVELS, DESIGN_LEVELS
+from envs.interface import tuning_env_of
 
 STRUCTURES = ["PID", "FPPI", "MSP", "PI"]
 
@@ -34,8 +35,8 @@ def box_action(env, index: int) -> np.ndarray:
 def test_discrete_episodes_are_the_box_episodes_of_the_same_actions(structure: str) -> None:
     rng = np.random.default_rng(0)
     for episode in range(6):
-        discrete = gym.make(f"DeadTime/{structure}-v3", experiments="agent", discrete_action=True, noise_std=0.05).unwrapped
-        box = gym.make(f"DeadTime/{structure}-v3", experiments="agent", noise_std=0.05).unwrapped
+        discrete = tuning_env_of(gym.make(f"DeadTime/{structure}-v3", experiments="agent", discrete_action=True, noise_std=0.05))
+        box = tuning_env_of(gym.make(f"DeadTime/{structure}-v3", experiments="agent", noise_std=0.05))
         first, _ = discrete.reset(seed=episode)
         second, _ = box.reset(seed=episode)
         assert np.array_equal(first, second)
@@ -52,7 +53,7 @@ def test_discrete_episodes_are_the_box_episodes_of_the_same_actions(structure: s
 
 
 def test_the_masks_follow_the_phase_the_budget_and_the_amplitude_limit() -> None:
-    env = gym.make("DeadTime/PID-v3", experiments="agent", discrete_action=True, budget=1).unwrapped
+    env = tuning_env_of(gym.make("DeadTime/PID-v3", experiments="agent", discrete_action=True, budget=1))
     env.reset(seed=0)
     levels, n = len(AMPLITUDE_LEVELS), len(env.experiment_names)
     masks = env.action_masks()
@@ -72,7 +73,7 @@ def test_the_masks_follow_the_phase_the_budget_and_the_amplitude_limit() -> None
 
 
 def test_a_masked_index_acts_as_its_box_action() -> None:
-    env = gym.make("DeadTime/FPPI-v3", experiments="agent", discrete_action=True).unwrapped
+    env = tuning_env_of(gym.make("DeadTime/FPPI-v3", experiments="agent", discrete_action=True))
     env.reset(seed=3)
     levels, n = len(AMPLITUDE_LEVELS), len(env.experiment_names)
     _, _, done, _, info = env.step(levels * (1 + n))  # a design level before the design step: commit at 1
@@ -83,7 +84,7 @@ def test_a_masked_index_acts_as_its_box_action() -> None:
 
 @pytest.mark.parametrize("action", [-1, 41, 1.0, True, np.array([1, 2]), "3"])
 def test_a_bad_index_is_one_line(action) -> None:
-    env = gym.make("DeadTime/PID-v3", experiments="agent", discrete_action=True).unwrapped
+    env = tuning_env_of(gym.make("DeadTime/PID-v3", experiments="agent", discrete_action=True))
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action must be one integer index from 0 to 40"):
         env.step(action)
@@ -100,5 +101,5 @@ def test_a_bad_argument_is_one_line(kwargs, message) -> None:
 
 def test_box_environments_have_no_masks_and_the_discrete_one_passes_the_checker() -> None:
     with pytest.raises(RuntimeError, match="needs discrete_action=True"):
-        gym.make("DeadTime/PID-v3", experiments="agent").unwrapped.action_masks()
+        tuning_env_of(gym.make("DeadTime/PID-v3", experiments="agent")).action_masks()
     check_env(gym.make("DeadTime/MSP-v3", experiments="agent", discrete_action=True).unwrapped, skip_render_check=True)

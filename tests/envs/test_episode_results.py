@@ -15,6 +15,7 @@ from envs.simulation.delay_systems import MAX_RUN_SAMPLES
 from envs.systems.families import sample_plant
 from envs.systems.plants import Plant
 from envs.tuning_env import NO_DESIGN_COST
+from envs.interface import episode_of, tuning_env_of
 
 DRIFT = {"drift": 0.1}
 
@@ -27,7 +28,7 @@ def test_a_fixed_start_without_the_design_model_is_a_failed_identification():
     rng = seeding.np_random(2)[0]
     plant = sample_plant("stable", rng)
     with pytest.raises(IdentificationFailed, match="no fopdt model") as failure:
-        start_fixed(plant, rng, env.unwrapped.options, "fppi")
+        start_fixed(plant, rng, episode_of(env).options, "fppi")
     assert failure.value.evidence.aborted == 1 and failure.value.evidence.closed_loop is not None
 
 
@@ -35,7 +36,7 @@ def test_a_fixed_start_without_the_design_model_is_a_failed_identification():
 def test_the_fixed_mode_draws_another_plant_when_the_design_has_no_model(version):
     env = gym.make(f"DeadTime/FPPI-{version}", disturbances=DRIFT)
     env.reset(seed=2)
-    assert env.unwrapped.identification.fopdt is not None
+    assert episode_of(env).identification.fopdt is not None
     _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
     assert terminated and np.isfinite(reward) and "score" in info
 
@@ -55,7 +56,7 @@ def test_the_plan_mode_without_the_design_model_ends_without_a_design_in_v3_and_
 # ----------------------------------------------------------------------------- the sample cap
 def _choose(env, kind: str) -> np.ndarray:
     action = np.full(env.action_space.shape, -1.0, dtype=np.float32)
-    action[1 + env.unwrapped.experiment_names.index(kind)], action[-2] = 1.0, 1.0
+    action[1 + tuning_env_of(env).experiment_names.index(kind)], action[-2] = 1.0, 1.0
     return action
 
 
@@ -66,12 +67,12 @@ def test_a_ramp_longer_than_the_sample_cap_stops_there_as_a_failed_experiment():
     env.reset(seed=545583)
     for kind in ("open-loop-step", "closed-loop-step"):
         env.step(_choose(env, kind))
-    before = env.unwrapped.evidence
-    assert before.closed_loop.residence_time / env.unwrapped.plant.residence_time > 1e5
+    before = episode_of(env).evidence
+    assert before.closed_loop.residence_time / episode_of(env).plant.residence_time > 1e5
     env.step(_choose(env, "open-loop-ramp"))
-    after = env.unwrapped.evidence
+    after = episode_of(env).evidence
     assert after.aborted == before.aborted + 1 and "open-loop-ramp" not in after.results
-    dt = env.unwrapped.plant.step_time_scale() / 200
+    dt = episode_of(env).plant.step_time_scale() / 200
     assert after.experiment_time - before.experiment_time == pytest.approx((MAX_RUN_SAMPLES - 1) * dt)
 
 
@@ -108,7 +109,7 @@ def test_a_fixed_start_that_fails_on_every_draw_ends_without_a_design_in_v3():
     settings = {"noise_std": 0.0216, "amplitude_limit": 2.03e-4, "disturbances": {"drift": 0.197}}
     env = gym.make("DeadTime/FPPI-v3", **settings)
     _, info = env.reset(seed=4)
-    assert env.unwrapped.identification is None and info["features"]["failed_experiments"] > 0
+    assert episode_of(env).identification is None and info["features"]["failed_experiments"] > 0
     _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
     assert terminated and reward == -NO_DESIGN_COST and info["identified"] is False
     with pytest.raises(RuntimeError, match="10 draws"):

@@ -17,6 +17,7 @@ from envs.analysis.scoring import CostWeights, score
 from envs.identification.open_loop_experiments import open_loop_step
 from envs.identification.procedure import experiment_deviation
 from envs.systems.plants import Plant
+from envs.interface import episode_of, tuning_env_of
 
 IDS = ["DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0"]
 DEFAULTS = {"weights": {"production": 0.0}, "amplitude_limit": None, "disturbances": {}}
@@ -53,7 +54,7 @@ def test_production_is_priced_in_the_cost(play):
     priced = gym.make("DeadTime/FPPI-v0", weights={"production": 0.5})
     _, _, base = play(free, 0, action, plant)
     _, rewards, info = play(priced, 0, action, plant)
-    evidence = priced.unwrapped.evidence
+    evidence = episode_of(priced).evidence
     deviation = sum(experiment_deviation(r) for r in evidence.results.values())
     assert "experiment_deviation" not in base
     assert info["experiment_deviation"] == pytest.approx(deviation / plant.residence_time, rel=1e-12)
@@ -82,11 +83,11 @@ def test_amplitude_limit_cuts_the_agents_amplitude_and_the_seeds():
     action[1], action[-2] = 1.0, 1.0  # a closed-loop step at the largest amplitude, 10
     _, _, _, _, info = env.step(action)
     assert info["amplitude"] == 0.5
-    assert env.unwrapped.evidence.closed_loop.amplitude == 0.5
+    assert episode_of(env).evidence.closed_loop.amplitude == 0.5
     assert info["features"]["log_noise_ratio"] == pytest.approx(math.log10(0.02 / 0.5))
     fixed = gym.make("DeadTime/FPPI-v0", amplitude_limit=0.25)
     fixed.reset(seed=0)
-    found = fixed.unwrapped.identification
+    found = episode_of(fixed).identification
     assert found.closed_loop.amplitude == 0.25
     assert found.open_loop.height == pytest.approx(0.25 / found.gain)
 
@@ -97,7 +98,7 @@ def test_disturbances_change_the_identification_not_the_white_noise(disturbances
     clean, disturbed = gym.make("DeadTime/FPPI-v0"), gym.make("DeadTime/FPPI-v0", disturbances=disturbances)
     clean.reset(seed=5, options={"plant": plant})
     disturbed.reset(seed=5, options={"plant": plant})
-    a, b = clean.unwrapped.identification, disturbed.unwrapped.identification
+    a, b = episode_of(clean).identification, episode_of(disturbed).identification
     assert a.gain != b.gain
     first = min(a.closed_loop.output.size, b.closed_loop.output.size)
     # the true outputs start alike (same white noise, the disturbance grows from 0 or starts later)
@@ -127,8 +128,8 @@ def test_v2_is_v1_with_production_priced(structure, play):
     """Same seed and action: v2's fixed-mode episode identifies as v1's and its cost is v1's plus
     ``0.05 D_exp/T_ar`` (v2's production weight); its agent-mode amplitudes stop at 3."""
     v1, v2 = gym.make(f"DeadTime/{structure}-v1"), gym.make(f"DeadTime/{structure}-v2")
-    assert v2.unwrapped.weights == CostWeights(production=0.05)
-    assert v2.unwrapped.options.amplitude_limit == 3.0
+    assert episode_of(v2).weights == CostWeights(production=0.05)
+    assert episode_of(v2).options.amplitude_limit == 3.0
     action = [np.array([0.2], dtype=np.float32)]
     for seed in range(3):
         first, _, info1 = play(v1, seed, action)
@@ -160,28 +161,28 @@ def test_v2_agent_mode_designs_in_a_step_of_its_own(structure):
     env = gym.make(f"DeadTime/{structure}-v2", experiments="agent")
     check_env(env.unwrapped, skip_render_check=True)
     size = env.action_space.shape[0]
-    assert env.unwrapped.feature_names[-1] == "design_step"
+    assert tuning_env_of(env).feature_names[-1] == "design_step"
     observation, _ = env.reset(seed=1)
     assert observation[-1] == 0.0
     observation, reward, terminated, _, info = env.step(agent_action(size, 0, 0.0, -1.0))  # commit at amplitude 1
-    evidence = env.unwrapped.evidence
+    evidence = episode_of(env).evidence
     assert (reward, terminated, observation[-1]) == (0.0, False, 1.0)
     assert info["amplitude"] == pytest.approx(1.0) and evidence.noise_ratio == pytest.approx(0.01)
     runs = 2 if structure == "FPPI" else 1  # the FPPI's design needs the open-loop step too
     assert evidence.runs == runs and info["features"]["log_base_parameter"] != 0.0
     design = 0.5  # exact in float32, the action's type
-    expected = env.unwrapped.score_controller(env.unwrapped.design(env.unwrapped.parameter_from_action(design))).cost
+    expected = episode_of(env).score_controller(episode_of(env).design(episode_of(env).parameter_from_action(design))).cost
     _, reward, terminated, _, info = env.step(agent_action(size, 1, 0.0, design))  # its choice is ignored now
     assert terminated and reward == -info["cost"] and info["cost"] == pytest.approx(expected, rel=1e-12)
-    assert env.unwrapped.evidence.runs == runs
+    assert episode_of(env).evidence.runs == runs
     env.reset(seed=1)
     env.step(agent_action(size, 0, 1.0, 0.0))  # amplitude 10, cut to 3
-    assert env.unwrapped.evidence.noise_ratio == pytest.approx(0.01 / 3.0)
+    assert episode_of(env).evidence.noise_ratio == pytest.approx(0.01 / 3.0)
 
 
 def test_v1_agent_mode_still_designs_at_the_commit():
     env = gym.make("DeadTime/FPPI-v1", experiments="agent")
     env.reset(seed=1)
     _, _, terminated, _, info = env.step(agent_action(env.action_space.shape[0], 0, 1.0, 0.0))
-    assert terminated and env.unwrapped.evidence.noise_ratio == pytest.approx(0.01)
-    assert "design_step" not in env.unwrapped.feature_names
+    assert terminated and episode_of(env).evidence.noise_ratio == pytest.approx(0.01)
+    assert "design_step" not in tuning_env_of(env).feature_names

@@ -15,6 +15,7 @@ import envs  # noqa: F401  (registers the ids)
 from envs.episode import FEATURES, LEAST_SQUARES_FEATURES, STABLE_EXPERIMENTS
 from envs.identification.prbs_experiment import fit_record
 from envs.systems.plants import Plant
+from envs.interface import episode_of, tuning_env_of
 
 IDS = ["DeadTime/PID-v0", "DeadTime/FPPI-v0"]
 LS = {"identification": "least-squares"}
@@ -22,7 +23,7 @@ LS = {"identification": "least-squares"}
 
 def _choose(env: gym.Env, experiment: str | None, parameter: float = 0.0, amplitude: float = 0.0) -> np.ndarray:
     """The agent-mode action that runs ``experiment`` (None: commit)."""
-    names = env.unwrapped.experiment_names
+    names = tuning_env_of(env).experiment_names
     action = np.full(env.action_space.shape, -1.0, dtype=np.float32)
     action[0 if experiment is None else 1 + names.index(experiment)] = 1.0
     action[-2], action[-1] = amplitude, parameter
@@ -33,8 +34,8 @@ def _choose(env: gym.Env, experiment: str | None, parameter: float = 0.0, amplit
 @pytest.mark.parametrize("mode", ["fixed", "agent"])
 def test_spaces_and_checker(env_id, mode):
     env = gym.make(env_id, experiments=mode, **LS)
-    assert env.unwrapped.experiment_names == (*STABLE_EXPERIMENTS, "prbs")
-    names = env.unwrapped.feature_names
+    assert tuning_env_of(env).experiment_names == (*STABLE_EXPERIMENTS, "prbs")
+    names = tuning_env_of(env).feature_names
     assert names[: len(FEATURES) + 3] == (*FEATURES, *LEAST_SQUARES_FEATURES)
     assert env.observation_space.shape == (len(FEATURES) + 3 + len(STABLE_EXPERIMENTS) + 2,)
     assert env.action_space.shape == ((1,) if mode == "fixed" else (len(STABLE_EXPERIMENTS) + 4,))
@@ -57,14 +58,14 @@ def test_fixed_fppi_designs_from_the_fit_of_the_seeds_step(play):
     seeds, fitted = gym.make("DeadTime/FPPI-v0"), gym.make("DeadTime/FPPI-v0", **LS)
     seeds.reset(seed=3, options={"plant": plant})
     fitted.reset(seed=3, options={"plant": plant})
-    step = seeds.unwrapped.evidence.results["open-loop-step"]
-    assert np.array_equal(step.output, fitted.unwrapped.evidence.results["open-loop-step"].output)
-    expected = fit_record(step, seeds.unwrapped.identification.residence_time, 1).model
-    model = fitted.unwrapped.model()
+    step = episode_of(seeds).evidence.results["open-loop-step"]
+    assert np.array_equal(step.output, episode_of(fitted).evidence.results["open-loop-step"].output)
+    expected = fit_record(step, episode_of(seeds).identification.residence_time, 1).model
+    model = episode_of(fitted).model()
     assert model == expected
     assert model.gain == pytest.approx(2.5, rel=0.01)
     assert model.time_constant == pytest.approx(12.0, rel=0.02) and model.dead_time == pytest.approx(4.0, rel=0.02)
-    assert fitted.unwrapped.evidence.fit.experiment == "open-loop-step"
+    assert episode_of(fitted).evidence.fit.experiment == "open-loop-step"
     _, _, info = play(fitted, 3, [np.zeros(1, dtype=np.float32)], plant)
     assert info["model"] == expected.to_dict()
 
@@ -75,7 +76,7 @@ def test_agent_prbs_replaces_the_open_loop_step(play):
     plant = Plant.from_time_constants(1.7, (6.0, 2.0), 3.0)
     actions = [_choose(env, "closed-loop-step"), _choose(env, "prbs"), _choose(env, None)]
     _, rewards, info = play(env, 0, actions, plant)
-    evidence = env.unwrapped.evidence
+    evidence = episode_of(env).evidence
     assert dict(zip(evidence.experiments, evidence.counts)) == {
         "closed-loop-step": 1, "open-loop-step": 0, "open-loop-ramp": 0, "relay": 0, "prbs": 1}
     assert evidence.fit.experiment == "prbs" and info["model"] == evidence.fit.fit.model.to_dict()
@@ -88,8 +89,8 @@ def test_pid_reads_an_sopdt_fit():
     env = gym.make("DeadTime/PID-v0", **LS)
     plant = Plant.from_time_constants(1.5, (8.0, 3.0), 2.0)
     env.reset(seed=0, options={"plant": plant})
-    model = env.unwrapped.model()
-    assert env.unwrapped.evidence.fit is not None and model == env.unwrapped.evidence.fit.fit.model
+    model = episode_of(env).model()
+    assert episode_of(env).evidence.fit is not None and model == episode_of(env).evidence.fit.fit.model
     assert model.gain == pytest.approx(1.5, rel=0.02)
     assert sum(model.time_constants) + model.dead_time == pytest.approx(13.0, rel=0.05)
 
@@ -114,7 +115,7 @@ def test_agent_chooses_the_identification_by_its_latest_experiment(order, play):
     plant = Plant.from_time_constants(1.7, (6.0, 2.0), 3.0)
     actions = [_choose(env, "closed-loop-step"), *(_choose(env, kind) for kind in order), _choose(env, None)]
     _, _, info = play(env, 1, actions, plant)
-    evidence = env.unwrapped.evidence
+    evidence = episode_of(env).evidence
     if order[-1] == "prbs":
         assert info["model"] == evidence.fit.fit.model.to_dict()
     else:

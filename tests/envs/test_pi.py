@@ -17,6 +17,7 @@ from baselines.rules.registry import RuleInputs, get_rule
 from envs.design import pi_design, simc_pi_gains
 from envs.identification.models import FOPDTModel
 from envs.structures import STRUCTURES
+from envs.interface import episode_of, tuning_env_of
 
 ENV_ID = "DeadTime/PI-v3"
 MODES = ("fixed", "plan", "agent")
@@ -41,14 +42,14 @@ def test_action_zero_is_simc_pi_bit_for_bit():
     compared = 0
     for seed in range(12):
         env.reset(seed=seed)
-        identification = env.unwrapped.identification
+        identification = episode_of(env).identification
         if not identification.fopdt.dead_time > 0:
             continue
         rule = get_rule("simc-pi")(RuleInputs.from_identification(identification))
         _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
         assert terminated and info["parameter"] == 1.0
         assert info["controller"] == rule.to_dict()
-        assert reward == -env.unwrapped.score_controller(rule).cost
+        assert reward == -episode_of(env).score_controller(rule).cost
         compared += 1
     assert compared >= 8
 
@@ -78,7 +79,7 @@ def test_oracle_optimum_inside_the_range():
     wider range lies inside the environment's (the measured quantiles are in the class docstring)."""
     from baselines.oracle import oracle
 
-    env = gym.make(ENV_ID).unwrapped
+    env = tuning_env_of(gym.make(ENV_ID))
     low, high = env.parameter_range
     for seed in range(100000, 100004):
         env.reset(seed=seed)

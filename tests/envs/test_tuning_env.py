@@ -19,6 +19,7 @@ from envs.analysis.loop_analysis import analyze
 from envs.systems.plants import Plant
 from envs.analysis.scoring import Constraints, score
 from envs.tuning_env import FPPIEnv, MSPEnv, PIDEnv
+from envs.interface import episode_of
 
 REPO = Path(__file__).resolve().parents[2]
 IDS = ["DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0", "DeadTime/PID-v1", "DeadTime/FPPI-v1", "DeadTime/MSP-v1"]
@@ -140,7 +141,7 @@ def test_fixed_mode_reward_is_minus_the_scored_cost(cls):
     _, reward, terminated, truncated, info = env.step(np.array([0.2], dtype=np.float32))
     assert terminated and not truncated
     plant = Plant.from_dict(info["plant"])
-    controller = env.unwrapped.design(info["parameter"])
+    controller = episode_of(env).design(info["parameter"])
     assert controller.to_dict() == info["controller"]
     expected = score(plant, controller, experiment_time=env.identification.experiment_time, constraints=env.constraints)
     assert reward == -expected.cost == -info["cost"]

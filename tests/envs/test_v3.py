@@ -27,6 +27,7 @@ from envs.identification.procedure import identify
 from envs.identification.steady_state import noise_level
 from envs.systems.families import sample_plant
 from envs.tuning_env import AMPLITUDE_RANGE, NO_DESIGN_COST
+from envs.interface import episode_of, tuning_env_of
 
 TOP = FEASIBLE_CAP + 1 + VIOLATION_BAND
 STRUCTURES = ("PID", "FPPI", "MSP")
@@ -98,7 +99,7 @@ def _episodes(env_id: str, mode: str, noise_std: float, seeds: int = 4):
         while not done:
             action = np.full(env.action_space.shape, -1.0, dtype=np.float32)
             if mode == "agent":
-                choices = len(env.unwrapped.experiment_names) + 1
+                choices = len(tuning_env_of(env).experiment_names) + 1
                 action[1 + (step % (choices - 1)) if step < choices - 1 else 0] = 1.0
                 action[-2] = _amplitude_action(0.5)
             action[-1] = 0.1
@@ -189,7 +190,7 @@ def test_a_given_plant_whose_seeds_procedure_fails_ends_without_a_design():
     plant = plant_set("integrating", "test", 50)[16]
     env = gym.make("DeadTime/MSP-v3", noise_std=0.1)
     _, info = env.reset(seed=16, options={"plant": plant})
-    assert info["features"]["failed_experiments"] > 0 and env.unwrapped.identification is None
+    assert info["features"]["failed_experiments"] > 0 and episode_of(env).identification is None
     _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
     assert terminated and reward == -NO_DESIGN_COST and info["identified"] is False and info["experiment_time"] > 0
     with pytest.raises(ValueError, match="no usable model"):
@@ -202,7 +203,7 @@ def test_v3_agent_mode_offers_the_experiments_the_design_reads():
 
     for structure in STRUCTURES:
         env = gym.make(f"DeadTime/{structure}-v3", experiments="agent")
-        assert env.unwrapped.experiment_names == DESIGN_EXPERIMENTS[structure.lower()]
+        assert tuning_env_of(env).experiment_names == DESIGN_EXPERIMENTS[structure.lower()]
         assert env.action_space.shape == (len(DESIGN_EXPERIMENTS[structure.lower()]) + 3,)
 
 
@@ -228,7 +229,7 @@ def test_a_plan_sets_each_experiment_amplitude():
     env = gym.make("DeadTime/FPPI-v3", experiments="plan")
     env.reset(seed=0)
     _, _, _, _, info = env.step(np.array([_amplitude_action(0.3), _amplitude_action(3.0), 0.0], dtype=np.float32))
-    first, second = env.unwrapped.evidence.closed_loop, env.unwrapped.evidence.results["open-loop-step"]
+    first, second = episode_of(env).evidence.closed_loop, episode_of(env).evidence.results["open-loop-step"]
     assert info["amplitudes"] == pytest.approx((0.3, 3.0))
     assert first.amplitude == pytest.approx(0.3)
     assert second.height * first.gain == pytest.approx(3.0)

@@ -25,6 +25,7 @@ import pytest
 
 import envs  # noqa: F401
 from envs.simulation.delay_systems import MAX_RUN_SAMPLES
+from envs.interface import episode_of
 
 IDS = ("DeadTime/PID-v0", "DeadTime/FPPI-v0", "DeadTime/MSP-v0")
 MODES = ("fixed", "agent")
@@ -61,7 +62,7 @@ def _episode(env, rng, seed, plant=None, amplitude=None):
         _, reward, terminated, truncated, info = _timed(env.step, action)
         assert np.isfinite(reward)
         done = terminated or truncated
-    for result in getattr(env.unwrapped, "evidence").results.values() if hasattr(env.unwrapped, "evidence") else ():
+    for result in episode_of(env).evidence.results.values():
         for r in (result if isinstance(result, (list, tuple)) else [result]):
             if hasattr(r, "timepts"):
                 assert r.timepts.size <= MAX_RUN_SAMPLES
@@ -173,7 +174,7 @@ def disturbed_episode(env_id: str, mode: str, seed: int) -> tuple[float, dict]:
         done = terminated or truncated
     seconds = time.perf_counter() - start
     assert seconds < EPISODE_SECONDS, (env_id, mode, seed, seconds)
-    for result in env.unwrapped.evidence.results.values():
+    for result in episode_of(env).evidence.results.values():
         assert result.timepts.size <= MAX_RUN_SAMPLES
     return seconds, info
 

@@ -34,6 +34,7 @@ import pytest
 
 import envs  # noqa: F401
 from agents.cli import main
+from envs.interface import tuning_env_of
 
 
 def run(*args: str) -> tuple[int, str, str]:
@@ -223,7 +224,7 @@ def test_an_agent_reads_the_environments_observation_and_ranks(tmp_path, monkeyp
     assert "agent-mode (agent): the agent plays DeadTime/PID-v0 in agent mode" in printed
     # the observation is the one the environment builds from the same evidence
     found = identify_process(TCLabProcess())
-    env = make_env("DeadTime/PID-v0").unwrapped
+    env = tuning_env_of(make_env("DeadTime/PID-v0"))
     env.evidence = evidence_from_identification(found.identification, EpisodeOptions(noise_std=found.noise_ratio))
     expected, _ = env.observation_and_features()
     assert np.array_equal(_Constant.seen[0], expected) and np.array_equal(process_observation(env, found), expected)
@@ -372,7 +373,7 @@ def test_a_v3_agent_and_a_selector_read_the_v3_observation_of_the_process(monkey
     _V3Agent.seen, _Selector.seen = [], []
     specs = [PolicySpec("v3", "agent", "v3"), PolicySpec("sel", "agent", "sel"), PolicySpec("simc-pi", "rule")]
     results = {r.name: r for r in evaluate_policies(process, found, RunProtocol.from_identification(found, 1.0), specs)}
-    env = gym.make("DeadTime/PID-v3").unwrapped
+    env = tuning_env_of(gym.make("DeadTime/PID-v3"))
     names = env.feature_names
     expected = env.observe(found.identification, evidence_from_identification(found.identification, env.options,
                                                                                 abs(found.setpoint_step)))

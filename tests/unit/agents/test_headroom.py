@@ -14,21 +14,22 @@ from baselines.procedures import PlanRule
 from envs.analysis.scoring import CostWeights
 from envs.episode import Evidence
 from envs.systems.plant_sets import plant_set
+from envs.interface import tuning_env_of
 
 
 @pytest.mark.parametrize("structure", ["PID", "FPPI", "MSP"])
 @pytest.mark.parametrize("first, second", [(1.0, 1.0), (3.0, 0.1), (0.1, 3.0)])
 def test_a_continuation_costs_what_the_plan_mode_episode_costs(structure: str, first: float, second: float) -> None:
     family = "integrating" if structure == "MSP" else "stable"
-    tracking = gym.make(f"DeadTime/{structure}-v3", experiments="plan", noise_std=0.1, weights={"production": 1.0}).unwrapped
+    tracking = tuning_env_of(gym.make(f"DeadTime/{structure}-v3", experiments="plan", noise_std=0.1, weights={"production": 1.0}))
     weights = [CostWeights(production=0.0), CostWeights(production=0.05)]
     for k, plant in enumerate(plant_set(family, "validation", 3)):
         tracking.reset(seed=k, options={"plant": plant})
         rng = copy.deepcopy(tracking.np_random)
         ours = continuation_costs(tracking, first_experiment(tracking, rng, first), rng, first, second, weights)
         for w, cost in zip(weights, ours):
-            env = gym.make(f"DeadTime/{structure}-v3", experiments="plan", noise_std=0.1,
-                           weights={"production": w.production}).unwrapped
+            env = tuning_env_of(gym.make(f"DeadTime/{structure}-v3", experiments="plan", noise_std=0.1,
+                                         weights={"production": w.production}))
             env.reset(seed=k, options={"plant": plant})
             rule = PlanRule(first, second)
             _, reward, done, _, _ = env.step(rule.predict(None)[0])
@@ -69,7 +70,7 @@ def test_one_replicate_is_refused() -> None:
 @pytest.mark.parametrize("structure", ["PID", "MSP"])
 def test_the_oracle_design_is_no_worse_than_the_base_rule_on_the_same_records(structure: str) -> None:
     family = "integrating" if structure == "MSP" else "stable"
-    env = gym.make(f"DeadTime/{structure}-v3", experiments="plan", noise_std=0.1, weights={"production": 1.0}).unwrapped
+    env = tuning_env_of(gym.make(f"DeadTime/{structure}-v3", experiments="plan", noise_std=0.1, weights={"production": 1.0}))
     weights = [CostWeights(production=0.0), CostWeights(production=0.05)]
     for k, plant in enumerate(plant_set(family, "validation", 3)):
         env.reset(seed=k, options={"plant": plant})
@@ -100,9 +101,9 @@ def test_a_policy_designs_from_the_observation_the_fixed_plan_environment_shows(
 
     family = "integrating" if structure == "MSP" else "stable"
     kwargs = {"noise_std": 0.1, "weights": {"production": 0.05}, "plan": [3.0, 0.3]}
-    ours = gym.make(f"DeadTime/{structure}-v3", **kwargs).unwrapped
+    ours = tuning_env_of(gym.make(f"DeadTime/{structure}-v3", **kwargs))
     for k, plant in enumerate(plant_set(family, "validation", 3)):
-        env = gym.make(f"DeadTime/{structure}-v3", **kwargs).unwrapped
+        env = tuning_env_of(gym.make(f"DeadTime/{structure}-v3", **kwargs))
         observation, _ = env.reset(seed=k, options={"plant": plant})
         _, reward, _, _, _ = env.step(_Policy().predict(observation)[0])
         rng = np_random(k)[0]
@@ -133,7 +134,7 @@ def test_the_learners_share_of_the_headroom_and_their_violating_plants() -> None
 def test_the_learned_continuation_is_scored_by_the_expected_cost_of_its_choice() -> None:
     from agents.studies.continuation import learned_continuation
 
-    env = gym.make("DeadTime/FPPI-v3", noise_std=0.1, plan=[1.0, 1.0]).unwrapped
+    env = tuning_env_of(gym.make("DeadTime/FPPI-v3", noise_std=0.1, plan=[1.0, 1.0]))
     designs = {0.1: "base", 3.0: "base"}
     from agents.protocol.streams import plant_stream
 

@@ -11,6 +11,7 @@ import pytest
 from agents.environments import make_env
 from agents.evaluation.oracle_info import OracleInfo
 from agents.runtime import REPO, THREAD_VARIABLES, git_commit, single_thread_defaults, versions
+from envs.interface import tuning_env_of
 
 
 def test_single_thread_defaults_keep_the_users_setting(monkeypatch):
@@ -37,7 +38,7 @@ def test_provenance_names_the_commit_and_the_versions():
 
 def test_the_factory_registers_refuses_unknown_ids_and_wraps_the_oracle():
     env = make_env("DeadTime/FPPI-v0", {"experiments": "agent", "budget": 2})
-    assert env.unwrapped.mode == "agent" and env.unwrapped.budget == 2
+    assert tuning_env_of(env).mode == "agent" and tuning_env_of(env).budget == 2
     assert isinstance(make_env("DeadTime/PID-v0", oracle=True), OracleInfo)
     with pytest.raises(ValueError, match=r"unknown environment 'DeadTime/Nope-v0'.*known: DeadTime/FPPI-v0"):
         make_env("DeadTime/Nope-v0")

@@ -21,6 +21,7 @@ from envs.base_design import (
     residual_parameter,
 )
 from envs.structures import PARAMETER_RANGES, design, relative_scale
+from envs.interface import tuning_env_of
 
 BASE_RULES = {"pid": "gorez-klan-mu-2", "fppi": "fppi-eq34", "msp": "msp-eq50"}
 V1 = {"pid": "DeadTime/PID-v1", "fppi": "DeadTime/FPPI-v1", "msp": "DeadTime/MSP-v1"}
@@ -29,7 +30,7 @@ V1 = {"pid": "DeadTime/PID-v1", "fppi": "DeadTime/FPPI-v1", "msp": "DeadTime/MSP
 @pytest.mark.parametrize("structure", list(V1))
 def test_base_parameter_is_the_base_rule_and_action_zero_plays_it(structure):
     """p_0 equals the rule's relative parameter (baselines), and action 0 scores the rule's controller."""
-    env = gym.make(V1[structure]).unwrapped
+    env = tuning_env_of(gym.make(V1[structure]))
     for seed in range(12):
         env.reset(seed=seed)
         inputs = RuleInputs.from_identification(env.identification)
@@ -57,7 +58,7 @@ def test_residual_reaches_the_range_ends_and_inverts(structure, base_at):
 @pytest.mark.parametrize("structure", list(V1))
 def test_design_features_agree_with_the_reference_margins(structure):
     """check_ms and check_delay_margin: the compiled margins against the python reference (loop_margins)."""
-    env = gym.make(V1[structure]).unwrapped
+    env = tuning_env_of(gym.make(V1[structure]))
     for seed in range(6):
         obs, info = env.reset(seed=seed)
         found = env.identification
@@ -79,7 +80,7 @@ def test_design_features_agree_with_the_reference_margins(structure):
 @pytest.mark.parametrize("structure", list(V1))
 def test_v1_sees_the_v0_episode(structure):
     """Same seed: v1's observation starts with v0's, and v0's action on the same parameter costs the same."""
-    v0, v1 = gym.make(V1[structure].replace("v1", "v0")).unwrapped, gym.make(V1[structure]).unwrapped
+    v0, v1 = tuning_env_of(gym.make(V1[structure].replace("v1", "v0"))), tuning_env_of(gym.make(V1[structure]))
     for seed in range(4):
         o0, _ = v0.reset(seed=seed)
         o1, _ = v1.reset(seed=seed)
@@ -93,7 +94,7 @@ def test_v1_sees_the_v0_episode(structure):
 
 def test_design_features_are_zero_without_an_identification():
     assert design_features("pid", None) == dict.fromkeys(DESIGN_FEATURES, 0.0)
-    env = gym.make("DeadTime/PID-v1", experiments="agent").unwrapped
+    env = tuning_env_of(gym.make("DeadTime/PID-v1", experiments="agent"))
     _, info = env.reset(seed=0)
     assert [info["features"][k] for k in DESIGN_FEATURES] == [0.0, 0.0, 0.0]
     with pytest.raises(RuntimeError, match="the action.s coordinates need the identification"):
@@ -110,7 +111,7 @@ def _action_for(structure: str, target: float) -> float:
 @pytest.mark.parametrize("structure, rule, target", [("pid", "gorez-klan-ms1.6", 1.6), ("msp", "msp-dm0.5", 0.5)])
 def test_robustness_action_is_the_matched_rule(structure, rule, target):
     """The robustness action at a rule's target gives the matched rule's parameter (same root find, same bracket)."""
-    env = gym.make(V1[structure], action="robustness").unwrapped
+    env = tuning_env_of(gym.make(V1[structure], action="robustness"))
     a = _action_for(structure, target)
     for seed in range(5):
         env.reset(seed=seed)
@@ -123,7 +124,7 @@ def test_robustness_action_meets_its_target_on_the_model():
     unless the parameter is at an end of the range; a more robust target never gives a more aggressive design."""
     from envs.analysis.matching import loop_figure
 
-    env = gym.make("DeadTime/FPPI-v1", action="robustness").unwrapped
+    env = tuning_env_of(gym.make("DeadTime/FPPI-v1", action="robustness"))
     low, high = PARAMETER_RANGES["fppi"]
     for seed in range(5):
         env.reset(seed=seed)
@@ -146,7 +147,7 @@ def test_robustness_action_inverts_the_robustness_parameter(structure):
     from envs.analysis.matching import loop_figure
     from envs.base_design import ROBUSTNESS_TARGETS, _robustness_loop
 
-    env = gym.make(V1[structure], action="robustness").unwrapped
+    env = tuning_env_of(gym.make(V1[structure], action="robustness"))
     name = structure
     figure = ROBUSTNESS_TARGETS[name][0]
     low, high = PARAMETER_RANGES[name]
@@ -186,7 +187,7 @@ def test_an_unmeasured_mismatch_area_counts_as_zero_in_the_fppi_base():
 
     from envs.base_design import FPPI_DEAD_TIME_ERROR, fppi_time_constant
 
-    env = gym.make(V1["fppi"]).unwrapped
+    env = tuning_env_of(gym.make(V1["fppi"]))
     env.reset(seed=0)
     found = env.identification
     unmeasured, zero = replace(found, mismatch_time=math.nan), replace(found, mismatch_time=0.0)
@@ -202,7 +203,7 @@ def test_a_prbs_only_agent_episode_designs_a_stable_loop_at_action_zero():
     Without the mismatch area eq. 34 is aggressive (Ms 2-5 on some of them): robustness is the agent's
     to buy, with a residual or an open-loop step."""
     env = gym.make("DeadTime/FPPI-v2", experiments="agent", identification="least-squares")
-    names = env.unwrapped.experiment_names
+    names = tuning_env_of(env).experiment_names
     for seed in range(3):
         env.reset(seed=seed)
         for kind in ("closed-loop-step", "prbs"):

@@ -16,6 +16,7 @@ import pytest
 
 from agents.cli import main
 from agents.evaluation.policies import applicable_rules, own_rules
+from envs.interface import episode_of
 
 FAST_ENV = "DeadTime/FPPI-v0"  # its oracle is the cheapest of the three
 
@@ -319,7 +320,7 @@ def test_env_kwargs_set_the_regime_of_every_policy(capsys, tmp_path, fake_agents
         cost = env.step(np.zeros(1, dtype=np.float32))[4]["cost"]
         assert float(plant["cost"]) == pytest.approx(cost, rel=1e-12)
         env.reset(seed=3 + index, options={"plant": _test_plant(index)})
-        rule = env.unwrapped.score_controller(_rule_controller(env, "fppi-eq34")).cost
+        rule = episode_of(env).score_controller(_rule_controller(env, "fppi-eq34")).cost
         assert float(rows["first"][(index, "fppi-eq34")]["cost"]) == pytest.approx(rule, rel=1e-12)
 
 
@@ -333,4 +334,4 @@ def _test_plant(index: int):
 def _rule_controller(env, name: str):
     from baselines.rules.registry import RuleInputs, get_rule
 
-    return get_rule(name).design(RuleInputs.from_identification(env.unwrapped.identification))
+    return get_rule(name).design(RuleInputs.from_identification(episode_of(env).identification))

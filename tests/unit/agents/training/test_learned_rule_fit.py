@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from agents.cli import main
+from envs.interface import episode_of
 
 ROOT = Path(__file__).resolve().parents[4]
 CONFIG = ROOT / "configs" / "learned_rule.yaml"
@@ -110,7 +111,7 @@ def test_each_seed_draws_other_training_plants(fitted: dict, tmp_path: Path) -> 
     other = []
     for k in range(3):
         env.reset(seed=training_seed(1, k))
-        other.append(_key(env.unwrapped.plant.to_dict()))
+        other.append(_key(episode_of(env).plant.to_dict()))
     assert not set(other) & {_key(r["plant"]) for r in _records(fitted["run_dir"])}
 
 

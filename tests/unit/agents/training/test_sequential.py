@@ -12,6 +12,7 @@ import pytest
 import envs  # noqa: F401
 from agents.cli import main
 from agents.training.config import load_config
+from envs.interface import tuning_env_of
 
 SMALL = ["total_timesteps=128", "eval_freq=64", "n_eval_episodes=4", "checkpoint_freq=64", "progress_bar=false",
          "hyperparameters.n_steps=64", "hyperparameters.batch_size=32", "hyperparameters.n_epochs=2"]
@@ -34,7 +35,7 @@ def test_a_trained_sequential_agent_loads_and_plays_only_allowed_actions(tmp_pat
     assert status == 0 and (run / "model.zip").is_file()
     policy = load_policy(run)
     assert policy.algorithm == "MaskablePPO"
-    env = gym.make("DeadTime/MSP-v3", experiments="agent", discrete_action=True, noise_std=0.1).unwrapped
+    env = tuning_env_of(gym.make("DeadTime/MSP-v3", experiments="agent", discrete_action=True, noise_std=0.1))
     for seed in range(5):
         observation, _ = env.reset(seed=seed)
         done = False

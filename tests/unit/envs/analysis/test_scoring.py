@@ -15,6 +15,7 @@ from envs.design import fppi_design, msp_design, pid_design
 from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
 from envs.systems.plants import Plant
 from envs.analysis.scoring import FEASIBLE_CAP, UNSTABLE_GRADE, Constraints, CostWeights, score
+from envs.interface import tuning_env_of
 
 FIGURES = ("cost", "ms", "relative_delay_margin", "load_cost", "setpoint_cost", "experiment_cost")
 
@@ -141,8 +142,8 @@ def test_the_environments_judge_a_plant_without_dead_time_against_its_residence_
     assert score(plant, controller).feasible
     assert not score(plant, controller, constraints=Constraints(zero_delay="residence-time")).feasible
     for version in ("v0", "v3"):
-        env = gym.make(f"DeadTime/PID-{version}", constraints={"max_sensitivity": 2.0}).unwrapped
+        env = tuning_env_of(gym.make(f"DeadTime/PID-{version}", constraints={"max_sensitivity": 2.0}))
         assert env.constraints.zero_delay == "residence-time"
-        assert gym.make(f"DeadTime/FPPI-{version}").unwrapped.constraints.zero_delay == "residence-time"
-    chosen = gym.make("DeadTime/PID-v3", constraints={"zero_delay": "limit"}).unwrapped
+        assert tuning_env_of(gym.make(f"DeadTime/FPPI-{version}")).constraints.zero_delay == "residence-time"
+    chosen = tuning_env_of(gym.make("DeadTime/PID-v3", constraints={"zero_delay": "limit"}))
     assert chosen.constraints.zero_delay == "limit"
