@@ -117,7 +117,7 @@ def _defaults(spec: Any, entry_point: type, env: Any) -> dict[str, Any]:
     those the environment completes (the family, the constraints and the weights) as the made ``env`` holds them."""
     config = getattr(entry_point, "config_class", None)  # the arguments as one dataclass (envs.env_config.EnvConfig)
     if config is not None:
-        defaults = {f.name: f.default for f in fields(config)}
+        defaults = config.defaults()
     else:
         defaults = {name: parameter.default for name, parameter in inspect.signature(entry_point.__init__).parameters.items()
                     if name != "self" and parameter.default is not inspect.Parameter.empty}

@@ -27,13 +27,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
-
 import numpy as np
 
-from envs.modes import AgentMode
-
-__all__ = ["AMPLITUDE_LEVELS", "DESIGN_LEVELS", "DiscreteAction", "DiscreteLayout", "DiscreteAgentMode"]
+__all__ = ["AMPLITUDE_LEVELS", "DESIGN_LEVELS", "DiscreteAction", "DiscreteLayout"]
 
 AMPLITUDE_LEVELS: tuple[float, ...] = (0.1, 0.3, 1.0, 3.0, 10.0)
 """The experiment amplitudes of the discrete action (relative to a unit output change): the plans'
@@ -84,39 +80,3 @@ class DiscreteLayout:
         runs = np.tile(levels & (budget_left and not design_pending), len(self.experiment_names))
         return np.concatenate([levels & (not design_pending), runs, designs])
 
-
-class DiscreteAgentMode(AgentMode):
-    """``discrete_action=True``: the agent mode with a design step, its action an index of a
-    :class:`DiscreteLayout` (module docstring)."""
-
-    def __init__(self, budget: int, excursion_limit: float, experiment_names: tuple[str, ...]) -> None:
-        super().__init__(budget, excursion_limit, design_step=True)
-        self.layout = DiscreteLayout(experiment_names)
-
-    def checked_index(self, action: Any) -> int:
-        """The discrete action as an index; anything but one integer in range is a ``ValueError`` naming it."""
-        raw = np.asarray(action)
-        size = self.layout.size
-        if raw.shape not in ((), (1,)) or raw.dtype.kind not in "iu" or not 0 <= int(raw.reshape(-1)[0]) < size:
-            raise ValueError(f"action must be one integer index from 0 to {size - 1}, got {action!r}")
-        return int(raw.reshape(-1)[0])
-
-    def step(self, env: Any, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
-        """The step of the index's meaning."""
-        meaning = self.layout.meaning(self.checked_index(action))
-        episode = env.episode
-        amplitude = episode.options.limited(1.0 if meaning.kind == "design" else meaning.value)
-        if episode.design_pending:
-            result = self.commit(env, meaning.value if meaning.kind == "design" else 0.0)
-        elif meaning.kind in ("commit", "design") or episode.evidence.runs >= self.budget:
-            result = self.identify(env, amplitude)
-        else:
-            result = self.experiment(env, meaning.kind, amplitude)
-        observation, reward, terminated, truncated, info = result
-        return observation, reward, terminated, truncated, {**info, "action": meaning.name}
-
-    def masks(self, episode: Any) -> np.ndarray:
-        """Which indices mean something in ``episode``'s state (sb3-contrib's ``MaskablePPO`` reads them)."""
-        budget_left = episode.evidence is None or episode.evidence.runs < self.budget
-        return self.layout.masks(design_pending=episode.design_pending, budget_left=budget_left,
-                                 amplitude_limit=episode.options.amplitude_limit)

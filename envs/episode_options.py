@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from envs.env_config import ExperimentConfig
 from envs.identification.disturbances import Disturbances
 from envs.structures import STRUCTURES, structure as structure_named
 from envs.validation import require_number
@@ -110,6 +111,18 @@ class EpisodeOptions:
     def limited(self, amplitude: float) -> float:
         """``amplitude`` cut to the amplitude limit."""
         return min(amplitude, self.amplitude_limit)
+
+    @classmethod
+    def from_config(cls, structure: str, config: ExperimentConfig, production: bool) -> EpisodeOptions:
+        """The options of an environment of ``structure`` from its experiment arguments (:class:`envs.env_config.ExperimentConfig`;
+        ``production``: the cost has a production weight)."""
+        if not isinstance(config.measured_observation, bool):
+            raise ValueError(f"measured_observation must be true or false, got {config.measured_observation!r}")
+        return cls.for_structure(
+            structure, noise_std=config.noise_std, identification=config.identification, amplitude_limit=config.amplitude_limit,
+            disturbances=config.disturbances, production=production, measured=config.measured_observation,
+            experiment_set=config.experiment_set,
+        )  # fmt: skip
 
     @classmethod
     def for_structure(

@@ -1,5 +1,5 @@
-"""The ways of playing a tuning episode: the fixed, plan and agent modes (the discrete agent mode is in
-:mod:`envs.discrete_action`).
+"""The ways of playing a tuning episode: the fixed, plan and agent modes, and the agent mode with a
+discrete action and masks (its layout: :mod:`envs.discrete_action`).
 
 A mode reads the arguments ``experiments``, ``budget``, ``excursion_limit``, ``plan`` and
 ``design_step`` (:class:`envs.env_config.EnvConfig`): it starts an episode on a plant (the fixed mode
@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from envs.discrete_action import DiscreteLayout
+from envs.env_config import ModeConfig
 from envs.episode import IdentificationFailed
 from envs.episode_options import AMPLITUDE_RANGE, EpisodeOptions
 from envs.identification.procedure import ProcedureFailed
@@ -25,8 +27,8 @@ from envs.systems.plants import Plant
 from envs.tuning_episode import NO_DESIGN_COST
 from envs.validation import require_number, require_real_array
 
-__all__ = ["MODES", "MAX_BUDGET", "Mode", "FixedMode", "PlanMode", "AgentMode", "checked_budget", "checked_plan",
-           "experiment_amplitude"]
+__all__ = ["MODES", "MAX_BUDGET", "Mode", "FixedMode", "PlanMode", "AgentMode", "DiscreteAgentMode", "mode_of",
+           "checked_budget", "checked_plan", "experiment_amplitude"]
 
 MODES = ("fixed", "agent", "plan")
 MAX_BUDGET = 100
@@ -65,6 +67,35 @@ def experiment_amplitude(amplitude_action: float, options: EpisodeOptions) -> fl
     :data:`~envs.episode_options.AMPLITUDE_RANGE`, cut to the options' amplitude limit."""
     low, high = (math.log10(v) for v in AMPLITUDE_RANGE)
     return options.limited(10.0 ** (low + 0.5 * (amplitude_action + 1.0) * (high - low)))
+
+
+def _require_flag(value: Any, name: str) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} must be true or false, got {value!r}")
+    return value
+
+
+def mode_of(config: ModeConfig, experiment_names: tuple[str, ...]) -> Mode:
+    """The way of playing ``config`` names (its values checked, each bad one a ``ValueError`` naming it);
+    ``experiment_names`` are the agent mode's experiment types."""
+    if config.experiments not in MODES:
+        raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {config.experiments!r}")
+    _require_flag(config.design_step, "design_step")
+    plan = checked_plan(config.plan, config.experiments)
+    budget = checked_budget(config.budget)
+    excursion_limit = require_number(config.excursion_limit, "excursion_limit", positive=True)
+    if config.experiments == "fixed":
+        mode: Mode = FixedMode(budget, excursion_limit, plan)
+    elif config.experiments == "plan":
+        mode = PlanMode(budget, excursion_limit)
+    else:
+        mode = AgentMode(budget, excursion_limit, config.design_step)
+    if not _require_flag(config.discrete_action, "discrete_action"):
+        return mode
+    if mode.name != "agent" or not mode.design_step:
+        raise ValueError("discrete_action needs experiments='agent' with design_step=True (the v2-v3 agent mode), "
+                         f"got experiments={config.experiments!r}")
+    return DiscreteAgentMode(budget, excursion_limit, experiment_names)
 
 
 class Mode:
@@ -244,3 +275,40 @@ class AgentMode(Mode):
             except IdentificationFailed as failure:
                 return self.failed(env, failure, None)
         return self.design(env, parameter_action)
+
+
+class DiscreteAgentMode(AgentMode):
+    """``discrete_action=True``: the agent mode with a design step, its action an index of a
+    :class:`~envs.discrete_action.DiscreteLayout` (:mod:`envs.discrete_action`)."""
+
+    def __init__(self, budget: int, excursion_limit: float, experiment_names: tuple[str, ...]) -> None:
+        super().__init__(budget, excursion_limit, design_step=True)
+        self.layout = DiscreteLayout(experiment_names)
+
+    def checked_index(self, action: Any) -> int:
+        """The discrete action as an index; anything but one integer in range is a ``ValueError`` naming it."""
+        raw = np.asarray(action)
+        size = self.layout.size
+        if raw.shape not in ((), (1,)) or raw.dtype.kind not in "iu" or not 0 <= int(raw.reshape(-1)[0]) < size:
+            raise ValueError(f"action must be one integer index from 0 to {size - 1}, got {action!r}")
+        return int(raw.reshape(-1)[0])
+
+    def step(self, env: Any, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
+        """The step of the index's meaning."""
+        meaning = self.layout.meaning(self.checked_index(action))
+        episode = env.episode
+        amplitude = episode.options.limited(1.0 if meaning.kind == "design" else meaning.value)
+        if episode.design_pending:
+            result = self.commit(env, meaning.value if meaning.kind == "design" else 0.0)
+        elif meaning.kind in ("commit", "design") or episode.evidence.runs >= self.budget:
+            result = self.identify(env, amplitude)
+        else:
+            result = self.experiment(env, meaning.kind, amplitude)
+        observation, reward, terminated, truncated, info = result
+        return observation, reward, terminated, truncated, {**info, "action": meaning.name}
+
+    def masks(self, episode: Any) -> np.ndarray:
+        """Which indices mean something in ``episode``'s state (sb3-contrib's ``MaskablePPO`` reads them)."""
+        budget_left = episode.evidence is None or episode.evidence.runs < self.budget
+        return self.layout.masks(design_pending=episode.design_pending, budget_left=budget_left,
+                                 amplitude_limit=episode.options.amplitude_limit)

@@ -18,7 +18,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from envs.discrete_action import DiscreteAgentMode, DiscreteLayout
+from envs.discrete_action import DiscreteLayout
 from envs.design_map import DesignMap
 from envs.env_cards import (
     FPPI_DESCRIPTION,
@@ -33,7 +33,7 @@ from envs.env_config import EnvConfig
 from envs.episode import Evidence
 from envs.episode_options import AMPLITUDE_RANGE, EpisodeOptions
 from envs.identification.procedure import Identification
-from envs.modes import MAX_BUDGET, MODES, AgentMode, FixedMode, Mode, PlanMode, checked_budget, checked_plan
+from envs.modes import MAX_BUDGET, MODES, DiscreteAgentMode, mode_of
 from envs.observation import OBSERVATION_BOUND, ObservationLayout
 from envs.plant_source import PlantSource
 from envs.rendering import render_episode
@@ -42,7 +42,6 @@ from envs.structures import Structure, structure as structure_named
 from envs.systems.plants import Plant
 from envs.threads import single_threaded
 from envs.tuning_episode import NO_DESIGN_COST, TuningEpisode, scoring_of
-from envs.validation import require_number
 
 __all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "PIEnv", "MODES", "AMPLITUDE_RANGE", "EnvConfig"]
 __all__ += ["MAX_BUDGET", "NO_DESIGN_COST", "OBSERVATION_BOUND"]  # (the names this module has always offered)
@@ -53,36 +52,13 @@ MAX_SAMPLING_ATTEMPTS = 10
 design (``NO_DESIGN_COST``), else (v0-v2) the reset raises ``RuntimeError``."""
 
 
-def _require_flag(value: Any, name: str) -> bool:
-    if not isinstance(value, bool):
-        raise ValueError(f"{name} must be true or false, got {value!r}")
-    return value
-
-
-def _mode_of(config: EnvConfig, plan: tuple[float, float] | None, budget: int, excursion_limit: float,
-             experiment_names: tuple[str, ...]) -> Mode:  # fmt: skip
-    """The way of playing that ``experiments``, ``plan``, ``design_step`` and ``discrete_action`` name."""
-    if config.experiments == "fixed":
-        mode: Mode = FixedMode(budget, excursion_limit, plan)
-    elif config.experiments == "plan":
-        mode = PlanMode(budget, excursion_limit)
-    else:
-        mode = AgentMode(budget, excursion_limit, config.design_step)
-    if not _require_flag(config.discrete_action, "discrete_action"):
-        return mode
-    if mode.name != "agent" or not mode.design_step:
-        raise ValueError("discrete_action needs experiments='agent' with design_step=True (the v2-v3 agent mode), "
-                         f"got experiments={config.experiments!r}")
-    return DiscreteAgentMode(budget, excursion_limit, experiment_names)
-
-
 class DeadTimeTuningEnv(gym.Env):
     """Base class of the tuning environments; see :class:`PIDEnv` for the full documentation.
 
     Subclasses set :attr:`structure`, a name of :data:`envs.structures.STRUCTURES`; :attr:`integrating`,
-    :attr:`default_family` and :meth:`default_constraints` are the structure's.  The arguments are the
-    fields of :class:`envs.env_config.EnvConfig`, given as keywords (as ``gymnasium.make`` passes them) or
-    as ``config`` (the keywords then replace its fields).
+    :attr:`default_family` and :meth:`default_constraints` are the structure's.  The arguments are those
+    of :class:`envs.env_config.EnvConfig`, given as keywords (as ``gymnasium.make`` passes them) or as
+    ``config`` (the keywords then replace its values).
 
     The public parts: :attr:`episode` (:class:`envs.tuning_episode.TuningEpisode`, the plant, the
     identification, the design map and the score), :attr:`config`, :attr:`interaction` (the mode,
@@ -103,30 +79,22 @@ class DeadTimeTuningEnv(gym.Env):
 
     def __init__(self, config: EnvConfig | None = None, **kwargs: Any) -> None:
         config = EnvConfig.from_arguments(type(self).__name__, kwargs, config)
-        if config.experiments not in MODES:
-            raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {config.experiments!r}")
-        design_map = DesignMap(self.structure, config.action)
-        for name in ("design_features", "design_step", "measured_observation"):
-            _require_flag(getattr(config, name), name)
-        plan = checked_plan(config.plan, config.experiments)
-        scoring = scoring_of(self.structure, config.constraints, config.weights, config.violation_cost)
+        if config.mode.experiments not in MODES:
+            raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {config.mode.experiments!r}")
+        design_map = DesignMap(self.structure, config.design.action)
+        if not isinstance(config.design.design_features, bool):
+            raise ValueError(f"design_features must be true or false, got {config.design.design_features!r}")
+        scoring = scoring_of(self.structure, config.scoring)
         if config.render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {config.render_mode!r}")
-        self.config, self.render_mode, self.mode = config, config.render_mode, config.experiments
-        family = self.default_family if config.family is None else config.family
-        self.plants = PlantSource(type(self).__name__, self.integrating, family, config.family_config)
-        noise_std = require_number(config.noise_std, "noise_std", nonnegative=True)
-        budget = checked_budget(config.budget)
-        excursion_limit = require_number(config.excursion_limit, "excursion_limit", positive=True)
-        options = EpisodeOptions.for_structure(
-            self.structure, noise_std=noise_std, identification=config.identification, amplitude_limit=config.amplitude_limit,
-            disturbances=config.disturbances, production=scoring[1].production > 0, measured=config.measured_observation,
-            experiment_set=config.experiment_set,
-        )  # fmt: skip
+        self.config, self.render_mode, self.mode = config, config.render_mode, config.mode.experiments
+        family = self.default_family if config.plants.family is None else config.plants.family
+        self.plants = PlantSource(type(self).__name__, self.integrating, family, config.plants.family_config)
+        options = EpisodeOptions.from_config(self.structure, config.experiments, production=scoring[1].production > 0)
         self.episode = TuningEpisode(self.structure, options, scoring, design_map)
         evidence = Evidence.empty(self.integrating, options)
-        self.interaction = _mode_of(config, plan, budget, excursion_limit, evidence.experiments)
-        self.layout = ObservationLayout(evidence, budget, design_features=config.design_features,
+        self.interaction = mode_of(config.mode, evidence.experiments)
+        self.layout = ObservationLayout(evidence, self.interaction.budget, design_features=config.design.design_features,
                                         design_step=self.interaction.design_step)
         if isinstance(self.interaction, DiscreteAgentMode):
             self.action_space = spaces.Discrete(self.interaction.layout.size)

@@ -21,6 +21,7 @@ import numpy as np
 from envs.analysis.scoring import FEASIBLE_CAP, VIOLATION_BAND, VIOLATION_COSTS, Constraints, CostWeights, Score, score
 from envs.base_design import base_parameter
 from envs.design_map import DesignMap
+from envs.env_config import ScoringConfig
 from envs.episode import Evidence, IdentificationFailed, failed_start, identification, run_experiment, start_fixed
 from envs.episode_options import EpisodeOptions
 from envs.identification.procedure import Identification, ProcedureFailed
@@ -49,9 +50,11 @@ def _dataclass_argument(value: Any, kind: type, name: str) -> Any:
     raise ValueError(f"{name} must be a {kind.__name__}, a dict or None, got {type(value).__name__}")
 
 
-def scoring_of(structure: str, constraints: Any, weights: Any, violation_cost: str) -> tuple[Constraints, CostWeights]:
-    """The score's constraints and weights from the arguments (None: the structure's constraints, the
-    default weights); the environments score a zero-delay model by its residence time."""
+def scoring_of(structure: str, config: ScoringConfig) -> tuple[Constraints, CostWeights]:
+    """The score's constraints and weights from the arguments ``constraints``, ``weights`` and
+    ``violation_cost`` (None: the structure's constraints, the default weights); the environments score
+    a zero-delay model by its residence time."""
+    constraints, weights, violation_cost = config.constraints, config.weights, config.violation_cost
     if violation_cost not in VIOLATION_COSTS:
         raise ValueError(f"violation_cost must be one of {', '.join(VIOLATION_COSTS)}, got {violation_cost!r}")
     found = _dataclass_argument(constraints, Constraints, "constraints") if constraints is not None \

@@ -8,7 +8,7 @@ from matplotlib.figure import Figure
 
 import envs  # noqa: F401  (registers the ids)
 from envs.rendering import _draw_bounded
-from envs.tuning_env import episode_of
+from envs.interface import episode_of
 
 
 def test_a_diverged_curve_does_not_set_the_axis() -> None:
