@@ -12,6 +12,7 @@ under Gymnasium's ``Env``.  Ids are registered in :mod:`envs` (``DeadTime/PID-v0
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import gymnasium as gym
@@ -78,6 +79,7 @@ class DeadTimeTuningEnv(gym.Env):
         cls.integrating, cls.default_family = kind.integrating, kind.family
 
     def __init__(self, config: EnvConfig | None = None, **kwargs: Any) -> None:
+        # (its signature, for inspect and the docs: every argument of EnvConfig by keyword; below the class)
         config = EnvConfig.from_arguments(type(self).__name__, kwargs, config)
         if config.mode.experiments not in MODES:
             raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {config.mode.experiments!r}")
@@ -262,6 +264,13 @@ class DeadTimeTuningEnv(gym.Env):
         """The observation (features clipped to the bounds, float32) and the features by name."""
         return self.layout.observe(self.episode)
 
+
+
+DeadTimeTuningEnv.__init__.__signature__ = inspect.Signature([
+    inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD),
+    inspect.Parameter("config", inspect.Parameter.POSITIONAL_OR_KEYWORD, default=None),
+    *(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=value) for name, value in EnvConfig.defaults().items()),
+])
 
 class PIDEnv(DeadTimeTuningEnv):
     __doc__ = PID_DESCRIPTION + SHARED_DOC + VERSION_HISTORY
