@@ -81,8 +81,6 @@ class DeadTimeTuningEnv(gym.Env):
     def __init__(self, config: EnvConfig | None = None, **kwargs: Any) -> None:
         # (its signature, for inspect and the docs: every argument of EnvConfig by keyword; below the class)
         config = EnvConfig.from_arguments(type(self).__name__, kwargs, config)
-        if config.mode.experiments not in MODES:
-            raise ValueError(f"experiments must be one of {', '.join(MODES)}, got {config.mode.experiments!r}")
         design_map = DesignMap(self.structure, config.design.action)
         if not isinstance(config.design.design_features, bool):
             raise ValueError(f"design_features must be true or false, got {config.design.design_features!r}")
