@@ -31,7 +31,11 @@ learners' own (their configs' seeds, :mod:`agents.training.learned_rule`).  The 
 registered in ``configs/protocols/test_seeds.json`` with this file's sha256 before the run.
 
 The file is read with :func:`agents.files.reader.load_yaml_file`; an unknown key is an error that
-names it.  :attr:`Protocol.sha256` is the SHA-256 of the file's bytes: any change to the file
+names it.  Every name is checked here, before anything is trained: the protocol's, each regime's and
+each label a plain file name (:func:`agents.files.names.plain_name`: they name folders of the run);
+``selection.rules`` rule names or ``all-rules`` (the oracle, a plan or a learner is not a rule);
+``selection.plans`` and ``fixed_procedure`` procedures fixed in advance (``plan-A1-A2`` in range or
+``amplitude-rule``); each declared comparison made in one regime at least (:func:`comparison_problem`).  :attr:`Protocol.sha256` is the SHA-256 of the file's bytes: any change to the file
 (a comment too) is a changed protocol.
 """
 
