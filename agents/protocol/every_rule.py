@@ -26,7 +26,7 @@ import numpy as np
 
 from agents.files.reader import read_json
 from agents.protocol.config import PRIMARIES, Protocol, Regime
-from agents.protocol.report import check_run, chosen_policies
+from agents.protocol.report import check_run, chosen_policies, read_table
 from agents.protocol.run import PER_PLANT, SUMMARY, _evaluate, _rule_names, _structure_and_family, matrices, read_per_plant
 from agents.protocol.statistics import paired_difference, plant_means, plant_violations
 from agents.protocol.streams import plant_stream
@@ -50,7 +50,7 @@ def every_rule(protocol: Protocol, out: Path, regime: Regime) -> dict[str, Any]:
     folder = out / regime.name
     if not (folder / SUMMARY).exists():
         raise ValueError(f"{regime.name}: its test stream is not scored yet (no {folder / SUMMARY}); run the protocol first")
-    order, table = matrices(read_per_plant(folder / PER_PLANT), "test")
+    order, table = read_table(folder / PER_PLANT)
     selection, chosen = chosen_policies(folder, regime, table)
     if not isinstance(selection.get("family"), str):
         raise ValueError(f"{folder / 'selection.json'}: family must be a plant family's name, got {selection.get('family')!r}")

@@ -31,13 +31,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from agents.files.reader import read_json
+from agents.files.reader import FileProblem, read_json
 from agents.protocol.config import Protocol, Regime, comparison_problem
 from agents.protocol.run import PER_PLANT, matrices, read_per_plant
 from agents.protocol.statistics import holm, paired_difference, plant_violations, verdict
 from agents.protocol.streams import check_test_seed
 
-__all__ = ["check_run", "chosen_policies", "markdown", "forest_plot", "protocol_results", "write_report"]
+__all__ = ["check_run", "chosen_policies", "markdown", "forest_plot", "protocol_results", "read_table", "write_report"]
 
 
 def _declared(protocol: Protocol) -> int:
@@ -71,6 +71,16 @@ def check_run(protocol: Protocol, out: Path) -> dict[str, Any]:
     return record
 
 
+def read_table(path: Path, subset: str = "test") -> tuple[list[str], dict[str, Any]]:
+    """:func:`agents.protocol.run.matrices` of the per-plant table ``path``, any problem one line naming it."""
+    try:
+        return matrices(read_per_plant(path), subset)
+    except FileProblem:
+        raise
+    except (ValueError, KeyError) as error:
+        raise ValueError(f"{path}: {' '.join(str(error).split())}") from None
+
+
 def chosen_policies(folder: Path, regime: Regime, table: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
     """The regime's ``selection.json`` and its ``chosen`` roles, each naming a policy of the test ``table``.
 
@@ -101,9 +111,8 @@ def protocol_results(protocol: Protocol, out: Path) -> dict[str, Any]:
         if not (folder / PER_PLANT).exists():
             missing.append(regime.name)
             continue
-        rows = read_per_plant(folder / PER_PLANT)
-        plants, table = matrices(rows, "test")
-        bench_plants, bench = matrices(rows, "benchmark")
+        plants, table = read_table(folder / PER_PLANT)
+        bench_plants, bench = read_table(folder / PER_PLANT, "benchmark")
         selection, chosen = chosen_policies(folder, regime, table)
         entry = {"name": regime.name, "env": regime.env, "env_kwargs": dict(regime.env_kwargs), "test_plants": len(plants),
                  "validation_plants": selection.get("validation_plants"), "rule_chosen_on": "validation", "chosen": chosen,

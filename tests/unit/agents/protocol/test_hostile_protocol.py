@@ -275,3 +275,15 @@ def test_coverage_is_bounded_and_refused_in_one_line(tmp_path, option, value, me
     status, printed, err = run("protocol", "coverage", option, value, "--out", str(out))
     assert status == 2 and message in err and len(err.strip().splitlines()) == 1 and not printed
     assert not out.exists()
+
+
+def test_a_cost_that_is_not_a_number_is_one_line_naming_the_table(tmp_path):
+    import gzip
+
+    path, out = _run_folder(tmp_path)
+    table = out / "pid-tiny" / PER_PLANT
+    text = gzip.decompress(table.read_bytes()).decode().splitlines()
+    text[1] = ",".join([*text[1].split(",")[:4], "cheap", "True"])
+    table.write_bytes(gzip.compress(("\n".join(text) + "\n").encode()))
+    status, _, err = run("protocol", "report", str(path), "--out", str(out))
+    assert status == 2 and len(err.strip().splitlines()) == 1 and f"{table}:" in err
