@@ -30,7 +30,7 @@ def _planted(tmp_path: Path, name: str) -> tuple[Path, Path]:
 
 
 def test_a_planted_lock_link_creates_and_locks_nothing_outside_the_folder(tmp_path):
-    """A lock symlink created (or locked) a file outside ``--out``."""
+    """A lock file planted as a link to a path outside ``--out``: refused, nothing created there."""
     outside = tmp_path / "outside"
     outside.mkdir()
     out = tmp_path / "out"
@@ -49,7 +49,7 @@ def test_a_planted_link_beside_a_shared_file_is_refused(tmp_path):
 
 
 def test_the_evaluation_cache_is_never_appended_through_a_link(tmp_path):
-    """``deadtime evaluate`` appended its cache to a symbolic link's target."""
+    """A cache file planted as a link, before or while the cache is open: refused, its target unchanged."""
     link, target = _planted(tmp_path, "cache.jsonl")
     with pytest.raises(FileProblem, match="cache.jsonl is a symbolic link"):
         Cache(link)

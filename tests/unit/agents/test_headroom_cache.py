@@ -62,7 +62,7 @@ def plant_costs(monkeypatch):
 
 
 def test_a_second_protocol_with_other_streams_gets_its_own_costs(tmp_path, plant_costs):
-    """The cache was keyed by structure and noise only: a second protocol printed the first one's table."""
+    """Two protocols of one structure and noise level but other streams: each its own costs, on one ``--out``."""
     first, second = _protocol(tmp_path, 11), _protocol(tmp_path, 13)
     out = tmp_path / "out"
     table_first = study.headroom(first, 3, 2, out)
@@ -94,7 +94,7 @@ def test_a_cache_of_another_key_is_not_read(tmp_path, plant_costs):
     (["--plants", "3", "--replicates", str(10**12)], "--replicates must be an integer in [2, 1000]"),
 ])
 def test_a_refused_run_writes_nothing(tmp_path, options, message):
-    """``--plants 0`` was refused after its default ``--out`` (inside the repository) had been written."""
+    """Sizes out of range are refused in one line before ``--out`` is created."""
     path = _protocol(tmp_path, 11)
     out = tmp_path / "out"
     err = io.StringIO()

@@ -92,7 +92,8 @@ def test_a_name_that_is_not_a_plain_file_name_is_refused_at_load(tmp_path, field
 
 
 def test_a_regime_named_dot_dot_writes_nothing_beside_the_run_folder(tmp_path):
-    """``protocol run`` and ``every-rule`` with a regime named ``..`` wrote into the parent of ``--out``."""
+    """``protocol run``, ``every-rule`` and ``report`` with a regime named ``..``: refused, the parent of
+    ``--out`` unchanged."""
     path = _protocol(tmp_path, ("name: pid-tiny", 'name: ".."'))
     (tmp_path / "selection.json").write_text("mine")
     before = _files(tmp_path)
@@ -117,8 +118,8 @@ def test_a_regime_named_dot_dot_writes_nothing_beside_the_run_folder(tmp_path):
     (("[plan, best-plan]]", "[plan, best-plan], [fixed, best-rule]]"), r"comparisons\[4\] declares .* a second time"),
 ])
 def test_every_name_of_the_protocol_is_checked_at_load_naming_its_field(tmp_path, edit, message):
-    """An unknown rule, plan or fixed procedure, or ``oracle`` as a rule, was recorded by ``register`` and
-    refused by ``run`` only after every learner was trained, without naming the field."""
+    """An unknown rule, plan or fixed procedure, ``oracle`` as a rule, a comparison no regime makes: refused
+    at load (by ``register`` too, which records nothing), naming the field, before any learner is trained."""
     path = _protocol(tmp_path, edit)
     with pytest.raises(ValueError, match=message):
         load_protocol(path)
@@ -129,7 +130,7 @@ def test_every_name_of_the_protocol_is_checked_at_load_naming_its_field(tmp_path
 
 # ------------------------------------------------------------------------------------- the registry
 def test_two_registrations_at_once_keep_both_entries(tmp_path):
-    """Two ``protocol register`` at once beside one ``test_seeds.json`` kept one entry in 3 of 8 rounds."""
+    """Two processes registering at once beside one ``test_seeds.json``, round after round: every entry kept."""
     registry = tmp_path / "test_seeds.json"
     script = ("import sys; from pathlib import Path; from agents.protocol.streams import register_test_seed\n"
               "first, path = int(sys.argv[1]), Path(sys.argv[2])\n"
@@ -196,8 +197,7 @@ def _run_folder(tmp_path: Path, chosen: dict[str, str] | None = None, nan: bool 
 
 
 def test_a_protocol_edited_after_its_run_is_not_reported(tmp_path):
-    """alpha 0.05 -> 0.9 after the run was reported with exit 0, a verdict changed and the new alpha
-    recorded beside the original sha256."""
+    """alpha 0.05 -> 0.9 after the run: ``report`` and ``every-rule`` refuse it in one line, the folder unchanged."""
     path, out = _run_folder(tmp_path)
     assert write_report(load_protocol(path), out)["complete"]
     before = _files(out)
@@ -230,7 +230,7 @@ def test_a_selection_naming_a_policy_the_table_lacks_is_one_line(tmp_path):
 
 
 def test_a_declared_comparison_that_cannot_be_made_is_reported_as_such(tmp_path):
-    """A comparison missing from the run was dropped silently ("0 of 0", complete)."""
+    """A comparison the regime should make but its selection cannot: listed as not made, the family incomplete."""
     path, out = _run_folder(tmp_path, chosen={"best-rule": "simc-pi", "fixed-procedure": "plan-1-1",
                                               "best-plan": "plan-3-0.1", "fixed": "tiny-fixed"})
     results = write_report(load_protocol(path), out)
@@ -269,8 +269,8 @@ def test_every_rule_on_a_folder_with_no_regime_tested_fails(tmp_path):
     ("--seed", "-1", "--seed must be an integer >= 0"),
 ])
 def test_coverage_is_bounded_and_refused_in_one_line(tmp_path, option, value, message):
-    """``--n 1000000000`` grew to 15 GB; ``--replicates 10**12`` ran on; ``--comparisons 0`` was a
-    traceback and ``-5`` exited 0."""
+    """Sizes far beyond honest use (``--n 1000000000``, ``--replicates 10**12``) and a family of no
+    comparison: refused before any file is read."""
     out = tmp_path / "coverage.json"
     status, printed, err = run("protocol", "coverage", option, value, "--out", str(out))
     assert status == 2 and message in err and len(err.strip().splitlines()) == 1 and not printed
