@@ -60,11 +60,9 @@ def run(args: argparse.Namespace) -> int:
     from agents.protocol.config import load_protocol
 
     if args.action == "coverage":
-        from agents.protocol.coverage import coverage
+        from agents.protocol.coverage import coverage, levels
 
-        if args.n < 2 or args.replicates < 1:
-            raise ValueError(f"--n must be >= 2 and --replicates >= 1, got {args.n} and {args.replicates}")
-        result = coverage(Path(args.sweeps), args.n, args.replicates, (0.95, 1 - 0.05 / args.comparisons), args.seed)
+        result = coverage(Path(args.sweeps), args.n, args.replicates, levels(args.comparisons), args.seed)
         text = json.dumps(result, indent=1)
         if args.out:
             from agents.files.writer import write_text

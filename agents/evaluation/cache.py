@@ -14,12 +14,16 @@ and skips a result that is already there, so every ``(key, policy)`` is written 
 misses reads the others' new lines too, so a result computed by one run is not recomputed by the
 other once it is on file.  A line cut short by an interruption (the file does not end in a newline)
 is cut off by the next append, under the lock.
+
+The file is never read or written through a symbolic link: a link planted under its name (which
+would append results to the file it points to) is refused in one line.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +68,8 @@ class Cache:
         self._unreadable = 0  # lines of no readable (key, policy)
         self._recomputed: set[tuple[str, str]] = set()
         self._offset = 0  # bytes of the file read so far (whole lines only)
+        if path is not None and path.is_symlink():
+            raise FileProblem(_LINK.format(path=path))
         self._refresh()
 
     def _refresh(self, file: Any = None) -> None:
@@ -108,7 +114,7 @@ class Cache:
             return
         data = result.to_dict()
         line = json.dumps({"key": key, "policy": policy, "result": data, "sha256": line_digest(key, policy, data)}) + "\n"
-        with self.path.open("a+b") as file:
+        with _open_for_append(self.path) as file:
             _lock(file)
             self._refresh(file)
             if (key, policy) in self._on_file:
@@ -127,6 +133,20 @@ class Cache:
             return None
         return (f"{self.path}: dropped {dropped} line(s) that failed the integrity check (checksum missing or wrong, "
                 "or malformed); their results were computed again")
+
+
+_LINK = "{path} is a symbolic link; deadtime does not write through links in its folders: remove it"
+
+
+def _open_for_append(path: Path) -> Any:
+    """``path`` opened to read and append (created if missing), never through a symbolic link."""
+    try:
+        descriptor = os.open(path, os.O_RDWR | os.O_CREAT | os.O_APPEND | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    except OSError as error:
+        if path.is_symlink():
+            raise FileProblem(_LINK.format(path=path)) from None
+        raise FileProblem(f"{path} could not be written ({error.strerror or error})") from None
+    return os.fdopen(descriptor, "a+b")
 
 
 def _lock(file: Any) -> None:

@@ -31,7 +31,11 @@ learners' own (their configs' seeds, :mod:`agents.training.learned_rule`).  The 
 registered in ``configs/protocols/test_seeds.json`` with this file's sha256 before the run.
 
 The file is read with :func:`agents.files.reader.load_yaml_file`; an unknown key is an error that
-names it.  :attr:`Protocol.sha256` is the SHA-256 of the file's bytes: any change to the file
+names it.  Every name is checked here, before anything is trained: the protocol's, each regime's and
+each label a plain file name (:func:`agents.files.names.plain_name`: they name folders of the run);
+``selection.rules`` rule names or ``all-rules`` (the oracle, a plan or a learner is not a rule);
+``selection.plans`` and ``fixed_procedure`` procedures fixed in advance (``plan-A1-A2`` in range or
+``amplitude-rule``); each declared comparison made in one regime at least (:func:`comparison_problem`).  :attr:`Protocol.sha256` is the SHA-256 of the file's bytes: any change to the file
 (a comment too) is a changed protocol.
 """
 
@@ -44,13 +48,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from agents.limits import MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
+from agents.files.names import plain_name
 from agents.files.reader import load_yaml_file
 from agents.training.schema import integer_field as _integer, mapping_field as _mapping
 
 if TYPE_CHECKING:
     from agents.sweeps.config import Trial
 
-__all__ = ["COMPARISON_SIDES", "PRIMARIES", "Learner", "Protocol", "Regime", "Selection", "Stream", "load_protocol", "trial"]
+__all__ = ["COMPARISON_SIDES", "PRIMARIES", "Learner", "Protocol", "Regime", "Selection", "Stream", "comparison_problem",
+           "load_protocol", "trial"]
 
 PRIMARIES: tuple[str, ...] = ("fixed", "plan", "seq")
 """The primaries a regime may have: the fixed mode's learned design, the plan mode's (experiments
@@ -164,19 +170,50 @@ def _stream(value: Any, where: str) -> Stream:
 def _selection(value: Any) -> Selection:
     value = _mapping(value, "selection", ("violation_target", "confidence", "rules", "plans", "fixed_procedure"),
                      ("violation_target", "confidence", "rules"))
-    procedure = value.get("fixed_procedure", Selection.fixed_procedure)
-    if not isinstance(procedure, str) or not procedure:
-        raise ValueError(f"selection.fixed_procedure must be a policy name, got {procedure!r}")
+    rules = _strings(value["rules"], "selection.rules")
+    for i, name in enumerate(rules):
+        _rule(name, f"selection.rules[{i}]")
+    plans = _strings(value.get("plans"), "selection.plans", allow_empty=True)
+    for i, name in enumerate(plans):
+        _procedure(name, f"selection.plans[{i}]")
+    procedure = _procedure(value.get("fixed_procedure", Selection.fixed_procedure), "selection.fixed_procedure")
+    for where, names in (("selection.rules", rules), ("selection.plans", plans)):
+        if len(set(names)) != len(names):
+            raise ValueError(f"{where} names {sorted(n for n in names if names.count(n) > 1)[0]!r} twice")
     return Selection(_fraction(value["violation_target"], "selection.violation_target"),
-                     _fraction(value["confidence"], "selection.confidence"), _strings(value["rules"], "selection.rules"),
-                     _strings(value.get("plans"), "selection.plans", allow_empty=True), procedure)
+                     _fraction(value["confidence"], "selection.confidence"), rules, plans, procedure)
+
+
+def _rule(name: str, where: str) -> str:
+    """``name`` if it names a rule of :mod:`baselines.rules.registry` or is ``all-rules``."""
+    import difflib
+
+    from baselines.rules.registry import RULES
+
+    if name == "all-rules" or name in RULES:
+        return name
+    close = difflib.get_close_matches(name, ["all-rules", *RULES], n=1)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    raise ValueError(f"{where}: {name!r} is not a rule{hint}; the best rule is chosen among rule names of "
+                     "baselines/rules or all-rules (the oracle, plans and learners are not rules)")
+
+
+def _procedure(name: Any, where: str) -> str:
+    """``name`` if it names a procedure fixed in advance: ``plan-A1-A2`` (amplitudes in range) or ``amplitude-rule``."""
+    from baselines.procedures import BEST_PLAN, is_procedure, procedure
+
+    if not isinstance(name, str) or not is_procedure(name) or name == BEST_PLAN:
+        raise ValueError(f"{where}: {name!r} is not a procedure fixed in advance (plan-A1-A2, e.g. plan-1-1, or amplitude-rule)")
+    try:
+        procedure(name)
+    except ValueError as error:
+        raise ValueError(f"{where}: {error}") from None
+    return name
 
 
 def _learner(value: Any, where: str) -> Learner:
     value = _mapping(value, where, ("label", "config", "overrides", "origin"), ("label", "config"))
-    label, config = value["label"], value["config"]
-    if not isinstance(label, str) or not label or "/" in label or "=" in label:
-        raise ValueError(f"{where}.label must be a non-empty name without '/' or '=', got {label!r}")
+    label, config = plain_name(value["label"], f"{where}.label", also="=,"), value["config"]
     if not isinstance(config, str) or not Path(config).is_file():
         raise ValueError(f"{where}.config: no such file: {config!r}")
     origin = value.get("origin", "")
@@ -187,9 +224,7 @@ def _learner(value: Any, where: str) -> Learner:
 
 def _regime(value: Any, where: str) -> Regime:
     value = _mapping(value, where, ("name", "env", "env_kwargs", *PRIMARIES), ("name", "env"))
-    name, env = value["name"], value["env"]
-    if not isinstance(name, str) or not name or "/" in name:
-        raise ValueError(f"{where}.name must be a non-empty name without '/', got {name!r}")
+    name, env = plain_name(value["name"], f"{where}.name"), value["env"]
     if not isinstance(env, str) or not env.startswith("DeadTime/"):
         raise ValueError(f"{where}.env must be a DeadTime environment id, got {env!r}")
     env_kwargs = value.get("env_kwargs") or {}
@@ -222,8 +257,29 @@ def _comparisons(value: Any) -> tuple[tuple[str, str], ...]:
                 or pair[1] not in COMPARISON_SIDES["second"] or pair[0] == pair[1]):
             raise ValueError(f"comparisons[{i}] must be [first, second] with first one of {COMPARISON_SIDES['first']} "
                              f"and second another of {COMPARISON_SIDES['second']}, got {pair!r}")
+        if tuple(pair) in pairs:
+            raise ValueError(f"comparisons[{i}] declares {pair!r} a second time")
         pairs.append((pair[0], pair[1]))
     return tuple(pairs)
+
+
+def _check_comparisons(protocol: Protocol) -> None:
+    """Each declared comparison made in one regime at least (:func:`comparison_problem`)."""
+    for i, pair in enumerate(protocol.comparisons):
+        problems = [comparison_problem(protocol, regime, pair) for regime in protocol.regimes]
+        if all(problems):
+            raise ValueError(f"{protocol.path}: comparisons[{i}] {list(pair)} is made in no regime ({problems[0]})")
+
+
+def comparison_problem(protocol: Protocol, regime: Regime, pair: tuple[str, str]) -> str | None:
+    """Why ``regime`` cannot make the declared comparison ``pair`` (None if it makes it): a primary
+    without candidates there, or ``best-plan`` without declared plans."""
+    for role in pair:
+        if role in PRIMARIES and not regime.candidates(role):
+            return f"the regime has no {role} candidates"
+    if "best-plan" in pair and not protocol.selection.plans:
+        return "selection.plans is empty"
+    return None
 
 
 def load_protocol(path: str | Path) -> Protocol:
@@ -242,9 +298,7 @@ def load_protocol(path: str | Path) -> Protocol:
     data = _mapping(load_yaml_file(path) or {}, str(path),
                     ("name", "seeds", "alpha", "streams", "selection", "comparisons", "regimes"),
                     ("name", "seeds", "alpha", "streams", "selection", "comparisons", "regimes"))
-    name = data["name"]
-    if not isinstance(name, str) or not name:
-        raise ValueError(f"{path}: name must be a non-empty string, got {name!r}")
+    name = plain_name(data["name"], f"{path}: name")
     streams = _mapping(data["streams"], "streams", ("validation", "test"), ("validation", "test"))
     validation, test = _stream(streams["validation"], "streams.validation"), _stream(streams["test"], "streams.test")
     if validation.entropy == test.entropy:
@@ -257,6 +311,7 @@ def load_protocol(path: str | Path) -> Protocol:
         raise ValueError(f"{path}: two regimes have one name: {sorted(n for n in set(names) if names.count(n) > 1)[0]!r}")
     protocol = Protocol(name, str(path), sha256, _seeds(data["seeds"]), _fraction(data["alpha"], "alpha"), validation, test,
                         _selection(data["selection"]), _comparisons(data["comparisons"]), regimes)
+    _check_comparisons(protocol)
     _check_learners(protocol)
     return protocol
 

@@ -9,6 +9,9 @@ distribution; its mean is the true difference.  A replicate draws ``n`` plants f
 replacement (the protocol's test size) and computes the Student-t interval of the mean at the
 nominal level; the coverage is the share of ``replicates`` intervals that contain the true mean, and
 its Monte Carlo standard error ``sqrt(c (1 - c) / replicates)``.
+
+Bounds, checked before any file is read: ``n`` in ``[2, MAX_TEST_PLANTS]`` (the protocol's test size at
+most), ``replicates`` in ``[1, MAX_RESAMPLES]``, the Holm family's size ``m`` in ``[1, MAX_COMPARISONS]``.
 """
 
 from __future__ import annotations
@@ -20,8 +23,12 @@ import numpy as np
 from scipy import stats
 
 from agents.files.reader import read_csv
+from agents.limits import MAX_RESAMPLES, MAX_TEST_PLANTS, require_at_most
 
-__all__ = ["coverage", "populations", "t_coverage"]
+__all__ = ["MAX_COMPARISONS", "coverage", "levels", "populations", "t_coverage"]
+
+MAX_COMPARISONS = 10_000
+"""Comparisons of one Holm family (``--comparisons``): the protocols declare tens."""
 
 _NOT_RULES = ("oracle", "oracle-full", "amplitude-rule")
 
@@ -83,8 +90,29 @@ def t_coverage(population: np.ndarray, n: int, replicates: int, level: float, rn
     return hits / replicates
 
 
+def _count(value: Any, name: str, least: int, limit: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        raise ValueError(f"{name} must be an integer >= {least}, got {value!r}")
+    require_at_most(value, limit, name)
+    return int(value)
+
+
+def levels(comparisons: int, alpha: float = 0.05) -> tuple[float, float]:
+    """The levels checked: 95% and Holm's strictest, ``1 - alpha/m`` for ``m`` comparisons."""
+    m = _count(comparisons, "--comparisons", 1, MAX_COMPARISONS)
+    return 0.95, 1 - alpha / m
+
+
 def coverage(sweeps: Path, n: int, replicates: int, levels: tuple[float, ...], seed: int = 0) -> dict[str, Any]:
     """The coverage of the t interval at each level on every population (module docstring)."""
+    _count(n, "--n", 2, MAX_TEST_PLANTS)
+    _count(replicates, "--replicates", 1, MAX_RESAMPLES)
+    if not levels or not all(isinstance(level, float) and 0 < level < 1 for level in levels):
+        raise ValueError(f"every level must be a number in (0, 1), got {levels!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"--seed must be an integer >= 0, got {seed!r}")
+    if not sweeps.is_dir():
+        raise ValueError(f"--sweeps {sweeps}: no such folder")
     rng = np.random.default_rng(seed)
     rows = []
     for population in populations(sweeps):

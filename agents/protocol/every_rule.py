@@ -11,6 +11,10 @@ share of plants where the primary is cheaper.  ``OUT/every_rule.md`` tabulates e
 
 These differences are descriptive, outside the Holm family of the declared comparisons: no verdict is
 read from them (with 20 rules, one unadjusted interval in twenty may miss by chance).
+
+The run is checked first as ``deadtime protocol report`` checks it (:func:`agents.protocol.report.check_run`:
+this protocol's sha256 in ``protocol.json`` and in the registry); a folder with no regime tested is
+refused.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import numpy as np
 
 from agents.files.reader import read_json
 from agents.protocol.config import PRIMARIES, Protocol, Regime
+from agents.protocol.report import check_run, chosen_policies, read_table
 from agents.protocol.run import PER_PLANT, SUMMARY, _evaluate, _rule_names, _structure_and_family, matrices, read_per_plant
 from agents.protocol.statistics import paired_difference, plant_means, plant_violations
 from agents.protocol.streams import plant_stream
@@ -45,7 +50,10 @@ def every_rule(protocol: Protocol, out: Path, regime: Regime) -> dict[str, Any]:
     folder = out / regime.name
     if not (folder / SUMMARY).exists():
         raise ValueError(f"{regime.name}: its test stream is not scored yet (no {folder / SUMMARY}); run the protocol first")
-    selection = read_json(folder / "selection.json", dict)
+    order, table = read_table(folder / PER_PLANT)
+    selection, chosen = chosen_policies(folder, regime, table)
+    if not isinstance(selection.get("family"), str):
+        raise ValueError(f"{folder / 'selection.json'}: family must be a plant family's name, got {selection.get('family')!r}")
     structure, _ = _structure_and_family(regime)
     rules = _rule_names(protocol, structure)
     plants = plant_stream(selection["family"], protocol.test.entropy, protocol.test.plants)
@@ -53,11 +61,9 @@ def every_rule(protocol: Protocol, out: Path, regime: Regime) -> dict[str, Any]:
     _evaluate(regime, rules, plants, protocol.test.episode_seed, directory, benchmark=False)
     rows = read_per_plant(directory / "per_plant.csv", {})  # {}: a rule has no training seed
     _, scored = matrices([row for row in rows if row["policy"] in rules], "test")
-    order, table = matrices(read_per_plant(folder / PER_PLANT), "test")
     for name in set(rules) & set(table):
         if not np.allclose(scored[name][0], table[name][0], rtol=_AGREEMENT, atol=0.0):
             raise ValueError(f"{regime.name}: {name} scores differently from the run's test table; is the checkout the run's?")
-    chosen = selection["chosen"]
     primaries = {role: chosen[role] for role in PRIMARIES if role in chosen}
     entry = {"regime": regime.name, "test_plants": len(order), "adjustment": "none (descriptive)", "primaries": primaries,
              "rules": {}}
@@ -97,8 +103,11 @@ def write_every_rule(protocol: Protocol, out: Path, regimes: list[str] | None = 
     ``OUT/every_rule.md`` over every regime that has its ``every_rule.json``."""
     from agents.files.writer import write_text
 
+    check_run(protocol, out)
     chosen = [protocol.regime(name) for name in regimes] if regimes else [
         regime for regime in protocol.regimes if (out / regime.name / SUMMARY).exists()]
+    if not chosen:
+        raise ValueError(f"{out}: no regime of {protocol.path} is tested yet (no REGIME/{SUMMARY}); run the protocol first")
     for regime in chosen:
         every_rule(protocol, out, regime)
     entries = [read_json(out / regime.name / "every_rule.json", dict) for regime in protocol.regimes

@@ -16,7 +16,14 @@ every comparison of every regime the protocol declares), and writes into the fol
 * ``forest.png``: every comparison's difference with its adjusted interval.
 
 With regimes still missing, the family is incomplete: the report says so (``complete: false``) and
-its adjusted intervals are not final.
+its adjusted intervals are not final.  A declared comparison that a regime cannot make is listed by
+it: ``not_applicable`` where the regime has no candidate of a primary it names (or the protocol no
+plans), outside the family by design; ``not_made`` where the regime should make it and its
+``selection.json`` chose no policy for a role (the family is then incomplete).
+
+The run is checked before anything is read (:func:`check_run`): the folder's ``protocol.json`` must
+record this protocol's sha256, and the registry its test seed, so that a protocol edited after its
+run, or a folder of another protocol, is refused in one line.
 """
 
 from __future__ import annotations
@@ -24,48 +31,107 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from agents.files.reader import read_json
-from agents.protocol.config import PRIMARIES, Protocol
+from agents.files.reader import FileProblem, read_json
+from agents.protocol.config import Protocol, Regime, comparison_problem
 from agents.protocol.run import PER_PLANT, matrices, read_per_plant
 from agents.protocol.statistics import holm, paired_difference, plant_violations, verdict
+from agents.protocol.streams import check_test_seed
 
-__all__ = ["markdown", "forest_plot", "protocol_results", "write_report"]
+__all__ = ["check_run", "chosen_policies", "markdown", "forest_plot", "protocol_results", "read_table", "write_report"]
 
 
 def _declared(protocol: Protocol) -> int:
     """The number of comparisons the protocol declares (the size of Holm's family)."""
-    count = 0
-    for regime in protocol.regimes:
-        modes = {mode for mode in PRIMARIES if regime.candidates(mode)}
-        seconds = {"best-rule", "base-rule", "fixed-procedure"} | ({"best-plan"} if protocol.selection.plans else set()) | modes
-        count += sum(1 for first, second in protocol.comparisons if first in modes and second in seconds)
-    return count
+    return sum(1 for regime in protocol.regimes for pair in protocol.comparisons
+               if comparison_problem(protocol, regime, pair) is None)
+
+
+def check_run(protocol: Protocol, out: Path) -> dict[str, Any]:
+    """The record (``protocol.json``) of the run in ``out`` if it is this protocol's run.
+
+    Raises
+    ------
+    ValueError
+        One line: ``out`` holds no run, the run of another protocol (or of this file before it was
+        edited), or the protocol's test seed is not registered to its sha256.
+    """
+    if not out.is_dir():
+        raise ValueError(f"{out}: no such run folder")
+    if not (out / "protocol.json").is_file():
+        raise ValueError(f"{out} holds no protocol run (no protocol.json): run the protocol into it first")
+    record = read_json(out / "protocol.json", dict)
+    recorded = record.get("protocol_sha256")
+    if recorded != protocol.sha256:
+        raise ValueError(f"{out} holds the run of {record.get('protocol')!s} with sha256 {str(recorded)[:12]}, "
+                         f"{protocol.path} has sha256 {protocol.sha256[:12]}: the protocol changed after its run, "
+                         "or the folder is another protocol's")
+    if not isinstance(record.get("commit"), str):
+        raise ValueError(f"{out / 'protocol.json'}: commit must be a string, got {record.get('commit')!r}")
+    check_test_seed(protocol.test.entropy, protocol.sha256, Path(protocol.path).with_name("test_seeds.json"))
+    return record
+
+
+def read_table(path: Path, subset: str = "test") -> tuple[list[str], dict[str, Any]]:
+    """:func:`agents.protocol.run.matrices` of the per-plant table ``path``, any problem one line naming it."""
+    try:
+        return matrices(read_per_plant(path), subset)
+    except FileProblem:
+        raise
+    except (ValueError, KeyError) as error:
+        raise ValueError(f"{path}: {' '.join(str(error).split())}") from None
+
+
+def chosen_policies(folder: Path, regime: Regime, table: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
+    """The regime's ``selection.json`` and its ``chosen`` roles, each naming a policy of the test ``table``.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file: the selection is of another regime, or names a policy its test table lacks.
+    """
+    path = folder / "selection.json"
+    selection = read_json(path, dict)
+    chosen = selection.get("chosen")
+    if selection.get("regime") != regime.name:
+        raise ValueError(f"{path} is the selection of regime {selection.get('regime')!r}, not of {regime.name!r}")
+    if not isinstance(chosen, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in chosen.items()):
+        raise ValueError(f"{path}: chosen must map roles to policy names, got {chosen!r}")
+    for role, name in chosen.items():
+        if name not in table:
+            raise ValueError(f"{path} chooses {name!r} as {role}, which {folder / PER_PLANT} does not score")
+    return selection, chosen
 
 
 def protocol_results(protocol: Protocol, out: Path) -> dict[str, Any]:
     """The ``protocol_results.json`` object of the run in ``out`` (module docstring)."""
-    record = read_json(out / "protocol.json", dict)
-    regimes, differences = [], []
+    record = check_run(protocol, out)
+    regimes, differences, missing = [], [], []
     for regime in protocol.regimes:
         folder = out / regime.name
         if not (folder / PER_PLANT).exists():
+            missing.append(regime.name)
             continue
-        selection = read_json(folder / "selection.json", dict)
-        chosen = selection["chosen"]
-        rows = read_per_plant(folder / PER_PLANT)
-        plants, table = matrices(rows, "test")
-        bench_plants, bench = matrices(rows, "benchmark")
+        plants, table = read_table(folder / PER_PLANT)
+        bench_plants, bench = read_table(folder / PER_PLANT, "benchmark")
+        selection, chosen = chosen_policies(folder, regime, table)
         entry = {"name": regime.name, "env": regime.env, "env_kwargs": dict(regime.env_kwargs), "test_plants": len(plants),
-                 "validation_plants": selection["validation_plants"], "rule_chosen_on": "validation", "chosen": chosen,
-                 "comparisons": [], "violations": {}, "benchmark": {"plants": len(bench_plants), "pooled": False,
-                                                                    "mean_cost": {}, "violating_plants": {}}}
+                 "validation_plants": selection.get("validation_plants"), "rule_chosen_on": "validation", "chosen": chosen,
+                 "comparisons": [], "not_applicable": [], "not_made": [], "violations": {},
+                 "benchmark": {"plants": len(bench_plants), "pooled": False, "mean_cost": {}, "violating_plants": {}}}
         for name in dict.fromkeys(chosen.values()):
             entry["violations"][name] = plant_violations(table[name][1]).to_dict()
             if name in bench:
                 entry["benchmark"]["mean_cost"][name] = float(bench[name][0].mean(axis=0).mean())
                 entry["benchmark"]["violating_plants"][name] = plant_violations(bench[name][1]).violating
         for first, second in protocol.comparisons:
-            if first in chosen and second in chosen:
+            problem = comparison_problem(protocol, regime, (first, second))
+            absent = [role for role in (first, second) if role not in chosen]
+            if problem:
+                entry["not_applicable"].append({"roles": [first, second], "reason": problem})
+            elif absent:
+                entry["not_made"].append({"roles": [first, second],
+                                          "reason": f"{folder / 'selection.json'} chooses no {absent[0]}"})
+            else:
                 d = paired_difference(chosen[first], chosen[second], table[chosen[first]][0], table[chosen[second]][0])
                 differences.append((entry, d, (first, second)))
         regimes.append(entry)
@@ -81,7 +147,7 @@ def protocol_results(protocol: Protocol, out: Path) -> dict[str, Any]:
     declared = _declared(protocol)
     return {"protocol_sha256": record["protocol_sha256"], "commit": record["commit"], "protocol": protocol.path,
             "alpha": protocol.alpha, "comparisons_declared": declared, "comparisons_done": len(differences),
-            "complete": len(differences) == declared,
+            "complete": declared > 0 and len(differences) == declared, "regimes_missing": missing,
             "interval": "Student t over plants of the per-plant difference (a learner's cost: its mean over the "
                         "seeds); conditional on the trained models",
             "regimes": regimes}
@@ -104,6 +170,11 @@ def markdown(results: dict[str, Any]) -> str:
                          f"{_interval(100 * v['interval'][0], 100 * v['interval'][1])}% | {c['verdict']} |")
     note = "" if results["complete"] else (f"\n\nIncomplete: {results['comparisons_done']} of "
                                            f"{results['comparisons_declared']} declared comparisons; the adjustment is not final.")
+    if results.get("regimes_missing"):
+        note += f"\n\nNot yet tested: {', '.join(results['regimes_missing'])}."
+    for regime in results["regimes"]:
+        for item in regime.get("not_made", []):
+            note += f"\n\nNot made: {regime['name']}, {item['roles'][0]} - {item['roles'][1]} ({item['reason']})."
     return "\n".join(lines) + note + "\n"
 
 
@@ -125,8 +196,12 @@ def forest_plot(results: dict[str, Any], path: Path) -> None:
     axes.set_yticks(range(len(rows)), [f"{name}: {c['roles'][0]} - {c['roles'][1]}" for name, c in reversed(rows)], fontsize=7)
     axes.set_xlabel("first - second, cost units\n(mean and Holm-adjusted interval; negative: the first is cheaper)", fontsize=8)
     figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
+    from agents.files.writer import atomic_write, figure_writer
+
+    try:
+        atomic_write(path, figure_writer(figure, 120))
+    finally:
+        plt.close(figure)
 
 
 def write_report(protocol: Protocol, out: Path) -> dict[str, Any]:

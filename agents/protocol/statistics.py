@@ -136,6 +136,11 @@ def paired_difference(first: str, second: str, first_costs: np.ndarray, second_c
     a, b = plant_means(first_costs), plant_means(second_costs)
     if a.shape != b.shape:
         raise ValueError(f"{first} and {second} are scored on different plants ({a.size} and {b.size})")
+    for name, costs in ((first, a), (second, b)):
+        bad = int(np.sum(~np.isfinite(costs)))
+        if bad:
+            raise ValueError(f"{name} has a cost that is not a finite number (NaN or infinite) on {bad} plant(s): "
+                             "no comparison is read from it")
     differences = a - b
     mean, low, high, p = t_interval(differences, level)
     return Difference(first, second, differences, float(b.mean()), mean, low, high, p)
@@ -168,7 +173,10 @@ def holm(p_values: list[float] | np.ndarray, alpha: float = 0.05) -> tuple[np.nd
 
 
 def verdict(low: float, high: float) -> str:
-    """``better`` when the adjusted interval of ``first - second`` lies below 0, ``worse`` above, else ``tie``."""
+    """``better`` when the adjusted interval of ``first - second`` lies below 0, ``worse`` above, else ``tie``
+    (an interval of a bound that is not a number has no verdict: a ``ValueError``)."""
+    if np.isnan(low) or np.isnan(high):
+        raise ValueError(f"an interval [{low}, {high}] has no verdict")
     if high < 0:
         return "better"
     if low > 0:

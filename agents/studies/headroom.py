@@ -1,7 +1,6 @@
 """The value of adaptivity: what choosing the second experiment after the first one can gain at most.
 
-    deadtime study headroom [--protocol configs/protocols/v1.yaml] [--plants 2000] [--replicates 4]
-                            [--out results/sequential]
+    deadtime study headroom [--protocol configs/protocols/v1.yaml] [--plants 2000] [--replicates 4] --out DIR
 
 A plan fixes both experiment amplitudes before the first measurement (the closed-loop step at ``A1``,
 then the open-loop step, or the pulse on integrating plants, at ``A2``; :class:`baselines.procedures.PlanRule`).
@@ -38,15 +37,21 @@ that reads the same model); ``--design learned`` with a learned design per secon
 the sequential learners (:mod:`agents.studies.learned_headroom`).
 
 No test plant is drawn.  Each structure and noise level's costs are kept in
-``OUT/work/STRUCTURE-noiseNN.npz`` (resumable); ``OUT/headroom.md`` and ``OUT/headroom.json`` hold
-the table.
+``OUT/work/STRUCTURE-noiseNN-KEY.npz`` (resumable), with the key of everything they depend on
+(:func:`cache_key`: the environment and the regimes' arguments, the protocol's validation stream, the
+design, the replicates, the grid and :data:`CACHE_VERSION`); a file of another key is never read, so
+another protocol's costs never stand for this one's.  ``OUT/headroom.md`` and ``OUT/headroom.json``
+hold the table.  ``--plants`` (at least 2, at most the protocol's validation plants) and
+``--replicates`` (2 to :data:`MAX_REPLICATES`) are checked before anything is computed or written.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import sys
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +60,14 @@ import numpy as np
 from agents.evaluation.plan_search import PLAN_GRID
 from envs.interface import tuning_env_of
 
-__all__ = ["DESIGNS", "GRID", "continuation_costs", "first_experiment", "headroom", "summarize"]
+__all__ = ["CACHE_VERSION", "DESIGNS", "GRID", "MAX_REPLICATES", "cache_key", "continuation_costs", "first_experiment",
+           "headroom", "summarize"]
+
+CACHE_VERSION = 1
+"""The version of the costs :func:`plant_costs` computes: raised whenever a change to this module (or to
+what it calls outside the versioned environments) changes them, so that no cache of the old ones is read."""
+MAX_REPLICATES = 1_000
+"""Noise draws of each continuation (``--replicates``): the study uses 4."""
 
 GRID: tuple[float, ...] = PLAN_GRID
 """The amplitudes of each experiment: the protocol's sixteen plans."""
@@ -153,18 +165,43 @@ def _weights(env_kwargs: list[dict[str, Any]]) -> list[Any]:
     return [CostWeights(**dict(kwargs.get("weights", {}))) for kwargs in env_kwargs]
 
 
+def cache_key(env_id: str, noise: float, regimes: list[Any], stream: dict[str, Any], replicates: int, design: str) -> str:
+    """The canonical JSON of everything one cache file's costs depend on (module docstring); ``stream``
+    names the plants (family, entropy, first episode seed; the stream is prefix-stable, so a file of
+    more plants serves fewer)."""
+    return json.dumps({"version": CACHE_VERSION, "env": env_id, "noise": noise, "stream": stream, "design": design,
+                       "replicates": replicates, "grid": list(GRID),
+                       "regimes": [{"name": r.name, "env_kwargs": dict(r.env_kwargs)} for r in regimes]},
+                      sort_keys=True, default=str)
+
+
+def _cached(path: Path, key: str, plants: int) -> np.ndarray | None:
+    """The first ``plants`` rows of the costs in ``path`` if it holds them under ``key``, else None."""
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as found:
+            stored, costs = str(found["key"]), found["costs"]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+        print(f"headroom: {path} cannot be read ({' '.join(str(error).split())}); computed again", file=sys.stderr)
+        return None
+    if stored != key or costs.ndim != 5 or costs.shape[0] < plants:
+        return None
+    return costs[:plants]
+
+
 def _costs(env_id: str, noise: float, regimes: list[Any], plants: list[Any], episode_seed: int, replicates: int,
-           path: Path, design: str) -> np.ndarray:
+           path: Path, design: str, key: str) -> np.ndarray:
     """The costs of every plant of one structure and noise level, ``[plant, A1, A2, replicate, regime]``,
-    read from ``path`` if it holds them for these plants and replicates (resumable per plant block)."""
+    read from ``path`` if it holds them under ``key`` (:func:`cache_key`) for as many plants at least."""
     import gymnasium as gym
 
     import envs  # noqa: F401  (registers the environments)
+    from agents.files.writer import atomic_write
 
-    if path.exists():
-        found = np.load(path)
-        if found["costs"].shape[0] >= len(plants) and found["costs"].shape[3] == replicates:
-            return found["costs"][: len(plants)]
+    found = _cached(path, key, len(plants))
+    if found is not None:
+        return found
     env = tuning_env_of(gym.make(env_id, experiments="plan", noise_std=noise, weights={"production": 1.0}))
     weights = _weights([dict(r.env_kwargs) for r in regimes])
     rows = []
@@ -173,8 +210,7 @@ def _costs(env_id: str, noise: float, regimes: list[Any], plants: list[Any], epi
         if (k + 1) % 250 == 0:
             print(f"headroom {env_id} noise {noise:g}: {k + 1}/{len(plants)} plants", file=sys.stderr, flush=True)
     costs = np.stack(rows)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path, costs=costs)
+    atomic_write(path, lambda handle: np.savez_compressed(handle, costs=costs, key=np.array(key)))
     return costs
 
 
@@ -224,11 +260,15 @@ def summarize(costs: np.ndarray, test_plants: int, comparisons: int, alpha: floa
 
 def _protocol_reference(protocol_name: str, regime: str) -> dict[str, Any]:
     """The protocol's own validation figures of ``regime`` if its selection is committed."""
+    from agents.files.reader import read_json
+
     path = Path("results") / f"protocol_{protocol_name}" / regime / "selection.json"
     if not path.exists():
         return {}
-    selection = json.loads(path.read_text())
-    chosen, costs = selection["chosen"], selection["validation_mean_cost"]
+    selection = read_json(path, dict)
+    chosen, costs = selection.get("chosen"), selection.get("validation_mean_cost")
+    if not isinstance(chosen, dict) or not isinstance(costs, dict):
+        raise ValueError(f"{path}: chosen and validation_mean_cost must be mappings")
     plan = chosen.get("plan")
     return {"primary": plan, "primary_cost": costs.get(plan), "plan-1-1": costs.get("plan-1-1"),
             "best_plan": chosen.get("best-plan"), "best_plan_cost": costs.get(chosen.get("best-plan"))}
@@ -261,36 +301,52 @@ def markdown(rows: list[dict[str, Any]], test_plants: int, comparisons: int) -> 
     return "\n".join(lines) + "\n"
 
 
-def headroom(protocol_path: Path, plants: int, replicates: int, out: Path, design: str = "base") -> str:
+def headroom(protocol_path: Path, plants: int, replicates: int, out: Path | None, design: str = "base") -> str:
     """Compute (or read) every agent-mode regime's costs and write ``OUT/headroom[_DESIGN].{md,json}``."""
     if design not in DESIGNS:
         raise ValueError(f"unknown design {design!r}; designs: {', '.join(DESIGNS)}")
+    if out is None:
+        raise ValueError("--out is required: the folder of headroom.md, headroom.json and the costs' cache (work/)")
     from agents.protocol.config import load_protocol
     from agents.protocol.streams import plant_stream
     from envs.structures import structure
 
     protocol = load_protocol(protocol_path)
+    check_sizes(plants, replicates, protocol.validation.plants)
     regimes = [r for r in protocol.regimes if r.plan]
+    if not regimes:
+        raise ValueError(f"{protocol_path} has no regime with plan-mode candidates: no headroom to measure")
     groups: dict[tuple[str, float], list[Any]] = {}
     for regime in regimes:
         groups.setdefault((regime.env, float(regime.env_kwargs.get("noise_std", 0.01))), []).append(regime)
-    if plants > protocol.validation.plants:
-        raise ValueError(f"--plants {plants} exceeds the protocol's {protocol.validation.plants} validation plants")
     comparisons = len(protocol.comparisons) * len(regimes) + sum(1 for r in protocol.regimes if not r.plan)
     rows = []
     for (env_id, noise), members in groups.items():
         name = f"{env_id.split('/')[-1].split('-')[0].lower()}-noise{round(noise * 100):02d}"
-        stream = plant_stream(structure(name.split('-')[0]).family, protocol.validation.entropy, plants)
+        family = structure(name.split('-')[0]).family
+        stream = plant_stream(family, protocol.validation.entropy, plants)
+        key = cache_key(env_id, noise, members, {"family": family, "entropy": protocol.validation.entropy,
+                                                 "episode_seed": protocol.validation.episode_seed}, replicates, design)
+        digest = hashlib.sha256(key.encode()).hexdigest()[:12]
         costs = _costs(env_id, noise, members, stream, protocol.validation.episode_seed, replicates,
-                       out / "work" / f"{name}{'' if design == 'base' else '-' + design}.npz", design)
+                       out / "work" / f"{name}{'' if design == 'base' else '-' + design}-{digest}.npz", design, key)
         for j, regime in enumerate(members):
             row = {"regime": regime.name, **summarize(costs[..., j], protocol.test.plants, comparisons, protocol.alpha)}
             row["protocol"] = _protocol_reference(protocol.name, regime.name)
             rows.append(row)
     table = markdown(rows, protocol.test.plants, comparisons)
-    out.mkdir(parents=True, exist_ok=True)
+    from agents.files.writer import write_text
+
     stem = "headroom" if design == "base" else f"headroom_{design}_design"
-    (out / f"{stem}.md").write_text(table)
-    (out / f"{stem}.json").write_text(json.dumps({"protocol": str(protocol_path), "design": design, "plants": plants,
-                                                  "replicates": replicates, "grid": list(GRID), "rows": rows}, indent=1) + "\n")
+    write_text(out / f"{stem}.md", table)
+    write_text(out / f"{stem}.json", json.dumps({"protocol": str(protocol_path), "design": design, "plants": plants,
+                                                 "replicates": replicates, "grid": list(GRID), "rows": rows}, indent=1) + "\n")
     return table
+
+
+def check_sizes(plants: Any, replicates: Any, available: int) -> None:
+    """``plants`` in ``[2, available]`` and ``replicates`` in ``[2, MAX_REPLICATES]``, or one line naming the option."""
+    for value, name, least, most, what in ((plants, "--plants", 2, available, "the protocol's validation plants"),
+                                           (replicates, "--replicates", 2, MAX_REPLICATES, "MAX_REPLICATES")):
+        if isinstance(value, bool) or not isinstance(value, int) or not least <= value <= most:
+            raise ValueError(f"{name} must be an integer in [{least}, {most}] ({what} at most), got {value!r}")
