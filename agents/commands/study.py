@@ -43,7 +43,7 @@ def _headroom(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace],
                         help="--design learned: sequential agents (one run per seed) played on the same plants")
     parser.add_argument("--training-plants", type=int, default=0,
                         help="--design learned: train the learned continuation on this many plants of its own stream")
-    parser.add_argument("--out", type=Path, default=Path("results/sequential"), help="where headroom.md/json go")
+    parser.add_argument("--out", type=Path, default=Path("results/exploratory/sequential"), help="where headroom.md/json go")
 
     def call(args: argparse.Namespace) -> str:
         from agents.studies.headroom import headroom

@@ -1,7 +1,7 @@
 """The value of adaptivity: what choosing the second experiment after the first one can gain at most.
 
     deadtime study headroom [--protocol configs/protocols/v1.yaml] [--plants 2000] [--replicates 4]
-                            [--out results/sequential]
+                            [--out results/exploratory/sequential]
 
 A plan fixes both experiment amplitudes before the first measurement (the closed-loop step at ``A1``,
 then the open-loop step, or the pulse on integrating plants, at ``A2``; :class:`baselines.procedures.PlanRule`).
