@@ -108,3 +108,16 @@ def test_no_docs_page_is_over_300_lines() -> None:
     the exploration log (docs/exploration/); either stays readable in one sitting."""
     long = {str(page.relative_to(REPO)): n for page in (REPO / "docs").rglob("*.md") if (n := len(page.read_text().splitlines())) > 300}
     assert long == {}
+
+
+def test_every_docs_page_is_in_the_index() -> None:
+    """docs/README.md links every page of docs/, so that a reader finds each concept from one place."""
+    index = (REPO / "docs" / "README.md").read_text()
+    pages = [str(page.relative_to(REPO / "docs")) for page in (REPO / "docs").rglob("*.md") if page.name != "README.md"
+             or page.parent != REPO / "docs"]
+    assert [page for page in pages if f"]({page})" not in index] == []
+
+
+def test_the_docs_stay_within_3000_lines() -> None:
+    """One page per concept a user needs, the history in git: docs/ holds at most 3,000 lines of Markdown."""
+    assert sum(len(page.read_text().splitlines()) for page in (REPO / "docs").rglob("*.md")) <= 3000
