@@ -2,7 +2,7 @@
 
 ::
 
-    deadtime study commit runs/NAME results/NAME
+    deadtime study commit runs/NAME results/exploratory/NAME
     deadtime study headroom [--protocol configs/protocols/v1.yaml] [--design base|oracle|learned]
     deadtime study selector-choices configs/protocols/v3.yaml results/protocol_v3 REGIME... --out DIR
 
@@ -134,8 +134,7 @@ STUDIES: dict[str, tuple[str, Callable[[argparse.ArgumentParser], Callable[[argp
                          _selector_choices),
     "transfer": ("learners tuned in simulation on the TCLab emulator under several conditions, against every rule",
                  _transfer),
-    "numba-dispatch": ("what numba's dispatch costs per fixed-mode episode",
-                       _numba_dispatch),
+    "numba-dispatch": ("what numba's dispatch costs per fixed-mode episode", _numba_dispatch),
     "violation-cost-plot": ("the figure of docs/scoring.md: a violating design's cost against its grade", _violation_cost_plot),
 }
 """Each study's one-line help and the function that declares its arguments and returns its call."""
