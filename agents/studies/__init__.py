@@ -1,14 +1,12 @@
-"""The research analyses behind the numbers of README.md and docs/, as functions of plain arguments
+"""The research analyses behind the numbers of docs/, as functions of plain arguments
 (``deadtime study NAME``, whose command line is :mod:`agents.commands.study`).
 
-On the committed results (``results/``, read in place through :mod:`agents.compressed`):
-:mod:`.headline` (the README's result tables), :mod:`.certificates` (pooled test violation rates of
-certified groups), :mod:`.gap` (a difference to a rule split by the rule's violating plants),
-:mod:`.commit` (a finished sweep copied into ``results/``).  Studies that play episodes or fits:
-:mod:`.fallback` (a learned design falling back to a rule), :mod:`.information` (the learned rule with
-the true plant's parameters), :mod:`.procedures` (the experiment procedures against the fixed one),
-:mod:`.rescore` (two versions' scores of the same plants), :mod:`.scaled_margin`,
-:mod:`.experiment_length`, :mod:`.steady_state`, :mod:`.noise_kinds`, :mod:`.commit_amplitude`,
-:mod:`.numba_dispatch` (what numba's dispatch costs per episode) and :mod:`.violation_cost_plot` (the
-figure of docs/scoring.md).  Each module's docstring says what it computes and which page quotes it.
+:mod:`.commit` (a finished sweep copied into ``results/``), :mod:`.headroom` with
+:mod:`.learned_headroom` and :mod:`.continuation` (what choosing the second experiment after the first
+could gain, docs/sequential.md), :mod:`.sequential_replay` (what a sequential agent does),
+:mod:`.selector_choices` (where a selector overrides its rule, docs/selector.md), :mod:`.transfer`
+(learners on the TCLab emulator, docs/real_process.md), :mod:`.numba_dispatch` (what numba's dispatch
+costs per episode, docs/performance.md) and :mod:`.violation_cost_plot` (the figure of docs/scoring.md).
+Each module's docstring says what it computes and which page quotes it.  The retired studies and the
+commits of their outputs are listed in docs/results.md.
 """

@@ -1,7 +1,7 @@
 """Copy a finished sweep into ``results/``, small enough to commit and complete enough to recompute its
 summary and ``deadtime regimes`` from (no models, no caches, no controllers):
 
-    deadtime study commit runs/agent_mode_noise10_time results/agent_mode_noise10_time
+    deadtime study commit runs/agent_mode_noise10_time results/exploratory/agent_mode_noise10_time
 
 Copies ``sessions.json``, each trial's ``evaluations.json`` (its validation) and, for a learned rule, its
 manifest ``learned_rule.json`` (kind, margin, validation costs and violations per margin, the

@@ -1,6 +1,7 @@
 """What numba's dispatch costs per fixed-mode episode (docs/performance.md, "The bit-identical bound").
 
-Plays fixed-mode episodes of ``DeadTime/PID-v0`` in the native vector environment (32 slots),
+Plays fixed-mode episodes of ``DeadTime/PID-v0`` in the native vector environment (32 slots), once to
+compile every kernel for their argument types, then the same episodes again while it
 records one argument tuple of every numba kernel of :mod:`envs` and how often each is called, then
 times an empty compiled function called with those same arguments: the cost of dispatching the
 call (typing the arguments, unboxing them) without the kernel's work.  Their sum per episode is what
@@ -34,11 +35,20 @@ def _kernels() -> list[tuple[object, str, CPUDispatcher]]:
             for name, value in list(vars(module).items()) if isinstance(value, CPUDispatcher)]
 
 
-def numba_dispatch() -> None:
-    vec = gymnasium.make_vec("DeadTime/PID-v0", num_envs=SLOTS, experiments="fixed")
+def _play(vec, rounds: int) -> None:
+    """``rounds`` batches of fixed-mode episodes from seed 0 (the same episodes at every call)."""
     vec.action_space.seed(0)
     vec.reset(seed=0)
-    vec.step(vec.action_space.sample())  # every kernel compiled and its module loaded
+    for _ in range(rounds):
+        vec.step(vec.action_space.sample())
+
+
+def numba_dispatch(slots: int = SLOTS, rounds: int = ROUNDS, calls: int = CALLS) -> str:
+    """One line per kernel (calls per episode, arguments, dispatch time) and the total per episode."""
+    if min(slots, rounds, calls) < 1:
+        raise ValueError(f"--slots, --rounds and --calls must be at least 1, got {slots}, {rounds}, {calls}")
+    vec = gymnasium.make_vec("DeadTime/PID-v0", num_envs=slots, experiments="fixed")
+    _play(vec, rounds)  # the same episodes played once unrecorded: every kernel compiled for their types
     seen: dict[str, list] = {}
 
     def recording(function, label):
@@ -51,18 +61,19 @@ def numba_dispatch() -> None:
     for module, name, function in kernels:
         setattr(module, name, wrappers.setdefault(id(function), recording(function, function.__name__)))
     try:
-        for _ in range(ROUNDS):
-            vec.step(vec.action_space.sample())
+        _play(vec, rounds)
     finally:
         for module, name, function in kernels:
             setattr(module, name, function)
-    episodes, total = SLOTS * ROUNDS, 0.0
+    vec.close()
+    episodes, total, lines = slots * rounds, 0.0, []
     for label, (count, args) in sorted(seen.items(), key=lambda item: -item[1][0]):
         _empty(*args)
         start = time.perf_counter()
-        for _ in range(CALLS):
+        for _ in range(calls):
             _empty(*args)
-        each = (time.perf_counter() - start) / CALLS
+        each = (time.perf_counter() - start) / calls
         total += each * count / episodes
-        print(f"{label:28s} calls/episode {count / episodes:5.2f}  arguments {len(args):2d}  dispatch {1e6 * each:6.2f} us")
-    print(f"numba dispatch per episode: {1e6 * total:.1f} us")
+        lines.append(f"{label:28s} calls/episode {count / episodes:5.2f}  arguments {len(args):2d}  dispatch {1e6 * each:6.2f} us")
+    lines.append(f"numba dispatch per episode: {1e6 * total:.1f} us")
+    return "\n".join(lines)

@@ -10,6 +10,7 @@ repository path quoted in backticks (``docs/...``, ``results/...``, ``configs/..
 from __future__ import annotations
 
 import re
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -53,14 +54,45 @@ def test_links_lead_to_existing_files_and_headings(page: Path) -> None:
     assert broken == []
 
 
+RETIRED = "## Retired studies"
+"""The section of docs/results.md whose paths are in git history, at the commit of their row."""
+
+
 @pytest.mark.parametrize("page", _pages(), ids=lambda page: str(page.relative_to(REPO)))
 def test_quoted_repository_paths_exist(page: Path) -> None:
-    missing = [path for path in QUOTED_PATH.findall(page.read_text()) if not (REPO / path).exists()]
+    text = page.read_text().split(RETIRED)[0]
+    missing = [path for path in QUOTED_PATH.findall(text) if not (REPO / path).exists()]
     assert missing == []
 
 
+def _at(commit: str, path: str) -> bool:
+    return subprocess.run(["git", "cat-file", "-e", f"{commit}:{path}"], cwd=REPO, capture_output=True).returncode == 0
+
+
+def test_the_retired_studies_are_in_the_history_at_their_commits() -> None:
+    """docs/results.md's retired studies: no longer a ``deadtime study`` subcommand, and at the commit of
+    its row both the study's module and its output (``{a,b}`` spelled out) are there for ``git show``."""
+    from agents.commands.study import STUDIES
+
+    if subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True).returncode:
+        pytest.skip("not a git checkout")
+    section = (REPO / "docs" / "results.md").read_text().split(RETIRED)[1]
+    rows = [line.split(" | ") for line in section.splitlines() if line.startswith("| `deadtime study ")]
+    assert len(rows) >= 12
+    for command, _, output, commit in rows:
+        name, commit = command.split()[-1].rstrip("`"), commit.strip("`| ")
+        if not _at(commit, "README.md"):
+            pytest.skip(f"commit {commit} not in this clone")
+        assert name not in STUDIES and _at(commit, f"agents/studies/{name.replace('-', '_')}.py"), name
+        for quoted in re.findall(r"`([^`]+)`", output):
+            head, _, rest = quoted.partition("{")
+            choices, _, tail = rest.partition("}")
+            paths = [head + choice + tail for choice in choices.split(",")] if rest else [quoted]
+            assert all(_at(commit, path) for path in paths), (name, quoted, commit)
+
+
 def test_the_anchors_are_github_s() -> None:
-    assert "when-choosing-experiments-pays" in _anchors(REPO / "docs" / "results_history.md")
+    assert "where-the-verdicts-differ-from-the-exploratory-studies" in _anchors(REPO / "docs" / "protocol.md")
     assert "terms" in _anchors(REPO / "docs" / "results.md")
 
 
@@ -76,3 +108,16 @@ def test_no_docs_page_is_over_300_lines() -> None:
     the exploration log (docs/exploration/); either stays readable in one sitting."""
     long = {str(page.relative_to(REPO)): n for page in (REPO / "docs").rglob("*.md") if (n := len(page.read_text().splitlines())) > 300}
     assert long == {}
+
+
+def test_every_docs_page_is_in_the_index() -> None:
+    """docs/README.md links every page of docs/, so that a reader finds each concept from one place."""
+    index = (REPO / "docs" / "README.md").read_text()
+    pages = [str(page.relative_to(REPO / "docs")) for page in (REPO / "docs").rglob("*.md") if page.name != "README.md"
+             or page.parent != REPO / "docs"]
+    assert [page for page in pages if f"]({page})" not in index] == []
+
+
+def test_the_docs_stay_within_3000_lines() -> None:
+    """One page per concept a user needs, the history in git: docs/ holds at most 3,000 lines of Markdown."""
+    assert sum(len(page.read_text().splitlines()) for page in (REPO / "docs").rglob("*.md")) <= 3000

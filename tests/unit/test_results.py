@@ -1,8 +1,7 @@
 """The committed results (``results/``) and the tree around them.
 
-Every committed sweep with its per-plant tables recomputes its ``summary.md``, ``summary.csv`` and
-``summary.json`` byte for byte from them (compressed, read in place) with this checkout's code and the
-sweep file of ``configs/sweeps/`` (slow: a few seconds per sweep).  The top level of the repository is
+The protocols at the top of ``results/``, the current exploratory studies in ``results/exploratory/``,
+the retired ones in git history at the commits results/README.md names, at most 20 MB tracked.  The top level of the repository is
 the pipeline: configs in (``configs/``), code (``envs/``, ``baselines/``, ``agents/``), results out
 (``results/``), with ``tests/`` and ``docs/``; every YAML file is a config.
 """
@@ -15,7 +14,6 @@ from pathlib import Path
 
 import pytest
 
-from agents.compressed import exists, read_json, read_text
 
 REPO = Path(__file__).resolve().parents[2]
 RESULTS = REPO / "results"
@@ -48,48 +46,47 @@ def test_tests_hold_only_tests():
             and f"{path.stem} import" not in sources] == []
 
 
-def _recomputable() -> list[Path]:
-    return sorted(path.parent for path in RESULTS.rglob("eval") if (path.parent / "summary.md").is_file())
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("folder", _recomputable(), ids=lambda path: str(path.relative_to(RESULTS)))
-def test_the_committed_summary_is_its_per_plant_tables(folder: Path, monkeypatch):
-    from agents.sweeps.config import load_sweep
-    from agents.sweeps.summary import summary_texts
-
-    monkeypatch.chdir(REPO)  # the sweep file names its training configs relative to the repository
-    sweep = load_sweep(REPO / "configs" / "sweeps" / f"{folder.name}.yaml")
-    committed = read_json(folder / "summary.json")
-    trials = [trial for trial in sweep.trials() if trial.name not in committed["failed"]]
-    texts = summary_texts(sweep, trials, folder, committed["failed"], read_json(folder / "sessions.json"))
-    assert texts["summary.md"] == read_text(folder / "summary.md")
-    assert texts["summary.csv"] == read_text(folder / "summary.csv")
-    recomputed = json.loads(texts["summary.json"])
-    if not all(exists(folder / "runs" / trial.name / "evaluations.json") for trial in trials):
-        recomputed.pop("learning_curves"), committed.pop("learning_curves")  # validation histories not committed
-    assert recomputed == committed
-
-
-def test_the_recomputable_sweeps_are_the_current_ones():
-    assert len(_recomputable()) >= 28 and not any("superseded" in path.parts for path in _recomputable())
-
-
 def _folders() -> set[str]:
-    superseded = RESULTS / "superseded"
-    return ({path.name + "/" for path in RESULTS.iterdir() if path.is_dir() and path != superseded}
-            | {f"superseded/{path.name}/" for path in superseded.iterdir() if path.is_dir()})
+    exploratory = RESULTS / "exploratory"
+    return ({path.name + "/" for path in RESULTS.iterdir() if path.is_dir() and path != exploratory}
+            | {f"exploratory/{path.name}/" for path in exploratory.iterdir() if path.is_dir()})
+
+
+def _rows() -> list[str]:
+    return [line for line in (RESULTS / "README.md").read_text().splitlines() if line.startswith("| [")]
+
+
+def test_the_protocols_are_at_the_top_and_the_studies_in_one_folder():
+    assert {path.name for path in RESULTS.iterdir() if path.is_dir()} - {"exploratory"} <= {
+        path.name for path in RESULTS.glob("protocol_*")}
 
 
 def test_every_results_folder_has_a_row_in_the_readme():
-    """results/README.md: one row per study folder (``results/NAME/``, ``results/superseded/NAME/``), which
+    """results/README.md: one row per folder (``results/protocol_*/``, ``results/exploratory/NAME/``), which
     links it; a new folder needs its row (question, environments, policies, seeds, test plants, commit,
-    headline, current or superseded)."""
-    rows = [line for line in (RESULTS / "README.md").read_text().splitlines() if line.startswith("| [")]
-    linked = [line.split("](")[1].split(")")[0] for line in rows]
+    headline, status)."""
+    linked = [line.split("](")[1].split(")")[0] for line in _rows()]
     assert sorted(linked) == sorted(_folders())
-    assert all(line.rstrip(" |").endswith(("current", "superseded")) for line in rows)
-    assert all(("superseded/" in target) == line.rstrip(" |").endswith("superseded") for target, line in zip(linked, rows))
+    assert all(line.rstrip(" |").endswith("current") for line in _rows())
+
+
+def test_the_results_stay_within_20_mb():
+    """A clone stays light: the tracked files under results/ hold at most 20 MB."""
+    assert sum((REPO / path).stat().st_size for path in _tracked() if path.startswith("results/")) <= 20_000_000
+
+
+def test_every_retired_folder_is_in_the_history_at_its_commit():
+    """The retired folders of results/README.md are gone from the tree and ``git show COMMIT:results/NAME``
+    finds them at the commit of their row."""
+    _tracked()  # skips outside a git checkout
+    retired = [line.split(" | ") for line in (RESULTS / "README.md").read_text().splitlines() if line.startswith("| `")]
+    assert len(retired) >= 40
+    for name, _, commit in ((cells[0][3:-1], cells[1], cells[2].strip("`| ")) for cells in retired):
+        assert not (RESULTS / name).exists(), name
+        found = subprocess.run(["git", "cat-file", "-t", f"{commit}:results/{name}"], cwd=REPO, capture_output=True, text=True)
+        if found.returncode and "Not a valid object name" in found.stderr and "does not exist" not in found.stderr:
+            pytest.skip(f"commit {commit} not in this clone")
+        assert found.stdout.strip() == "tree", (name, commit, found.stderr)
 
 
 def test_the_readme_headlines_are_their_folders_numbers():
@@ -97,9 +94,8 @@ def test_the_readme_headlines_are_their_folders_numbers():
     import re
 
     interval = r"-?[\d.e+-]+ \[-?[\d.e+-]+, -?[\d.e+-]+\]"
-    rows = [line for line in (RESULTS / "README.md").read_text().splitlines() if line.startswith("| [")]
     checked = 0
-    for line in rows:
+    for line in _rows():
         folder = RESULTS / line.split("](")[1].split(")")[0]
         texts = "\n".join(path.read_text() for path in folder.rglob("*.md"))
         for quoted in re.findall(interval, line):
