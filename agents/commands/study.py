@@ -43,6 +43,8 @@ def _headroom(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace],
                         help="--design learned: sequential agents (one run per seed) played on the same plants")
     parser.add_argument("--training-plants", type=int, default=0,
                         help="--design learned: train the learned continuation on this many plants of its own stream")
+    parser.add_argument("--out", type=Path, required=True,
+                        help="where headroom.md/json and the costs' cache (work/) go, e.g. results/exploratory/sequential")
 
     def call(args: argparse.Namespace) -> str:
         from agents.studies.headroom import headroom
