@@ -49,6 +49,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--workers", type=int, default=1,
                      help="run the fits and the evaluations (chunks of plants) as tasks on a new local Ray instance of N "
                           "CPUs (default 1: one after another in this process, without Ray); the tables do not depend on it")
+    run.add_argument("--chunk-plants", type=int, default=250,
+                     help="plants per evaluation task (default 250); the tables do not depend on it")
     run.add_argument("--address", help="run the tasks on the Ray cluster at this address (HOST:PORT, or auto) instead, as "
                                        "deadtime sweep does; every node needs this checkout at the same path and --out "
                                        "(and --fits) on a file system they all see")
@@ -122,12 +124,12 @@ def _run(args: argparse.Namespace, protocol: Any, out: Path) -> int:
     from agents.interruptions import ignore_interrupts, interrupted
     from agents.protocol.run import run_protocol
 
-    if args.workers < 0:
-        raise ValueError(f"--workers must be >= 0, got {args.workers}")
+    if args.workers < 0 or args.chunk_plants < 1:
+        raise ValueError(f"--workers must be >= 0 and --chunk-plants >= 1, got {args.workers} and {args.chunk_plants}")
     try:
         done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only,
                             fits=Path(args.fits) if args.fits else None, workers=args.workers,
-                            address=args.address or os.environ.get("RAY_ADDRESS"))
+                            address=args.address or os.environ.get("RAY_ADDRESS"), chunk=args.chunk_plants)
     except BaseException as error:  # noqa: BLE001  (an interruption, maybe wrapped by numba or torch, is said here)
         if not interrupted(error):
             raise
@@ -161,5 +163,6 @@ def _resume_command(args: argparse.Namespace) -> str:
     words += ["--fits", args.fits] if args.fits else []
     words += ["--validation-only"] if args.validation_only else []
     words += ["--workers", str(args.workers)] if args.workers != 1 else []
+    words += ["--chunk-plants", str(args.chunk_plants)] if args.chunk_plants != 250 else []
     words += ["--address", args.address] if args.address else []
     return shlex.join([*words, "--resume"])

@@ -325,8 +325,11 @@ def test_regime(protocol: Protocol, out: Path, selection: dict[str, Any], stage:
 
 
 def _unique(fits: list[Fit]) -> list[Fit]:
-    """Each fit once (two regimes, or a regime's two stages, may need the same run directory)."""
-    return list({fit.directory(): fit for fit in fits}.values())
+    """Each fit once, in the order first needed (two regimes may need the same run directory)."""
+    found: dict[Path, Fit] = {}
+    for fit in fits:
+        found.setdefault(fit.directory(), fit)
+    return list(found.values())
 
 
 def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes: list[str] | None = None,
