@@ -6,65 +6,15 @@ from __future__ import annotations
 import os
 import signal
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from agents.cli import main
 from agents.files.lock import folder_lock
-from agents.protocol.config import load_protocol
-from agents.protocol.streams import register_test_seed
 
-RULE = """default:
-  algorithm: learned-rule
-  env_id: DeadTime/PID-v3
-  env_kwargs: {experiments: fixed}
-  seed: 0
-  training_plants: 20
-  validation_plants: 10
-  margins: [0.0, 0.2]
-  models: [quantile-boosting]
-"""
-
-PROTOCOL = """name: tiny
-seeds: {{first: 0, count: 2}}
-alpha: 0.05
-streams:
-  validation: {{entropy: 11, plants: 4, episode_seed: 50000000}}
-  test: {{entropy: 12, plants: 5, episode_seed: 60000000}}
-selection:
-  violation_target: 0.5
-  confidence: 0.95
-  rules: [simc-pi, gorez-klan-mu-2]
-  plans: [plan-1-1, plan-3-0.1]
-  fixed_procedure: plan-1-1
-comparisons: [[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure]]
-regimes:
-  - name: pid-quiet
-    env: DeadTime/PID-v3
-    env_kwargs: {{noise_std: 0.01}}
-    fixed: [{{label: tiny-fixed, config: {rule}}}]
-    plan: [{{label: tiny-plan, config: {rule}, overrides: ["env_kwargs.plan=[3, 0.1]"]}}]
-  - name: pid-noisy
-    env: DeadTime/PID-v3
-    env_kwargs: {{noise_std: 0.05}}
-    fixed: [{{label: tiny-fixed, config: {rule}}}]
-    plan: [{{label: tiny-plan, config: {rule}, overrides: ["env_kwargs.plan=[3, 0.1]"]}}]
-"""
-
-
-def tiny_protocol(folder: Path) -> Path:
-    """Two regimes, two seeds, a few plants; registered.  Its path."""
-    (folder / "rule.yaml").write_text(RULE)
-    (folder / "protocols").mkdir()
-    path = folder / "protocols" / "tiny.yaml"
-    path.write_text(PROTOCOL.format(rule=folder / "rule.yaml"))
-    protocol = load_protocol(path)
-    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
-    return path
-
-
-def test_a_second_run_on_one_out_is_refused_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_second_run_on_one_out_is_refused_in_one_line(tmp_path: Path, tiny_protocol: Callable[[Path], Path], capsys: pytest.CaptureFixture[str]) -> None:
     path, out = tiny_protocol(tmp_path), tmp_path / "out"
     with folder_lock(out, "protocol run"):  # the first run, holding --out
         assert main(["protocol", "run", str(path), "--out", str(out)]) == 2
@@ -73,7 +23,7 @@ def test_a_second_run_on_one_out_is_refused_in_one_line(tmp_path: Path, capsys: 
     assert not out.exists()  # nothing written: the first run's folder, left as it was (here: removed with its lock)
 
 
-def test_an_empty_out_is_refused_in_one_line_and_nothing_is_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+def test_an_empty_out_is_refused_in_one_line_and_nothing_is_written(tmp_path: Path, tiny_protocol: Callable[[Path], Path], monkeypatch: pytest.MonkeyPatch,
                                                                       capsys: pytest.CaptureFixture[str]) -> None:
     path = tiny_protocol(tmp_path)
     work = tmp_path / "cwd"
@@ -92,7 +42,7 @@ def _terminated_run(*args: object, **kwargs: object) -> list[str]:
     raise AssertionError("SIGTERM did not end the run")
 
 
-def test_sigterm_ends_a_run_with_143_and_the_command_that_resumes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+def test_sigterm_ends_a_run_with_143_and_the_command_that_resumes(tmp_path: Path, tiny_protocol: Callable[[Path], Path], monkeypatch: pytest.MonkeyPatch,
                                                                    capsys: pytest.CaptureFixture[str]) -> None:
     path, out = tiny_protocol(tmp_path), tmp_path / "out"
     monkeypatch.setattr("agents.protocol.run.run_protocol", _terminated_run)
