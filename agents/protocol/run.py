@@ -357,6 +357,8 @@ def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes
         work = out / "work"
         fits = fits or work / "runs"
         pending = [regime for regime in chosen if not (out / regime.name / SUMMARY).exists()]
+        if not pending:
+            return [regime.name for regime in chosen]
         selected = {r.name: read_json(out / r.name / "selection.json", dict) for r in pending
                     if (out / r.name / "selection.json").exists()}
         with pool(workers, address) as run:

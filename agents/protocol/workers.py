@@ -45,7 +45,8 @@ def _serial(tasks: list[Fit | Chunk]) -> list[str]:
 def _failure(task: Fit | Chunk, error: Any) -> ValueError:
     cause = getattr(error, "cause", None) or error
     lines = str(cause).strip().splitlines()
-    return ValueError(f"{task.name} failed: {type(cause).__name__}: {lines[-1] if lines else ''}")
+    return ValueError(f"{task.name} failed: {type(cause).__name__}: {lines[-1] if lines else ''} (the finished tasks' "
+                      "outputs are kept: --resume continues)")
 
 
 def _run_in(directory: str, task: Fit | Chunk) -> str:
@@ -72,7 +73,7 @@ def _on_ray(ray: Any) -> Runner:
                 task = tasks[index[ref]]
                 try:
                     results[index[ref]] = ray.get(ref)
-                except ray.exceptions.RayTaskError as error:
+                except ray.exceptions.RayError as error:  # the task's own error, or its worker or node lost
                     raise _failure(task, error) from None
                 _say(f"{task.name} done ({len(tasks) - len(pending)} of {len(tasks)})")
         return [str(result) for result in results]

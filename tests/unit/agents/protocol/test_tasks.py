@@ -75,3 +75,46 @@ def test_a_task_runs_in_process_with_one_worker_or_none(tmp_path: Path, monkeypa
             assert run([]) == []
     with pytest.raises(ValueError, match="needs Ray"), workers(2):
         pass
+
+
+class _FakeRay:
+    """Ray's calls as the runner makes them, the tasks finishing in the reverse order of submission."""
+
+    class exceptions:  # noqa: N801  (as ray.exceptions)
+        class RayError(Exception):
+            pass
+
+    def remote(self, **options: object):
+        def wrap(function):
+            class Remote:
+                @staticmethod
+                def remote(*args: object) -> tuple:
+                    return ("ref", args)
+
+            return Remote
+
+        return wrap
+
+    def wait(self, pending: list, num_returns: int, timeout: float) -> tuple[list, list]:
+        return [pending[-1]], pending[:-1]
+
+    def get(self, ref: tuple) -> str:
+        task = ref[1][1]
+        if task == "broken":
+            raise self.exceptions.RayError("Traceback ...\nValueError: no such rule")
+        return f"{task}-result"
+
+
+class _Named(str):
+    @property
+    def name(self) -> str:
+        return f"task {self}"
+
+
+def test_on_ray_the_results_come_in_the_order_of_the_tasks_whatever_order_they_finish_in() -> None:
+    from agents.protocol.workers import _on_ray
+
+    run = _on_ray(_FakeRay())
+    assert run([_Named("a"), _Named("b"), _Named("c")]) == ["a-result", "b-result", "c-result"]
+    with pytest.raises(ValueError, match=r"^task broken failed: RayError: ValueError: no such rule \(the finished"):
+        run([_Named("a"), _Named("broken")])
