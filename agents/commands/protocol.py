@@ -36,12 +36,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     actions = parser.add_subparsers(dest="action", required=True)
     register = actions.add_parser("register", help="register the protocol's test seed to its sha256")
     register.add_argument("protocol", help="the protocol file, e.g. configs/protocols/v1.yaml")
-    run = actions.add_parser("run", help="train, choose on validation and test, regime after regime (resumable)")
+    run = actions.add_parser("run", help="train, choose on validation and test (resumable; in this process or on Ray)")
     run.add_argument("protocol")
     run.add_argument("--out", required=True, help="the run's folder, e.g. results/protocol_v1")
     run.add_argument("--resume", action="store_true", help="continue a run of the same protocol in --out (its finished fits "
                                                            "and evaluated plants kept)")
-    run.add_argument("--regime", action="append", help="run only this regime (repeatable; default: all in order)")
+    run.add_argument("--regime", action="append", help="run only this regime (repeatable; default: all)")
     run.add_argument("--fits", help="the learners' fits (default OUT/work/runs); one folder shared by several protocols "
                                     "fits each learner they declare alike (environment, regime, config, overrides) once")
     run.add_argument("--validation-only", action="store_true",
