@@ -64,21 +64,56 @@ def _on_ray(ray: Any) -> Runner:
 
     def run(tasks: list[Fit | Chunk]) -> list[str]:
         refs = [remote.remote(os.getcwd(), task) for task in tasks]
-        index = {ref: k for k, ref in enumerate(refs)}
-        results: list[str | None] = [None] * len(tasks)
-        pending = list(refs)
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1, timeout=1.0)  # a timeout: signals are seen in between
-            for ref in done:
-                task = tasks[index[ref]]
-                try:
-                    results[index[ref]] = ray.get(ref)
-                except ray.exceptions.RayError as error:  # the task's own error, or its worker or node lost
-                    raise _failure(task, error) from None
-                _say(f"{task.name} done ({len(tasks) - len(pending)} of {len(tasks)})")
-        return [str(result) for result in results]
+        with _sigterm_said():
+            return _collect(ray, tasks, refs)
 
     return run
+
+
+def _collect(ray: Any, tasks: list[Fit | Chunk], refs: list[Any]) -> list[str]:
+    """The result of each task of ``refs``, at its place in ``tasks``, whatever order they finish in."""
+    index = {ref: k for k, ref in enumerate(refs)}
+    results: list[str | None] = [None] * len(tasks)
+    pending = list(refs)
+    while pending:
+        done, pending = ray.wait(pending, num_returns=1, timeout=1.0)  # a timeout: signals are seen in between
+        for ref in done:
+            task = tasks[index[ref]]
+            try:
+                results[index[ref]] = ray.get(ref)
+            except ray.exceptions.RayError as error:  # the task's own error, or its worker or node lost
+                raise _failure(task, error) from None
+            _say(f"{task.name} done ({len(tasks) - len(pending)} of {len(tasks)})")
+    return [str(result) for result in results]
+
+
+@contextmanager
+def _sigterm_said() -> Iterator[None]:
+    """SIGTERM while the driver waits on Ray leaves as :class:`agents.interruptions.Terminated`: Ray's wait
+    turns an exception raised by a signal's handler into a plain ``KeyboardInterrupt``."""
+    import signal
+    import threading
+
+    from agents.interruptions import Terminated
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+
+    def handle(signum: int, frame: Any) -> None:
+        received.append(signum)
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, handle)
+    try:
+        yield
+    except KeyboardInterrupt as error:
+        if received and not isinstance(error, Terminated):
+            raise Terminated from error
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager

@@ -122,14 +122,17 @@ def test_a_tiny_protocol_on_a_ray_cluster_by_address_writes_the_serial_tables(
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("workers", [[], ["--workers", "2"]], ids=["in-process", "local-ray"])
 def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial_tables(
-        tiny_serial_run: tuple[Path, Path], tmp_path: Path) -> None:
-    """SIGTERM during a fit: status 143 and the command that resumes (Ctrl-C's 130 and no word of it before);
-    a second run on the same --out meanwhile refused in one line; the resumed run, on two local Ray
-    workers, keeps the finished fit and writes the serial run's tables."""
+        tiny_serial_run: tuple[Path, Path], tmp_path: Path, workers: list[str]) -> None:
+    """SIGTERM during a fit, in the command's process or while it waits on Ray: status 143 and the command
+    that resumes (Ctrl-C's 130 and no word of it before); a second run on the same --out meanwhile refused
+    in one line; the resumed run (on two local Ray workers) keeps the finished fit and writes the serial
+    run's tables."""
     protocol, serial = tiny_serial_run
     out = tmp_path / "out"
-    first = subprocess.Popen(_command(protocol, out), cwd=tmp_path, env=_environment(), stderr=subprocess.PIPE, text=True)
+    first = subprocess.Popen(_command(protocol, out, *workers), cwd=tmp_path, env=_environment(), stderr=subprocess.PIPE,
+                             text=True)
     try:
         seen = []
         for line in first.stderr:
@@ -155,9 +158,9 @@ def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial
     last = rest.strip().splitlines()[-1]
     assert last.startswith("deadtime protocol: terminated;"), rest[-2000:]
     resume = shlex.split(last.split("continue with: ")[1])
-    assert resume == ["deadtime", "protocol", "run", str(protocol), "--out", str(out), "--resume"]
+    assert resume == ["deadtime", "protocol", "run", str(protocol), "--out", str(out), *workers, "--resume"]
 
-    again = subprocess.run([sys.executable, "-m", "agents.cli", *resume[1:], "--workers", "2"], cwd=tmp_path,
+    again = subprocess.run([sys.executable, "-m", "agents.cli", *resume[1:], *([] if workers else ["--workers", "2"])], cwd=tmp_path,
                            env=_environment(), capture_output=True, text=True, timeout=1800)
     assert again.returncode == 0, again.stderr[-3000:]
     assert kept.stat().st_mtime_ns == stamp  # the finished fit read back, not trained again
