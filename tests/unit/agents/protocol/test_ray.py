@@ -160,8 +160,9 @@ def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial
     resume = shlex.split(last.split("continue with: ")[1])
     assert resume == ["deadtime", "protocol", "run", str(protocol), "--out", str(out), *workers, "--resume"]
 
-    again = subprocess.run([sys.executable, "-m", "agents.cli", *resume[1:], *([] if workers else ["--workers", "2"])], cwd=tmp_path,
-                           env=_environment(), capture_output=True, text=True, timeout=1800)
+    on_ray = [] if workers else ["--workers", "2"]
+    again = subprocess.run([sys.executable, "-m", "agents.cli", *resume[1:], *on_ray], cwd=tmp_path, env=_environment(),
+                           capture_output=True, text=True, timeout=1800)
     assert again.returncode == 0, again.stderr[-3000:]
     assert kept.stat().st_mtime_ns == stamp  # the finished fit read back, not trained again
     _assert_same_run(serial, out)
