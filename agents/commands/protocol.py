@@ -4,12 +4,15 @@
 
     deadtime protocol register configs/protocols/v1.yaml          # its test seed, before any result
     deadtime protocol run configs/protocols/v1.yaml --out results/protocol_v1 --resume [--regime NAME ...] [--fits DIR]
+                                   [--workers N | --address HOST:PORT]
     deadtime protocol report configs/protocols/v1.yaml --out results/protocol_v1
     deadtime protocol every-rule configs/protocols/v4.yaml --out results/protocol_v4   # each rule on the test plants
     deadtime protocol coverage --n 4000 --out results/protocol_coverage/coverage.json
 
-``run`` trains, chooses on validation and tests regime after regime (:mod:`agents.protocol.run`);
-each finished regime's folder can be committed as it finishes.  ``report`` writes
+``run`` trains, chooses on validation and tests (:mod:`agents.protocol.run`), its fits and evaluations
+as tasks in this process, on N local Ray workers or on a Ray cluster (:mod:`agents.protocol.workers`);
+it holds a lock on ``--out`` while it runs, and Ctrl-C or SIGTERM ends it (status 130 or 143) with the
+command that resumes; each finished regime's folder can be committed.  ``report`` writes
 ``protocol_results.json``, ``results.md`` and ``forest.png`` (:mod:`agents.protocol.report`).
 """
 
@@ -17,8 +20,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import shlex
 import sys
 from pathlib import Path
+from typing import Any
+
+from agents.commands.arguments import require_directory
 
 __all__ = ["add_arguments", "run"]
 
@@ -28,15 +36,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     actions = parser.add_subparsers(dest="action", required=True)
     register = actions.add_parser("register", help="register the protocol's test seed to its sha256")
     register.add_argument("protocol", help="the protocol file, e.g. configs/protocols/v1.yaml")
-    run = actions.add_parser("run", help="train, choose on validation and test, regime after regime (resumable)")
+    run = actions.add_parser("run", help="train, choose on validation and test (resumable; in this process or on Ray)")
     run.add_argument("protocol")
     run.add_argument("--out", required=True, help="the run's folder, e.g. results/protocol_v1")
-    run.add_argument("--resume", action="store_true", help="continue a run of the same protocol in --out")
-    run.add_argument("--regime", action="append", help="run only this regime (repeatable; default: all in order)")
+    run.add_argument("--resume", action="store_true", help="continue a run of the same protocol in --out (its finished fits "
+                                                           "and evaluated plants kept)")
+    run.add_argument("--regime", action="append", help="run only this regime (repeatable; default: all)")
     run.add_argument("--fits", help="the learners' fits (default OUT/work/runs); one folder shared by several protocols "
                                     "fits each learner they declare alike (environment, regime, config, overrides) once")
     run.add_argument("--validation-only", action="store_true",
                      help="stop each regime after its choices on the validation plants (selection.json), before its test")
+    run.add_argument("--workers", type=int, default=1,
+                     help="run the fits and the evaluations (chunks of plants) as tasks on a new local Ray instance of N "
+                          "CPUs (default 1: one after another in this process, without Ray); the tables do not depend on it")
+    run.add_argument("--chunk-plants", type=int, default=250,
+                     help="plants per evaluation task (default 250); the tables do not depend on it")
+    run.add_argument("--address", help="run the tasks on the Ray cluster at this address (HOST:PORT, or auto) instead, as "
+                                       "deadtime sweep does; every node needs this checkout at the same path and --out "
+                                       "(and --fits) on a file system they all see")
     every = actions.add_parser("every-rule", help="every declared rule on the test plants of the regimes done, beside the "
                                                    "primaries (descriptive, outside the Holm family)")
     every.add_argument("protocol")
@@ -73,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(text)
         return 0
+    if args.action != "register":
+        require_directory(args.out)  # before the protocol is read: the empty string would be the working directory
     protocol = load_protocol(args.protocol)
     if args.action == "register":
         from agents.protocol.streams import register_test_seed
@@ -81,14 +100,9 @@ def run(args: argparse.Namespace) -> int:
                                    Path(protocol.path).with_name("test_seeds.json"))
         print(json.dumps(entry))
         return 0
-    out = Path(args.out)
+    out = require_directory(args.out)
     if args.action == "run":
-        from agents.protocol.run import run_protocol
-
-        done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only,
-                            fits=Path(args.fits) if args.fits else None)
-        print(f"deadtime protocol: {len(done)} regime(s) done: {', '.join(done)}", file=sys.stderr)
-        return 0
+        return _run(args, protocol, out)
     if args.action == "every-rule":
         from agents.protocol.every_rule import write_every_rule
 
@@ -101,3 +115,52 @@ def run(args: argparse.Namespace) -> int:
     print(f"{results['comparisons_done']} of {results['comparisons_declared']} comparisons; wrote "
           f"{out / 'protocol_results.json'}, results.md, forest.png", file=sys.stderr)
     return 0
+
+
+def _run(args: argparse.Namespace, protocol: Any, out: Path) -> int:
+    """``deadtime protocol run``; Ctrl-C or SIGTERM ends it with status 130 or 143 and the command that resumes."""
+    from agents.interruptions import ignore_interrupts, interrupted
+    from agents.protocol.run import run_protocol
+
+    if args.workers < 0 or args.chunk_plants < 1:
+        raise ValueError(f"--workers must be >= 0 and --chunk-plants >= 1, got {args.workers} and {args.chunk_plants}")
+    try:
+        done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only,
+                            fits=Path(args.fits) if args.fits else None, workers=args.workers,
+                            address=args.address or os.environ.get("RAY_ADDRESS"), chunk=args.chunk_plants)
+    except BaseException as error:  # noqa: BLE001  (an interruption, maybe wrapped by numba or torch, is said here)
+        if not interrupted(error):
+            raise
+        terminated = _terminated(error)
+        with ignore_interrupts():  # a second signal while the line is printed shows no traceback
+            print(f"\ndeadtime protocol: {'terminated' if terminated else 'interrupted'}; the finished fits and evaluated "
+                  f"plants are kept in {out / 'work'}; continue with: {_resume_command(args)}", file=sys.stderr)
+        return 143 if terminated else 130
+    print(f"deadtime protocol: {len(done)} regime(s) done: {', '.join(done)}", file=sys.stderr)
+    return 0
+
+
+def _terminated(error: BaseException) -> bool:
+    """Whether SIGTERM (:class:`agents.interruptions.Terminated`) is in ``error``'s chain."""
+    from agents.interruptions import Terminated
+
+    seen: set[int] = set()
+    current: BaseException | None = error
+    while current is not None and id(current) not in seen:
+        if isinstance(current, Terminated):
+            return True
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return False
+
+
+def _resume_command(args: argparse.Namespace) -> str:
+    """The command that continues the interrupted run."""
+    words = ["deadtime", "protocol", "run", args.protocol, "--out", args.out]
+    words += [word for name in args.regime or [] for word in ("--regime", name)]
+    words += ["--fits", args.fits] if args.fits else []
+    words += ["--validation-only"] if args.validation_only else []
+    words += ["--workers", str(args.workers)] if args.workers != 1 else []
+    words += ["--chunk-plants", str(args.chunk_plants)] if args.chunk_plants != 250 else []
+    words += ["--address", args.address] if args.address else []
+    return shlex.join([*words, "--resume"])

@@ -14,6 +14,13 @@ For each regime, in the protocol's order (or the ones named), until its ``summar
    benchmark rows are labelled so, and never enter the statistics of the random plants), and
    ``OUT/REGIME/summary.json`` the regime's unadjusted comparisons and violations.
 
+Steps 1, 2 and 4 are independent tasks (:mod:`agents.protocol.tasks`: a fit per learner and seed, an
+evaluation per chunk of a stream's plants), run for every regime at once, in this process or on Ray
+(:mod:`agents.protocol.workers`): the fits, then the validation chunks, the choices, then the test
+chunks.  The tables are assembled in the stream's order and depend on no worker's order, so a run on
+a cluster writes the bytes a serial run writes.  An interrupted run resumes (``resume``): each finished
+fit is read back and each chunk's evaluation is served from its cache.
+
 The folder's ``protocol.json`` records the protocol's path, sha256, the commit it started at and the
 sha256 of each training config its learners name (each regime's ``selection.json`` and ``summary.json``
 the commit they were computed at); a run into a folder of another protocol's sha256, or with a training
@@ -26,13 +33,14 @@ and the evaluations' caches stay in ``OUT/work`` (not results: never committed).
 from __future__ import annotations
 
 import csv
+import dataclasses
 import gzip
 import hashlib
 import io
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -41,6 +49,7 @@ from agents.protocol.config import PRIMARIES, Protocol, Regime
 from agents.protocol.selection import choose_primary, least_mean
 from agents.protocol.statistics import paired_difference, plant_means, plant_violations
 from agents.protocol.streams import check_test_seed, plant_stream
+from agents.protocol.tasks import CHUNK_PLANTS, Chunk, Fit, chunks, merge_chunks
 
 __all__ = ["PER_PLANT", "SUMMARY", "ProtocolRefused", "read_per_plant", "run_protocol", "start"]
 
@@ -176,19 +185,20 @@ def _evaluate(regime: Regime, policies: list[str], plants: list[Any], episode_se
              plots=False, plants=[plant.to_dict() for plant in plants], env_kwargs=dict(regime.env_kwargs))
 
 
-def _learner_policies(protocol: Protocol, fits: Path, regime: Regime, labels: list[tuple[str, str]]) -> tuple[list[str], dict[str, str]]:
-    """``NAME=PATH`` policies of the learners' seeds (training them where needed), and NAME -> ``label@seed``."""
-    from agents.protocol.training import train_learner
-
-    policies, names = [], {}
+def _learner_policies(protocol: Protocol, fits: Path, regime: Regime,
+                      labels: list[tuple[str, str]]) -> tuple[list[str], dict[str, str], list[Fit]]:
+    """``NAME=PATH`` policies of the learners' seeds, NAME -> ``label@seed``, and the fits they need."""
+    plain = dataclasses.replace(regime, env_kwargs=dict(regime.env_kwargs))  # picklable, for a Ray task
+    policies, names, needed = [], {}, []
     for mode, label in labels:
         learner = next(item for item in regime.candidates(mode) if item.label == label)
         for seed in protocol.seeds:
-            directory = train_learner(fits, regime, learner, seed)
+            fit = Fit(str(fits), plain, learner, seed)
             name = f"{mode}.{label}.s{seed}"
-            policies.append(f"{name}={directory}")
+            policies.append(f"{name}={fit.directory()}")
             names[name] = f"{label}@{seed}"
-    return policies, names
+            needed.append(fit)
+    return policies, names, needed
 
 
 def _baselines(protocol: Protocol) -> list[str]:
@@ -212,23 +222,37 @@ def _base_rule(protocol: Protocol, structure: str) -> dict[str, str]:
     return {"base-rule": structure_of(structure).base_rule}
 
 
-def select(protocol: Protocol, work: Path, out: Path, regime: Regime, fits: Path) -> dict[str, Any]:
-    """Steps 1-3 of the module docstring; returns (and writes) ``selection.json``."""
-    from agents.files.writer import write_json
+class _Stage(NamedTuple):
+    """A regime's validation or test stream: its chunks, the fits they need, and the learners' names."""
 
-    path = out / regime.name / "selection.json"
-    if path.exists():
-        return read_json(path, dict)
+    chunks: list[Chunk]
+    fits: list[Fit]
+    names: dict[str, str]
+    directory: Path
+
+
+def _validation(protocol: Protocol, work: Path, regime: Regime, fits: Path, size: int) -> _Stage:
+    """Step 2's tasks: the declared rules, plans, procedure and every candidate's seeds on the validation stream."""
     labels = [(mode, learner.label) for mode in PRIMARIES for learner in regime.candidates(mode)]
-    learners, names = _learner_policies(protocol, fits, regime, labels)
+    learners, names, needed = _learner_policies(protocol, fits, regime, labels)
     structure, family = _structure_and_family(regime)
     plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
+    policies = [*_baselines(protocol), *_base_rule(protocol, structure).values(), *learners]
     directory = work / regime.name / "validation"
-    base = _base_rule(protocol, structure)
-    _evaluate(regime, [*_baselines(protocol), *base.values(), *learners], plants, protocol.validation.episode_seed, directory,
-              benchmark=False)
-    _, table = matrices(read_per_plant(directory / "per_plant.csv", names), "test")
+    return _Stage(chunks(regime, "validation", policies, plants, protocol.validation.episode_seed, directory, False, size),
+                  needed, names, directory)
+
+
+def select(protocol: Protocol, out: Path, regime: Regime, stage: _Stage) -> dict[str, Any]:
+    """Step 3 of the module docstring, once the validation stream's chunks are scored; returns (and writes)
+    ``selection.json``."""
+    from agents.files.writer import write_json
+
+    structure, family = _structure_and_family(regime)
+    merge_chunks(stage.chunks, stage.directory / "per_plant.csv")
+    _, table = matrices(read_per_plant(stage.directory / "per_plant.csv", stage.names), "test")
     mean_of = {name: plant_means(table[name][0]) for name in table}
+    base = _base_rule(protocol, structure)
     chosen: dict[str, Any] = {
         "best-rule": least_mean({name: mean_of[name] for name in _rule_names(protocol, structure)}),
         "fixed-procedure": protocol.selection.fixed_procedure,
@@ -245,9 +269,10 @@ def select(protocol: Protocol, work: Path, out: Path, regime: Regime, fits: Path
             chosen[mode] = label
             candidates[mode] = [record.to_dict() for record in records]
     selection = {"regime": regime.name, "commit": _commit(), "env": regime.env, "env_kwargs": dict(regime.env_kwargs), "family": family,
-                 "validation_plants": len(plants), "chosen_on": "validation", "chosen": chosen, "candidates": candidates,
+                 "validation_plants": protocol.validation.plants, "chosen_on": "validation", "chosen": chosen,
+                 "candidates": candidates,
                  "validation_mean_cost": {name: float(values.mean()) for name, values in sorted(mean_of.items())}}
-    write_json(path, selection)
+    write_json(out / regime.name / "selection.json", selection)
     return selection
 
 
@@ -275,45 +300,87 @@ def _regime_summary(protocol: Protocol, selection: dict[str, Any], rows: list[di
                                        for role, name in chosen.items() if name in benchmark}}}
 
 
-def test_regime(protocol: Protocol, work: Path, out: Path, regime: Regime, selection: dict[str, Any],
-                fits: Path) -> dict[str, Any]:
-    """Step 4 of the module docstring: the chosen policies on the test stream and the benchmark batch."""
-    from agents.files.writer import write_json
-
+def _test(protocol: Protocol, work: Path, regime: Regime, selection: dict[str, Any], fits: Path, size: int) -> _Stage:
+    """Step 4's tasks: the chosen policies and the oracle on the test stream, the benchmark batch with its first chunk."""
     chosen = selection["chosen"]
     labels = [(mode, chosen[mode]) for mode in PRIMARIES if mode in chosen]
-    learners, names = _learner_policies(protocol, fits, regime, labels)
+    learners, names, needed = _learner_policies(protocol, fits, regime, labels)
     baselines = list(dict.fromkeys([chosen[role] for role in ("best-rule", "base-rule", "fixed-procedure", "best-plan") if role in chosen]))
     plants = plant_stream(selection["family"], protocol.test.entropy, protocol.test.plants)
     directory = work / regime.name / "test"
-    _evaluate(regime, [*baselines, "oracle", *learners], plants, protocol.test.episode_seed, directory, benchmark=True)
-    rows = read_per_plant(directory / "per_plant.csv", names)
-    _write_table(out / regime.name / PER_PLANT, rows)
+    return _Stage(chunks(regime, "test", [*baselines, "oracle", *learners], plants, protocol.test.episode_seed, directory, True,
+                         size), needed, names, directory)
+
+
+def test_regime(protocol: Protocol, out: Path, selection: dict[str, Any], stage: _Stage) -> dict[str, Any]:
+    """Step 4 of the module docstring, once the test stream's chunks are scored: the table and the summary."""
+    from agents.files.writer import write_json
+
+    merge_chunks(stage.chunks, stage.directory / "per_plant.csv")
+    rows = read_per_plant(stage.directory / "per_plant.csv", stage.names)
+    name = selection["regime"]
+    _write_table(out / name / PER_PLANT, rows)
     summary = _regime_summary(protocol, selection, rows)
-    write_json(out / regime.name / SUMMARY, summary)
+    write_json(out / name / SUMMARY, summary)
     return summary
 
 
+def _unique(fits: list[Fit]) -> list[Fit]:
+    """Each fit once, in the order first needed (two regimes may need the same run directory)."""
+    found: dict[Path, Fit] = {}
+    for fit in fits:
+        found.setdefault(fit.directory(), fit)
+    return list(found.values())
+
+
 def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes: list[str] | None = None,
-                 validation_only: bool = False, fits: Path | None = None) -> list[str]:
+                 validation_only: bool = False, fits: Path | None = None, workers: int = 1, address: str | None = None,
+                 chunk: int = CHUNK_PLANTS) -> list[str]:
     """Run the protocol's regimes (all, or those named) into ``out``; returns the names of the regimes done.
 
     ``validation_only`` stops each regime after its choices (``selection.json``), before its test stream;
-    ``fits`` is the folder of the learners' fits (default ``out/work/runs``)."""
-    start(protocol, out, resume)
-    work = out / "work"
-    fits = fits or work / "runs"
+    ``fits`` is the folder of the learners' fits (default ``out/work/runs``).  The fits, then the
+    validation chunks, then the test chunks run as tasks (:mod:`agents.protocol.tasks`) on ``workers``
+    local workers or the Ray cluster at ``address`` (:mod:`agents.protocol.workers`); ``chunk`` plants
+    per evaluation task.  ``out`` is locked while the run lasts (:func:`agents.files.lock.folder_lock`).
+
+    Raises
+    ------
+    ProtocolRefused, FolderInUse
+        In one line, before anything is written (see :func:`start`; another run holds ``out``).
+    """
+    from agents.files.lock import folder_lock
+    from agents.protocol.workers import workers as pool
+
     chosen = [protocol.regime(name) for name in regimes] if regimes else list(protocol.regimes)
-    done = []
-    for regime in chosen:
-        if not (out / regime.name / SUMMARY).exists():
-            print(f"deadtime protocol: {regime.name}: training and validation", file=sys.stderr, flush=True)
-            selection = select(protocol, work, out, regime, fits)
-            print(f"deadtime protocol: {regime.name}: chosen on validation {selection['chosen']}", file=sys.stderr, flush=True)
-            if validation_only:
-                done.append(regime.name)
-                continue
-            print(f"deadtime protocol: {regime.name}: the test stream", file=sys.stderr, flush=True)
-            test_regime(protocol, work, out, regime, selection, fits)
-        done.append(regime.name)
-    return done
+    with folder_lock(out, "protocol run"):
+        start(protocol, out, resume)
+        work = out / "work"
+        fits = fits or work / "runs"
+        pending = [regime for regime in chosen if not (out / regime.name / SUMMARY).exists()]
+        if not pending:
+            return [regime.name for regime in chosen]
+        selected = {r.name: read_json(out / r.name / "selection.json", dict) for r in pending
+                    if (out / r.name / "selection.json").exists()}
+        with pool(workers, address) as run:
+            stages = {r.name: _validation(protocol, work, r, fits, chunk) for r in pending if r.name not in selected}
+            tested = {r.name: _test(protocol, work, r, selected[r.name], fits, chunk) for r in pending if r.name in selected}
+            _say(f"{len(pending)} regime(s) to run: the fits, then the validation plants, then the test plants")
+            run(_unique([fit for stage in [*stages.values(), *tested.values()] for fit in stage.fits]))  # every fit a test needs
+            run([part for stage in stages.values() for part in stage.chunks])
+            for regime in pending:
+                if regime.name in stages:
+                    selected[regime.name] = select(protocol, out, regime, stages[regime.name])
+                    _say(f"{regime.name}: chosen on validation {selected[regime.name]['chosen']}")
+            if not validation_only:
+                tested.update({r.name: _test(protocol, work, r, selected[r.name], fits, chunk) for r in pending
+                               if r.name not in tested})
+                run([part for stage in tested.values() for part in stage.chunks])
+                for regime in pending:
+                    test_regime(protocol, out, selected[regime.name], tested[regime.name])
+                    _say(f"{regime.name}: tested")
+    return [regime.name for regime in chosen]
+
+
+def _say(line: str) -> None:
+    print(f"deadtime protocol: {line}", file=sys.stderr, flush=True)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import signal
 from pathlib import Path
 
 from agents.protocol.config import Learner, Regime, trial
@@ -35,6 +36,9 @@ def train_learner(fits: Path, regime: Regime, learner: Learner, seed: int) -> Pa
     ------
     ValueError
         If the fit was interrupted (it resumes when called again) or its config changed since it started.
+    KeyboardInterrupt
+        After SIGINT, or :class:`agents.interruptions.Terminated` after SIGTERM, during the fit (its
+        checkpoint or labels kept).
     """
     from agents.training.learned_rule_config import LearnedRuleConfig
     from agents.training.selector_config import SelectorConfig
@@ -54,6 +58,10 @@ def train_learner(fits: Path, regime: Regime, learner: Learner, seed: int) -> Pa
         from agents.training.train import train
 
         result = train(config, resume=True, command=command)
+    if result.status != "finished" and getattr(result, "stopped_by", None):  # SIGINT or SIGTERM: a checkpoint written
+        from agents.interruptions import Terminated
+
+        raise Terminated if result.stopped_by == signal.SIGTERM else KeyboardInterrupt
     if result.status != "finished":
         raise ValueError(f"the fit of {learner.label} seed {seed} in {regime.name} was interrupted; run again to resume")
     return directory

@@ -47,8 +47,9 @@ def _own_sigterm() -> Iterator[None]:
             signal.signal(signal.SIGTERM, previous)
 
 
-def connect(ray: Any, address: str | None) -> None:
-    """Start a local Ray instance, or join the cluster at ``address``; one thread per task.
+def connect(ray: Any, address: str | None, cpus: int | None = None) -> None:
+    """Start a local Ray instance (of ``cpus`` CPUs, default the machine's), or join the cluster at
+    ``address``; one thread per task.
 
     Raises
     ------
@@ -63,7 +64,7 @@ def connect(ray: Any, address: str | None) -> None:
     if not address or address == "local":
         with _quiet_token_notice(), _own_sigterm():
             try:
-                ray.init(address="local", **options)
+                ray.init(address="local", **options, **({} if cpus is None else {"num_cpus": cpus}))
             except Exception as error:  # ray raises ConnectionError, RuntimeError or its own errors
                 raise ValueError(f"a local Ray instance could not start ({_first_line(error)})") from None
         return

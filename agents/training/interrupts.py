@@ -3,7 +3,8 @@
 The first signal is only recorded; the checkpoint callback writes a checkpoint at the next rollout
 boundary (the only point from which a run can be continued exactly) and training stops there.  A
 second SIGINT or SIGTERM stops at once with ``KeyboardInterrupt``, keeping the last checkpoint
-written before it.
+written before it.  A ``KeyboardInterrupt`` that leaves the block after SIGTERM leaves it as
+:class:`agents.interruptions.Terminated`, so that the command ends with SIGTERM's status.
 """
 
 from __future__ import annotations
@@ -44,10 +45,15 @@ class StopRequest:
             self._previous = {number: signal.signal(number, self._handle) for number in SIGNALS}
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None, traceback: object) -> None:
         for number, handler in self._previous.items():
             signal.signal(number, handler)
         self._previous = {}
+        if self.signum == signal.SIGTERM and isinstance(error, KeyboardInterrupt):
+            from agents.interruptions import Terminated
+
+            if not isinstance(error, Terminated):  # the stop was SIGTERM's: the command ends with its status
+                raise Terminated from error
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         if self.signum is not None:

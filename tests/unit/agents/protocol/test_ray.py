@@ -1,0 +1,168 @@
+"""The tiny protocol (two regimes, two seeds, a few plants) on Ray: by ``--address`` on a ``ray start`` cluster,
+and interrupted by SIGTERM then resumed on local workers, each writing the serial run's tables byte for byte."""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import shlex
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from agents.protocol.run import PER_PLANT, SUMMARY
+
+REGIMES = ("pid-quiet", "pid-noisy")
+
+
+def _environment() -> dict[str, str]:
+    return {**os.environ, "OPENBLAS_NUM_THREADS": "1", "RAY_ADDRESS": ""}
+
+
+def _command(protocol: Path, out: Path, *extra: str) -> list[str]:
+    return [sys.executable, "-m", "agents.cli", "protocol", "run", str(protocol), "--out", str(out), *extra]
+
+
+def _without_commit(path: Path) -> dict:
+    record = json.loads(path.read_text())
+    record.pop("commit")
+    return record
+
+
+def _assert_same_run(expected: Path, found: Path) -> None:
+    """The per-plant tables byte for byte; the choices and the summaries alike (but for the commit)."""
+    for regime in REGIMES:
+        assert (found / regime / PER_PLANT).read_bytes() == (expected / regime / PER_PLANT).read_bytes(), regime
+        for name in ("selection.json", SUMMARY):
+            assert _without_commit(found / regime / name) == _without_commit(expected / regime / name), (regime, name)
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _kill_session(session: int) -> None:
+    """SIGKILL every process of the session ``ray start`` ran in (Ray starts its own process groups)."""
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        if int(stat[stat.rindex(")") + 2:].split()[3]) == session:
+            try:
+                os.kill(int(entry.name), signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+@pytest.fixture
+def ray_start_cluster() -> Iterator[tuple[str, dict[str, str]]]:
+    """A one-node cluster of ``ray start --head`` (two CPUs, token authentication) on free ports; stopped
+    at the end.  Its address, and the environment of a driver on this machine."""
+    ray = Path(sys.executable).with_name("ray")
+    if not ray.is_file() or not Path("/proc").is_dir():
+        pytest.skip(f"ray start is unavailable: no {ray}" if not ray.is_file() else "ray start is unavailable: no /proc")
+    root = Path(tempfile.mkdtemp(prefix="dtray", dir="/tmp"))  # short: Ray's socket paths have a length limit
+    (root / "home" / ".ray").mkdir(parents=True)
+    (root / "home" / ".ray" / "auth_token").write_text(secrets.token_hex(32))
+    environment = {key: value for key, value in _environment().items() if not key.startswith("RAY_AUTH")}
+    environment["HOME"] = str(root / "home")
+    port = _free_port()
+    command = [str(ray), "start", "--head", "--block", f"--port={port}", f"--temp-dir={root / 'ray'}", "--num-cpus=2",
+               "--include-dashboard=false", f"--dashboard-port={_free_port()}", f"--ray-client-server-port={_free_port()}",
+               f"--dashboard-agent-listen-port={_free_port()}", "--disable-usage-stats"]
+    head = subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    try:
+        deadline, lines = time.monotonic() + 120, []
+        while time.monotonic() < deadline:
+            line = head.stdout.readline()
+            lines.append(line)
+            if "Ray runtime started" in line:
+                break
+            if not line and head.poll() is not None:
+                pytest.skip(f"ray start is unavailable: it exited with status {head.returncode}: {''.join(lines)[-500:]}")
+        else:
+            pytest.skip("ray start is unavailable: the head node did not start within 120 s")
+        yield f"127.0.0.1:{port}", environment
+    finally:
+        _kill_session(head.pid)
+        head.wait(timeout=30)
+        shutil.rmtree(root, ignore_errors=True)
+
+
+@pytest.mark.slow
+def test_a_tiny_protocol_on_a_ray_cluster_by_address_writes_the_serial_tables(
+        tiny_serial_run: tuple[Path, Path], ray_start_cluster: tuple[str, dict[str, str]], tmp_path: Path) -> None:
+    """Fits and chunks of two plants as tasks on the cluster's two CPUs, in whatever order they finish:
+    the serial run's per-plant tables, choices and summaries."""
+    protocol, serial = tiny_serial_run
+    address, environment = ray_start_cluster
+    out = tmp_path / "on-cluster"
+    done = subprocess.run(_command(protocol, out, "--address", address, "--chunk-plants", "2"), cwd=tmp_path,
+                          env=environment, capture_output=True, text=True, timeout=1800)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "InvalidAuthToken" not in done.stderr
+    assert "validation plants 2-3 (pid-noisy) done" in done.stderr  # chunks, not one evaluation per stream
+    assert len(list((out / "work" / "runs").glob("*/s*/learned_rule.json"))) == 8  # two learners, two seeds, two regimes
+    _assert_same_run(serial, out)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("workers", [[], ["--workers", "2"]], ids=["in-process", "local-ray"])
+def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial_tables(
+        tiny_serial_run: tuple[Path, Path], tmp_path: Path, workers: list[str]) -> None:
+    """SIGTERM during a fit, in the command's process or while it waits on Ray: status 143 and the command
+    that resumes (Ctrl-C's 130 and no word of it before); a second run on the same --out meanwhile refused
+    in one line; the resumed run (on two local Ray workers) keeps the finished fit and writes the serial
+    run's tables."""
+    protocol, serial = tiny_serial_run
+    out = tmp_path / "out"
+    first = subprocess.Popen(_command(protocol, out, *workers), cwd=tmp_path, env=_environment(), stderr=subprocess.PIPE,
+                             text=True)
+    try:
+        seen = []
+        for line in first.stderr:
+            seen.append(line)
+            if "done (1 of 8)" in line:  # the first fit is finished, the second one started
+                break
+        assert seen and "done (1 of 8)" in seen[-1], "".join(seen)[-2000:]
+        kept = next((out / "work" / "runs").glob("*/s*/learned_rule.json"))
+        stamp = kept.stat().st_mtime_ns
+
+        second = subprocess.run(_command(protocol, out, "--resume"), cwd=tmp_path, env=_environment(), capture_output=True,
+                                text=True, timeout=300)
+        assert second.returncode == 2 and second.stderr.count("\n") == 1, second.stderr
+        assert "in use by another deadtime protocol run" in second.stderr
+
+        first.send_signal(signal.SIGTERM)
+        rest = first.communicate(timeout=300)[1]
+    finally:
+        if first.poll() is None:
+            first.kill()
+            first.wait()
+    assert first.returncode == 143, rest[-2000:]
+    last = rest.strip().splitlines()[-1]
+    assert last.startswith("deadtime protocol: terminated;"), rest[-2000:]
+    resume = shlex.split(last.split("continue with: ")[1])
+    assert resume == ["deadtime", "protocol", "run", str(protocol), "--out", str(out), *workers, "--resume"]
+
+    on_ray = [] if workers else ["--workers", "2"]
+    again = subprocess.run([sys.executable, "-m", "agents.cli", *resume[1:], *on_ray], cwd=tmp_path, env=_environment(),
+                           capture_output=True, text=True, timeout=1800)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert kept.stat().st_mtime_ns == stamp  # the finished fit read back, not trained again
+    _assert_same_run(serial, out)
