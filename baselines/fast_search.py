@@ -39,14 +39,23 @@ import scipy.optimize
 from envs.analysis.loop_analysis import plant_margins
 from envs.analysis.performance import IAEBound, iae
 from envs.analysis.robustness import Margins
-from envs.analysis.scoring import FEASIBLE_CAP, Constraints, CostWeights, Score, constraint_violations, score
-from envs.analysis.scoring import _relative_delay_margin
+from envs.analysis.scoring import (
+    FEASIBLE_CAP,
+    Constraints,
+    CostWeights,
+    Score,
+    _relative_delay_margin,
+    constraint_violations,
+    score,
+    violation_cost,
+)
 from envs.systems.plants import Plant
 
 __all__ = ["BOUNDARY_TOLERANCE", "BRACKET_POINTS", "FastSearch", "Scorer", "fast_search", "margin_of"]
 
 BRACKET_POINTS = 8
 """Points of the coarse grid of the bracket (a ratio of about 2.7 between neighbours for ``mu``, 3.7 for ``T_r/T_n``)."""
+RELATIVE_ROOT_TOLERANCE = 4 * float(np.finfo(float).eps)  # brentq's least
 PATIENCE = 3
 """Feasible grid points costlier than the best so far after which the scan stops (the cost rises
 towards the conservative end of the range)."""
@@ -92,6 +101,7 @@ class Scorer:
     def __post_init__(self) -> None:
         self.analysed: dict[float, tuple[object, Margins, float]] = {}
         self.costs: dict[float, float] = {}
+        self.performances: dict[float, tuple] = {}
         scale = self.plant.residence_time
         self.experiment_cost = self.weights.experiment * self.experiment_time / scale
         if self.weights.production != 0.0:
@@ -117,13 +127,15 @@ class Scorer:
 
     def cost(self, x: float, budget: float = math.inf) -> float:
         """The cost at ``x`` (that of :func:`~envs.analysis.scoring.score`), or a number above ``budget``
-        once that is certain (the IAE run stops early); ``inf`` for an infeasible design."""
+        once that is certain (the IAE run stops early; an infeasible design is not simulated)."""
         x = float(x)
         if x in self.costs:
             return self.costs[x]
-        if not self.feasible(x):
-            return math.inf
-        controller, _, _ = self._analysis(x)
+        controller, margins, relative_dm = self._analysis(x)
+        violations = constraint_violations(margins, relative_dm, self.constraints)
+        if violations:
+            self.costs[x] = violation_cost(violations, margins.stable, self.constraints.violation_cost)
+            return self.costs[x]
         cap = FEASIBLE_CAP - self.experiment_cost
         limit = min(cap, budget - self.experiment_cost)
         performance = iae(self.plant, controller, bound=IAEBound(*self.iae_weights, limit))
@@ -133,13 +145,21 @@ class Scorer:
         if performance.lower_bound and limit < cap:
             return max(cost, budget)  # a lower bound above the budget: not kept (another budget may differ)
         self.costs[x] = cost
+        self.performances[x] = (performance, load_cost, setpoint_cost)
         return cost
 
     def score(self, x: float) -> Score:
-        """Every figure at ``x``, by :func:`~envs.analysis.scoring.score` itself."""
-        controller, _, _ = self._analysis(float(x))
-        return score(self.plant, controller, experiment_time=self.experiment_time,
-                     experiment_deviation=self.experiment_deviation, constraints=self.constraints, weights=self.weights)
+        """Every figure at ``x``: those of :func:`~envs.analysis.scoring.score`, from the analysis and the
+        simulation already made where the cost at ``x`` is known (then not run again)."""
+        x = float(x)
+        controller, margins, relative_dm = self._analysis(x)
+        if x not in self.performances:
+            return score(self.plant, controller, experiment_time=self.experiment_time,
+                         experiment_deviation=self.experiment_deviation, constraints=self.constraints, weights=self.weights)
+        performance, load_cost, setpoint_cost = self.performances[x]
+        return Score(self.costs[x], True, {}, True, margins.ms, margins.gain_margin, margins.phase_margin_deg,
+                     margins.delay_margin, relative_dm, performance.load, performance.setpoint, load_cost, setpoint_cost,
+                     self.experiment_cost, margins, performance.lower_bound)
 
     @property
     def evaluations(self) -> int:
@@ -159,7 +179,7 @@ class FastSearch:
 def _boundary(scorer: Scorer, low: float, high: float) -> float:
     """The root of the signed margin between an infeasible ``low`` and a feasible ``high``, on its
     feasible side (bisection where ``m`` jumps, e.g. at a loss of stability)."""
-    root = scipy.optimize.brentq(scorer.margin, low, high, xtol=BOUNDARY_TOLERANCE, rtol=4 * np.finfo(float).eps)
+    root = scipy.optimize.brentq(scorer.margin, low, high, xtol=BOUNDARY_TOLERANCE, rtol=RELATIVE_ROOT_TOLERANCE)
     step = BOUNDARY_TOLERANCE
     while not scorer.feasible(root) and root < high:
         root = min(root + step, high)
@@ -188,24 +208,18 @@ def fast_search(scorer: Scorer, bounds: tuple[float, float], probe: float, toler
             worse += 1
             if worse > PATIENCE:
                 break
-    # the feasible interval around the best candidate: its neighbours, clipped to an infeasible neighbour's root
-    i = int(np.searchsorted(points, best))
+    # the feasible interval around the best candidate: its grid neighbours, the left one moved to the
+    # boundary's root where it is infeasible
+    i = int(np.searchsorted(points, best))  # points[i] >= best
+    on_grid = points[i] == best
     left = boundary if best == boundary else float(points[i - 1])
-    if best != boundary and not scorer.feasible(left):
+    right = float(points[min(i + 1, len(points) - 1)]) if on_grid else float(points[i])
+    if not scorer.feasible(left):
         left = _boundary(scorer, left, best)
-        cost = scorer.cost(left, best_cost)
-        if cost < best_cost:
-            best, best_cost = left, cost
-    right = float(points[min(i + 1 if points[min(i, len(points) - 1)] == best else i, len(points) - 1)])
-    right = min(right, bounds[1])
+        scorer.cost(left)
     on_edge = best == left and best + probe <= right and scorer.cost(best + probe, best_cost) >= best_cost
     if not on_edge and right > left:
-        found = scipy.optimize.minimize_scalar(lambda x: scorer.cost(x, best_cost) if scorer.feasible(x) else math.inf,
-                                               bounds=(left, right), method="bounded",
-                                               options={"xatol": tolerance, "maxiter": evaluations})
-        x = float(found.x)
-        if scorer.feasible(x):
-            cost = scorer.cost(x, best_cost)
-            if cost < best_cost:
-                best, best_cost = x, cost
+        scipy.optimize.minimize_scalar(scorer.cost, bounds=(left, right), method="bounded",
+                                       options={"xatol": tolerance, "maxiter": evaluations})
+    best = min(scorer.costs, key=lambda x: (scorer.costs[x], x))
     return FastSearch(best, boundary)
