@@ -56,11 +56,11 @@ __all__ = ["BOUNDARY_TOLERANCE", "BRACKET_POINTS", "FastSearch", "Scorer", "fast
 BRACKET_POINTS = 8
 """Points of the coarse grid of the bracket (a ratio of about 2.7 between neighbours for ``mu``, 3.7 for ``T_r/T_n``)."""
 RELATIVE_ROOT_TOLERANCE = 4 * float(np.finfo(float).eps)  # brentq's least
-PATIENCE = 3
+PATIENCE = 2
 """Feasible grid points costlier than the best so far after which the scan stops (the cost rises
 towards the conservative end of the range)."""
-BOUNDARY_TOLERANCE = 1e-4
-"""Absolute tolerance in ``log`` parameter of the feasibility boundary (a tenth of the reference's
+BOUNDARY_TOLERANCE = 5e-4
+"""Absolute tolerance in ``log`` parameter of the feasibility boundary (half the reference's
 refinement tolerance, :data:`baselines.oracle.REFINEMENT_TOLERANCE`)."""
 UNSTABLE_MARGIN = -1.0
 """The signed margin of an unstable loop (negative: only its sign enters the root finding)."""

@@ -1,14 +1,15 @@
 """The oracle's fast search (baselines/fast_search.py) against its reference search and a dense grid.
 
-Agreement: on the training plants of each structure's v3 environment (fixed mode, identified as an
-episode identifies them), the fast search's optimum costs what the reference's does within
-:data:`COST_TOLERANCE`, the reference's own error: measured against a dense search (the reference
-search on a 300-point grid) on 100 plants of each structure, the reference's cost exceeded the dense
-one by at most 6.3e-4 (docs/performance.md, "Labels"); the fast search's cost differed from the
-reference's by at most 7.6e-4 there.  The tolerance is twice the reference's measured error.  The
-parameters agree to the reference's refinement tolerance except where the cost is flat across the
-difference (a flat optimum: the cost then agrees, which is what is asserted).  Feasibility and, on
-nearly every plant, the binding constraint agree.
+Agreement: on training plants of each structure's v3 environment (fixed mode, identified as an
+episode identifies them), the fast search's optimum costs at most what the reference's does plus
+:data:`COST_TOLERANCE`, the reference's own error: against a dense search (the reference search on a
+300-point grid), on 100 plants of each structure, the reference's cost exceeded the dense one by at
+most 1.13e-3 (PID; 1.8e-4 to 4.7e-4 for the others), the fast search's by at most 6.3e-4
+(docs/performance.md, "Labels").  Where the fast search is cheaper by more than the tolerance, the
+two found the same optimum, the fast search more precisely (a steep cost at the boundary): their
+parameters are within twice the reference's refinement tolerance.  Feasibility agrees on every
+plant, the binding constraint on nearly every one, and the optimum's figures are those of
+:func:`envs.analysis.scoring.score` bit for bit.
 
 Boundary: the fast search's feasibility boundary against an independent bisection: feasibility by
 :func:`envs.analysis.scoring.score` on a dense log grid, then plain bisection between the last
@@ -34,8 +35,8 @@ from envs.structures import STRUCTURES as MODELS
 STRUCTURES = ("PID", "FPPI", "MSP", "PI")
 FAST_PLANTS = 40
 SLOW_PLANTS = 300
-COST_TOLERANCE = 1.3e-3
-"""Twice the reference search's largest measured error against the dense search (module docstring)."""
+COST_TOLERANCE = 1.2e-3
+"""The reference search's largest measured error against the dense search, 1.13e-3, rounded up (module docstring)."""
 BINDING_SHARE = 0.97
 """The least share of plants whose binding constraint the two searches name alike (measured: 0.99-1.0)."""
 SEED = 20_000_000
