@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (registers the ids)
-from baselines.fast_search import BOUNDARY_TOLERANCE
+from baselines.fast_search import BOUNDARY_TOLERANCE, REFERENCE_ERROR
 from baselines.oracle import PARAMETER_RANGES, REFINEMENT_TOLERANCE, design, oracle, relative_scale
 from envs.analysis.scoring import score
 from envs.structures import STRUCTURES as MODELS
@@ -35,7 +35,7 @@ from envs.structures import STRUCTURES as MODELS
 STRUCTURES = ("PID", "FPPI", "MSP", "PI")
 FAST_PLANTS = 40
 SLOW_PLANTS = 300
-COST_TOLERANCE = 1.2e-3
+COST_TOLERANCE = REFERENCE_ERROR
 """The reference search's largest measured error against the dense search, 1.13e-3, rounded up (module docstring)."""
 BINDING_SHARE = 0.97
 """The least share of plants whose binding constraint the two searches name alike (measured: 0.99-1.0)."""
