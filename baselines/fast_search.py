@@ -59,10 +59,11 @@ RELATIVE_ROOT_TOLERANCE = 4 * float(np.finfo(float).eps)  # brentq's least
 PATIENCE = 2
 """Feasible grid points costlier than the best so far (below the cap) after which the scan stops (the
 cost rises towards the conservative end of the range)."""
-BOUNDARY_TOLERANCE = 1e-4
-"""Absolute tolerance in ``log`` parameter of the feasibility boundary (a tenth of the reference's
-refinement tolerance, :data:`baselines.oracle.REFINEMENT_TOLERANCE`: the cost can be steep there,
-and the optimum is often the boundary)."""
+BOUNDARY_TOLERANCE = 1e-3
+"""Absolute tolerance in ``log`` parameter of the feasibility boundary (the reference's refinement
+tolerance, :data:`baselines.oracle.REFINEMENT_TOLERANCE`)."""
+OPTIMUM_TOLERANCE = 1e-4
+"""The same where the boundary is the best design found: the cost can be steep there."""
 REFERENCE_ERROR = 1.2e-3
 """The cost error of the reference search, measured against a dense search (the reference on a
 300-point grid) on 100 training plants of each structure: at most 1.13e-3, rounded up.  The fast
@@ -181,15 +182,41 @@ class FastSearch:
     boundary: float | None
 
 
-def _boundary(scorer: Scorer, low: float, high: float) -> float:
+def _boundary(scorer: Scorer, low: float, high: float, tolerance: float = BOUNDARY_TOLERANCE) -> float:
     """The root of the signed margin between an infeasible ``low`` and a feasible ``high``, on its
     feasible side (bisection where ``m`` jumps, e.g. at a loss of stability)."""
-    root = scipy.optimize.brentq(scorer.margin, low, high, xtol=BOUNDARY_TOLERANCE, rtol=RELATIVE_ROOT_TOLERANCE)
-    step = BOUNDARY_TOLERANCE
+    root = scipy.optimize.brentq(scorer.margin, low, high, xtol=tolerance, rtol=RELATIVE_ROOT_TOLERANCE)
+    step = tolerance
     while not scorer.feasible(root) and root < high:
         root = min(root + step, high)
         step *= 2
     return root
+
+
+def _sharpened(scorer: Scorer, boundary: float, low: float) -> float:
+    """The boundary refined to :data:`OPTIMUM_TOLERANCE` (the optimum is on it), from an infeasible
+    point :data:`BOUNDARY_TOLERANCE` below it (or ``low``); the boundary itself where that is feasible."""
+    below = max(boundary - 2 * BOUNDARY_TOLERANCE, low)
+    if scorer.feasible(below):
+        return boundary
+    return _boundary(scorer, below, boundary, OPTIMUM_TOLERANCE)
+
+
+def _refine(scorer: Scorer, left: float, middle: float, right: float, tolerance: float, evaluations: int) -> None:
+    """Brent's minimization from the bracket ``left < middle < right`` (the middle the cheapest), or
+    bounded Brent on ``[left, right]`` where the three do not bracket a minimum; its costs are kept
+    in ``scorer``.  Brent's tolerance is relative, so it runs on ``x`` shifted to start at 1, with a
+    tolerance that is at most ``tolerance`` in ``x`` across the bracket."""
+    costs = [scorer.cost(x) for x in (left, middle, right)]
+    if left < middle < right and costs[1] < min(costs[0], costs[2]):
+        shift = 1.0 - left
+        known = {x + shift: x for x in (left, middle, right)}  # the bracket's points, scored already
+        scipy.optimize.minimize_scalar(lambda y: scorer.cost(known.get(y, y - shift)), bracket=tuple(known),
+                                       method="brent", options={"xtol": tolerance / (right + shift),
+                                                                "maxiter": evaluations})
+    else:
+        scipy.optimize.minimize_scalar(scorer.cost, bounds=(left, right), method="bounded",
+                                       options={"xatol": tolerance, "maxiter": evaluations})
 
 
 def fast_search(scorer: Scorer, bounds: tuple[float, float], probe: float, tolerance: float,
@@ -219,12 +246,16 @@ def fast_search(scorer: Scorer, bounds: tuple[float, float], probe: float, toler
     on_grid = points[i] == best
     left = boundary if best == boundary else float(points[i - 1])
     right = float(points[min(i + 1, len(points) - 1)]) if on_grid else float(points[i])
+    low = float(points[max(i - 1, 0)])  # infeasible where left is a root
     if not scorer.feasible(left):
         left = _boundary(scorer, left, best)
         scorer.cost(left)
-    on_edge = best == left and best + probe <= right and scorer.cost(best + probe, best_cost) >= best_cost
-    if not on_edge and right > left:
-        scipy.optimize.minimize_scalar(scorer.cost, bounds=(left, right), method="bounded",
-                                       options={"xatol": tolerance, "maxiter": evaluations})
+    inside = best + probe if best == left else best
+    if best == left and not (inside < right and scorer.cost(inside, best_cost) < best_cost):
+        sharp = _sharpened(scorer, left, low) if left > bounds[0] else left  # the optimum is on the boundary
+        scorer.cost(sharp)
+        boundary = sharp if left == boundary else boundary
+    else:
+        _refine(scorer, left, inside, right, tolerance, evaluations)
     best = min(scorer.costs, key=lambda x: (scorer.costs[x], x))
     return FastSearch(best, boundary)

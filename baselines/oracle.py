@@ -20,6 +20,13 @@ is global, then local, in ``log`` of the relative parameter:
 3. two probes at relative distance :data:`BINDING_PROBE` either side of the optimum, which decide
    the binding constraint.
 
+``search="fast"`` (:mod:`baselines.fast_search`) finds the same optimum within the reference's
+own error (:data:`baselines.fast_search.REFERENCE_ERROR` in cost, measured against a dense search)
+with about half the scorings, most of them the robustness analysis alone: a coarse grid brackets the
+feasibility boundary, a root finder refines it, the IAE ranks only feasible designs and stops once
+a design is certainly worse; it also returns that boundary, the least conservative feasible parameter
+(``OracleResult.feasibility_boundary``).  The reference stays the default.
+
 Infeasible parameters are not simulated (:func:`~envs.analysis.scoring.score` skips the IAE), so they cost
 only the frequency-domain analysis.  A search costs at most ``grid`` + :data:`REFINEMENT_EVALUATIONS`
 + 2 scorings; loops with many unstable closed-loop poles (the PID on Ingimundarson's stable P6) are
