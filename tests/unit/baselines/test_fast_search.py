@@ -114,7 +114,8 @@ def test_boundary_agrees_with_dense_bisection(structure: str) -> None:
         if dense is None:
             assert fast.feasibility_boundary is None
             continue
-        assert abs(math.log(fast.feasibility_boundary) - dense) <= BOUNDARY_TOLERANCE, (fast.feasibility_boundary, dense)
+        # the root finder's tolerance, plus at most as much again for its step to the feasible side
+        assert abs(math.log(fast.feasibility_boundary) - dense) <= 2 * BOUNDARY_TOLERANCE, (fast.feasibility_boundary, dense)
 
 
 def test_reference_search_is_the_default_and_has_no_boundary() -> None:
