@@ -12,13 +12,18 @@ designs.  :func:`fast_search` uses that, in ``log`` of the relative parameter ``
 2. **Boundary**: where the least conservative feasible grid point has an infeasible aggressive
    neighbour, the root of ``m`` between them by Brent's root finder (``scipy.optimize.brentq``) to
    :data:`BOUNDARY_TOLERANCE` in ``x``, taken on its feasible side: the *feasibility boundary*, the
-   least conservative feasible parameter (the range's aggressive end when that is feasible).
-3. **Cost**: the full cost at the boundary and at every feasible grid point, each IAE simulation
-   stopped as soon as its cost certainly exceeds the best so far (:class:`envs.analysis.performance.IAEBound`):
-   a worse design costs only part of a simulation.
-4. **Refinement**: bounded Brent, as the reference's, between the neighbours of the best candidate
-   (clipped to the boundary), unless the best candidate is the boundary and the design
-   :data:`~baselines.oracle.BINDING_PROBE` inside it costs more (the optimum is then on the cliff).
+   least conservative feasible parameter (the range's aggressive end when that is feasible).  Where
+   ``m`` jumps (a loss of stability) the root finder bisects.
+3. **Cost**: the full cost at the boundary and at the feasible grid points from there on, each IAE
+   simulation stopped as soon as its cost certainly exceeds the best so far
+   (:class:`envs.analysis.performance.IAEBound`): a worse design costs only part of a simulation.
+   The scan ends after :data:`PATIENCE` designs costlier than the best (a capped cost does not count).
+4. **Refinement**: if the best design is the boundary and the design
+   :data:`~baselines.oracle.BINDING_PROBE` inside it costs more, the optimum is on the boundary, which
+   is refined to :data:`OPTIMUM_TOLERANCE` (the cost can be steep there).  Otherwise Brent's
+   minimization from the bracket of the best design and its neighbours (an infeasible neighbour
+   replaced by the boundary's root), or bounded Brent on them where they bracket no minimum, to the
+   reference's tolerance.  The best design of every cost computed is the optimum.
 5. The two binding probes of the reference decide the binding constraint (their feasibility only).
 
 Where no grid point is feasible the reference search runs instead (its least-violating parameter).
@@ -129,7 +134,13 @@ class Scorer:
         return margin_of(margins, relative_dm, self.constraints)
 
     def feasible(self, x: float) -> bool:
+        """Whether the design at ``x`` satisfies every constraint."""
         return self.margin(x) >= 0.0
+
+    def violations(self, x: float) -> dict[str, float]:
+        """The violations at ``x`` (:func:`~envs.analysis.scoring.constraint_violations`)."""
+        _, margins, relative_dm = self._analysis(float(x))
+        return constraint_violations(margins, relative_dm, self.constraints)
 
     def cost(self, x: float, budget: float = math.inf) -> float:
         """The cost at ``x`` (that of :func:`~envs.analysis.scoring.score`), or a number above ``budget``

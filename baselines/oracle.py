@@ -271,12 +271,14 @@ def _oracle(
                      constraints=constraints, weights=weights)
 
     bounds = (math.log(low), math.log(high))
-    boundary = None
+    boundary, spent = None, 0
     if search == "fast":
-        best, at_best, probes, evaluations, boundary = _fast(plant, structure, model, unit, experiment_time,
-                                                             experiment_deviation, constraints, weights, bounds)
+        best, at_best, probes, spent, boundary = _fast(plant, structure, model, unit, experiment_time,
+                                                       experiment_deviation, constraints, weights, bounds)
+        evaluations = spent
     if search == "reference" or best is None:
         best, at_best, probes, evaluations = search_parameter(cost_of, bounds, int(grid))
+        evaluations += spent
     relative = math.exp(best)
     return OracleResult(
         structure=structure,
@@ -301,7 +303,7 @@ def _fast(plant, structure, model, unit, experiment_time, experiment_deviation, 
     scorer = Scorer(plant, lambda relative: design(structure, model, relative * unit), experiment_time,
                     experiment_deviation, constraints, weights)
     found = fast_search(scorer, bounds, BINDING_PROBE, REFINEMENT_TOLERANCE, REFINEMENT_EVALUATIONS)
-    if found.best is None:
+    if found.best is None:  # no grid point feasible: the reference search runs instead
         return None, None, None, scorer.evaluations, None
     probes = [(x, _ProbeScore(scorer, x)) for x in (found.best - BINDING_PROBE, found.best + BINDING_PROBE)
               if bounds[0] <= x <= bounds[1]]
@@ -313,10 +315,7 @@ class _ProbeScore:
     """What :func:`_binding` reads of a probe (feasibility and violations), from the robustness analysis alone."""
 
     def __init__(self, scorer, x: float) -> None:
-        from envs.analysis.scoring import constraint_violations
-
-        _, margins, relative_dm = scorer._analysis(float(x))
-        self.violations = constraint_violations(margins, relative_dm, scorer.constraints)
+        self.violations = scorer.violations(x)
         self.feasible = not self.violations
 
 

@@ -127,3 +127,17 @@ def test_unknown_search_is_refused() -> None:
     plant, identification, name, _, _ = next(_episodes("PID", 1))
     with pytest.raises(ValueError, match="search must be one of reference, fast"):
         oracle(plant, identification, name, search="grid")
+
+
+def test_no_feasible_parameter_falls_back_to_the_reference_search() -> None:
+    """A constraint that no design meets: the fast search runs the reference search (its least-violating
+    parameter), and there is no boundary."""
+    from envs.analysis.scoring import Constraints
+
+    plant, identification, name, _, weights = next(_episodes("PID", 1))
+    impossible = Constraints(max_sensitivity=1.0001, violation_cost="bounded")
+    fast = oracle(plant, identification, name, search="fast", constraints=impossible, weights=weights)
+    reference = oracle(plant, identification, name, constraints=impossible, weights=weights)
+    assert not fast.feasible and fast.feasibility_boundary is None
+    assert (fast.relative_parameter, fast.cost) == (reference.relative_parameter, reference.cost)
+    assert fast.evaluations > reference.evaluations
