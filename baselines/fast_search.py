@@ -27,8 +27,8 @@ designs.  :func:`fast_search` uses that, in ``log`` of the relative parameter ``
 5. The two binding probes of the reference decide the binding constraint (their feasibility only).
 
 Where no grid point is feasible the reference search runs instead (its least-violating parameter).
-The parameter returned is scored by :func:`envs.analysis.scoring.score` itself, so its figures are
-those of any other scoring of it.  Agreement with the reference and speed: docs/performance.md,
+The figures at the parameter returned are those of :func:`envs.analysis.scoring.score` bit for bit
+(the same analysis and simulation, kept from the search).  Agreement with the reference and speed: docs/performance.md,
 "Labels"; ``tests/unit/baselines/test_fast_search.py``.
 """
 
