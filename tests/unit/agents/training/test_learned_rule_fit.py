@@ -292,6 +292,19 @@ def test_fast_labels_hold_the_oracle_and_the_feasibility_boundary(fitted: dict, 
     assert json.loads((run_dir / "run.json").read_text())["config"]["labels"] == "fast"
 
 
+def test_a_fit_recorded_before_the_labels_key_is_finished_on_resume(fitted: dict, tmp_path: Path, capsys) -> None:
+    """A finished fit whose run.json has no ``labels`` (written before the key) was labelled by the
+    reference search: resuming it with the default config fits nothing again."""
+    run_dir = tmp_path / "run"
+    shutil.copytree(fitted["run_dir"], run_dir)
+    record = json.loads((run_dir / "run.json").read_text())
+    del record["config"]["labels"]
+    (run_dir / "run.json").write_text(json.dumps(record))
+    capsys.readouterr()
+    assert _train(run_dir, resume=True) == 0
+    assert "already holds this learned rule (fit finished)" in capsys.readouterr().out
+
+
 def test_the_repo_config_resolves_for_each_environment() -> None:
     from agents.training.config import load_config
     from agents.training.learned_rule_config import LearnedRuleConfig
