@@ -4,7 +4,7 @@ Agreement: on training plants of each structure's v3 environment (fixed mode, id
 episode identifies them), the fast search's optimum costs at most what the reference's does plus
 :data:`COST_TOLERANCE`, the reference's own error: against a dense search (the reference search on a
 300-point grid), on 100 plants of each structure, the reference's cost exceeded the dense one by at
-most 1.13e-3 (PID; 1.8e-4 to 4.7e-4 for the others), the fast search's by at most 6.3e-4
+most 1.13e-3 (PID; 1.8e-4 to 4.7e-4 for the others), the fast search's by at most 6.2e-5
 (docs/performance.md, "Labels").  Where the fast search is cheaper by more than the tolerance, the
 two found the same optimum, the fast search more precisely (a steep cost at the boundary): their
 parameters are within twice the reference's refinement tolerance.  Feasibility agrees on every
