@@ -20,6 +20,13 @@ is global, then local, in ``log`` of the relative parameter:
 3. two probes at relative distance :data:`BINDING_PROBE` either side of the optimum, which decide
    the binding constraint.
 
+``search="fast"`` (:mod:`baselines.fast_search`) finds the same optimum within the reference's
+own error (:data:`baselines.fast_search.REFERENCE_ERROR` in cost, measured against a dense search)
+with about half the scorings, most of them the robustness analysis alone: a coarse grid brackets the
+feasibility boundary, a root finder refines it, the IAE ranks only feasible designs and stops once
+a design is certainly worse; it also returns that boundary, the least conservative feasible parameter
+(``OracleResult.feasibility_boundary``).  The reference stays the default.
+
 Infeasible parameters are not simulated (:func:`~envs.analysis.scoring.score` skips the IAE), so they cost
 only the frequency-domain analysis.  A search costs at most ``grid`` + :data:`REFINEMENT_EVALUATIONS`
 + 2 scorings; loops with many unstable closed-loop poles (the PID on Ingimundarson's stable P6) are
@@ -98,10 +105,13 @@ __all__ = [
     "design",
     "relative_scale",
     "search_parameter",
+    "SEARCHES",
 ]
 
 
 
+SEARCHES = ("reference", "fast")
+"""The searches of :func:`oracle`: the reference (module docstring, "Search") and :mod:`baselines.fast_search`."""
 REFINEMENT_TOLERANCE = 1e-3  # relative (in log parameter)
 REFINEMENT_EVALUATIONS = 14
 BINDING_PROBE = 0.01  # relative distance of the probes that decide the binding constraint
@@ -131,7 +141,11 @@ class OracleResult:
     violations : dict of str to float
         The violations at the optimum (empty when feasible).
     evaluations : int
-        Number of designs scored.
+        Number of designs scored (in whole or, by the fast search, in part).
+    feasibility_boundary : float or None
+        The least conservative feasible relative parameter (the aggressive end of the feasible set,
+        :mod:`baselines.fast_search`); found by the fast search only (None from the reference search,
+        and where no parameter is feasible).
     """
 
     structure: str
@@ -144,6 +158,7 @@ class OracleResult:
     margins: dict[str, float]
     violations: dict[str, float]
     evaluations: int
+    feasibility_boundary: float | None = None
 
 
 @dataclass(frozen=True)
@@ -237,8 +252,11 @@ def _oracle(
     grid: int,
     parameter_range: tuple[float, float] | None,
     experiment_deviation: float = 0.0,
+    search: str = "reference",
 ) -> OracleResult:
     _check_structure(structure)
+    if search not in SEARCHES:
+        raise ValueError(f"search must be one of {', '.join(SEARCHES)}, got {search!r}")
     if int(grid) != grid or grid < 3:
         raise ValueError(f"grid must be an integer >= 3, got {grid!r}")
     low, high = parameter_range if parameter_range is not None else PARAMETER_RANGES[structure]
@@ -253,7 +271,14 @@ def _oracle(
                      constraints=constraints, weights=weights)
 
     bounds = (math.log(low), math.log(high))
-    best, at_best, probes, evaluations = search_parameter(cost_of, bounds, int(grid))
+    boundary, spent = None, 0
+    if search == "fast":
+        best, at_best, probes, spent, boundary = _fast(plant, structure, model, unit, experiment_time,
+                                                       experiment_deviation, constraints, weights, bounds)
+        evaluations = spent
+    if search == "reference" or best is None:
+        best, at_best, probes, evaluations = search_parameter(cost_of, bounds, int(grid))
+        evaluations += spent
     relative = math.exp(best)
     return OracleResult(
         structure=structure,
@@ -266,7 +291,32 @@ def _oracle(
         margins=_relative_margins(at_best, constraints),
         violations=dict(at_best.violations),
         evaluations=evaluations,
+        feasibility_boundary=None if boundary is None else math.exp(boundary),
     )
+
+
+def _fast(plant, structure, model, unit, experiment_time, experiment_deviation, constraints, weights, bounds):
+    """:func:`baselines.fast_search.fast_search`: ``(best, score, probes, evaluations, boundary)``, all
+    None but the evaluations where no grid point is feasible."""
+    from baselines.fast_search import Scorer, fast_search
+
+    scorer = Scorer(plant, lambda relative: design(structure, model, relative * unit), experiment_time,
+                    experiment_deviation, constraints, weights)
+    found = fast_search(scorer, bounds, BINDING_PROBE, REFINEMENT_TOLERANCE, REFINEMENT_EVALUATIONS)
+    if found.best is None:  # no grid point feasible: the reference search runs instead
+        return None, None, None, scorer.evaluations, None
+    probes = [(x, _ProbeScore(scorer, x)) for x in (found.best - BINDING_PROBE, found.best + BINDING_PROBE)
+              if bounds[0] <= x <= bounds[1]]
+    at_best = scorer.score(found.best)
+    return found.best, at_best, probes, scorer.evaluations, found.boundary
+
+
+class _ProbeScore:
+    """What :func:`_binding` reads of a probe (feasibility and violations), from the robustness analysis alone."""
+
+    def __init__(self, scorer, x: float) -> None:
+        self.violations = scorer.violations(x)
+        self.feasible = not self.violations
 
 
 @single_threaded
@@ -279,6 +329,7 @@ def oracle(
     weights: CostWeights = CostWeights(),
     grid: int = 30,
     parameter_range: tuple[float, float] | None = None,
+    search: str = "reference",
 ) -> OracleResult:
     """The best parameter of ``structure`` designed from the identified model, scored on ``plant``.
 
@@ -297,6 +348,10 @@ def oracle(
         Number of log-spaced grid points (>= 3) before the local refinement.
     parameter_range : (float, float), optional
         The range of the relative parameter; default :data:`PARAMETER_RANGES` ``[structure]``.
+    search : {"reference", "fast"}
+        The search (:data:`SEARCHES`): the grid, Brent and probes of the module docstring, or
+        :mod:`baselines.fast_search` (about ten times fewer full scorings, the same optimum within
+        the tolerance of docs/rules_and_oracle.md, and the feasibility boundary; ``grid`` unused).
 
     Returns
     -------
@@ -311,7 +366,7 @@ def oracle(
     _check_structure(structure)
     model = _model_for(structure, identification)
     return _oracle(plant, structure, model, identification.experiment_time, constraints, weights, grid, parameter_range,
-                   identification.experiment_deviation)
+                   identification.experiment_deviation, search)
 
 
 @single_threaded
@@ -323,12 +378,13 @@ def full_information_oracle(
     weights: CostWeights = CostWeights(),
     grid: int = 30,
     parameter_range: tuple[float, float] | None = None,
+    search: str = "reference",
 ) -> OracleResult:
     """:func:`oracle` with the exact models of :func:`exact_models` and no experiment time."""
     _check_structure(structure)
     models = exact_models(plant)
     model = _model_for(structure, models)
-    return _oracle(plant, structure, model, 0.0, constraints, weights, grid, parameter_range)
+    return _oracle(plant, structure, model, 0.0, constraints, weights, grid, parameter_range, search=search)
 
 
 # --------------------------------------------------------------------------- exact models

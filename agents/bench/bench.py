@@ -21,7 +21,10 @@ Four parts, each on the same machine state:
    episodes, the lower of the two), with the largest ratio of episodes/s native x32 over single
    that it allows.  Measured in :data:`VECTOR_ROUNDS` rounds of every setting; each figure is the
    median over the rounds of its value in one round.
-4. Training: the share of ``learn`` spent inside the environment, for PPO (``configs/ppo.yaml``, one
+4. Labels (:mod:`agents.bench.labels`, pinned to one CPU): training labels per second (a reset and the
+   oracle's action, as a learned-rule fit computes them) by the oracle's reference search and by its
+   fast search (:mod:`baselines.fast_search`) on the same plants, and their ratio.
+5. Training: the share of ``learn`` spent inside the environment, for PPO (``configs/ppo.yaml``, one
    environment) and for SAC (``configs/sac.yaml``, the agent of the demo); and PPO's samples per
    second of ``learn`` (``configs/ppo.yaml``, one rollout of 128 steps per environment and its
    update) with 1, 8 and 32 slots of the native vector environment, with the environment's share.
@@ -64,6 +67,9 @@ HEADLINE = (
     "native32_vs_single",
     "native32_vs_single_bound",
     "ppo_samples_per_s_native32_vs_1",
+    "labels_per_s_reference",
+    "labels_per_s_fast",
+    "labels_fast_vs_reference",
 )
 ENV_ID = "DeadTime/PID-v0"
 SEED = 0
@@ -77,6 +83,8 @@ after the other in one block would compare different machine states."""
 VECTOR_SECONDS = 6.0  # per setting, over all rounds
 SCORING_ROUNDS = 3  # our scoring and python-control, interleaved (the speed-up: median over rounds)
 PPO_ROUNDS = 3  # the PPO figures too, each a median over rounds of x1, x8, x32
+LABEL_PLANTS = 40
+LABEL_ROUNDS = 3
 
 
 def _progress(message: str) -> None:
@@ -237,6 +245,19 @@ def _vector_part(quick: bool) -> dict[str, Any]:
     }
 
 
+def _labels_part(quick: bool) -> dict[str, Any]:
+    from agents.bench.labels import label_figures
+
+    previous, core = _one_core()
+    try:
+        figures = label_figures(2 if quick else LABEL_PLANTS, 1 if quick else LABEL_ROUNDS, _progress)
+    finally:
+        if previous is not None:
+            os.sched_setaffinity(0, previous)
+    figures["labels_cpu_affinity"] = core
+    return figures
+
+
 def _ppo_native_part(quick: bool) -> dict[str, Any]:
     from agents.bench.vector import ppo_throughput
 
@@ -278,7 +299,7 @@ def _training_part(quick: bool) -> dict[str, Any]:
 
 
 def bench(quick: bool = False, envs: bool = True, ppo: bool = True, pade_order: int | None = None,
-          reference_samples: int | None = None) -> dict[str, Any]:  # fmt: skip
+          reference_samples: int | None = None, labels: bool = True) -> dict[str, Any]:  # fmt: skip
     """Every figure of ``deadtime bench`` as one dict (see the module docstring)."""
     start = time.perf_counter()
     figures: dict[str, Any] = {"quick": quick, "machine": machine_info()}
@@ -286,6 +307,8 @@ def bench(quick: bool = False, envs: bool = True, ppo: bool = True, pade_order: 
     if envs:
         figures.update(_env_part(quick))
         figures.update(_vector_part(quick))
+    if labels:
+        figures.update(_labels_part(quick))
     if ppo:
         figures.update(_training_part(quick))
         figures.update(_ppo_native_part(quick))
@@ -342,6 +365,13 @@ ROWS = (
     ("episode_bound_native32_ms", "  in native x32 episodes, ms"),
     ("native32_vs_single_bound", "  largest native x32 / single it allows"),
     ("vector_rounds", "rounds (figures: medians over them)"),
+    ("Labels (a reset and the oracle's action per training plant, DeadTime/PID-v3 plan [1, 1], one core)", None),
+    ("labels_per_s_reference", "labels/s, reference search"),
+    ("labels_per_s_fast", "labels/s, fast search"),
+    ("labels_fast_vs_reference", "fast / reference"),
+    ("label_reset_ms", "  the reset alone (both), ms"),
+    ("oracle_fast_vs_reference", "  the oracle alone, fast / reference"),
+    ("labels_rounds", "rounds (figures: medians over them)"),
     ("Training", None),
     ("ppo_samples_per_s_native1", "PPO samples/s of learn, native x1"),
     ("ppo_samples_per_s_native8", "PPO samples/s of learn, native x8"),

@@ -2,7 +2,7 @@
 
 Usage::
 
-    deadtime bench [--json] [--quick] [--skip-envs] [--skip-ppo]
+    deadtime bench [--json] [--quick] [--skip-envs] [--skip-ppo] [--skip-labels]
 
 The parts and their figures: :mod:`agents.bench.bench`.  The bench runs in a child process whose
 BLAS, OpenMP and numba pools have one thread (:data:`agents.runtime.THREAD_VARIABLES`, set before
@@ -33,6 +33,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="a smoke run (4 loops, one episode per setting: its rates are not measurements)")
     parser.add_argument("--skip-envs", action="store_true", help="skip the environment episodes")
     parser.add_argument("--skip-ppo", action="store_true", help="skip the training shares (PPO and SAC)")
+    parser.add_argument("--skip-labels", action="store_true",
+                        help="skip the labels (the oracle's fast search against its reference search)")
     parser.add_argument("--pade-order", type=int, default=None,
                         help=f"Padé order of the python-control reference (default 8, at most {MAX_PADE_ORDER})")
     parser.add_argument("--reference-samples", type=int, default=None,
@@ -44,7 +46,8 @@ def _in_child(args: argparse.Namespace) -> dict[str, Any]:
     from agents.files.reader import parse_json
 
     argv = [sys.executable, "-m", "agents.cli", "bench", "--json"]
-    for flag, on in (("--quick", args.quick), ("--skip-envs", args.skip_envs), ("--skip-ppo", args.skip_ppo)):
+    for flag, on in (("--quick", args.quick), ("--skip-envs", args.skip_envs), ("--skip-ppo", args.skip_ppo),
+                     ("--skip-labels", args.skip_labels)):
         argv += [flag] if on else []
     for flag, value in (("--pade-order", args.pade_order), ("--reference-samples", args.reference_samples)):
         argv += [flag, str(value)] if value is not None else []
@@ -68,7 +71,8 @@ def run(args: argparse.Namespace) -> int:
     from agents.bench.bench import bench, format_table
 
     if os.environ.get(CHILD_VARIABLE) == "1":
-        figures = bench(args.quick, not args.skip_envs, not args.skip_ppo, args.pade_order, args.reference_samples)
+        figures = bench(args.quick, not args.skip_envs, not args.skip_ppo, args.pade_order, args.reference_samples,
+                        not args.skip_labels)
     else:
         figures = _in_child(args)
     print(json.dumps(figures) if args.json else format_table(figures))

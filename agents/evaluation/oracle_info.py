@@ -29,14 +29,20 @@ import gymnasium
 __all__ = ["OracleInfo", "oracle_info"]
 
 
-def oracle_info(env: Any) -> dict[str, float]:
+def oracle_info(env: Any, search: str = "reference") -> dict[str, float | None]:
     """``oracle_cost`` and ``oracle_parameter`` of the episode ``env`` (:func:`envs.interface.episode_of`, or
     the unwrapped environment, which offers the same ``plant``, ``identification``, ``structure``,
-    ``constraints`` and ``weights``), after the design is committed."""
+    ``constraints`` and ``weights``), after the design is committed, by the oracle's ``search``
+    (:data:`baselines.oracle.SEARCHES`); the fast search adds ``boundary_parameter``, the least
+    conservative feasible relative parameter (None where none is feasible)."""
     from baselines.oracle import oracle
 
-    best = oracle(env.plant, env.identification, env.structure, constraints=env.constraints, weights=env.weights)
-    return {"oracle_cost": float(best.cost), "oracle_parameter": float(best.relative_parameter)}
+    best = oracle(env.plant, env.identification, env.structure, constraints=env.constraints, weights=env.weights,
+                  search=search)
+    found: dict[str, float | None] = {"oracle_cost": float(best.cost), "oracle_parameter": float(best.relative_parameter)}
+    if search == "fast":
+        found["boundary_parameter"] = best.feasibility_boundary
+    return found
 
 
 class OracleInfo(gymnasium.Wrapper):

@@ -13,7 +13,11 @@ oracle's action, with a safety margin.  A fit, in the run directory:
    seed makes a ``numpy.random.default_rng`` stream, which never gives the fixed validation or test
    sets (:mod:`envs.systems.plant_sets`).  Each is labelled by the oracle of its identified model
    (:func:`agents.evaluation.oracle_info.oracle_info`): its relative parameter, mapped into the
-   environment's action by the environment's own ``action_from_parameter``.  The labels are cached in
+   environment's action by the environment's own ``action_from_parameter``.  The config's ``labels``
+   chooses the oracle's search: ``reference`` (the default, every committed fit) or ``fast``
+   (:mod:`baselines.fast_search`, the same labels within the oracle's tolerance at a fraction of the
+   time), whose records also hold the feasibility boundary (``boundary_parameter``, the least
+   conservative feasible parameter, and its ``boundary_action``).  The labels are cached in
    ``dataset/training-<first>.json``, :data:`CHUNK` plants a file, each written atomically when
    complete: an interrupted fit resumes (``--resume``) from the files written, so at most one file
    of oracle searches is lost.
@@ -96,19 +100,31 @@ def _direction(unwrapped: Any, low: float, high: float) -> float:
     return float(np.sign(unwrapped.parameter_from_action(high) - unwrapped.parameter_from_action(low)))
 
 
-def _label(env: Any, seed: int, index: int) -> dict[str, Any]:
-    """One training plant drawn by the environment and its oracle's action."""
+def _label(env: Any, seed: int, index: int, search: str = "reference") -> dict[str, Any]:
+    """One training plant drawn by the environment and its oracle's action (by the oracle's ``search``;
+    the fast one also gives the feasibility boundary, as ``boundary_parameter`` and ``boundary_action``,
+    None where no parameter is feasible)."""
     from agents.evaluation.oracle_info import oracle_info
     from envs.interface import tuning_env_of
 
     observation, _ = env.reset(seed=seed)
     unwrapped = tuning_env_of(env)
-    found = oracle_info(unwrapped)
-    action = np.asarray(unwrapped.action_from_parameter(found["oracle_parameter"]), dtype=float).reshape(-1)
+    found = oracle_info(unwrapped, search)
     low, high = float(env.action_space.low[0]), float(env.action_space.high[0])
-    return {"index": index, "seed": seed, "plant": unwrapped.plant.to_dict(),
-            "observation": np.asarray(observation, dtype=float).tolist(), "oracle_parameter": found["oracle_parameter"],
-            "oracle_cost": found["oracle_cost"], "action": float(action[0]), "direction": _direction(unwrapped, low, high)}
+    record = {"index": index, "seed": seed, "plant": unwrapped.plant.to_dict(),
+              "observation": np.asarray(observation, dtype=float).tolist(), "oracle_parameter": found["oracle_parameter"],
+              "oracle_cost": found["oracle_cost"], "action": _action(unwrapped, found["oracle_parameter"]),
+              "direction": _direction(unwrapped, low, high)}
+    if search == "fast":
+        boundary = found["boundary_parameter"]
+        record["boundary_parameter"] = boundary
+        record["boundary_action"] = None if boundary is None else _action(unwrapped, boundary)
+    return record
+
+
+def _action(unwrapped: Any, parameter: float) -> float:
+    """The environment's action of a relative parameter."""
+    return float(np.asarray(unwrapped.action_from_parameter(parameter), dtype=float).reshape(-1)[0])
 
 
 def _chunk_path(run_dir: Path, first: int) -> Path:
@@ -164,7 +180,7 @@ def training_data(env: Any, config: LearnedRuleConfig, run_dir: Path) -> tuple[l
             bar.update(len(chunk))
             if len(chunk) < len(seeds):
                 for k, seed in list(zip(indices, seeds))[len(chunk):]:
-                    chunk.append(_label(env, seed, k))
+                    chunk.append(_label(env, seed, k, config.labels))
                     labelled += 1
                     bar.update()
                     if stop.requested:
@@ -322,6 +338,8 @@ def _existing_run(config: LearnedRuleConfig, run_dir: Path, resume: bool) -> Tra
     saved_config = record.get("config")
     if isinstance(saved_config, dict):  # a fit from before the key had a constant margin
         saved_config = {"margin_scale": "constant", **saved_config}
+    if isinstance(saved_config, dict):  # a fit from before the key labelled by the reference search
+        saved_config = {"labels": "reference", **saved_config}
     if record.get("status") != "finished" or saved_config != {**config.to_dict(), "output_dir": None, "progress_bar": None}:
         return None
     cost = float(evaluations[-1]["mean_cost"])

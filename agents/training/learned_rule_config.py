@@ -30,13 +30,16 @@ from agents.training.schema import (
 )
 from baselines.learned_rule import MARGIN_SCALES, QUANTILE
 
-__all__ = ["LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS", "check_environment", "validate_learned_rule"]
+__all__ = ["LABEL_SEARCHES", "LEARNED_RULE", "LearnedRuleConfig", "MAX_TRAINING_PLANTS", "check_environment", "validate_learned_rule"]
 
 LEARNED_RULE = "learned-rule"
 """The ``algorithm`` value of a learned-rule config."""
 
 MAX_TRAINING_PLANTS = 1_000_000
 """The most training plants of one fit (the stride of the training seeds, :mod:`agents.training.learned_rule`)."""
+
+LABEL_SEARCHES = ("reference", "fast")
+"""The oracle searches that label the training plants (:data:`baselines.oracle.SEARCHES`)."""
 
 DEFAULT_MARGINS = tuple(round(0.025 * i, 3) for i in range(21))
 """0 to 0.5 action units in steps of 0.025."""
@@ -80,6 +83,11 @@ class LearnedRuleConfig:
     violation_confidence : float
         The probability (0 < c < 1) over the draw of the validation plants with which the certified
         rate holds.
+    labels : str
+        The oracle's search that labels the training plants: ``reference`` (the grid, Brent and probes
+        of :mod:`baselines.oracle`; every committed fit) or ``fast`` (:mod:`baselines.fast_search`:
+        the same optimum within the oracle's tolerance, several times quicker, and each record also
+        holds the feasibility boundary; docs/performance.md, "Labels").
     output_dir : str or None
         Run directory; default ``runs/learned-rule-<env name>-s<seed>``.
     progress_bar : bool
@@ -98,6 +106,7 @@ class LearnedRuleConfig:
     quantile: float = QUANTILE
     violation_target: float | None = None
     violation_confidence: float = 0.95
+    labels: str = "reference"
     output_dir: str | None = None
     progress_bar: bool = True
 
@@ -118,6 +127,7 @@ class LearnedRuleConfig:
             object.__setattr__(self, name, _fraction(name, getattr(self, name), optional))
         require_field(self.margin_scale == "constant" or self.quantile != 0.5, "quantile",
                       "other than 0.5 with margin_scale: spread (the band between quantile and 1 - quantile)", self.quantile)
+        require_field(self.labels in LABEL_SEARCHES, "labels", f"one of {', '.join(LABEL_SEARCHES)}", self.labels)
         require_field(self.output_dir is None or (isinstance(self.output_dir, str) and bool(self.output_dir)), "output_dir",
                  "a non-empty string or null", self.output_dir)
         require_field(isinstance(self.progress_bar, bool), "progress_bar", "true or false", self.progress_bar)

@@ -119,6 +119,7 @@ NUMBERS = (
     "episode_to_floor_single", "episode_to_floor_native32", "native32_vs_single", "ppo_samples_per_s_native1",
     "ppo_samples_per_s_native8", "ppo_samples_per_s_native32", "ppo_samples_per_s_native32_vs_1",
     "episode_bound_ms", "episode_bound_single_ms", "episode_bound_native32_ms", "native32_vs_single_bound",
+    "labels_per_s_reference", "labels_per_s_fast", "labels_fast_vs_reference", "label_reset_ms", "oracle_fast_vs_reference",
 )  # fmt: skip
 
 
@@ -141,6 +142,17 @@ def test_bench_json_quick(capsys: Any) -> None:
     assert figures["vector_rounds"] == 1 and len(figures["native32_vs_single_rounds"]) == 1 and figures["ppo_rounds"] == 1
     machine = figures["machine"]
     assert isinstance(machine["cpu_count"], int) and isinstance(machine["versions"]["control"], str)
+
+
+def test_labels_part_shape() -> None:
+    """The labels part on two plants, one round: every figure, positive and finite (no speed is asserted)."""
+    from agents.bench.labels import label_figures
+
+    figures = label_figures(2, 1)
+    for key in ("labels_per_s_reference", "labels_per_s_fast", "labels_fast_vs_reference", "label_reset_ms"):
+        assert isinstance(figures[key], float) and math.isfinite(figures[key]) and figures[key] > 0, key
+    assert figures["labels_plants"] == 2 and figures["labels_rounds"] == 1
+    assert len(figures["labels_fast_vs_reference_rounds"]) == 1
 
 
 def test_table_names_every_headline_figure() -> None:

@@ -261,6 +261,7 @@ BAD = [
     ("violation_confidence=0", "violation_confidence must be a number strictly between 0 and 1"),
     ("quantile=1.5", "quantile must be a number strictly between 0 and 1"),
     ("margin_scale=wide", "margin_scale must be one of constant, spread"),
+    ("labels=grid", "labels must be one of reference, fast"),
     ("margin_scale=spread; quantile=0.5", "quantile must be other than 0.5 with margin_scale: spread"),
 ]
 
@@ -272,6 +273,37 @@ def test_bad_config_values_get_one_line_naming_the_key(tmp_path: Path, capsys, o
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"deadtime train: error: {message}"), lines
     assert not run_dir.exists()
+
+
+def test_fast_labels_hold_the_oracle_and_the_feasibility_boundary(fitted: dict, tmp_path: Path) -> None:
+    """``labels=fast`` labels the same plants with the fast search: the oracle's action within the oracle's
+    tolerance of the reference labels (tests/unit/baselines/test_fast_search.py), and the boundary, the
+    least conservative feasible parameter, on the aggressive side of the oracle's."""
+    from baselines.fast_search import REFERENCE_ERROR
+
+    run_dir = tmp_path / "run"
+    assert _train(run_dir, "labels=fast", "training_plants=10") == 0
+    fast, reference = _records(run_dir), _records(fitted["run_dir"])[:10]
+    assert [r["seed"] for r in fast] == [r["seed"] for r in reference]
+    for new, old in zip(fast, reference):
+        assert new["observation"] == old["observation"] and new["plant"] == old["plant"]
+        assert new["oracle_cost"] <= old["oracle_cost"] + REFERENCE_ERROR
+        assert new["boundary_parameter"] <= new["oracle_parameter"] and -1 <= new["boundary_action"] <= new["action"]
+    assert all("boundary_parameter" not in r for r in reference)  # the reference labels are as they were
+    assert json.loads((run_dir / "run.json").read_text())["config"]["labels"] == "fast"
+
+
+def test_a_fit_recorded_before_the_labels_key_is_finished_on_resume(fitted: dict, tmp_path: Path, capsys) -> None:
+    """A finished fit whose run.json has no ``labels`` (written before the key) was labelled by the
+    reference search: resuming it with the default config fits nothing again."""
+    run_dir = tmp_path / "run"
+    shutil.copytree(fitted["run_dir"], run_dir)
+    record = json.loads((run_dir / "run.json").read_text())
+    del record["config"]["labels"]
+    (run_dir / "run.json").write_text(json.dumps(record))
+    capsys.readouterr()
+    assert _train(run_dir, resume=True) == 0
+    assert "already holds this learned rule (fit finished)" in capsys.readouterr().out
 
 
 def test_the_repo_config_resolves_for_each_environment() -> None:
