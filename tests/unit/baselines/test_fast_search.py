@@ -30,6 +30,7 @@ import envs  # noqa: F401  (registers the ids)
 from baselines.fast_search import BOUNDARY_TOLERANCE, REFERENCE_ERROR
 from baselines.oracle import PARAMETER_RANGES, REFINEMENT_TOLERANCE, design, oracle, relative_scale
 from envs.analysis.scoring import score
+from envs.interface import episode_of
 from envs.structures import STRUCTURES as MODELS
 
 STRUCTURES = ("PID", "FPPI", "MSP", "PI")
@@ -44,10 +45,11 @@ SEED = 20_000_000
 
 def _episodes(structure: str, plants: int):
     """``(plant, identification, structure, constraints, weights)`` of ``plants`` fixed-mode v3 episodes."""
-    env = gymnasium.make(f"DeadTime/{structure}-v3", experiments="fixed").unwrapped
+    env = gymnasium.make(f"DeadTime/{structure}-v3", experiments="fixed")
+    episode = episode_of(env)
     for k in range(plants):
         env.reset(seed=SEED + k)
-        yield env.plant, env.identification, env.structure, env.constraints, env.weights
+        yield episode.plant, episode.identification, episode.structure, episode.constraints, episode.weights
     env.close()
 
 
