@@ -209,9 +209,12 @@ def _observation(text: str, envs: dict[str, Any], every: Any, version: str, shar
     before, rows, after = _table(text)
     described = {row[0].strip("`"): row for row in rows}
     offered, possible = set(envs["agent"].experiment_names), set(every.experiment_names)
-    prose = f"What the entries are and when they are 0: {_common_link('Observation Space')}." if shared else _markdown(before)
-    out = [prose, "", f"Index by index in {version} (agent mode; the fixed mode has no `design_step`):", "",
-           "| index | name | value |", "|---|---|---|"]
+    index = f"Index by index in {version} (agent mode; the fixed mode has no `design_step`)"
+    if shared:
+        out = [f"{index}; what the entries are and when they are 0: {_common_link('Observation Space')}.", ""]
+    else:
+        out = [_markdown(before), "", f"{index}:", ""]
+    out += ["| index | name | value |", "|---|---|---|"]
     for index, name in enumerate(envs["agent"].feature_names):
         key = "count_<type>" if name.startswith("count_") else name
         if key not in described:
@@ -283,8 +286,9 @@ def page(name: str, specs: Sequence[Any]) -> str:
         elif section == "Arguments":
             lines += _arguments(text, _defaults(latest, entry_point, envs["fixed"]), version, latest.id, shared)
         elif section == "Action Space":
-            lines += [f"The action in each mode, and the discrete action: {_common_link('Action Space')}." if shared
-                      else _markdown(text), "", _experiments(envs, every) + _discrete(latest)]
+            offered = _experiments(envs, every) + _discrete(latest)
+            lines += ([f"{offered}  The action in each mode, and the discrete action: {_common_link('Action Space')}."]
+                      if shared else [_markdown(text), "", offered])
         else:
             lines.append(_markdown(text))
     return "\n".join(lines).rstrip() + "\n"
