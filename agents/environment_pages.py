@@ -6,6 +6,9 @@ Action Space, Observation Space, Rewards, Starting State, Episode End, Arguments
 History) and from the newest registered version made in each mode: the spaces' shapes, the
 experiments offered, the observation's entries index by index (described by the docstring's table
 of features) and every argument's default (the registered keyword arguments over the constructor's).
+A section whose text is the shared one of :mod:`envs.env_cards` (``SHARED_DOC``, ``VERSION_HISTORY``)
+is written once, on ``common.md``, and the structure's page links to it; the page keeps what is the
+structure's own (its Description, its observation index by index, its defaults, its own history).
 So the docstring is the one text, and a new environment gets its page by rerunning::
 
     python -m agents.environment_pages            # writes docs/environments/*.md
@@ -25,11 +28,13 @@ from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["NAMESPACE", "PAGES", "environment_names", "main", "page", "pages", "write_pages"]
+__all__ = ["COMMON", "NAMESPACE", "PAGES", "common_page", "environment_names", "main", "page", "pages", "write_pages"]
 
 NAMESPACE = "DeadTime"
 PAGES = Path(__file__).resolve().parents[1] / "docs" / "environments"
 """Where the pages are written: one ``<name>.md`` per environment name, in lower case."""
+COMMON = "common.md"
+"""The page of the sections every structure's docstring shares."""
 MODES = ("fixed", "plan", "agent")
 COMMAND = "python -m agents.environment_pages"
 _ROLE = re.compile(r":(?:mod|func|class|data|meth|attr):`~?([^`]+)`")
@@ -69,6 +74,22 @@ def _sections(doc: str) -> tuple[str, dict[str, str]]:
     return title, {name: "\n".join(body).strip() for name, body in sections.items()}
 
 
+def _shared_sections() -> dict[str, str]:
+    """The sections of :mod:`envs.env_cards` that the structures' docstrings share, by title."""
+    from envs.env_cards import SHARED_DOC, VERSION_HISTORY
+
+    return _sections("shared\n" + SHARED_DOC + VERSION_HISTORY)[1]
+
+
+def _anchor(title: str) -> str:
+    """GitHub's anchor of a heading."""
+    return re.sub(r"[^\w\- ]", "", title.lower()).replace(" ", "-")
+
+
+def _common_link(title: str) -> str:
+    return f"[{title}]({COMMON}#{_anchor(title)})"
+
+
 def _cell(text: str) -> str:
     """A table cell's text as Markdown, its own ``|`` escaped (GitHub splits cells at every bare one)."""
     return _markdown(text).replace("\\|", "|").replace("|", "\\|")
@@ -84,6 +105,19 @@ def _table(text: str) -> tuple[str, list[list[str]], str]:
     first, last = rows[0], rows[-1]
     cells = [[cell.strip() for cell in lines[i].strip().strip("|").split("|", 2)] for i in range(first + 2, last + 1)]
     return "\n".join(lines[:first]).strip(), cells, "\n".join(lines[last + 1:]).strip()
+
+
+def _rendered(text: str) -> list[str]:
+    """A section's text with its table rewritten compactly (cells as Markdown, their ``|`` escaped)."""
+    before, rows, after = _table(text)
+    if not rows:
+        return [_markdown(text)]
+    header_line = next(line for line in text.splitlines() if line.lstrip().startswith("|"))
+    header = [cell.strip() for cell in header_line.strip().strip("|").split("|")]
+    out = [_markdown(before), ""] if before else []
+    out += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(_cell(cell) for cell in row) + " |" for row in rows]
+    return [*out, "", _markdown(after)] if after else out
 
 
 def _make(spec: Any, **kwargs: Any) -> Any:
@@ -128,7 +162,7 @@ def _defaults(spec: Any, entry_point: type, env: Any) -> dict[str, Any]:
     return defaults
 
 
-def _header(name: str, specs: Sequence[Any], envs: dict[str, Any]) -> list[str]:
+def _header(specs: Sequence[Any], envs: dict[str, Any], linked: Sequence[str]) -> list[str]:
     latest = specs[-1]
     action, observation = envs["fixed"].action_space, envs["fixed"].observation_space
     others = [f"{mode} mode `{_shape(envs[mode].action_space)}`" for mode in MODES[1:]]
@@ -145,8 +179,9 @@ def _header(name: str, specs: Sequence[Any], envs: dict[str, Any]) -> list[str]:
         f"| versions | {', '.join(f'`{spec.id}`' for spec in specs)} |",
         "",
         f"The shapes and defaults are those of `{latest.id}`; the versions differ in their defaults (Version",
-        "History).  What every environment shares (modes, vector environment, determinism, threads) is in",
-        "[overview.md](overview.md).",
+        f"History).  Modes, vector environment, determinism and threads: [overview.md](overview.md).  The",
+        f"sections every structure shares are on [{COMMON}]({COMMON}), here only linked: "
+        + ", ".join(_common_link(title) for title in linked) + ".",
     ]
 
 
@@ -159,14 +194,27 @@ def _experiments(envs: dict[str, Any], every: Any) -> str:
     return line + "."
 
 
-def _observation(text: str, envs: dict[str, Any], every: Any, version: str) -> list[str]:
-    """The section's prose, then the observation index by index, each entry described by the
-    docstring's table of features (``count_<type>`` for the counts)."""
+def _discrete(spec: Any) -> str:
+    """The discrete action's space in agent mode, or nothing where the version has no design step."""
+    try:
+        env = _make(spec, experiments="agent", discrete_action=True)
+    except (TypeError, ValueError):
+        return ""
+    return f"  With `discrete_action=True`: `{env.action_space}`."
+
+
+def _observation(text: str, envs: dict[str, Any], every: Any, version: str, shared: bool) -> list[str]:
+    """The section's prose (a link where it is the shared one), then the observation index by index,
+    each entry described by the docstring's table of features (``count_<type>`` for the counts)."""
     before, rows, after = _table(text)
     described = {row[0].strip("`"): row for row in rows}
     offered, possible = set(envs["agent"].experiment_names), set(every.experiment_names)
-    out = [_markdown(before), "", f"Index by index in {version} (agent mode; the fixed mode has no `design_step`):", "",
-           "| index | name | value |", "|---|---|---|"]
+    index = f"Index by index in {version} (agent mode; the fixed mode has no `design_step`)"
+    if shared:
+        out = [f"{index}; what the entries are and when they are 0: {_common_link('Observation Space')}.", ""]
+    else:
+        out = [_markdown(before), "", f"{index}:", ""]
+    out += ["| index | name | value |", "|---|---|---|"]
     for index, name in enumerate(envs["agent"].feature_names):
         key = "count_<type>" if name.startswith("count_") else name
         if key not in described:
@@ -178,15 +226,32 @@ def _observation(text: str, envs: dict[str, Any], every: Any, version: str) -> l
         elif source not in ("", "-") and source not in offered:
             value += f"; measured by the {source}, which {version} does not offer: 0 unless `experiment_set=\"all\"`"
         out.append(f"| {index} | `{name}` | {_cell(value)} |")
-    return [*out, "", _markdown(after)] if after else out
+    return [*out, "", _markdown(after)] if after and not shared else out
 
 
-def _arguments(text: str, defaults: dict[str, Any], version: str) -> list[str]:
+def _call(spec_id: str, arguments: dict[str, Any], width: int = 100) -> list[str]:
+    """``gymnasium.make(spec_id, name=value, ...)`` wrapped at ``width``, each argument on one line."""
+    items = [f"{name}={_value(value).strip('`')}," for name, value in arguments.items()]
+    items[-1] = items[-1].rstrip(",") + ")"
+    lines, indent = [f'gymnasium.make("{spec_id}",'], " " * len("gymnasium.make(")
+    for item in items:
+        if len(lines) > 1 and len(lines[-1]) + 1 + len(item) <= width:
+            lines[-1] += " " + item
+        else:
+            lines.append(indent + item)
+    return lines
+
+
+def _arguments(text: str, defaults: dict[str, Any], version: str, spec_id: str, shared: bool) -> list[str]:
+    """The arguments' defaults in ``version``; their meanings too where the section is not the shared one."""
     before, rows, after = _table(text)
     meanings = {row[0].strip("`"): row[-1] for row in rows}
     missing = sorted(set(defaults) - set(meanings))
     if missing:
         raise ValueError(f"the docstring's Arguments table does not describe {', '.join(missing)}")
+    if shared:
+        return [f"What each argument means, and its default in each version: {_common_link('Arguments')}.  The defaults",
+                f"in {version}:", "", "```python", *_call(spec_id, {name: defaults[name] for name in meanings if name in defaults}), "```"]
     out = [_markdown(before), ""] if before else []
     out += [f"| argument | default in {version} | meaning |", "|---|---|---|"]
     out += [f"| `{name}` | {_cell(_value(defaults[name]))} | {_cell(meanings[name])} |" for name in meanings if name in defaults]
@@ -194,34 +259,72 @@ def _arguments(text: str, defaults: dict[str, Any], version: str) -> list[str]:
 
 
 def page(name: str, specs: Sequence[Any]) -> str:
-    """The Markdown page of environment ``name`` (its registered ``specs``, oldest first)."""
+    """The Markdown page of environment ``name`` (its registered ``specs``, oldest first): its own
+    sections in full, the shared ones (:func:`common_page`) as links."""
     from gymnasium.envs.registration import load_env_creator
 
     latest = specs[-1]
     entry_point = load_env_creator(latest.entry_point) if isinstance(latest.entry_point, str) else latest.entry_point
     title, sections = _sections(entry_point.__doc__ or "")
+    common = _shared_sections()
     envs = {mode: _make(latest, experiments=mode) for mode in MODES}
     every = _make(latest, experiments="agent", experiment_set="all")
     version = f"v{latest.version}"
     lines = [f"# {name}: {_markdown(title)}", "",
              f"<!-- Generated by `{COMMAND}` from the docstring of `{entry_point.__module__}.{entry_point.__name__}` "
-             "and the registered ids: edit those and rerun it. -->", "", *_header(name, specs, envs)]
+             "and the registered ids: edit those and rerun it. -->", ""]
+    own = ("Description", "Action Space", "Observation Space", "Arguments")  # sections with what is the structure's own
+    linked = [section for section, text in sections.items() if common.get(section) == text and section not in own]
+    lines += _header(specs, envs, linked)
     for section, text in sections.items():
+        if section in linked:
+            continue
+        shared = common.get(section) == text
         lines += ["", f"## {section}", ""]
         if section == "Observation Space":
-            lines += _observation(text, envs, every, version)
+            lines += _observation(text, envs, every, version, shared)
         elif section == "Arguments":
-            lines += _arguments(text, _defaults(latest, entry_point, envs["fixed"]), version)
+            lines += _arguments(text, _defaults(latest, entry_point, envs["fixed"]), version, latest.id, shared)
         elif section == "Action Space":
-            lines += [_markdown(text), "", _experiments(envs, every)]
+            offered = _experiments(envs, every) + _discrete(latest)
+            lines += ([f"{offered}  The action in each mode, and the discrete action: {_common_link('Action Space')}."]
+                      if shared else [_markdown(text), "", offered])
         else:
             lines.append(_markdown(text))
     return "\n".join(lines).rstrip() + "\n"
 
 
+def common_page(names: dict[str, list[Any]]) -> str:
+    """The page of the sections that the docstrings of the environments ``names`` share."""
+    from gymnasium.envs.registration import load_env_creator
+
+    common = _shared_sections()
+    users: dict[str, list[str]] = {section: [] for section in common}
+    for name, specs in names.items():
+        entry = specs[-1].entry_point
+        _, sections = _sections((load_env_creator(entry) if isinstance(entry, str) else entry).__doc__ or "")
+        for section, text in sections.items():
+            if common.get(section) == text:
+                users[section].append(name)
+    pages = ", ".join(f"[{name.lower()}.md]({name.lower()}.md)" for name in names)
+    lines = ["# The sections every structure shares", "",
+             f"<!-- Generated by `{COMMAND}` from `envs.env_cards` (SHARED_DOC, VERSION_HISTORY): edit those and rerun it. -->",
+             "", "Each structure's class docstring ends with these sections (Gymnasium's format); its own page gives",
+             f"the rest (its Description, its observation index by index, its defaults): {pages}.",
+             "The versions: " + "; ".join(f"{name} {', '.join(f'v{spec.version}' for spec in specs)}"
+                                          for name, specs in names.items()) + "."]
+    for section, text in common.items():
+        lines += ["", f"## {section}", ""]
+        if len(users[section]) < len(names):
+            lines += [f"Of {', '.join(users[section])}.", ""]
+        lines += _rendered(text)
+    return "\n".join(lines).rstrip() + "\n"
+
+
 def pages() -> dict[Path, str]:
     """Every environment's page by its path."""
-    return {PAGES / f"{name.lower()}.md": page(name, specs) for name, specs in environment_names().items()}
+    names = environment_names()
+    return {PAGES / COMMON: common_page(names), **{PAGES / f"{name.lower()}.md": page(name, specs) for name, specs in names.items()}}
 
 
 def write_pages() -> list[Path]:

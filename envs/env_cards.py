@@ -59,17 +59,10 @@ SHARED_DOC = """
 
     ## Observation Space
     ``Box(-5, 5, (10 + n + 1,), float32)``, every entry dimensionless (identified ``T_ar`` and
-    ``K_n`` as units): the ten identified features of :data:`envs.episode.FEATURES` (``tau``,
-    ``theta``, ``L_n/T_ar``, ``log10(T_f_bar/T_n)``, ``log10(A/(K_n L_n))``, noise-to-amplitude
-    ratio, relay gain and period, ramp ``T_n/T_ar``, experiment time), 0 where not measured (with
+    ``K_n`` as units): the ten identified features of :data:`envs.episode.FEATURES` (with
     ``identification="least-squares"``, three more: :data:`envs.episode.LEAST_SQUARES_FEATURES`);
-    then the number of runs of each experiment type over the budget, and the total runs over the budget;
-    with ``measured_observation=True`` (v3) one more, ``failed_experiments``: the runs that gave nothing
-    usable over the budget.  The noise-to-amplitude ratio is ``sigma/a`` of the closed-loop step, with
-    ``sigma`` the configured ``noise_std`` (v0-v2) or, with ``measured_observation=True``, estimated from
-    the step's record (:mod:`envs.episode`); the relay's hysteresis is ``3 sigma`` of the same ``sigma``.
-    With ``design_features=True`` (v1-v3) the three design features follow, and with
-    ``design_step=True`` in agent mode (v2-v3) and in plan mode, ``design_step``.  A feature whose
+    then the runs of each experiment type, and of all, over the budget; then, as their options are on,
+    ``failed_experiments``, the three design features and ``design_step`` (the table).  A feature whose
     experiment has not run (or failed) is 0, and the counts tell which ran.
 
     | feature | measured by | value |
