@@ -15,6 +15,7 @@ package registry cannot be reached.
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -49,14 +50,20 @@ def _run(command: list[str], timeout: float, **kwargs) -> subprocess.CompletedPr
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False, **kwargs)
 
 
+def _name(requirement: str) -> str:
+    return re.split(r"[<>=!~;\[ ]", requirement, maxsplit=1)[0].strip().lower().replace("_", "-")
+
+
 def _requirements(constraints: Path) -> list[str]:
     """The project's dependencies with gymnasium replaced by :data:`GYMNASIUM`; ``constraints`` is written
-    with constraints.txt's pins less gymnasium's."""
-    pins = [line for line in (REPO / "constraints.txt").read_text().splitlines()
-            if not line.lower().startswith("gymnasium")]
+    with constraints.txt's pins of those dependencies (not of everything constraints.txt pins: rl-zoo3's
+    own dependencies need other versions of some, e.g. python-dateutil < 3 for pytablewriter)."""
+    dependencies = [d for d in tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["dependencies"]
+                    if _name(d) != "gymnasium"]
+    names = {_name(d) for d in dependencies}
+    pins = [line for line in (REPO / "constraints.txt").read_text().splitlines() if line and _name(line) in names]
     constraints.write_text("\n".join(pins) + "\n")
-    dependencies = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["dependencies"]
-    return [d for d in dependencies if not d.lower().startswith("gymnasium")] + [GYMNASIUM, RL_ZOO3]
+    return [*dependencies, GYMNASIUM, RL_ZOO3]
 
 
 @pytest.mark.slow
