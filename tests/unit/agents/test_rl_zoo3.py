@@ -31,7 +31,7 @@ ENVS_NEEDS = ("numpy", "scipy", "numba", "threadpoolctl")
 """The packages ``envs`` imports at the top of its modules (matplotlib and tclab only inside functions the
 training does not call); stable-baselines3 comes with rl-zoo3."""
 INSTALL_TIMEOUT_S = 1800
-"""Hang guards only (the whole test took 243 s on two cores at load 12, most of it installing)."""
+"""Hang guards only (the whole test took 243 s on two cores at load 12)."""
 TRAIN_TIMEOUT_S = 1800
 
 LOAD = """
