@@ -7,7 +7,7 @@ from typing import Any, Collection
 
 import numpy as np
 
-__all__ = ["require_number", "require_real_array", "check_keys"]
+__all__ = ["require_number", "require_real_array", "check_keys", "require_dead_time"]
 
 
 def require_number(
@@ -65,3 +65,18 @@ def check_keys(
     missing = sorted(set(required) - set(keys))
     if missing:
         raise ValueError(f"{what} is missing key {missing[0]!r}{suffix}")
+
+
+def require_dead_time(dead_time: float, relative_degree: int, name: str) -> None:
+    """Refuse a plant given without dead time whose step response shows none either.
+
+    The rules and the dead-time structures design from a dead time: Gorez & Klan's PID from ``D_2 =
+    theta^2 T_ar`` with ``K_i = 1/(mu K D_2)`` (eq. 2-10, 3-11), Ingimundarson's FPPI and modified Smith
+    predictor from ``L`` (``T_r`` in units of ``L``, eq. 14-51).  A delay-free plant of relative degree 2
+    or more (``1/(s+1)^4``, Gorez & Klan's P1 and P2) shows an apparent dead time and is accepted; one of
+    relative degree 0 or 1 (``1/(10 s + 1)``) shows none, and its episodes would be scored apart from
+    the limit of small delays, so ``name`` (the plant's ``delay``) is refused: give it a dead time > 0.
+    """
+    if dead_time == 0 and relative_degree < 2:
+        raise ValueError(f"{name} must be > 0 for a plant of relative degree {relative_degree} (the rules and the "
+                         "dead-time structures need a dead time, given or apparent from relative degree 2 or more)")

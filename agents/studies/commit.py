@@ -42,6 +42,9 @@ def _write(target: Path, data: bytes) -> None:
 
 def commit(source: Path, target: Path) -> None:
     """Copy the finished sweep ``source`` into ``target`` and write its summary there."""
+    missing = [name for name in ("sweep.yaml", "sessions.json", "summary.json") if not (source / name).is_file()]
+    if missing:  # refused before ``target`` is created
+        raise ValueError(f"{source} is not a finished sweep's folder: it holds no {', '.join(missing)}")
     target.mkdir(parents=True, exist_ok=True)
     (target / "sessions.json").write_bytes((source / "sessions.json").read_bytes())
     for path in sorted((source / "runs").glob("*/evaluations.json")) + sorted((source / "runs").glob("*/learned_rule.json")):

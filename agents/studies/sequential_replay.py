@@ -174,6 +174,8 @@ def replay(run_dirs: list[Path], plants: int, out: Path | None) -> str:
     """Replay every agent and return the table; ``out`` writes ``replay.{md,json,png}``."""
     from agents.compressed import compressed_bytes
 
+    if isinstance(plants, bool) or not isinstance(plants, int) or plants < 1:
+        raise ValueError(f"--plants must be a whole number of at least 1, got {plants!r}")
     agents = _pooled([replay_agent(run, plants) for run in run_dirs])
     table = markdown(agents)
     if out is not None:

@@ -197,7 +197,7 @@ class RandomFamilyConfig:
         Range of ``T_ar`` (``L_n`` if integrating), log-uniform, ``0 < low``.  Default
         ``(0.1, 100.0)``.
     dead_time_fraction : (float, float)
-        Range of ``f = L / T_ar``, uniform, ``0 <= low, high < 1``.
+        Range of ``f = L / T_ar``, uniform, ``0 <= low, 0 < high < 1``.
     shapes : tuple of str
         Shapes drawn uniformly; a subset of the family's ``allowed_shapes``.
     shape_ranges : ShapeRanges
@@ -218,7 +218,8 @@ class RandomFamilyConfig:
         _positive("gain", self.gain)
         _positive("residence_time", self.residence_time)
         _check_interval(
-            "dead_time_fraction", self.dead_time_fraction, lambda low, high: 0 <= low and high < 1, "0 <= low, high < 1"
+            "dead_time_fraction", self.dead_time_fraction, lambda low, high: 0 <= low and 0 < high < 1,
+            "0 <= low, 0 < high < 1 (a family of plants without dead time has no dead time to design from)"
         )
         if not 0.0 <= self.negative_gain_probability <= 1.0:
             raise ValueError(f"negative_gain_probability must be in [0, 1], got {self.negative_gain_probability!r}")

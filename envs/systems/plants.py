@@ -23,6 +23,8 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
+from envs.validation import require_dead_time
+
 __all__ = ["Plant", "StateSpace", "as_plant", "NEGLIGIBLE_DEAD_TIME", "GAIN_RANGE", "MAX_COEFFICIENTS", "TIME_SCALE_RANGE"]
 
 GAIN_RANGE = (1e-12, 1e12)
@@ -342,7 +344,8 @@ class Plant:
 
     @classmethod
     def from_dict(cls, data: Any) -> "Plant":
-        """From the JSON form ``{"num": [...], "den": [...], "delay": L}``."""
+        """From the JSON form ``{"num": [...], "den": [...], "delay": L}``; a delay of 0 needs relative degree 2
+        or more (:func:`envs.validation.require_dead_time`)."""
         if not isinstance(data, dict):
             raise ValueError(f"plant must be a JSON object with num, den, delay; got {type(data).__name__}")
         unknown = sorted(set(data) - {"num", "den", "delay"})
@@ -361,18 +364,25 @@ class Plant:
         if not isinstance(dead_time, int | float) or isinstance(dead_time, bool):
             raise ValueError(f"plant.delay must be a number, got {dead_time!r}")
         try:
-            return cls(num=tuple(num), den=tuple(den), dead_time=dead_time)
+            plant = cls(num=tuple(num), den=tuple(den), dead_time=dead_time)
         except ValueError as error:  # named by the JSON key: plant.delay, not plant.dead_time
             message = str(error)
             if message.startswith("dead_time"):
                 message = "delay" + message[len("dead_time") :]
             raise ValueError(f"plant.{message}") from None
+        require_dead_time(plant.dead_time, plant.relative_degree, "plant.delay")
+        return plant
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form accepted by :meth:`from_dict`."""
         return {"num": list(self.num), "den": list(self.den), "delay": self.dead_time}
 
     # ----------------------------------------------------------------- properties
+    @property
+    def relative_degree(self) -> int:
+        """Degree of the denominator less that of the numerator (leading zeros dropped)."""
+        return len(self.den) - len(self.num)
+
     @property
     def integrating(self) -> bool:
         """True if ``G`` has a pole at the origin."""
@@ -477,6 +487,8 @@ def as_plant(value: Any, what: str = "plant") -> Plant:
         A plant; its JSON form ``{"num": [...], "den": [...], "delay": L}``
         (:meth:`Plant.from_dict`); a SISO continuous-time python-control ``TransferFunction``
         (no dead time); or a pair of one and its dead time (:meth:`Plant.from_transfer_function`).
+        A form given without dead time needs relative degree 2 or more
+        (:func:`envs.validation.require_dead_time`); a :class:`Plant` is taken as it is.
     what : str
         The name of the argument in the error message.
 
@@ -496,10 +508,13 @@ def as_plant(value: Any, what: str = "plant") -> Plant:
     if isinstance(value, dict):
         return Plant.from_dict(value)
     if isinstance(value, tuple) and len(value) == 2 and hasattr(value[0], "den"):
-        return Plant.from_transfer_function(value[0], value[1])
-    if hasattr(value, "num") and hasattr(value, "den"):
-        return Plant.from_transfer_function(value)
-    raise ValueError(
-        f"{what} must be a Plant, a JSON object with num, den, delay, a control.TransferFunction or a "
-        f"(TransferFunction, delay) pair; got {type(value).__name__}"
-    )
+        plant = Plant.from_transfer_function(value[0], value[1])
+    elif hasattr(value, "num") and hasattr(value, "den"):
+        plant = Plant.from_transfer_function(value)
+    else:
+        raise ValueError(
+            f"{what} must be a Plant, a JSON object with num, den, delay, a control.TransferFunction or a "
+            f"(TransferFunction, delay) pair; got {type(value).__name__}"
+        )
+    require_dead_time(plant.dead_time, plant.relative_degree, f"{what}: the dead time")
+    return plant

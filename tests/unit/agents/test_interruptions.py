@@ -83,9 +83,8 @@ def test_end_children_ends_new_children_only(tmp_path: Path) -> None:
         newer = subprocess.Popen([sys.executable, "-c", "import signal, time; signal.signal(signal.SIGTERM, signal.SIG_IGN); "
                                   "print('ready', flush=True); time.sleep(60)"], stdout=subprocess.PIPE, text=True)
         assert newer.stdout.readline() == "ready\n"  # it ignores SIGTERM from now: killed after the grace period
-        started = time.monotonic()
         end_children(earlier, grace_s=0.5)
-        assert newer.wait(timeout=5) == -signal.SIGKILL and time.monotonic() - started < 5
+        assert newer.wait(timeout=60) == -signal.SIGKILL  # killed when end_children returned (60 s: a hang guard)
         assert older.poll() is None
     finally:
         older.kill()
@@ -93,10 +92,11 @@ def test_end_children_ends_new_children_only(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_sigterm_to_evaluate_with_workers_leaves_no_process() -> None:
+def test_sigterm_to_evaluate_with_workers_leaves_no_process(tmp_path: Path) -> None:
     """SIGTERM to ``deadtime evaluate --workers 2`` while its pool starts: status 143, one line, and no
-    process of the run (the workers, multiprocessing's resource tracker) left after 10 s."""
-    out = Path(os.environ.get("TMPDIR", "/tmp")) / f"deadtime-sigterm-{os.getpid()}"
+    process of the run (the workers, multiprocessing's resource tracker) left once they had 60 s to end
+    (a hang guard)."""
+    out = tmp_path / "out"
     command = [sys.executable, "-m", "agents.cli", "evaluate", "--env", "DeadTime/PID-v3", "--policies", "all-rules,oracle",
                "--n", "20", "--workers", "2", "--no-plots", "--out", str(out)]
     driver = subprocess.Popen(command, cwd=REPO, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
@@ -110,6 +110,6 @@ def test_sigterm_to_evaluate_with_workers_leaves_no_process() -> None:
     _, err = driver.communicate(timeout=60)
     assert driver.returncode == 143, err[-2000:]
     assert err.rstrip().splitlines()[-1] == "deadtime evaluate: terminated" and "Traceback" not in err
-    while time.monotonic() < sent + 10 and any(Path(f"/proc/{pid}").exists() for pid in children):
+    while time.monotonic() < sent + 60 and any(Path(f"/proc/{pid}").exists() for pid in children):
         time.sleep(0.1)
     assert not [pid for pid in children if Path(f"/proc/{pid}").exists()]
