@@ -233,10 +233,12 @@ def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
         statistics are required (the model or the run's config says so) but missing, pickled or damaged.
     """
     model_path = resolve_model_path(path)  # a missing or unreadable file is named before torch is imported
+    verify_agent_files(model_path, None)  # the model against its manifest, before anything in it is read
     run_dir, config = _run_config(model_path)
     required = _data(model_path).get("deadtime_vecnormalize") is True or config.normalize
     statistics = _statistics_file(model_path, required)
-    verify_agent_files(model_path, statistics)
+    if statistics is not None:
+        verify_agent_files(model_path, statistics)
     normalization = None if statistics is None else read_normalization(statistics)
     model = _rebuilt(config, model_path, device)
     return LoadedPolicy(name=run_dir.name, path=model_path, algorithm=config.algorithm, model=model, config=config,
