@@ -170,7 +170,7 @@ def _statistics_pickle(folder: Path, marker: Path) -> str:
 def _statistics_pickle_without_manifest(folder: Path, marker: Path) -> str:
     _statistics_pickle(folder, marker)
     (folder / "model.manifest.json").unlink()
-    return "model.vecnormalize.pkl is a pickle, which is not loaded"
+    return "model.zip has no manifest"
 
 
 def _data_pickle_without_manifest(folder: Path, marker: Path) -> str:
