@@ -179,6 +179,12 @@ def _data_pickle_without_manifest(folder: Path, marker: Path) -> str:
     return "model.zip has no manifest"
 
 
+def _serialized_data_without_manifest(folder: Path, marker: Path) -> str:
+    _rezip(folder / "model.zip", {"data": _serialized_payload(marker).encode()})
+    (folder / "model.manifest.json").unlink()
+    return "model.zip has no manifest"
+
+
 def _best_model(folder: Path, marker: Path) -> str:
     shutil.copy(folder / "model.zip", folder / "best_model.zip")
     _rezip(folder / "best_model.zip", {"data": _serialized_payload(marker).encode()})
@@ -187,7 +193,7 @@ def _best_model(folder: Path, marker: Path) -> str:
 
 
 PLANTED = [_data_pickle, _policy_pickle, _statistics_pickle, _statistics_pickle_without_manifest,
-           _data_pickle_without_manifest, _best_model]
+           _data_pickle_without_manifest, _serialized_data_without_manifest, _best_model]
 
 
 @pytest.mark.parametrize("plant", PLANTED, ids=lambda f: f.__name__.strip("_"))
