@@ -2,11 +2,12 @@
 
 Usage::
 
-    deadtime convert-model PATH --trust
+    deadtime convert-model PATH --trust [--env ID]
 
 ``PATH`` is a learned rule's or a selector's run directory, or an agent's run directory or model
 ``.zip``.  Converting unpickles the old files, the one step that can run code from them: ``--trust``
-is required, and says that whoever could write the folder is trusted.  What is rewritten:
+is required, and says that whoever could write the folder is trusted.  ``--env`` names the
+environment of an agent saved without its run's ``config.yaml``.  What is rewritten:
 :mod:`agents.training.convert`.
 """
 
@@ -22,12 +23,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("path", help="a learned rule's or selector's run directory, or an agent's run directory or .zip")
     parser.add_argument("--trust", action="store_true",
                         help="unpickle the old files (they can run any code): only for a folder you trust")
+    parser.add_argument("--env", default=None, metavar="ID",
+                        help="the environment of an agent saved without its run's config.yaml (its config is written)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Convert the model; print what was written and removed."""
     from agents.training.convert import convert
 
-    for line in convert(args.path, args.trust):
+    for line in convert(args.path, args.trust, args.env):
         print(line)
     return 0

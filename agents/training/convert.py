@@ -12,8 +12,12 @@ unpickles them, and only when told that the folder is trusted (``--trust``):
   both): its ``<stem>.vecnormalize.pkl`` is unpickled and its observation statistics written as
   ``<stem>.normalization.json``, the pickle removed, and the manifest written anew for the model and
   its statistics (a model without a manifest gets one: ``--trust`` vouches for it).  The model itself
-  is kept as it is: its parameters are read as tensors only.  It is then loaded through the safe path
-  (:func:`agents.training.policies.load_policy`) to check that it plays.
+  is kept as it is: its parameters are read as tensors only.  A model saved without its run's
+  ``config.yaml`` (by stable-baselines3 directly) gets one written from the model as loaded (its
+  algorithm, policy and ``policy_kwargs``) and the environment id given (``--env``).  The model is
+  then loaded through the safe path (:func:`agents.training.policies.load_policy`) and must act bit
+  for bit as stable-baselines3's own load of it on 64 observations drawn from its space, or the
+  conversion is refused.
 
 The fitted numbers are copied exactly: a converted model predicts bit for bit what the pickle did.
 """
@@ -29,8 +33,11 @@ __all__ = ["convert"]
 _BOOKKEEPING = ("format", "file", "size", "sha256")
 
 
-def convert(path: str | Path, trust: bool) -> list[str]:
+def convert(path: str | Path, trust: bool, env_id: str | None = None) -> list[str]:
     """Convert the model at ``path``; returns one line per file written or removed.
+
+    ``env_id`` is the environment of an agent saved without its run's ``config.yaml`` (by
+    stable-baselines3 directly): the config is then written from the model itself.
 
     Raises
     ------
@@ -51,7 +58,7 @@ def convert(path: str | Path, trust: bool) -> list[str]:
         if checks(path):
             folder = path if path.is_dir() else path.parent
             return _convert_fitted(folder, module, kind)
-    return _convert_agent(path)
+    return _convert_agent(path, env_id)
 
 
 def _convert_fitted(folder: Path, module: Any, kind: str) -> list[str]:
@@ -89,9 +96,9 @@ def _unpickle(path: Path) -> Any:
         raise ValueError(f"{path} cannot be unpickled ({error.__class__.__name__}: {error})") from None
 
 
-def _convert_agent(path: Path) -> list[str]:
+def _convert_agent(path: Path, env_id: str | None) -> list[str]:
     """Rewrite the statistics and the manifest of an agent's model(s)."""
-    from agents.training.policies import MODEL_FILES, load_policy, resolve_model_path
+    from agents.training.policies import MODEL_FILES, resolve_model_path
 
     if path.is_dir():
         models = [path / name for name in MODEL_FILES if (path / name).is_file()]
@@ -101,36 +108,130 @@ def _convert_agent(path: Path) -> list[str]:
         models = [resolve_model_path(path)]
     lines: list[str] = []
     for model_path in models:
-        lines += _convert_zip(model_path)
-        load_policy(model_path)
-        lines.append(f"{model_path} loads as data")
+        if model_path.parent.name == "checkpoints":
+            raise ValueError(f"{model_path} is a checkpoint: convert its run's best_model.zip or model.zip")
+        lines += _convert_zip(model_path, env_id)
     return lines
 
 
-def _convert_zip(model_path: Path) -> list[str]:
+def _convert_zip(model_path: Path, env_id: str | None) -> list[str]:
     from agents.files.reader import DamagedFileError
     from agents.training.manifest import manifest_path, verify_agent_files, write_manifest
     from agents.training.normalization import write_normalization
     from agents.training.policies import statistics_paths
 
     statistics, pickled = statistics_paths(model_path)
-    if model_path.parent.name == "checkpoints":
-        raise ValueError(f"{model_path} is a checkpoint: convert its run's best_model.zip or model.zip")
-    lines: list[str] = []
     if manifest_path(model_path) is not None:
         try:
             verify_agent_files(model_path, pickled if pickled.is_file() else None)
         except DamagedFileError as error:
             raise ValueError(f"{error}; not converting it") from None
-    if pickled.is_file() and not statistics.is_file():
+    model = _sb3_model(model_path)
+    vecnormalize = None
+    if pickled.is_file():
         vecnormalize = _unpickle(pickled)
-        if not hasattr(vecnormalize, "obs_rms"):
+        if not hasattr(vecnormalize, "obs_rms") or not hasattr(vecnormalize, "normalize_obs"):
             raise ValueError(f"{pickled} holds a {type(vecnormalize).__name__}, not VecNormalize statistics")
+    lines: list[str] = []
+    config_path = model_path.parent / "config.yaml"
+    if not config_path.is_file():
+        _write_config(config_path, model_path, model, env_id, vecnormalize is not None)
+        lines.append(f"wrote {config_path}")
+    if vecnormalize is not None:
         write_normalization(statistics, vecnormalize)
         lines.append(f"wrote {statistics}")
     write_manifest(model_path, [model_path, *([statistics] if statistics.is_file() else [])])
     lines.append(f"wrote {model_path.with_suffix('.manifest.json')}")
+    _check_same_actions(model_path, model, vecnormalize)
     if pickled.is_file():
         pickled.unlink()
         lines.append(f"removed {pickled}")
+    lines.append(f"{model_path} loads as data and acts as before")
     return lines
+
+
+def _algorithm(model_path: Path) -> str:
+    """The algorithm of a model zip, from its ``data``'s policy class and attributes (read as JSON)."""
+    import zipfile
+
+    from agents.files.reader import parse_json
+
+    try:
+        with zipfile.ZipFile(model_path) as archive:
+            data = parse_json(archive.read("data").decode(), f"{model_path}: data", dict)
+    except (KeyError, ValueError, OSError, zipfile.BadZipFile, UnicodeDecodeError):
+        raise ValueError(f"{model_path} is not a stable-baselines3 model: its 'data' entry is missing or not JSON") from None
+    module = str((data.get("policy_class") or {}).get("__module__", ""))
+    guess = next((name for name in ("SAC", "TD3") if f".{name.lower()}." in module), None)
+    if guess is None and ".maskable." in module:
+        guess = "MaskablePPO"
+    return guess or ("PPO" if "clip_range" in data else "A2C")
+
+
+def _sb3_model(model_path: Path) -> Any:
+    """The model loaded by stable-baselines3 itself (it unpickles: trusted)."""
+    from agents.training.config import algorithm_class
+
+    algorithm = _algorithm(model_path)
+    try:
+        model = algorithm_class(algorithm).load(model_path, device="cpu")
+    except Exception as error:  # noqa: BLE001  (a foreign zip fails in many ways)
+        raise ValueError(f"{model_path} could not be loaded by {algorithm} ({error.__class__.__name__}: {error})") from None
+    model.deadtime_algorithm = algorithm
+    return model
+
+
+def _write_config(config_path: Path, model_path: Path, model: Any, env_id: str | None, normalize: bool) -> None:
+    """The run config of a model saved without one: its algorithm, policy and ``policy_kwargs`` as loaded."""
+    import yaml
+
+    from agents.training.config import TrainConfig, algorithm_class
+    from agents.training.train import _ACTIVATIONS, _OPTIMIZERS
+
+    if env_id is None:
+        raise ValueError(f"{config_path} is missing: pass --env ID, the environment {model_path.name} was trained on, "
+                         "to write it")
+    algorithm = model.deadtime_algorithm
+    aliases = algorithm_class(algorithm).policy_aliases
+    policy = next((name for name, cls in aliases.items() if cls is type(model.policy)), None)
+    if policy is None:
+        raise ValueError(f"{model_path}: its policy {type(model.policy).__name__} is not one of {', '.join(aliases)}")
+    names = {"activation_fn": {v: k for k, v in _ACTIVATIONS.items()}, "optimizer_class": {v: k for k, v in _OPTIMIZERS.items()}}
+    policy_kwargs = {}
+    for key, value in dict(model.policy_kwargs).items():
+        if key == "use_sde":
+            continue
+        if key in names:
+            if getattr(value, "__name__", None) not in names[key]:
+                raise ValueError(f"{model_path}: policy_kwargs.{key} {value!r} cannot be written in a config")
+            value = names[key][value.__name__]
+        policy_kwargs[key] = value
+    hyperparameters: dict[str, Any] = {"use_sde": True} if getattr(model, "use_sde", False) else {}
+    if hasattr(model, "buffer_size"):
+        hyperparameters["buffer_size"] = int(model.buffer_size)  # the rebuilt model's buffer, as small as saved
+    config = TrainConfig(algorithm=algorithm, env_id=env_id, total_timesteps=max(int(model.num_timesteps), 1),
+                         seed=int(model.seed or 0), normalize=normalize, policy=policy, policy_kwargs=policy_kwargs,
+                         hyperparameters=hyperparameters, progress_bar=False)
+    try:
+        text = yaml.safe_dump(config.to_dict(), sort_keys=False)
+    except yaml.YAMLError as error:
+        raise ValueError(f"{model_path}: its policy_kwargs cannot be written in a config ({error})") from None
+    config_path.write_text(text)
+
+
+def _check_same_actions(model_path: Path, model: Any, vecnormalize: Any) -> None:
+    """Refuse a conversion whose model, loaded as data, does not act bit for bit as stable-baselines3's."""
+    import numpy as np
+
+    from agents.training.policies import load_policy
+
+    loaded = load_policy(model_path)
+    space = model.observation_space
+    space.seed(0)
+    observations = np.stack([space.sample() for _ in range(64)]).astype(np.float32)
+    observations = np.nan_to_num(observations, posinf=1e6, neginf=-1e6)
+    expected = model.predict(observations if vecnormalize is None else vecnormalize.normalize_obs(observations),
+                             deterministic=True)[0]
+    if not np.array_equal(loaded.predict(observations)[0], expected):
+        raise ValueError(f"{model_path}, rebuilt from {model_path.parent / 'config.yaml'}, does not act as the model "
+                         "stable-baselines3 loads: not converted")

@@ -197,7 +197,8 @@ def _run_config(model_path: Path) -> tuple[Path, TrainConfig]:
     config_path = run_dir / "config.yaml"
     if not config_path.is_file():
         raise ValueError(f"{config_path} is missing: {model_path.name} is rebuilt from its run's config and cannot be "
-                         "loaded without it (keep the model in its deadtime train run directory)")
+                         "loaded without it (keep the model in its deadtime train run directory; for a model saved "
+                         f"elsewhere, from a folder you trust: deadtime convert-model {model_path} --trust --env ID)")
     return run_dir, load_config(config_path)
 
 
@@ -206,11 +207,13 @@ def _rebuilt(config: TrainConfig, model_path: Path, device: str) -> Any:
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from agents.environments import make_env
+    from agents.training.schema import refused_as
     from agents.training.train import new_model
 
     parameters = _parameters(model_path, device)
-    venv = DummyVecEnv([lambda: make_env(config.env_id, dict(config.env_kwargs))])
-    model = new_model(dataclasses.replace(config, device=device), venv)
+    venv = refused_as("env_kwargs", config.env_id, lambda: DummyVecEnv([lambda: make_env(config.env_id, dict(config.env_kwargs))]))
+    model = refused_as("hyperparameters or policy_kwargs", config.algorithm,
+                       lambda: new_model(dataclasses.replace(config, device=device), venv))
     try:
         model.policy.load_state_dict(parameters)
     except RuntimeError as error:

@@ -243,3 +243,30 @@ def test_an_older_agent_is_refused_then_converted_bit_for_bit(tmp_path: Path, ca
     observations = np.random.default_rng(2).normal(size=(64, venv.observation_space.shape[0])).astype(np.float32)
     loaded = load_policy(folder)
     assert np.array_equal(loaded.predict(observations)[0], _sb3_actions(model, venv, observations))
+
+
+def test_an_agent_saved_by_stable_baselines3_directly_is_converted_with_its_environment(tmp_path: Path, capsys) -> None:
+    from stable_baselines3 import SAC
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from agents.environments import make_env
+    from agents.training.policies import load_policy
+
+    folder = tmp_path / "elsewhere"
+    folder.mkdir()
+    venv = VecNormalize(DummyVecEnv([lambda: make_env("DeadTime/FPPI-v0", {})]))
+    model = SAC("MlpPolicy", venv, learning_starts=4, batch_size=4, buffer_size=100, device="cpu", seed=3,
+                policy_kwargs={"net_arch": [5], "activation_fn": __import__("torch").nn.Tanh})
+    model.learn(8)
+    model.save(folder / "agent.zip")
+    with (folder / "agent.vecnormalize.pkl").open("wb") as handle:
+        pickle.dump(venv, handle)
+    status, err = _evaluate(capsys, f"a={folder / 'agent.zip'}", tmp_path / "out", env="DeadTime/FPPI-v0")
+    assert status == 2 and err.count("\n") == 1 and "agent.zip has no manifest" in err, err
+    assert main(["convert-model", str(folder / "agent.zip"), "--trust"]) == 2
+    assert "pass --env ID" in capsys.readouterr().err
+    assert main(["convert-model", str(folder / "agent.zip"), "--trust", "--env", "DeadTime/FPPI-v0"]) == 0
+    loaded = load_policy(folder / "agent.zip")
+    assert loaded.algorithm == "SAC" and loaded.config.policy_kwargs["activation_fn"] == "tanh"
+    observations = np.random.default_rng(3).normal(size=(64, venv.observation_space.shape[0])).astype(np.float32)
+    assert np.array_equal(loaded.predict(observations)[0], _sb3_actions(model, venv, observations))
