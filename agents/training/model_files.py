@@ -19,6 +19,7 @@ format of older fits) is never loaded: the message names ``deadtime convert-mode
 
 from __future__ import annotations
 
+import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -49,7 +50,7 @@ def save_model_file(model_path: Path, manifest_path: Path, model: Any, manifest:
 
     from agents.runtime import versions
 
-    data = skops.io.dumps(model)
+    data = skops.io.dumps(model, compression=zipfile.ZIP_DEFLATED)
     written = atomic_write(model_path, lambda handle: handle.write(data))
     record = {"format": FORMAT, "file": model_path.name, "size": written.stat().st_size, "sha256": file_digest(written),
               "versions": versions(), **manifest}
