@@ -19,6 +19,7 @@ format of older fits) is never loaded: the message names ``deadtime convert-mode
 
 from __future__ import annotations
 
+import io
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -33,6 +34,9 @@ FORMAT = 2
 """The manifest's format: 2 names a skops file (1, a pickle, is only read by the conversion)."""
 
 SUFFIX = ".skops"
+
+MAX_UNPACKED = 1 << 30
+"""The most bytes a model file may unpack to (a fitted model of this project is a few megabytes)."""
 
 _TREES = "sklearn.ensemble._hist_gradient_boosting.predictor.TreePredictor"
 TRUSTED: dict[str, tuple[str, ...]] = {
@@ -104,6 +108,10 @@ def _load_skops(model_path: Path, trusted: tuple[str, ...]) -> Any:
 
     data = model_path.read_bytes()
     try:
+        with zipfile.ZipFile(io.BytesIO(data)) as archive:
+            unpacked = sum(info.file_size for info in archive.infolist())
+        if unpacked > MAX_UNPACKED:
+            raise ValueError(f"{unpacked} bytes unpacked, more than {MAX_UNPACKED}")
         untrusted = skops.io.get_untrusted_types(data=data)
     except Exception as error:  # noqa: BLE001  (a damaged or foreign file fails in many ways; nothing is built yet)
         raise ValueError(f"{model_path} cannot be read as a skops file ({error.__class__.__name__}: {error})") from None

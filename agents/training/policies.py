@@ -93,6 +93,9 @@ class LoadedPolicy:
         return {} if self.config is None else dict(self.config.env_kwargs)
 
 
+MAX_PARAMETER_BYTES = 1 << 30
+"""The most bytes a model's ``policy.pth`` may unpack to."""
+
 MODEL_FILES = ("best_model.zip", "model.zip")
 """The model files of a training run directory, in the order :func:`resolve_model_path` takes them."""
 
@@ -145,9 +148,11 @@ def _parameters(model_path: Path, device: str) -> dict[str, Any]:
 
     try:
         with zipfile.ZipFile(model_path) as archive:
+            if archive.getinfo("policy.pth").file_size > MAX_PARAMETER_BYTES:
+                raise ValueError(f"more than {MAX_PARAMETER_BYTES} bytes unpacked")
             content = archive.read("policy.pth")
         state = torch.load(io.BytesIO(content), map_location=device, weights_only=True)
-    except (KeyError, OSError, zipfile.BadZipFile, pickle.UnpicklingError, RuntimeError, EOFError) as error:
+    except (KeyError, OSError, ValueError, zipfile.BadZipFile, pickle.UnpicklingError, RuntimeError, EOFError) as error:
         reason = str(error).splitlines()[0] if str(error) else error.__class__.__name__
         raise ValueError(f"{model_path}: its policy.pth is missing or holds more than tensors; refusing it ({reason})") from None
     if not isinstance(state, dict) or not all(isinstance(value, torch.Tensor) for value in state.values()):
