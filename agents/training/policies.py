@@ -243,11 +243,14 @@ def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
     model_path = resolve_model_path(path)  # a missing or unreadable file is named before torch is imported
     verify_agent_files(model_path, None)  # the model against its manifest, before anything in it is read
     run_dir, config = _run_config(model_path)
-    required = _data(model_path).get("deadtime_vecnormalize") is True or config.normalize
+    data = _data(model_path)
+    required = data.get("deadtime_vecnormalize") is True or config.normalize
     statistics = _statistics_file(model_path, required)
     if statistics is not None:
         verify_agent_files(model_path, statistics)
     normalization = None if statistics is None else read_normalization(statistics)
     model = _rebuilt(config, model_path, device)
+    steps = data.get("num_timesteps")
+    model.num_timesteps = steps if isinstance(steps, int) and not isinstance(steps, bool) else 0  # as trained (a plain number)
     return LoadedPolicy(name=run_dir.name, path=model_path, algorithm=config.algorithm, model=model, config=config,
                         normalization=normalization)
