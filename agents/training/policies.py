@@ -204,7 +204,11 @@ def _run_config(model_path: Path) -> tuple[Path, TrainConfig]:
         raise ValueError(f"{config_path} is missing: {model_path.name} is rebuilt from its run's config and cannot be "
                          "loaded without it (keep the model in its deadtime train run directory; for a model saved "
                          f"elsewhere, from a folder you trust: deadtime convert-model {model_path} --trust --env ID)")
-    return run_dir, load_config(config_path)
+    config = load_config(config_path)
+    if not isinstance(config, TrainConfig):
+        raise ValueError(f"{config_path} is not the config of a stable-baselines3 agent (algorithm {config.algorithm!r}), "
+                         f"so {model_path.name} cannot be rebuilt from it")
+    return run_dir, config
 
 
 def _rebuilt(config: TrainConfig, model_path: Path, device: str) -> Any:
