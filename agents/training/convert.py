@@ -7,7 +7,8 @@ unpickles them, and only when told that the folder is trusted (``--trust``):
 
 * a learned rule or a selector: the pickle is checked against its manifest (size, SHA-256, the
   scikit-learn that fitted it), unpickled, checked to be a model of its kind, written as
-  ``learned_rule.skops`` / ``selector.skops`` with a new manifest (the fit's record kept), and removed;
+  ``learned_rule.skops`` / ``selector.skops`` with a new manifest (the fit's record kept), and removed
+  (a selector's own learned design, ``RUN/learned``, with it);
 * an agent (a run directory or a model ``.zip``; a run directory's ``best_model.zip`` and ``model.zip``
   both): its ``<stem>.vecnormalize.pkl`` is unpickled and its observation statistics written as
   ``<stem>.normalization.json``, the pickle removed, and the manifest written anew for the model and
@@ -53,11 +54,15 @@ def convert(path: str | Path, trust: bool, env_id: str | None = None) -> list[st
     if not trust:
         raise ValueError(f"converting {path} unpickles its files, which can run any code: pass --trust only if you trust "
                          "whoever could write its folder")
-    for module, kind in ((selector_policy, "selector"), (learned_rule_policy, "learned rule")):
-        checks = module.is_selector if kind == "selector" else module.is_learned_rule
-        if checks(path):
-            folder = path if path.is_dir() else path.parent
-            return _convert_fitted(folder, module, kind)
+    folder = path if path.is_dir() else path.parent
+    if selector_policy.is_selector(path):
+        lines = _convert_fitted(folder, selector_policy, "selector")
+        own = folder / "learned"  # the selector's own learned design, a learned-rule fit of its own
+        if (own / learned_rule_policy.MANIFEST).is_file():
+            lines += _convert_fitted(own, learned_rule_policy, "learned rule")
+        return lines
+    if learned_rule_policy.is_learned_rule(path):
+        return _convert_fitted(folder, learned_rule_policy, "learned rule")
     return _convert_agent(path, env_id)
 
 
