@@ -57,7 +57,9 @@ def convert(path: str | Path, trust: bool, env_id: str | None = None) -> list[st
     folder = path if path.is_dir() else path.parent
     if selector_policy.is_selector(path):
         lines = _convert_fitted(folder, selector_policy, "selector")
-        own = folder / "learned"  # the selector's own learned design, a learned-rule fit of its own
+        from agents.training.selector_config import LEARNED
+
+        own = folder / LEARNED  # the selector's own learned design, a learned-rule fit of its own
         if (own / learned_rule_policy.MANIFEST).is_file():
             lines += _convert_fitted(own, learned_rule_policy, "learned rule")
         return lines

@@ -270,3 +270,28 @@ def test_an_agent_saved_by_stable_baselines3_directly_is_converted_with_its_envi
     assert loaded.algorithm == "SAC" and loaded.config.policy_kwargs["activation_fn"] == "tanh"
     observations = np.random.default_rng(3).normal(size=(64, venv.observation_space.shape[0])).astype(np.float32)
     assert np.array_equal(loaded.predict(observations)[0], _sb3_actions(model, venv, observations))
+
+
+def test_an_older_pickled_selector_is_converted_bit_for_bit_with_its_own_learned_design(tmp_path: Path) -> None:
+    from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
+
+    from agents.training.learned_rule_policy import load_learned_rule
+    from agents.training.selector_policy import Selector, load_selector
+
+    rule, observations = _tiny_rule()
+    x = np.random.default_rng(4).normal(size=(150, 3))
+    selector = Selector(("simc-pi", "learned"), ("simc-pi", None), {"learned": rule},
+                        (HistGradientBoostingClassifier(random_state=0).fit(x, x[:, 0] > 0), 0.25),
+                        (HistGradientBoostingRegressor(random_state=0).fit(x, x[:, 1]), 1.5), 0.2)
+    folder = tmp_path / "fit"
+    (folder / "learned").mkdir(parents=True)
+    _fitted_manifest(folder, "selector.pkl", pickle.dumps(selector))
+    _fitted_manifest(folder / "learned", "learned_rule.pkl", pickle.dumps(rule))
+    assert main(["convert-model", str(folder), "--trust"]) == 0
+    assert not list(folder.rglob("*.pkl"))
+    converted = load_selector(folder)
+    assert np.array_equal(converted.selector.choices(observations), selector.choices(observations))
+    assert all(np.array_equal(a, b) for a, b in zip(converted.selector.predictions(observations),
+                                                    selector.predictions(observations), strict=True))
+    assert np.array_equal(converted.action("learned", observations), rule.predict(observations))
+    assert np.array_equal(load_learned_rule(folder / "learned").predict(observations)[0], rule.predict(observations))
