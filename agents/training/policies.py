@@ -220,7 +220,8 @@ def _rebuilt(config: TrainConfig, model_path: Path, device: str) -> Any:
     from agents.training.train import new_model
 
     parameters = _parameters(model_path, device)
-    venv = refused_as("env_kwargs", config.env_id, lambda: DummyVecEnv([lambda: make_env(config.env_id, dict(config.env_kwargs))]))
+    venv = refused_as("env_kwargs", config.env_id,
+                      lambda: DummyVecEnv([lambda: make_env(config.env_id, dict(config.env_kwargs))]))
     model = refused_as("hyperparameters or policy_kwargs", config.algorithm,
                        lambda: new_model(dataclasses.replace(config, device=device), venv))
     try:
