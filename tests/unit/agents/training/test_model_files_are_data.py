@@ -295,3 +295,14 @@ def test_an_older_pickled_selector_is_converted_bit_for_bit_with_its_own_learned
                                                     selector.predictions(observations), strict=True))
     assert np.array_equal(converted.action("learned", observations), rule.predict(observations))
     assert np.array_equal(load_learned_rule(folder / "learned").predict(observations)[0], rule.predict(observations))
+
+
+def test_deadtime_process_never_runs_a_planted_learned_rule(tmp_path: Path, capsys) -> None:
+    marker = tmp_path / "marker"
+    folder = tmp_path / "fit"
+    folder.mkdir()
+    _fitted_manifest(folder, "learned_rule.pkl", _payload(marker))
+    status = main(["process", "--process", "tclab", "--policies", f"planted={folder}", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert not marker.exists()
+    assert status == 2 and err.count("\n") == 1 and "learned_rule.pkl is a pickle, which is not loaded" in err, err
