@@ -183,6 +183,9 @@ def _statistics_file(model_path: Path, required: bool) -> Path | None:
         return None
     if statistics.is_file():
         return statistics
+    if pickled.is_file() and model_path.parent.name == "checkpoints":
+        raise ValueError(f"{pickled} is a pickle, which is not loaded (it could run code): play the run's model.zip or "
+                         f"best_model.zip instead (deadtime convert-model {model_path.parent.parent} --trust converts them)")
     if pickled.is_file():
         raise ValueError(f"{pickled} is a pickle, which is not loaded (it could run code): if you trust its folder, "
                          f"convert it with deadtime convert-model {model_path} --trust")
