@@ -48,3 +48,21 @@ def test_a_checkpoint_takes_the_statistics_and_config_of_its_run(tmp_path: Path,
     loaded = load_policy(checkpoints / "model_64.zip")
     assert loaded.normalization is not None
     assert loaded.algorithm == "PPO" and loaded.config is not None and loaded.name == "run"
+
+
+def test_an_older_checkpoints_pickled_statistics_are_refused_naming_the_runs_models(tmp_path: Path, agent_saver) -> None:
+    import json
+    import shutil
+
+    from agents.files.writer import file_digest
+
+    run, _, _ = agent_saver(tmp_path / "run", legacy=True)
+    checkpoints = run / "checkpoints"
+    checkpoints.mkdir()
+    shutil.copy(run / "model.zip", checkpoints / "model_64.zip")
+    shutil.copy(run / "model.vecnormalize.pkl", checkpoints / "vecnormalize_64.pkl")
+    files = {name: {"bytes": (checkpoints / name).stat().st_size, "sha256": file_digest(checkpoints / name)}
+             for name in ("model_64.zip", "vecnormalize_64.pkl")}
+    (checkpoints / "checkpoint_64.json").write_text(json.dumps({"num_timesteps": 64, "model": "model_64.zip", "files": files}))
+    with pytest.raises(ValueError, match=f"vecnormalize_64.pkl is a pickle, which is not loaded .*convert-model {run} --trust"):
+        load_policy(checkpoints / "model_64.zip")
