@@ -76,6 +76,11 @@ COMMANDS: dict[str, Command] = {
     "protocol": _described("agents.commands.protocol", "a preregistered protocol: register its test seed, run it "
                            "(train, choose on validation, test once), report it, check its interval's coverage"),
     "study": _described("agents.commands.study", "the research analyses behind the docs' numbers (deadtime study NAME --help)"),
+    "convert-model": Command(
+        "agents.commands.convert_model", "rewrite a model saved with pickles into files that load as data",
+        "Rewrite a learned rule, a selector or an agent saved with pickles (older formats) into files that load "
+        "without running code: a skops file, observation statistics as JSON, a manifest. It unpickles the old "
+        "files, so it needs --trust."),
     "process": Command(
         "agents.commands.process", "the procedure, the rules, the oracle and agents on a real process (the TCLab)",
         "Identify a sampled process (the TCLab emulator, or module:factory for your own) around its operating point, "

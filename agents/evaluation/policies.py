@@ -13,9 +13,9 @@ A policy is one of
 * ``oracle``: :func:`baselines.oracle.oracle` on the identified data of the episode;
 * ``oracle-full``: :func:`baselines.oracle.full_information_oracle` (exact model, no experiment);
 * a path to a saved agent, loaded by ``agents.training.policies.load_policy``, or ``NAME=PATH`` to name it
-  in the tables (default: the loaded policy's ``name``).  Loading runs pickled code from the agent's
-  folder (its model and statistics files, checked first against their manifest): load only agents
-  you trust;
+  in the tables (default: the loaded policy's ``name``).  Loading executes nothing from the agent's
+  folder: its files are checked against their manifest, its parameters read as tensors and its
+  statistics as JSON, the algorithm rebuilt from the run's config;
 * a path to a learned rule (``PATH`` or ``NAME=PATH``: the run directory of a ``learned-rule`` fit, or
   its ``learned_rule.json``; :mod:`agents.training.learned_rule`), recognized by its files and loaded
   by ``agents.training.learned_rule_policy.load_learned_rule``.  It plays like an agent (one action

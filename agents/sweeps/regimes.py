@@ -188,10 +188,10 @@ def compare_regimes(directories: list[Path], x: str, compare: tuple[str, ...] = 
 # ------------------------------------------------------------------------------- behaviour
 def _replayable(run: Path) -> bool:
     """Whether ``run`` holds a model :func:`behaviour` can replay (a committed summary keeps none)."""
-    from agents.training.learned_rule_policy import MODEL_FILE
+    from agents.training.learned_rule_policy import MODEL_FILE, PICKLE_FILE
     from agents.training.policies import MODEL_FILES
 
-    return any((run / name).is_file() for name in (MODEL_FILE, *MODEL_FILES))
+    return any((run / name).is_file() for name in (MODEL_FILE, PICKLE_FILE, *MODEL_FILES))
 
 
 def behaviour(runs: list[Path], env_kwargs: dict[str, Any], plants: int) -> dict[str, Any]:

@@ -18,7 +18,6 @@ SIGINT/SIGTERM (:class:`agents.training.interrupts.StopRequest`), after which tr
 
 from __future__ import annotations
 
-import pickle
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -49,16 +48,18 @@ __all__ = [
 def save_model(model: Any, path: str | Path, vecnormalize: Any = None) -> Path:
     """Save ``model`` to ``path`` (a ``.zip``) atomically, and the ``VecNormalize`` statistics beside it.
 
-    The statistics go to ``<stem>.vecnormalize.pkl`` (see :func:`agents.training.policies.load_policy`), written
-    before the model, whose ``deadtime_vecnormalize`` attribute says that they are needed; then the
-    manifest ``<stem>.manifest.json`` records both (:mod:`agents.training.manifest`).
+    The statistics go to ``<stem>.normalization.json`` as JSON numbers (:mod:`agents.training.normalization`;
+    read by :func:`agents.training.policies.load_policy`), written before the model, whose
+    ``deadtime_vecnormalize`` attribute says that they are needed; then the manifest
+    ``<stem>.manifest.json`` records both (:mod:`agents.training.manifest`).
     """
     from agents.training.manifest import write_manifest
+    from agents.training.normalization import write_normalization
 
     path = Path(path)
     files = []
     if vecnormalize is not None:
-        files.append(atomic_write(path.with_suffix(".vecnormalize.pkl"), lambda handle: pickle.dump(vecnormalize, handle)))
+        files.append(write_normalization(path.with_suffix(".normalization.json"), vecnormalize))
     files.insert(0, atomic_write(path, model.save))
     write_manifest(path, files)
     return path

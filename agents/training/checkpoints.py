@@ -5,7 +5,9 @@ A checkpoint of ``N`` steps is, in ``<run>/checkpoints``:
 * ``model_N.zip``: the stable-baselines3 model (network and optimizer states, ``num_timesteps``,
   ``_n_updates``, ``_episode_num``, ``_last_obs``, ``_last_episode_starts``, ``_last_original_obs``,
   ``ep_info_buffer``, the schedules and ``_current_progress_remaining``);
-* ``replay_buffer_N.pkl`` (off-policy algorithms) and ``vecnormalize_N.pkl`` (if used);
+* ``replay_buffer_N.pkl`` (off-policy algorithms) and ``vecnormalize_N.pkl`` (if used), and the
+  observation statistics again as data, ``normalization_N.json``, for playing the checkpoint's model
+  (:mod:`agents.training.normalization`);
 * ``state_N.pkl``: what stable-baselines3 does not save: the random states of Python's ``random``,
   numpy's global generator and torch (CPU), the generator of the model's action space (the warm-up
   actions), every training environment whole (pickled inside its :class:`SnapshotWrapper`: its
@@ -26,6 +28,7 @@ The last two checkpoints are kept.
 from __future__ import annotations
 
 import copy
+import json
 import pickle
 import random
 import re
@@ -55,10 +58,11 @@ __all__ = [
 ]
 
 CHECKPOINT_INDEX = "latest.json"
-ROLES = ("model", "replay_buffer", "vecnormalize", "state")
+ROLES = ("model", "replay_buffer", "vecnormalize", "normalization", "state")
 KEEP = 2
+_SUFFIXES = {"model": "zip", "normalization": "json"}
 _MANIFEST = re.compile(r"checkpoint_(\d+)\.json")
-_STEPS = re.compile(r"(model|replay_buffer|vecnormalize|state|checkpoint)_(\d+)\.(zip|pkl|json)")
+_STEPS = re.compile(r"(model|replay_buffer|vecnormalize|normalization|state|checkpoint)_(\d+)\.(zip|pkl|json)")
 # What a damaged or foreign file raises when loaded (pickle, zip, torch, numpy, SB3's own checks).
 LOAD_ERRORS = (pickle.UnpicklingError, EOFError, zipfile.BadZipFile, ValueError, KeyError, OSError,
                AttributeError, TypeError, RuntimeError, IndexError, ImportError)
@@ -150,13 +154,17 @@ def save_checkpoint(
     if getattr(model, "replay_buffer", None) is not None:
         writers["replay_buffer"] = model.save_replay_buffer
     if vecnormalize is not None:
+        from agents.training.normalization import statistics_record
+
         writers["vecnormalize"] = lambda handle: pickle.dump(vecnormalize, handle)
+        record = (json.dumps(statistics_record(vecnormalize), indent=2) + "\n").encode()
+        writers["normalization"] = lambda handle: handle.write(record)
     state = capture_state(model, vecnormalize)
     writers["state"] = lambda handle: pickle.dump(state, handle)
     manifest: dict[str, Any] = {"format": 2, "num_timesteps": steps, "periodic_checkpoint": periodic,
                                 "files": {}, "evaluations": list(evaluations)}
     for role, write in writers.items():
-        name = f"{role}_{steps}.{'zip' if role == 'model' else 'pkl'}"
+        name = f"{role}_{steps}.{_SUFFIXES.get(role, 'pkl')}"
         path = atomic_write(directory / name, write)
         manifest[role] = name
         manifest["files"][name] = {"bytes": path.stat().st_size, "sha256": file_digest(path)}

@@ -31,7 +31,7 @@ oracle's action, with a safety margin.  A fit, in the run directory:
    ``violation_confidence`` when a target is set (Learn then Test; ``baselines.learned_rule``,
    "Certified margins").
    The plants played are recorded in ``validation_plants.json``.  No test plant is ever drawn.
-4. ``learned_rule.pkl`` and its manifest ``learned_rule.json``
+4. ``learned_rule.skops`` and its manifest ``learned_rule.json``
    (:mod:`agents.training.learned_rule_policy`), ``evaluations.json`` (the chosen rule's validation,
    as an agent run's), ``run.json`` and ``config.yaml``.  ``deadtime evaluate --policies
    learned=DIR`` plays it.

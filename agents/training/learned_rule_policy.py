@@ -2,16 +2,18 @@
 
 A learned-rule fit (:mod:`agents.training.learned_rule`) writes into its run directory
 
-* ``learned_rule.pkl``: the :class:`baselines.learned_rule.LearnedRule` (the fitted scikit-learn
-  regression, its margin, direction and action bounds), pickled;
+* ``learned_rule.skops``: the :class:`baselines.learned_rule.LearnedRule` (the fitted scikit-learn
+  regression, its margin, direction and action bounds) as data: skops's JSON schema and NumPy arrays
+  (:mod:`agents.training.model_files`);
 * ``learned_rule.json``: its manifest, written after the model, so that its presence marks a
   finished fit: the environment id and keyword arguments, the model kind and margin, the size and
   SHA-256 of the model file, the package versions, and the validation costs that chose the rule.
 
-:func:`load_learned_rule` takes the run directory, the manifest or the model file.  A model file
-whose size or checksum differs from its manifest's (damaged, or replaced), an unreadable manifest,
-or a scikit-learn other than the one that fitted it (a pickled regression is only guaranteed to
-load, and predict the same, in the version that wrote it) is refused in one line naming the file.
+:func:`load_learned_rule` takes the run directory, the manifest or the model file, and executes
+nothing from them.  A model file whose size or checksum differs from its manifest's (damaged, or
+replaced), one that names a type outside the trusted list, an unreadable manifest, a scikit-learn
+other than the one that fitted it, or a pickled ``learned_rule.pkl`` (converted by ``deadtime
+convert-model``) is refused in one line naming the file.
 """
 
 from __future__ import annotations
@@ -25,9 +27,11 @@ import numpy as np
 
 from agents.training.model_files import load_model_file, save_model_file
 
-__all__ = ["MANIFEST", "MODEL_FILE", "LearnedRulePolicy", "is_learned_rule", "load_learned_rule", "save_learned_rule"]
+__all__ = ["MANIFEST", "MODEL_FILE", "PICKLE_FILE", "LearnedRulePolicy", "is_learned_rule", "load_learned_rule", "save_learned_rule"]
 
-MODEL_FILE = "learned_rule.pkl"
+MODEL_FILE = "learned_rule.skops"
+PICKLE_FILE = "learned_rule.pkl"
+"""The pickled model of older fits: never loaded, only converted (:mod:`agents.training.convert`)."""
 MANIFEST = "learned_rule.json"
 
 
@@ -63,7 +67,7 @@ class LearnedRulePolicy:
 
 
 def save_learned_rule(run_dir: Path, rule: Any, manifest: Mapping[str, Any]) -> Path:
-    """Write ``learned_rule.pkl`` then its manifest (``manifest`` plus the file's size and checksum),
+    """Write ``learned_rule.skops`` then its manifest (``manifest`` plus the file's size and checksum),
     both atomically (:func:`agents.training.model_files.save_model_file`); returns the manifest's path."""
     return save_model_file(run_dir / MODEL_FILE, run_dir / MANIFEST, rule, manifest)
 
@@ -72,7 +76,7 @@ def is_learned_rule(path: str | Path) -> bool:
     """Whether ``path`` names a learned rule: its manifest or model file, or a run directory that holds
     one or whose ``config.yaml`` is a learned-rule config (a fit that has not finished)."""
     path = Path(path)
-    if path.name in (MANIFEST, MODEL_FILE):
+    if path.name in (MANIFEST, MODEL_FILE, PICKLE_FILE):
         return True
     if not path.is_dir():
         return False
@@ -90,7 +94,7 @@ def is_learned_rule(path: str | Path) -> bool:
 def _manifest_path(path: Path) -> Path:
     if path.is_dir():
         return path / MANIFEST
-    return path.with_name(MANIFEST) if path.name == MODEL_FILE else path
+    return path.with_name(MANIFEST) if path.name in (MODEL_FILE, PICKLE_FILE) else path
 
 
 def load_learned_rule(path: str | Path) -> LearnedRulePolicy:
@@ -100,8 +104,9 @@ def load_learned_rule(path: str | Path) -> LearnedRulePolicy:
     ------
     ValueError
         Naming the file: no manifest (the fit has not finished), an unreadable manifest, a model
-        file that differs from the manifest's size or checksum, a scikit-learn version other than the
-        fitting one, or a model file that holds no learned rule.
+        file that differs from the manifest's size or checksum, a pickle, a type outside the trusted
+        list, a scikit-learn version other than the fitting one, or a model file that holds no learned
+        rule.
     """
     from baselines.learned_rule import LearnedRule
 

@@ -1,15 +1,14 @@
-"""The manifest of a saved agent: its files with their sizes and SHA-256, checked before they are loaded.
+"""The manifest of a saved agent: its files with their sizes and SHA-256, checked before they are read.
 
-Loading an agent runs code from its folder: the model's ``.zip`` holds cloudpickled objects that
-stable-baselines3 unpickles, and the ``VecNormalize`` statistics (``<stem>.vecnormalize.pkl``) are a
-pickle.  :func:`agents.training.callbacks.save_model` therefore writes ``<stem>.manifest.json``
-after the files (``{"format": 1, "files": {NAME: {"bytes", "sha256"}}}``), and
-:func:`verify_agent_files` checks the files against it before anything is unpickled, so that a file
-damaged or replaced since it was saved is refused in one line naming it.  A checkpoint's model
+:func:`agents.training.callbacks.save_model` writes ``<stem>.manifest.json`` after the model and its
+statistics (``{"format": 1, "files": {NAME: {"bytes", "sha256"}}}``), and :func:`verify_agent_files`
+checks the files against it before they are read, so that a file damaged or replaced since it was
+saved, or not saved with the model, is refused in one line naming it.  A checkpoint's model
 (``checkpoints/model_<N>.zip``) is checked against its checkpoint's own manifest,
-``checkpoint_<N>.json`` (:mod:`agents.training.checkpoints`).  A model without a manifest (saved
-elsewhere) is loaded unchecked.  A manifest guards against damage and mix-ups, not against whoever can
-write the folder (they can rewrite the manifest too): load only agents from folders you trust.
+``checkpoint_<N>.json`` (:mod:`agents.training.checkpoints`).  A model without a manifest is refused.
+A manifest guards against damage and mix-ups, not against whoever can write the folder (they can
+rewrite the manifest too); that reading an agent executes nothing from its folder is
+:mod:`agents.training.policies`'s part.
 """
 
 from __future__ import annotations
@@ -51,17 +50,19 @@ def _recorded(manifest: Path) -> dict[str, Any]:
 
 
 def verify_agent_files(model_path: Path, statistics_path: Path | None) -> None:
-    """Check the model and its statistics against their manifest, if there is one.
+    """Check the model and its statistics against their manifest.
 
     Raises
     ------
     DamagedFileError
-        If the manifest is unreadable, or a file is not recorded in it or differs from the record
-        (size or SHA-256), naming the file.
+        If there is no manifest, it is unreadable, or a file is not recorded in it or differs from the
+        record (size or SHA-256), naming the file.
     """
     manifest = manifest_path(model_path)
     if manifest is None:
-        return
+        raise DamagedFileError(f"{model_path} has no manifest ({model_path.with_suffix('.manifest.json').name}): its files "
+                               "cannot be verified; refusing to load it (if you trust its folder: "
+                               f"deadtime convert-model {model_path} --trust)")
     recorded = _recorded(manifest)
     for path in (model_path, statistics_path):
         if path is None:
@@ -69,9 +70,9 @@ def verify_agent_files(model_path: Path, statistics_path: Path | None) -> None:
         expected = recorded.get(path.name)
         if expected is None:
             raise DamagedFileError(f"{path} is not recorded in {manifest} (it was not saved with the model); "
-                                   "refusing to unpickle it")
+                                   "refusing to load it")
         size = path.stat().st_size
         if size != expected["bytes"] or file_digest(path) != expected["sha256"]:
             raise DamagedFileError(f"{path} differs from the file recorded in {manifest} ({size} bytes, "
                                    f"{expected['bytes']} when saved, or another SHA-256): damaged or replaced; "
-                                   "refusing to unpickle it")
+                                   "refusing to load it")

@@ -2,28 +2,31 @@
 
 ``path`` is a run directory of ``deadtime train`` or a model ``.zip``.  For a run directory the
 agent is ``best_model.zip`` (lowest mean cost on the validation plants) when it exists, else
-``model.zip``.  The algorithm is read from the ``config.yaml`` beside the model; without one, each
-stable-baselines3 algorithm is tried in turn.  ``VecNormalize`` statistics saved beside the model
-(``<stem>.vecnormalize.pkl``) are applied to the observations.  A checkpoint
-(``<run>/checkpoints/model_<N>.zip``) takes its statistics from ``vecnormalize_<N>.pkl`` beside it
-and its config from the run directory.
+``model.zip``; either is checked the same way.  A checkpoint (``<run>/checkpoints/model_<N>.zip``)
+takes its config from the run directory.
 
-An agent trained with normalized observations is never played without its statistics: a model
-saved by ``deadtime train`` records ``deadtime_vecnormalize`` in its ``data``, and a run's
-``config.yaml`` says ``normalize``; either makes a missing statistics file an error that names it.
-(A model saved elsewhere, without either, is loaded as it is.)  A damaged statistics file is an error
-naming it too.
+Loading executes nothing from the agent's folder: nothing in it is unpickled.
 
-Loading an agent runs code from its folder: stable-baselines3 unpickles objects stored in the
-model's ``.zip``, and the statistics are a pickle.  Load only agents from folders you trust.  Before
-anything is unpickled, the model and its statistics are checked against the manifest written when
-they were saved (``<stem>.manifest.json``, or a checkpoint's ``checkpoint_<N>.json``;
-:mod:`agents.training.manifest`): a file damaged or replaced since is refused in one line naming it.
+* The files are checked against the manifest written when they were saved (``<stem>.manifest.json``,
+  or a checkpoint's ``checkpoint_<N>.json``; :mod:`agents.training.manifest`): a model without one,
+  or a file damaged or replaced since, is refused in one line naming it.
+* The algorithm is rebuilt from the run's ``config.yaml`` (algorithm, policy, ``policy_kwargs``,
+  hyperparameters) on its environment's spaces, and the network's parameters are read from the
+  zip's ``policy.pth`` as tensors only (``torch.load(..., weights_only=True)``); the zip's ``data``
+  entry is read as JSON, never deserialized.  A model without its run's config is refused: what
+  the rebuild needs cannot be verified.
+* An agent trained with normalized observations (a run's ``config.yaml`` says ``normalize``, or the
+  model's ``data`` records ``deadtime_vecnormalize``) is played with its statistics,
+  ``<stem>.normalization.json`` (a checkpoint's ``normalization_<N>.json``; JSON numbers,
+  :mod:`agents.training.normalization`), and never without them.  A run saved with the statistics
+  pickled (``<stem>.vecnormalize.pkl``) only is refused with the command that converts it,
+  ``deadtime convert-model RUN --trust`` (:mod:`agents.training.convert`).
 """
 
 from __future__ import annotations
 
-import pickle
+import dataclasses
+import io
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,8 +35,9 @@ from typing import Any
 import numpy as np
 
 from agents.files.reader import parse_json
-from agents.training.config import ALGORITHMS, TrainConfig, algorithm_class, load_config
+from agents.training.config import TrainConfig, load_config
 from agents.training.manifest import verify_agent_files
+from agents.training.normalization import Normalization, read_normalization
 
 __all__ = ["MODEL_FILES", "LoadedPolicy", "load_policy", "resolve_model_path"]
 
@@ -54,7 +58,7 @@ class LoadedPolicy:
         The stable-baselines3 model.
     config : TrainConfig or None
         The run's resolved config (environment id and keyword arguments), if found.
-    normalization : VecNormalize or None
+    normalization : Normalization or None
         Observation statistics applied before the network.
     """
 
@@ -63,7 +67,7 @@ class LoadedPolicy:
     algorithm: str
     model: Any
     config: TrainConfig | None = None
-    normalization: Any = None
+    normalization: Normalization | None = None
 
     def predict(self, observation: np.ndarray, deterministic: bool = True,
                 action_masks: np.ndarray | None = None) -> tuple[np.ndarray, None]:
@@ -89,6 +93,9 @@ class LoadedPolicy:
         return {} if self.config is None else dict(self.config.env_kwargs)
 
 
+MAX_PARAMETER_BYTES = 1 << 30
+"""The most bytes a model's ``policy.pth`` may unpack to."""
+
 MODEL_FILES = ("best_model.zip", "model.zip")
 """The model files of a training run directory, in the order :func:`resolve_model_path` takes them."""
 
@@ -110,99 +117,148 @@ def resolve_model_path(path: str | Path) -> Path:
     return path
 
 
-def _likely_algorithms(model_path: Path) -> list[str]:
-    """Every algorithm, the likeliest first, from the saved policy class and attributes."""
-    try:
-        with zipfile.ZipFile(model_path) as archive:
-            data = parse_json(archive.read("data").decode(), f"{model_path}: data", dict)
-    except (KeyError, ValueError, OSError, zipfile.BadZipFile):
-        return list(ALGORITHMS)
-    module = str(data.get("policy_class", {}).get("__module__", ""))
-    guess = next((name for name in ("SAC", "TD3") if f".{name.lower()}." in module), None)
-    if guess is None and ".maskable." in module:
-        guess = "MaskablePPO"
-    if guess is None:
-        guess = "PPO" if "clip_range" in data else "A2C"
-    return [guess, *(name for name in ALGORITHMS if name != guess)]
-
-
-def _statistics_path(model_path: Path) -> Path | None:
-    """The ``VecNormalize`` statistics of a model: ``<stem>.vecnormalize.pkl``, or for a checkpoint
-    ``model_<N>.zip`` the ``vecnormalize_<N>.pkl`` beside it; None if there are none."""
-    candidates = [model_path.with_suffix(".vecnormalize.pkl")]
-    prefix, _, steps = model_path.stem.rpartition("_")
-    if prefix == "model" and steps.isdigit():
-        candidates.append(model_path.with_name(f"vecnormalize_{steps}.pkl"))
-    return next((c for c in candidates if c.is_file()), None)
-
-
-def _saved_with_statistics(model_path: Path) -> bool:
-    """Whether ``deadtime train`` saved the model with ``VecNormalize`` statistics (its ``data`` says so)."""
-    try:
-        with zipfile.ZipFile(model_path) as archive:
-            data = parse_json(archive.read("data").decode(), f"{model_path}: data", dict)
-    except (KeyError, ValueError, OSError, zipfile.BadZipFile):
-        return False
-    return data.get("deadtime_vecnormalize") is True
-
-
-def _load_statistics(model_path: Path, required: bool) -> Any:
-    """The model's ``VecNormalize`` statistics (not updated while playing), or None if it has none.
+def _data(model_path: Path) -> dict[str, Any]:
+    """The zip's ``data`` entry read as JSON (the serialized objects in it stay text).
 
     Raises
     ------
     ValueError
-        If they are required but missing, or cannot be read (naming the file).
+        If it is missing or not JSON (naming the file).
     """
-    statistics = _statistics_path(model_path)
-    if statistics is None:
-        if required:
-            raise ValueError(f"{model_path.with_suffix('.vecnormalize.pkl')} is missing: {model_path.name} was trained on "
-                             "normalized observations and cannot be played without its statistics "
-                             "(copy them beside the model as <stem>.vecnormalize.pkl)")
-        return None
     try:
-        with statistics.open("rb") as handle:
-            normalization = pickle.load(handle)  # noqa: S301  (the run's own file)
-        normalization.training = False
-        normalization.normalize_obs  # noqa: B018  (a VecNormalize, not some other pickle)
-    except (pickle.UnpicklingError, EOFError, AttributeError, ValueError, TypeError, ImportError, IndexError, OSError) as error:
-        raise ValueError(f"{statistics} is damaged: it is not readable VecNormalize statistics "
-                         f"({error.__class__.__name__}: {error})") from None
-    return normalization
+        with zipfile.ZipFile(model_path) as archive:
+            text = archive.read("data").decode()
+        return parse_json(text, f"{model_path}: data", dict)
+    except (KeyError, ValueError, OSError, zipfile.BadZipFile, UnicodeDecodeError) as error:
+        raise ValueError(f"{model_path} is not a stable-baselines3 model saved as data: its 'data' entry is missing "
+                         f"or not JSON ({error.__class__.__name__})") from None
+
+
+def _parameters(model_path: Path, device: str) -> dict[str, Any]:
+    """The policy's parameters, ``policy.pth`` read as tensors only.
+
+    Raises
+    ------
+    ValueError
+        If the zip holds no ``policy.pth`` or it holds anything but tensors (naming the file).
+    """
+    import pickle
+
+    import torch
+
+    try:
+        with zipfile.ZipFile(model_path) as archive:
+            if archive.getinfo("policy.pth").file_size > MAX_PARAMETER_BYTES:
+                raise ValueError(f"more than {MAX_PARAMETER_BYTES} bytes unpacked")
+            content = archive.read("policy.pth")
+        state = torch.load(io.BytesIO(content), map_location=device, weights_only=True)
+    except (KeyError, OSError, ValueError, zipfile.BadZipFile, pickle.UnpicklingError, RuntimeError, EOFError) as error:
+        reason = str(error).splitlines()[0] if str(error) else error.__class__.__name__
+        raise ValueError(f"{model_path}: its policy.pth is missing or holds more than tensors; refusing it ({reason})") from None
+    if not isinstance(state, dict) or not all(isinstance(value, torch.Tensor) for value in state.values()):
+        raise ValueError(f"{model_path}: its policy.pth is not a mapping of names to tensors")
+    return state
+
+
+def statistics_paths(model_path: Path) -> tuple[Path, Path]:
+    """``(statistics, pickled statistics)`` of a model: ``<stem>.normalization.json`` and
+    ``<stem>.vecnormalize.pkl``, or for a checkpoint ``model_<N>.zip`` ``normalization_<N>.json`` and
+    ``vecnormalize_<N>.pkl`` beside it."""
+    prefix, _, steps = model_path.stem.rpartition("_")
+    if prefix == "model" and steps.isdigit() and model_path.parent.name == "checkpoints":
+        return model_path.with_name(f"normalization_{steps}.json"), model_path.with_name(f"vecnormalize_{steps}.pkl")
+    return model_path.with_suffix(".normalization.json"), model_path.with_suffix(".vecnormalize.pkl")
+
+
+def _statistics_file(model_path: Path, required: bool) -> Path | None:
+    """The statistics file to load, or None if the model is played without.
+
+    Raises
+    ------
+    ValueError
+        If they are required but missing, or saved as a pickle only (naming the file and the conversion).
+    """
+    statistics, pickled = statistics_paths(model_path)
+    if not required:
+        return None
+    if statistics.is_file():
+        return statistics
+    if pickled.is_file() and model_path.parent.name == "checkpoints":
+        raise ValueError(f"{pickled} is a pickle, which is not loaded (it could run code): play the run's model.zip or "
+                         f"best_model.zip instead (deadtime convert-model {model_path.parent.parent} --trust converts them)")
+    if pickled.is_file():
+        raise ValueError(f"{pickled} is a pickle, which is not loaded (it could run code): if you trust its folder, "
+                         f"convert it with deadtime convert-model {model_path} --trust")
+    raise ValueError(f"{statistics} is missing: {model_path.name} was trained on normalized observations and cannot "
+                     f"be played without its statistics (copy them beside the model as {statistics.name})")
+
+
+def _run_config(model_path: Path) -> tuple[Path, TrainConfig]:
+    """``(run directory, config)`` of a model.
+
+    Raises
+    ------
+    ValueError
+        If the run's ``config.yaml`` is missing (the agent cannot be rebuilt) or not a config of an agent.
+    """
+    run_dir = model_path.parent.parent if model_path.parent.name == "checkpoints" else model_path.parent
+    config_path = run_dir / "config.yaml"
+    if not config_path.is_file():
+        raise ValueError(f"{config_path} is missing: {model_path.name} is rebuilt from its run's config and cannot be "
+                         "loaded without it (keep the model in its deadtime train run directory; for a model saved "
+                         f"elsewhere, from a folder you trust: deadtime convert-model {model_path} --trust --env ID)")
+    config = load_config(config_path)
+    if not isinstance(config, TrainConfig):
+        raise ValueError(f"{config_path} is not the config of a stable-baselines3 agent (algorithm {config.algorithm!r}), "
+                         f"so {model_path.name} cannot be rebuilt from it")
+    return run_dir, config
+
+
+def _rebuilt(config: TrainConfig, model_path: Path, device: str) -> Any:
+    """The algorithm of ``config`` on its environment's spaces, with the parameters of ``model_path``."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from agents.environments import make_env
+    from agents.training.schema import refused_as
+    from agents.training.train import new_model
+
+    parameters = _parameters(model_path, device)
+    venv = refused_as("env_kwargs", config.env_id,
+                      lambda: DummyVecEnv([lambda: make_env(config.env_id, dict(config.env_kwargs))]))
+    model = refused_as("hyperparameters or policy_kwargs", config.algorithm,
+                       lambda: new_model(dataclasses.replace(config, device=device), venv))
+    try:
+        model.policy.load_state_dict(parameters)
+    except RuntimeError as error:
+        raise ValueError(f"{model_path}'s parameters do not fit the {config.algorithm} of its run's config.yaml "
+                         f"({str(error).splitlines()[0]})") from None
+    model.policy.set_training_mode(False)
+    return model
 
 
 def load_policy(path: str | Path, device: str = "cpu") -> LoadedPolicy:
     """Load a saved agent from a run directory or a model ``.zip``, with its normalization statistics.
 
-    Loading runs pickled code from the model's folder (the module docstring says which files); they
-    are first checked against the manifest written when they were saved.
+    Nothing of the agent's folder is unpickled (the module docstring says how it is read).
 
     Raises
     ------
     ValueError
-        If there is no model at ``path``, no stable-baselines3 algorithm can load it, its files differ
-        from their manifest, or its statistics are required (the model or the run's config says so)
-        but missing or damaged.
+        If there is no model at ``path``, it has no manifest or its files differ from it, its run's
+        config is missing, its parameters are not tensors or do not fit the config's algorithm, or its
+        statistics are required (the model or the run's config says so) but missing, pickled or damaged.
     """
     model_path = resolve_model_path(path)  # a missing or unreadable file is named before torch is imported
-    run_dir = model_path.parent.parent if model_path.parent.name == "checkpoints" else model_path.parent
-    config_path = run_dir / "config.yaml"
-    config = load_config(config_path) if config_path.is_file() else None
-    required = _saved_with_statistics(model_path) or (config is not None and config.normalize)
-    verify_agent_files(model_path, _statistics_path(model_path))  # before anything of the folder is unpickled
-    normalization = _load_statistics(model_path, required)
-    candidates = [config.algorithm] if config is not None else _likely_algorithms(model_path)
-    errors = []
-    for algorithm in candidates:
-        try:
-            model = algorithm_class(algorithm).load(model_path, device=device)
-        except Exception as error:  # noqa: BLE001  (each algorithm refuses the others' files its own way)
-            errors.append(f"{algorithm}: {error.__class__.__name__}")
-            continue
-        break
-    else:
-        raise ValueError(f"{model_path} could not be loaded by {', '.join(candidates)} ({'; '.join(errors)})")
-    name = run_dir.name if config is not None else model_path.stem
-    return LoadedPolicy(name=name, path=model_path, algorithm=algorithm, model=model, config=config,
+    verify_agent_files(model_path, None)  # the model against its manifest, before anything in it is read
+    run_dir, config = _run_config(model_path)
+    data = _data(model_path)
+    required = data.get("deadtime_vecnormalize") is True or config.normalize
+    statistics = _statistics_file(model_path, required)
+    if statistics is not None:
+        verify_agent_files(model_path, statistics)
+    normalization = None if statistics is None else read_normalization(statistics)
+    model = _rebuilt(config, model_path, device)
+    steps = data.get("num_timesteps")
+    model.num_timesteps = steps if isinstance(steps, int) and not isinstance(steps, bool) else 0  # as trained (a plain number)
+    return LoadedPolicy(name=run_dir.name, path=model_path, algorithm=config.algorithm, model=model, config=config,
                         normalization=normalization)

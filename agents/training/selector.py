@@ -30,7 +30,7 @@ directory:
    violating plants, :func:`baselines.learned_rule.violation_bound`, stays at most the target, and the
    sequence stops at the first that fails), and the certified one of least mean cost is chosen; if
    none is certified, the one of fewest violations.  Without a target, the least mean cost.
-5. ``selector.pkl`` and its manifest ``selector.json`` (:mod:`agents.training.selector_policy`) with the
+5. ``selector.skops`` and its manifest ``selector.json`` (:mod:`agents.training.selector_policy`) with the
    validation table (per threshold: mean cost, violating plants, bound, the share of plants given to
    each candidate), ``evaluations.json``, ``run.json`` and ``config.yaml``.  ``deadtime evaluate
    --policies selector=DIR`` plays it.

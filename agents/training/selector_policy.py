@@ -2,15 +2,17 @@
 
 A selector's fit (:mod:`agents.training.selector`) writes into its run directory
 
-* ``selector.pkl``: the :class:`Selector` (per candidate a classifier of "violates" and a regression
-  of the cost where it does not, the threshold, and the learned designs among the candidates), pickled;
+* ``selector.skops``: the :class:`Selector` (per candidate a classifier of "violates" and a regression
+  of the cost where it does not, the threshold, and the learned designs among the candidates) as data:
+  skops's JSON schema and NumPy arrays (:mod:`agents.training.model_files`);
 * ``selector.json``: its manifest, written after the model: the environment id and keyword arguments,
   the candidates, the threshold and the validation table that chose it, the size and SHA-256 of the
   model file and the package versions.
 
-:func:`load_selector` takes the run directory, the manifest or the model file, and refuses in one line
-a model file whose size or checksum differs from the manifest's, or one pickled by another
-scikit-learn.
+:func:`load_selector` takes the run directory, the manifest or the model file, executes nothing from
+them, and refuses in one line a model file whose size or checksum differs from the manifest's, one
+that names a type outside the trusted list, one fitted by another scikit-learn, or a pickled
+``selector.pkl`` (converted by ``deadtime convert-model``).
 """
 
 from __future__ import annotations
@@ -24,9 +26,11 @@ import numpy as np
 
 from agents.training.model_files import load_model_file, save_model_file
 
-__all__ = ["MANIFEST", "MODEL_FILE", "Selector", "SelectorPolicy", "is_selector", "load_selector", "save_selector"]
+__all__ = ["MANIFEST", "MODEL_FILE", "PICKLE_FILE", "Selector", "SelectorPolicy", "is_selector", "load_selector", "save_selector"]
 
-MODEL_FILE = "selector.pkl"
+MODEL_FILE = "selector.skops"
+PICKLE_FILE = "selector.pkl"
+"""The pickled model of older fits: never loaded, only converted (:mod:`agents.training.convert`)."""
 MANIFEST = "selector.json"
 
 
@@ -116,7 +120,7 @@ class SelectorPolicy:
 
 
 def save_selector(run_dir: Path, selector: Selector, manifest: Mapping[str, Any]) -> Path:
-    """Write ``selector.pkl`` then its manifest, both atomically (:func:`agents.training.model_files.save_model_file`);
+    """Write ``selector.skops`` then its manifest, both atomically (:func:`agents.training.model_files.save_model_file`);
     returns the manifest's path."""
     return save_model_file(run_dir / MODEL_FILE, run_dir / MANIFEST, selector, manifest)
 
@@ -124,7 +128,7 @@ def save_selector(run_dir: Path, selector: Selector, manifest: Mapping[str, Any]
 def is_selector(path: str | Path) -> bool:
     """Whether ``path`` names a selector: its manifest or model file, or a run directory holding one."""
     path = Path(path)
-    return path.name in (MANIFEST, MODEL_FILE) or (path.is_dir() and (path / MANIFEST).is_file())
+    return path.name in (MANIFEST, MODEL_FILE, PICKLE_FILE) or (path.is_dir() and (path / MANIFEST).is_file())
 
 
 def load_selector(path: str | Path) -> SelectorPolicy:
@@ -133,8 +137,9 @@ def load_selector(path: str | Path) -> SelectorPolicy:
     Raises
     ------
     ValueError
-        Naming the file: no manifest, an unreadable one, a model file that differs from it, a
-        scikit-learn other than the fitting one, or a model file that holds no selector.
+        Naming the file: no manifest, an unreadable one, a model file that differs from it, a pickle,
+        a type outside the trusted list, a scikit-learn other than the fitting one, or a model file
+        that holds no selector.
     """
     path = Path(path)
     manifest_path = path / MANIFEST if path.is_dir() else path.with_name(MANIFEST)

@@ -5,7 +5,8 @@ The resolved config (see :mod:`agents.training.config` for the precedence) is pr
 them again with the timings.  The run directory then holds ``tensorboard/`` (TensorBoard logs),
 ``evaluations.json`` (validation history), ``checkpoints/``, ``best_model.zip`` (lowest mean
 validation cost), and at the end ``model.zip`` (the final agent); ``VecNormalize`` statistics, if
-used, sit beside each model as ``<stem>.vecnormalize.pkl``.
+used, sit beside each model as ``<stem>.normalization.json``, and ``<stem>.manifest.json`` records
+both (:mod:`agents.training.policies` loads them as data).
 
 A config with ``algorithm: learned-rule`` (``configs/learned_rule.yaml``) is fitted by
 :mod:`agents.training.learned_rule` instead (the oracle on training plants, a regression, a safety

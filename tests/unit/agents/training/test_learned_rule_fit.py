@@ -143,7 +143,7 @@ def test_an_interrupted_fit_resumes_from_its_cached_labels(fitted: dict, tmp_pat
     monkeypatch.setattr(learned_rule, "CHUNK", CHUNK)
     run_dir = tmp_path / "run"
     shutil.copytree(fitted["run_dir"], run_dir)
-    for name in ("learned_rule.json", "learned_rule.pkl", "run.json", "evaluations.json", "dataset/training-000005.json"):
+    for name in ("learned_rule.json", "learned_rule.skops", "run.json", "evaluations.json", "dataset/training-000005.json"):
         (run_dir / name).unlink()  # as if stopped while labelling the second file
     (run_dir / "dataset" / "training-000010.json").write_text("{garbage")
     capsys.readouterr()
@@ -167,7 +167,7 @@ def test_a_flipped_digit_in_the_label_cache_is_not_trusted(fitted: dict, tmp_pat
     monkeypatch.setattr(learned_rule, "CHUNK", CHUNK)
     run_dir = tmp_path / "run"
     shutil.copytree(fitted["run_dir"], run_dir)
-    for name in ("learned_rule.json", "learned_rule.pkl", "run.json", "evaluations.json"):
+    for name in ("learned_rule.json", "learned_rule.skops", "run.json", "evaluations.json"):
         (run_dir / name).unlink()
     path = run_dir / "dataset" / "training-000000.json"
     data = json.loads(path.read_text())
@@ -340,13 +340,13 @@ def test_evaluate_plays_the_learned_rule_with_its_role(fitted: dict, tmp_path: P
 def test_a_damaged_model_file_is_named(fitted: dict, tmp_path: Path, capsys) -> None:
     run_dir = tmp_path / "run"
     shutil.copytree(fitted["run_dir"], run_dir)
-    with (run_dir / "learned_rule.pkl").open("ab") as file:
+    with (run_dir / "learned_rule.skops").open("ab") as file:
         file.write(b"x")
     code = main(["evaluate", "--env", ENV, "--policies", f"learned={run_dir}", "--n", "1", "--no-benchmark", "--no-plots",
                  "--out", str(tmp_path / "eval")])
     lines = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(lines) == 1, lines
-    assert f"{run_dir / 'learned_rule.pkl'} is damaged or missing" in lines[0]
+    assert f"{run_dir / 'learned_rule.skops'} is damaged or missing" in lines[0]
 
 
 @pytest.mark.slow

@@ -29,24 +29,40 @@ def test_run_directory_prefers_the_best_model(tmp_path: Path) -> None:
     assert resolve_model_path(tmp_path / "model") == tmp_path / "model.zip"
 
 
-def test_a_checkpoint_takes_the_statistics_and_config_of_its_run(tmp_path: Path) -> None:
-    """``<run>/checkpoints/model_<N>.zip`` pairs with ``vecnormalize_<N>.pkl`` and ``<run>/config.yaml``."""
-    import pickle
+def test_a_checkpoint_takes_the_statistics_and_config_of_its_run(tmp_path: Path, agent_saver) -> None:
+    """``<run>/checkpoints/model_<N>.zip`` pairs with ``normalization_<N>.json``, its checkpoint's manifest
+    and ``<run>/config.yaml``."""
+    import json
     import shutil
 
-    import gymnasium
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+    from agents.files.writer import file_digest
 
-    import envs  # noqa: F401  (registers the ids)
-
-    checkpoints = tmp_path / "run" / "checkpoints"
-    checkpoints.mkdir(parents=True)
-    venv = VecNormalize(DummyVecEnv([lambda: gymnasium.make("DeadTime/PID-v0")]))
-    PPO("MlpPolicy", venv, n_steps=8, batch_size=8, device="cpu").save(checkpoints / "model_64.zip")
-    with (checkpoints / "vecnormalize_64.pkl").open("wb") as handle:
-        pickle.dump(venv, handle)
-    shutil.copy(Path(__file__).resolve().parents[4] / "configs" / "ppo.yaml", tmp_path / "run" / "config.yaml")
+    run, _, _ = agent_saver(tmp_path / "run")
+    checkpoints = run / "checkpoints"
+    checkpoints.mkdir()
+    shutil.copy(run / "model.zip", checkpoints / "model_64.zip")
+    shutil.copy(run / "model.normalization.json", checkpoints / "normalization_64.json")
+    files = {name: {"bytes": (checkpoints / name).stat().st_size, "sha256": file_digest(checkpoints / name)}
+             for name in ("model_64.zip", "normalization_64.json")}
+    (checkpoints / "checkpoint_64.json").write_text(json.dumps({"num_timesteps": 64, "model": "model_64.zip", "files": files}))
     loaded = load_policy(checkpoints / "model_64.zip")
-    assert loaded.normalization is not None and not loaded.normalization.training
+    assert loaded.normalization is not None
     assert loaded.algorithm == "PPO" and loaded.config is not None and loaded.name == "run"
+
+
+def test_an_older_checkpoints_pickled_statistics_are_refused_naming_the_runs_models(tmp_path: Path, agent_saver) -> None:
+    import json
+    import shutil
+
+    from agents.files.writer import file_digest
+
+    run, _, _ = agent_saver(tmp_path / "run", legacy=True)
+    checkpoints = run / "checkpoints"
+    checkpoints.mkdir()
+    shutil.copy(run / "model.zip", checkpoints / "model_64.zip")
+    shutil.copy(run / "model.vecnormalize.pkl", checkpoints / "vecnormalize_64.pkl")
+    files = {name: {"bytes": (checkpoints / name).stat().st_size, "sha256": file_digest(checkpoints / name)}
+             for name in ("model_64.zip", "vecnormalize_64.pkl")}
+    (checkpoints / "checkpoint_64.json").write_text(json.dumps({"num_timesteps": 64, "model": "model_64.zip", "files": files}))
+    with pytest.raises(ValueError, match=f"vecnormalize_64.pkl is a pickle, which is not loaded .*convert-model {run} --trust"):
+        load_policy(checkpoints / "model_64.zip")

@@ -247,19 +247,21 @@ def test_damaged_checkpoints_are_named_in_one_line(tmp_path: Path, capsys: Any, 
 
 
 def test_an_agent_is_loaded_with_its_statistics_or_refused(tmp_path: Path, uninterrupted: dict[str, Path]) -> None:
-    """A model copied without ``model.vecnormalize.pkl`` (and without the run's config), or with it truncated."""
+    """A model copied with its manifest and its run's config but without ``model.normalization.json``, or
+    with it truncated."""
     from agents.training.policies import load_policy
 
     copy = tmp_path / "copy"
     copy.mkdir()
-    shutil.copy(uninterrupted["SAC"] / "model.zip", copy / "model.zip")
-    with pytest.raises(ValueError, match=f"^{copy / 'model.vecnormalize.pkl'} is missing: model.zip was trained on normalized"):
+    for name in ("model.zip", "model.manifest.json", "config.yaml"):
+        shutil.copy(uninterrupted["SAC"] / name, copy / name)
+    with pytest.raises(ValueError, match=f"^{copy / 'model.normalization.json'} is missing: model.zip was trained on normalized"):
         load_policy(copy / "model.zip")
-    statistics = (uninterrupted["SAC"] / "model.vecnormalize.pkl").read_bytes()
-    (copy / "model.vecnormalize.pkl").write_bytes(statistics[: len(statistics) // 2])
-    with pytest.raises(ValueError, match=f"^{copy / 'model.vecnormalize.pkl'} is damaged: it is not readable VecNormalize"):
+    statistics = (uninterrupted["SAC"] / "model.normalization.json").read_bytes()
+    (copy / "model.normalization.json").write_bytes(statistics[: len(statistics) // 2])
+    with pytest.raises(ValueError, match=f"^{copy / 'model.normalization.json'} differs from the file recorded in"):
         load_policy(copy / "model.zip")
-    (copy / "model.vecnormalize.pkl").write_bytes(statistics)
+    (copy / "model.normalization.json").write_bytes(statistics)
     assert load_policy(copy / "model.zip").normalization is not None
 
 
@@ -285,14 +287,15 @@ def test_sac_on_the_deadtime_environment_resumes_exactly(tmp_path: Path, capsys:
     # deadtime evaluate refuses the agent without its statistics, or with them damaged: one line, exit 2
     copy = tmp_path / "copy"
     copy.mkdir()
-    shutil.copy(whole / "model.zip", copy / "model.zip")
+    for name in ("model.zip", "model.manifest.json", "config.yaml"):
+        shutil.copy(whole / name, copy / name)
     evaluate = ["evaluate", "--env", "DeadTime/PID-v0", "--policies", f"agent={copy / 'model.zip'}", "--n", "1",
                 "--out", str(tmp_path / "eval"), "--no-benchmark", "--no-plots"]
     capsys.readouterr()
     assert main(evaluate) == 2
-    assert _error_line(capsys) == (f"deadtime evaluate: error: {copy / 'model.vecnormalize.pkl'} is missing: model.zip was "
-                                   "trained on normalized observations and cannot be played without its statistics "
-                                   "(copy them beside the model as <stem>.vecnormalize.pkl)")
-    (copy / "model.vecnormalize.pkl").write_bytes((whole / "model.vecnormalize.pkl").read_bytes()[:300])
+    assert _error_line(capsys) == (f"deadtime evaluate: error: {copy / 'model.normalization.json'} is missing: model.zip "
+                                   "was trained on normalized observations and cannot be played without its statistics "
+                                   "(copy them beside the model as model.normalization.json)")
+    (copy / "model.normalization.json").write_bytes((whole / "model.normalization.json").read_bytes()[:300])
     assert main(evaluate) == 2
-    assert _error_line(capsys).startswith(f"deadtime evaluate: error: {copy / 'model.vecnormalize.pkl'} is damaged: ")
+    assert _error_line(capsys).startswith(f"deadtime evaluate: error: {copy / 'model.normalization.json'} differs from ")

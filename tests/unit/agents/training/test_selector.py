@@ -122,8 +122,8 @@ def test_a_small_selector_is_fitted_played_and_read_back(tmp_path):
                            "--no-plots", "--out", str(tmp_path / "e2"))
     assert status == 0, err
     assert [p["name"] for p in json.loads(out)["policies"] if p["role"] == "selector"] == ["selector"]  # unnamed: its folder's name
-    with (run_dir / "selector.pkl").open("ab") as handle:
+    with (run_dir / "selector.skops").open("ab") as handle:
         handle.write(b"x")
     status, _, err = run("evaluate", "--env", "DeadTime/PID-v3", "--policies", f"selector={run_dir}", "--n", "2",
                          "--out", str(tmp_path / "e3"))
-    assert status == 2 and "selector.pkl is damaged or missing" in err
+    assert status == 2 and "selector.skops is damaged or missing" in err

@@ -109,7 +109,7 @@ def test_train_from_the_command_line_and_load(tmp_path: Path, algorithm: str, ca
     printed = capsys.readouterr().out
     assert "seed: 2" in printed and "agent:" in printed  # the resolved config, then where the agent is
     for name in ("model.zip", "best_model.zip", "config.yaml", "run.json", "evaluations.json",
-                 "model.vecnormalize.pkl", "best_model.vecnormalize.pkl"):
+                 "model.normalization.json", "best_model.normalization.json"):
         assert (run_dir / name).is_file(), name
     assert any((run_dir / "tensorboard").rglob("events.out.tfevents.*"))
     record = json.loads((run_dir / "run.json").read_text())
