@@ -52,7 +52,8 @@ from envs.identification.open_loop_experiments import (
 )
 from envs.systems.plants import Plant
 from envs.identification.least_squares import LeastSquaresFit
-from envs.identification.models import FOPDTModel, SOPDTModel, mismatch_time
+from envs.identification.models import FOPDTModel, SOPDTModel
+from envs.identification.open_loop_areas import mismatch_time
 from envs.identification.prbs_experiment import fit_record, open_loop_prbs
 from envs.identification.procedure import PULSE_LENGTH, Identification, ProcedureFailed, experiment_deviation, identify
 from envs.identification.relay import RelayResult, relay_feedback

@@ -20,7 +20,8 @@ from baselines.reproduction.common import Reproduction, Row, printed, within_rou
 from envs.analysis.loop_analysis import plant_margins
 from envs.systems.controllers import SeriesPID
 from envs.systems.families import benchmark_plants
-from envs.identification.models import SOPDTModel, apparent_time_constant, sopdt_from_moments, theta_from_tau
+from envs.identification.models import SOPDTModel
+from envs.identification.moments import apparent_time_constant, sopdt_from_moments, theta_from_tau
 from envs.systems.plants import Plant
 from envs.analysis.robustness import loop_margins
 

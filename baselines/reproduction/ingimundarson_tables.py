@@ -21,7 +21,8 @@ from baselines.rules.dtc import fppi_eq28_29, fppi_time_constant, msp_eq43, msp_
 from baselines.reproduction.common import Reproduction, Row, printed, printed_decimals, within_rounding
 from envs.identification.experiments import closed_loop_step, open_loop_pulse, open_loop_ramp, open_loop_step
 from envs.systems.families import benchmark_plants
-from envs.identification.models import FOPDTModel, mismatch_time
+from envs.identification.models import FOPDTModel
+from envs.identification.open_loop_areas import mismatch_time
 from envs.systems.plants import Plant
 from envs.simulation.delay_systems import open_loop_response
 

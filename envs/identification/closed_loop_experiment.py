@@ -50,15 +50,8 @@ from envs.identification.experiment_base import (
     run_until_settled,
     sample_time,
 )
-from envs.identification.models import (
-    FOPDTModel,
-    IntegratingModel,
-    SOPDTModel,
-    closed_loop_moments,
-    fopdt_from_moments,
-    sopdt_from_theta,
-    theta_from_tau,
-)
+from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
+from envs.identification.moments import closed_loop_moments, fopdt_from_moments, sopdt_from_theta, theta_from_tau
 from envs.simulation.loops import closed_loop_of_block
 from envs.systems.plants import Plant
 from envs.simulation._run_kernels import ABORTED, NO_EVENT, SETTLED, _closed_loop_run

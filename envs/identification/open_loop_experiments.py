@@ -40,19 +40,17 @@ from envs.identification.experiment_base import (
     sample_time,
     snap_to_integer,
 )
-from envs.identification.models import (
-    FOPDTModel,
-    IntegratingModel,
+from envs.identification.models import FOPDTModel, IntegratingModel
+from envs.identification.moments import residence_time_from_area
+from envs.identification.open_loop_areas import (
     fopdt_from_area,
-    integrate,
     mismatch_time,
     pulse_mismatch_area,
     ramp_time_constant,
-    reaction_curve_tangent,
-    reaction_curve_two_point,
-    residence_time_from_area,
     step_time_constant,
 )
+from envs.identification.reaction_curve import reaction_curve_tangent, reaction_curve_two_point
+from envs.identification.sampled_signals import integrate
 from envs.systems.plants import Plant, StateSpace
 from envs.simulation.delay_systems import OpenLoopRun, open_loop_response
 from envs.identification.steady_state import SteadyStateTest, noise_level, window_samples
@@ -150,7 +148,7 @@ class OpenLoopStepResult(ExperimentResult):
     raw_time_constant : float
         ``T_n = A e/(h K_n)`` (eq. 11), unclipped.
     time_constant, dead_time : float
-        ``T_n`` clipped to ``(0, T_ar]`` and ``L_n = T_ar - T_n`` (:func:`~envs.identification.models.fopdt_from_area`).
+        ``T_n`` clipped to ``(0, T_ar]`` and ``L_n = T_ar - T_n`` (:func:`~envs.identification.open_loop_areas.fopdt_from_area`).
     model : FOPDTModel or None
         ``K_n e^{-L_n s}/(T_n s + 1)`` with ``K_n`` and ``T_ar`` as given.
     final_output : float

@@ -13,7 +13,7 @@ experiment from the operating point and back to it, through the
 2. **The commissioning controller**: the loop's existing controller if the user gives it
    (``source="given"``), else a conservative PI designed from a first open-loop step of
    ``input_step`` (``source="open-loop step"``): the step's moments give ``K``, ``T_ar`` and ``T_a``
-   (Gorez-Klan eq. 2-3 .. 2-6, :func:`~envs.identification.models.normalized_moments`) and the moment
+   (Gorez-Klan eq. 2-3 .. 2-6, :func:`~envs.identification.moments.normalized_moments`) and the moment
    FOPDT ``K e^{-(T_ar - T_a) s}/(T_a s + 1)``, for which
    :func:`~envs.identification.commissioning.commissioning_pi` designs the lambda-type PI of the
    environments, detuned to ``Ms <= 1.4`` on that model.
@@ -61,7 +61,8 @@ import numpy as np
 from envs.episode import RELAY_HYSTERESIS
 from envs.identification.closed_loop_experiment import ClosedLoopStepResult, identify_closed_loop_step
 from envs.identification.commissioning import commissioning_pi
-from envs.identification.models import FOPDTModel, apparent_time_constant, fopdt_from_moments, normalized_moments
+from envs.identification.models import FOPDTModel
+from envs.identification.moments import apparent_time_constant, fopdt_from_moments, normalized_moments
 from envs.identification.open_loop_experiments import OpenLoopStepResult, identify_open_loop_step
 from envs.identification.procedure import Identification
 from envs.identification.relay import RelayResult, relay_estimates

@@ -1,8 +1,8 @@
 """Fast paths of an environment's reset against the numpy/scipy code they replace, bit for bit.
 
-* :func:`envs.identification.models._trapezoid`, ``_trapezoid_of_distance`` and ``_moments`` (compiled
+* :func:`envs.identification.sampled_signals._trapezoid`, ``_trapezoid_of_distance`` and ``_moments`` (compiled
   terms, numpy's sum) against ``numpy.trapezoid``;
-* :func:`envs.identification.models._signals` (compiled checks) against its numpy checks and errors;
+* :func:`envs.identification.sampled_signals._signals` (compiled checks) against its numpy checks and errors;
 * :func:`envs.identification.commissioning._pi_loop_on_grid` (compiled) against
   :meth:`envs.systems.plants.Plant.frequency_response` (to rounding), the PI it chooses against the numpy
   path's, and ``_first_violation_fast`` against ``_first_violation``;
@@ -17,7 +17,7 @@ import pytest
 import scipy.linalg
 
 from envs.identification import commissioning
-from envs.identification import models as identification
+from envs.identification import sampled_signals as identification
 from envs.systems.families import sample_plants
 from envs.systems.plants import Plant, _balanced, _roots, shape_residence_time
 
@@ -165,7 +165,8 @@ def test_compiled_controllable_form_equals_the_numpy_one(family):
 
 
 def test_pulse_distance_equals_the_numpy_expression():
-    from envs.identification.models import IntegratingModel, _pulse_distance
+    from envs.identification.models import IntegratingModel
+    from envs.identification.open_loop_areas import _pulse_distance
 
     rng = np.random.default_rng(6)
     for size in (2, 3, 50, 129, 1000, 5003):

@@ -29,12 +29,8 @@ from baselines.rules.registry import (
 )
 from envs.design import fppi_design, msp_design, pid_design
 from envs.systems.families import benchmark_plants
-from envs.identification.models import (
-    FOPDTModel,
-    IntegratingModel,
-    SOPDTModel,
-    sopdt_from_moments,
-)
+from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
+from envs.identification.moments import sopdt_from_moments
 from envs.systems.plants import Plant
 from envs.identification.procedure import identify
 
