@@ -3,6 +3,7 @@ common rules and results (:mod:`.experiment_base`), steady-state tests (:mod:`.s
 commissioning PI (:mod:`.commissioning`), the closed-loop step, open-loop step/ramp/pulse and relay
 experiments, their registry for agent mode (:mod:`.experiments`), the models (:mod:`.models`:
 FOPDT, SOPDT, integrating), the formulas that read them off sampled signals (:mod:`.moments`,
-:mod:`.open_loop_areas`: eq. 11, 12, 22, 46; :mod:`.reaction_curve`; the trapezoids of
-:mod:`.sampled_signals`) and the papers' fixed identification procedure (:mod:`.procedure`).
+:mod:`.open_loop_areas`: eq. 11, 12, 22, 46; :mod:`.reaction_curve`; :mod:`.least_squares` over the
+difference equations of :mod:`.difference_equation`; the trapezoids of :mod:`.sampled_signals`) and
+the papers' fixed identification procedure (:mod:`.procedure`).
 """

@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from envs.identification.least_squares import (
+from envs.identification.least_squares import least_squares_fit
+from envs.identification.difference_equation import (
     ITERATION_TOLERANCE,
     arx_regression,
     arx_response,
     instrumental_variables,
-    least_squares_fit,
     sopdt_from_arx,
 )
 from envs.identification.open_loop_experiments import open_loop_step
