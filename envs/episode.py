@@ -42,14 +42,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from envs.identification.closed_loop_experiment import ClosedLoopStepResult, closed_loop_step
-from envs.identification.open_loop_experiments import (
-    OpenLoopPulseResult,
-    OpenLoopRampResult,
-    OpenLoopStepResult,
-    open_loop_pulse,
-    open_loop_ramp,
-    open_loop_step,
-)
+from envs.identification.open_loop_pulse import OpenLoopPulseResult, open_loop_pulse
+from envs.identification.open_loop_ramp import OpenLoopRampResult, open_loop_ramp
+from envs.identification.open_loop_step import OpenLoopStepResult, open_loop_step
 from envs.systems.plants import Plant
 from envs.identification.least_squares import LeastSquaresFit
 from envs.identification.models import FOPDTModel, SOPDTModel

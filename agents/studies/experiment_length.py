@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from envs.systems.plant_sets import plant_set
-from envs.identification import closed_loop_experiment as cle, open_loop_experiments as ole
+from envs.identification import closed_loop_experiment as cle, open_loop_step as ole
 from envs.identification.experiment_base import measurement_noise, cap_steps, MeasurementNoise, record_fields, ExperimentRun, sample_time, snap_to_integer
 from envs.identification.commissioning import commissioning_pi
 from envs.identification.steady_state import window_samples

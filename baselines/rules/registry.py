@@ -49,7 +49,8 @@ from envs.structures import STRUCTURES
 from envs.identification.models import FOPDTModel, IntegratingModel, Model, SOPDTModel
 from envs.identification.moments import fopdt_from_moments
 from envs.identification.open_loop_areas import mismatch_time
-from envs.identification.open_loop_experiments import open_loop_pulse, open_loop_step
+from envs.identification.open_loop_pulse import open_loop_pulse
+from envs.identification.open_loop_step import open_loop_step
 from envs.systems.plants import Plant
 from envs.identification.procedure import PULSE_LENGTH, Identification, IdentifiedModels
 

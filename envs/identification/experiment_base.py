@@ -1,6 +1,7 @@
 """Shared machinery of the identification experiments: validation, sampling, noise, runs, results.
 
-Private helpers used by :mod:`envs.identification.closed_loop_experiment`, :mod:`envs.identification.open_loop_experiments`,
+Private helpers used by :mod:`envs.identification.closed_loop_experiment`, the open-loop
+experiments (:mod:`envs.identification.open_loop_step`, ``open_loop_ramp``, ``open_loop_pulse``),
 :mod:`envs.identification.relay` and :mod:`envs.identification.commissioning`; the public names are the sampling constants and
 :class:`ExperimentResult`, the base of every experiment's result.
 

@@ -26,7 +26,7 @@ experiment from the operating point and back to it, through the
    step's ``T_ar``, or a fifth of ``settling_time`` when the controller was given.
 4. **Open-loop step** of ``setpoint_step/K_n`` (the output rises by about one set-point step, as the
    environments' unit rise), to steady state: ``T_n`` (eq. 11), ``L_n``, ``T_f_bar`` (eq. 22) and the
-   reaction curves (Marlin 6.3), by :func:`~envs.identification.open_loop_experiments.identify_open_loop_step`.
+   reaction curves (Marlin 6.3), by :func:`~envs.identification.open_loop_step.identify_open_loop_step`.
 5. **Relay** of amplitude ``setpoint_step/|K_n|`` (within the input limits) and hysteresis
    ``3 sigma`` (the environments' :data:`~envs.episode.RELAY_HYSTERESIS`) until periodic: ``K_u``,
    ``T_u`` (:func:`~envs.identification.relay.relay_estimates`).  Beyond the papers: it is reported, and
@@ -63,7 +63,7 @@ from envs.identification.closed_loop_experiment import ClosedLoopStepResult, ide
 from envs.identification.commissioning import commissioning_pi
 from envs.identification.models import FOPDTModel
 from envs.identification.moments import apparent_time_constant, fopdt_from_moments, normalized_moments
-from envs.identification.open_loop_experiments import OpenLoopStepResult, identify_open_loop_step
+from envs.identification.open_loop_step import OpenLoopStepResult, identify_open_loop_step
 from envs.identification.procedure import Identification
 from envs.identification.relay import RelayResult, relay_estimates
 from envs.identification.steady_state import SteadyStateTest, window_samples

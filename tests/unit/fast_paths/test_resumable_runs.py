@@ -22,7 +22,7 @@ from envs.identification.commissioning import commissioning_pi
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.identification.experiment_base import excursion_index, run_until_settled
 from envs.simulation.loops import closed_loop, closed_loop_of_block, loop_rows, simulation_step
-from envs.identification.open_loop_experiments import _run_to_steady_state
+from envs.identification.open_loop_run import _run_to_steady_state
 from envs.analysis.performance import (
     OFFSET_TOLERANCE,
     IAEBound,

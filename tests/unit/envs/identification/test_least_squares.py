@@ -24,7 +24,7 @@ from envs.identification.difference_equation import (
     instrumental_variables,
     sopdt_from_arx,
 )
-from envs.identification.open_loop_experiments import open_loop_step
+from envs.identification.open_loop_step import open_loop_step
 from envs.identification.prbs_experiment import fit_record, open_loop_prbs, prbs_levels
 from envs.identification.relay import relay_feedback
 from envs.simulation.delay_systems import open_loop_response
