@@ -30,7 +30,7 @@ Conventions (see :mod:`envs.identification.experiments` for the full list)
   component of the next state reaches ``DIVERGENCE_LIMIT`` times the largest input so far; the
   outputs up to that sample are finite); else the cap.  The open-loop runs reach it over growing
   horizons (doubling) in chunks (:func:`run_until_settled`), the closed-loop step sample by sample
-  in compiled calls (:func:`envs.identification.closed_loop_experiment._run_closed_loop`); either way the sample
+  in compiled calls (:func:`envs.identification.closed_loop_run._run_closed_loop`); either way the sample
   and the signals up to it are those of simulating and testing the whole run.
 """
 

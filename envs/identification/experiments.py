@@ -3,7 +3,8 @@
 This module is the public entry point; the experiments live in cohesive modules and are
 re-exported here:
 
-* :mod:`envs.identification.closed_loop_experiment`: experiment 1;
+* :mod:`envs.identification.closed_loop_experiment`: experiment 1 (its run:
+  :mod:`~envs.identification.closed_loop_run`);
 * :mod:`envs.identification.open_loop_step`, :mod:`~envs.identification.open_loop_ramp`,
   :mod:`~envs.identification.open_loop_pulse`: experiments 2-4 (their shared run:
   :mod:`~envs.identification.open_loop_run`);

@@ -1,6 +1,6 @@
 """The compiled closed-loop step run and recursion against the readable paths, bit for bit.
 
-* :func:`envs.identification.closed_loop_experiment._run_closed_loop` (compiled calls of
+* :func:`envs.identification.closed_loop_run._run_closed_loop` (compiled calls of
   :func:`envs.simulation._run_kernels._closed_loop_run`) against ``method="reference"``, the chunked run it
   replaced (:class:`~envs.simulation.delay_systems.LoopRun` continued chunk by chunk, the new samples tested by
   :class:`~envs.identification.steady_state.SteadyStateTest`, through
@@ -20,12 +20,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envs.identification.closed_loop_experiment import (
-    _cumulative_integral,
-    _loop_sample_time,
-    _run_closed_loop,
-    closed_loop_step,
-)
+from envs.identification.closed_loop_experiment import _loop_sample_time, closed_loop_step
+from envs.identification.closed_loop_run import _cumulative_integral, _run_closed_loop
 from envs.identification.commissioning import commissioning_pi
 from envs.systems.controllers import FPPI, MSP, PID
 from envs.identification.experiment_base import MeasurementNoise, excursion_index

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from envs.identification.closed_loop_experiment import _cumulative_integral, _run_closed_loop
+from envs.identification.closed_loop_run import _cumulative_integral, _run_closed_loop
 from envs.analysis._iae_kernels import discretize_compiled
 from envs.identification.commissioning import commissioning_pi
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
