@@ -8,7 +8,8 @@ re-exported here:
 * :mod:`envs.identification.open_loop_step`, :mod:`~envs.identification.open_loop_ramp`,
   :mod:`~envs.identification.open_loop_pulse`: experiments 2-4 (their shared run:
   :mod:`~envs.identification.open_loop_run`);
-* :mod:`envs.identification.relay`: experiment 5;
+* :mod:`envs.identification.relay`: experiment 5 (its time stepping:
+  :mod:`~envs.identification.relay_simulation`; its limit cycle: :mod:`~envs.identification.relay_cycle`);
 * :mod:`envs.identification.commissioning`: the commissioning PI and the maximum sensitivity;
 * :mod:`envs.identification.steady_state`: steady-state detection and noise estimation;
 * :mod:`envs.identification.experiment_base`: validation, sampling, noise, runs and :class:`ExperimentResult`.

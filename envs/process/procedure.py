@@ -29,7 +29,7 @@ experiment from the operating point and back to it, through the
    reaction curves (Marlin 6.3), by :func:`~envs.identification.open_loop_step.identify_open_loop_step`.
 5. **Relay** of amplitude ``setpoint_step/|K_n|`` (within the input limits) and hysteresis
    ``3 sigma`` (the environments' :data:`~envs.episode.RELAY_HYSTERESIS`) until periodic: ``K_u``,
-   ``T_u`` (:func:`~envs.identification.relay.relay_estimates`).  Beyond the papers: it is reported, and
+   ``T_u`` (:func:`~envs.identification.relay_cycle.relay_estimates`).  Beyond the papers: it is reported, and
    the fixed procedure's observation does not read it (as in the environments' fixed mode).
 
 The least-squares identification (:mod:`envs.identification.least_squares`) is not run on a
@@ -65,7 +65,8 @@ from envs.identification.models import FOPDTModel
 from envs.identification.moments import apparent_time_constant, fopdt_from_moments, normalized_moments
 from envs.identification.open_loop_step import OpenLoopStepResult, identify_open_loop_step
 from envs.identification.procedure import Identification
-from envs.identification.relay import RelayResult, relay_estimates
+from envs.identification.relay import RelayResult
+from envs.identification.relay_cycle import relay_estimates
 from envs.identification.steady_state import SteadyStateTest, window_samples
 from envs.process.control_laws import discrete_law
 from envs.process.protocol import Process, check_process
