@@ -27,7 +27,7 @@ from envs.identification.experiment_base import measurement_noise, cap_steps, Me
 from envs.identification.commissioning import commissioning_pi
 from envs.identification.steady_state import window_samples
 from envs.identification.procedure import identify, Identification
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 from envs.analysis.scoring import score, Constraints, CostWeights
 from baselines.oracle import oracle
 from baselines.rules.registry import RuleInputs, get_rule

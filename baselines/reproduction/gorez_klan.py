@@ -95,7 +95,7 @@ def gorez_klan_models() -> Reproduction:
 
 def _models_plot(directory: Path, models: dict) -> Path:
     from baselines.reproduction import plots
-    from envs.simulation.delay_systems import open_loop_response
+    from envs.simulation.open_loop import open_loop_response
 
     timepts = np.linspace(0.0, 4.0, 801)
     curves = {}

@@ -24,7 +24,7 @@ from envs.systems.families import benchmark_plants
 from envs.identification.models import FOPDTModel
 from envs.identification.open_loop_areas import mismatch_time
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 
 __all__ = ["table1", "table2", "fopdt_procedure", "pulse_area_scan", "PULSE_DURATION"]
 

@@ -50,7 +50,8 @@ import math
 import numba
 import numpy as np
 
-from envs.simulation.delay_systems import DelaySystem, DiscreteDelaySystem
+from envs.simulation.delay_systems import DelaySystem
+from envs.simulation.discretization import DiscreteDelaySystem
 
 __all__ = ["discretize_compiled", "expm", "step_iae"]
 

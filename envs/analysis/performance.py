@@ -50,14 +50,9 @@ import numpy as np
 
 from envs.analysis._iae_kernels import step_iae
 from envs.systems.controllers import Controller
-from envs.simulation.delay_systems import (
-    MAX_RUN_SAMPLES,
-    DelaySystem,
-    DiscreteDelaySystem,
-    LoopRun,
-    discretize,
-    divergence_limit,
-)
+from envs.simulation.delay_systems import MAX_RUN_SAMPLES, DelaySystem, divergence_limit
+from envs.simulation.discretization import DiscreteDelaySystem, discretize
+from envs.simulation.runs import LoopRun
 from envs.simulation.loops import closed_loop, loop_rows, sample_time
 from envs.systems.plants import Plant
 

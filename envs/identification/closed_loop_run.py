@@ -10,7 +10,7 @@ nothing after it is simulated (the noise is drawn in blocks, see :func:`_run_clo
 How it is computed.  By default (``method="compiled"``) the run is one compiled call per block of
 noise (:func:`envs.simulation._run_kernels._closed_loop_run`).  ``closed_loop_step(...,
 method="reference")`` is the readable run it replaced (:func:`_reference_run_closed_loop`): the loop's
-:class:`~envs.simulation.delay_systems.LoopRun` continued chunk by chunk over growing horizons
+:class:`~envs.simulation.runs.LoopRun` continued chunk by chunk over growing horizons
 (:func:`~envs.identification.experiment_base.run_until_settled`), the new samples tested by
 :class:`~envs.identification.steady_state.SteadyStateTest`.  The two give the same run and result bit for
 bit, diverging runs included (``tests/unit/fast_paths/test_closed_loop_run.py``).
@@ -27,7 +27,9 @@ from envs.identification.experiment_base import MeasurementNoise, as_noise, excu
 from envs.simulation.loops import closed_loop_of_block
 from envs.systems.plants import Plant
 from envs.simulation._run_kernels import ABORTED, NO_EVENT, SETTLED, _closed_loop_run
-from envs.simulation.delay_systems import LoopRun, discretize, divergence_limit, loop_arrays
+from envs.simulation.delay_systems import divergence_limit
+from envs.simulation.discretization import discretize
+from envs.simulation.runs import LoopRun, loop_arrays
 from envs.identification.steady_state import SteadyStateTest
 
 __all__: list[str] = []
@@ -91,7 +93,7 @@ def _reference_run_closed_loop(
     excursion_limit: float | None,
 ) -> _ClosedLoopRun:
     """``_run_closed_loop(..., method="reference")``: the closed loop ``system`` as a
-    :class:`~envs.simulation.delay_systems.LoopRun` continued ``CHUNK_WINDOWS`` windows at a time over
+    :class:`~envs.simulation.runs.LoopRun` continued ``CHUNK_WINDOWS`` windows at a time over
     horizons that double (:func:`~envs.identification.experiment_base.run_until_settled`), each chunk's
     new samples tested by :class:`~envs.identification.steady_state.SteadyStateTest`.
 
@@ -189,7 +191,7 @@ class _CompiledRun:
 
 
 def _without_load(arrays: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
-    """The arrays of :func:`~envs.simulation.delay_systems.loop_arrays` without the columns of the load input
+    """The arrays of :func:`~envs.simulation.runs.loop_arrays` without the columns of the load input
     (input 1, zero here) in ``Gamma``, ``D11`` and ``D21``, if they are finite.
 
     Each sum of the recursion starts from ``0.0`` and is never ``-0.0`` (``a + b`` is ``-0.0`` only

@@ -299,7 +299,7 @@ def least_squares_fit(
 
     >>> import numpy as np
     >>> from envs.systems.plants import Plant
-    >>> from envs.simulation.delay_systems import open_loop_response
+    >>> from envs.simulation.open_loop import open_loop_response
     >>> plant = Plant(num=(2.7,), den=(7.7, 1.0), dead_time=3.0)
     >>> u = np.full(150, 5.0)
     >>> y = open_loop_response(plant.state_space(), plant.dead_time, u, 0.333)

@@ -30,7 +30,7 @@ from envs.identification.open_loop_areas import fopdt_from_area, ramp_time_const
 from envs.identification.open_loop_run import _self_regulating
 from envs.identification.sampled_signals import integrate
 from envs.systems.plants import Plant, StateSpace
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 from envs.validation import require_number
 
 __all__ = ["OpenLoopRampResult", "open_loop_ramp"]

@@ -19,7 +19,7 @@ from envs.identification.experiment_base import (
     run_until_settled,
 )
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import OpenLoopRun
+from envs.simulation.open_loop import OpenLoopRun
 from envs.identification.steady_state import SteadyStateTest
 
 __all__: list[str] = []

@@ -2,7 +2,7 @@
 
 :class:`PlantProcess` samples a :class:`~envs.systems.plants.Plant` ``G(s) e^{-Ls}`` with the exact
 simulation of :mod:`envs.simulation.delay_systems`: the zero-order-hold map of
-:func:`~envs.simulation.delay_systems.delayed_zoh` (the dead time split into whole samples and an
+:func:`~envs.simulation.discretization.delayed_zoh` (the dead time split into whole samples and an
 exact fractional part, no Pade approximation), advanced one sample per :meth:`PlantProcess.apply`
 for whatever input the caller holds.  So the process path (a discrete controller on sampled data)
 and the LTI path (``deadtime analyze``) can be compared where both apply: they differ only by the
@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from envs.process.protocol import Units
-from envs.simulation.delay_systems import delayed_zoh
+from envs.simulation.discretization import delayed_zoh
 from envs.systems.plants import as_plant
 from envs.validation import require_number
 
@@ -120,7 +120,7 @@ class PlantProcess:
 
     def apply(self, control: float, load: float = 0.0) -> None:
         """Hold ``clip(control) + load`` at the plant input for one sample: ``x <- Phi x + Gamma0
-        u[k - m] + Gamma1 u[k - m - 1]`` (:func:`~envs.simulation.delay_systems.delayed_zoh`)."""
+        u[k - m] + Gamma1 u[k - m - 1]`` (:func:`~envs.simulation.discretization.delayed_zoh`)."""
         low, high = self.input_limits
         self._inputs.append(min(max(float(control), low), high) + float(load))
         k = len(self._inputs) - 1

@@ -2,8 +2,8 @@
 closed-loop step run that fuses them.
 
 * :func:`_loop_sample` is one sample of the recursion of a
-  :class:`~envs.simulation.delay_systems.DiscreteDelaySystem` (:func:`_run_one` and :func:`_run` run it over a
-  horizon for :func:`envs.simulation.delay_systems.simulate_batch` and :class:`envs.simulation.delay_systems.LoopRun`);
+  :class:`~envs.simulation.discretization.DiscreteDelaySystem` (:func:`_run_one` and :func:`_run` run it over a
+  horizon for :func:`envs.simulation.runs.simulate_batch` and :class:`envs.simulation.runs.LoopRun`);
 * :func:`_add_sample` and :func:`_window_steady` are one sample of the running sums and one window
   of the tests of :func:`envs.identification.steady_state.steady_state_mask` (:func:`_extend_sums` and
   :func:`_tests` run them over new samples for :class:`envs.identification.steady_state.SteadyStateTest`);
@@ -39,7 +39,7 @@ NO_EVENT, SETTLED, ABORTED = 0, 1, 2
 # --------------------------------------------------------------------------- the loop recursion
 @numba.njit(cache=True, inline="always")
 def _loop_sample(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, r, limit, offset, j, z, x, x_next, v, past, history):  # pragma: no cover
-    """Sample ``j`` of the recursion of :class:`~envs.simulation.delay_systems.DiscreteDelaySystem` for the input
+    """Sample ``j`` of the recursion of :class:`~envs.simulation.discretization.DiscreteDelaySystem` for the input
     ``d[r]``: the outputs ``z[j]``, the delayed signals ``history[offset + j] = w[j]`` and the state
     ``x`` (from ``x[j]`` to ``x[j + 1]``, in place); returns False if a state reached ``limit`` (the
     state is updated all the same).

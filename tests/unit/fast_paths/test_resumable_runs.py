@@ -1,8 +1,8 @@
 """Runs continued over growing horizons against the same runs restarted from the start.
 
 The experiments and the IAE extend a simulation by doubling its horizon until it settles.  They
-continue it from the saved state and delay buffer (:class:`envs.simulation.delay_systems.LoopRun`,
-:class:`envs.simulation.delay_systems.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.simulation._run_kernels`, which
+continue it from the saved state and delay buffer (:class:`envs.simulation.runs.LoopRun`,
+:class:`envs.simulation.open_loop.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.simulation._run_kernels`, which
 stops at its first steady or aborting sample), and only the new samples are tested for steady state
 (:func:`envs.identification.steady_state.steady_state_tail`, :class:`envs.identification.steady_state.SteadyStateTest`).  The recursions and the running sums are causal, so
 the results must be those of restarting every horizon from rest, bit for bit: every comparison here
@@ -32,14 +32,9 @@ from envs.analysis.performance import (
     integrated_absolute_error,
 )
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import (
-    LoopRun,
-    OpenLoopRun,
-    discretize,
-    open_loop_response,
-    simulate,
-    simulate_batch,
-)
+from envs.simulation.discretization import discretize
+from envs.simulation.open_loop import OpenLoopRun, open_loop_response
+from envs.simulation.runs import LoopRun, simulate, simulate_batch
 from envs.identification.steady_state import (
     SteadyStateTest,
     steady_state_mask,

@@ -33,7 +33,7 @@ from envs.identification.reaction_curve import reaction_curve_tangent, reaction_
 from envs.identification.sampled_signals import integrate
 from envs.simulation.loops import closed_loop_response
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 
 
 def exact_moment_fopdt(plant: Plant) -> tuple[float, float]:

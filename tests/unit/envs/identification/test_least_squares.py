@@ -27,7 +27,7 @@ from envs.identification.difference_equation import (
 from envs.identification.open_loop_step import open_loop_step
 from envs.identification.prbs_experiment import fit_record, open_loop_prbs, prbs_levels
 from envs.identification.relay import relay_feedback
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 from envs.systems.plants import Plant
 
 METHODS = ("instrumental-variables", "least-squares")

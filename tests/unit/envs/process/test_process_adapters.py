@@ -1,7 +1,7 @@
 """The two process adapters: the project's plants and the TCLab emulator.
 
 * ``PlantProcess`` samples a plant with the exact simulation: an input held sample by sample gives
-  the samples of :func:`envs.simulation.delay_systems.open_loop_response` (the same zero-order-hold
+  the samples of :func:`envs.simulation.open_loop.open_loop_response` (the same zero-order-hold
   map; a fractional dead time included) to rounding; it starts at rest at its operating point; its
   noise is seeded.
 * ``TCLabProcess`` gives the measurements of ``tclab.TCLabModel`` used directly with
@@ -24,7 +24,7 @@ from envs.process.plant_process import PlantProcess
 from envs.process.protocol import check_process
 from envs.process.runs import hold
 from envs.process.tclab_process import TCLabProcess
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 from envs.systems.plants import Plant
 
 
