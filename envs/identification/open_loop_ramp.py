@@ -29,7 +29,8 @@ from envs.identification.models import FOPDTModel
 from envs.identification.open_loop_areas import fopdt_from_area, ramp_time_constant
 from envs.identification.open_loop_run import _self_regulating
 from envs.identification.sampled_signals import integrate
-from envs.systems.plants import Plant, StateSpace
+from envs.systems.plants import Plant
+from envs.systems.state_space import StateSpace
 from envs.simulation.open_loop import open_loop_response
 from envs.validation import require_number
 

@@ -52,7 +52,8 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
-from envs.systems.plants import Plant, shape_residence_time
+from envs.systems.plants import Plant
+from envs.systems.coefficients import shape_residence_time
 
 __all__ = [
     "FAMILIES",

@@ -6,8 +6,8 @@
 * :func:`envs.identification.commissioning._pi_loop_on_grid` (compiled) against
   :meth:`envs.systems.plants.Plant.frequency_response` (to rounding), the PI it chooses against the numpy
   path's, and ``_first_violation_fast`` against ``_first_violation``;
-* :func:`envs.systems.plants._balanced` against ``scipy.linalg.matrix_balance``, :func:`envs.systems.plants._roots`
-  against ``numpy.roots``, and :func:`envs.systems.plants.shape_residence_time` against a built plant.
+* :func:`envs.systems.state_space._balanced` against ``scipy.linalg.matrix_balance``, :func:`envs.systems.coefficients._roots`
+  against ``numpy.roots``, and :func:`envs.systems.coefficients.shape_residence_time` against a built plant.
 """
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ import scipy.linalg
 from envs.identification import commissioning
 from envs.identification import sampled_signals as identification
 from envs.systems.families import sample_plants
-from envs.systems.plants import Plant, _balanced, _roots, shape_residence_time
+from envs.systems.plants import Plant
+from envs.systems.coefficients import _roots, shape_residence_time
+from envs.systems.state_space import _balanced
 
 
 def _bits(value) -> bytes:
@@ -151,7 +153,7 @@ def test_shape_residence_time_equals_the_plants(family):
 
 @pytest.mark.parametrize("family", ["stable", "lag-chain", "integrating", "benchmark"])
 def test_compiled_controllable_form_equals_the_numpy_one(family):
-    from envs.systems.plants import _controllable_form, _scaled_controllable_form
+    from envs.systems.state_space import _controllable_form, _scaled_controllable_form
 
     for plant in sample_plants(family, 60, 8):
         scale = plant.step_time_scale()
