@@ -19,7 +19,7 @@ import numpy as np
 from baselines.reproduction.common import Reproduction, Row, printed, within_rounding
 from envs.analysis.loop_analysis import plant_margins
 from envs.systems.controllers import SeriesPID
-from envs.systems.families import benchmark_plants
+from envs.systems.benchmark_batches import benchmark_plants
 from envs.identification.models import SOPDTModel
 from envs.identification.moments import apparent_time_constant, sopdt_from_moments, theta_from_tau
 from envs.systems.plants import Plant

@@ -20,7 +20,7 @@ import numpy as np
 from baselines.rules.dtc import fppi_eq28_29, fppi_time_constant, msp_eq43, msp_time_constant
 from baselines.reproduction.common import Reproduction, Row, printed, printed_decimals, within_rounding
 from envs.identification.experiments import closed_loop_step, open_loop_pulse, open_loop_ramp, open_loop_step
-from envs.systems.families import benchmark_plants
+from envs.systems.benchmark_batches import benchmark_plants
 from envs.identification.models import FOPDTModel
 from envs.identification.open_loop_areas import mismatch_time
 from envs.systems.plants import Plant
