@@ -20,7 +20,7 @@ import random
 import numpy as np
 import pytest
 
-from envs.process.plant_process import PlantProcess
+from envs.process.plant_process import PlantProcess, PlantProcessOptions
 from envs.process.protocol import check_process
 from envs.process.runs import hold
 from envs.process.tclab_process import TCLabProcess
@@ -71,6 +71,18 @@ def test_plant_noise_is_seeded_and_one_value_per_sample():
 def test_an_integrating_plant_only_rests_at_zero_input():
     with pytest.raises(ValueError, match="operating_input must be 0 for an integrating plant"):
         PlantProcess(Plant.from_time_constants(1.0, [1.0], 1.0, integrating=True), operating_input=1.0)
+
+
+def test_plant_process_options_are_one_object_that_keywords_fill():
+    plant = Plant.from_time_constants(1.0, [1.0], 0.2)
+    options = PlantProcessOptions(sample_time=0.05, noise_std=0.1, operating_input=0.5, name="tank")
+    given, filled = PlantProcess(plant, options), PlantProcess(plant, sample_time=0.05, noise_std=0.1, operating_input=0.5, name="tank")
+    overridden = PlantProcess(plant, options, noise_std=0.0)
+    assert (given.sample_time, given.noise_std, given.operating_input, given.name) == (0.05, 0.1, 0.5, "tank")
+    assert np.array_equal(hold(given, 0.5, 40).output, hold(filled, 0.5, 40).output)
+    assert overridden.noise_std == 0.0 and options.noise_std == 0.1
+    with pytest.raises(TypeError, match="noise"):
+        PlantProcess(plant, noise=0.1)
 
 
 def _direct_tclab(seed: int, inputs: np.ndarray, loads: np.ndarray) -> np.ndarray:
