@@ -55,7 +55,7 @@ one, and is charged no experiment time (:func:`exact_models`):
   first moment of ``1 - y/K``), ``tau = 1 - T_a/T_ar`` (eq. 2-7) and ``theta`` from eq. 2-9;
 * FOPDT: ``T_n`` by Ingimundarson eq. 11 on the exact, noise-free open-loop unit-step response,
   ``T_n = e int_0^{T_ar} y dt/K`` (the integral by a matrix exponential), clipped as the identified
-  model is (:func:`envs.identification.models.fopdt_from_area`).  This is the model the fixed procedure
+  model is (:func:`envs.identification.open_loop_areas.fopdt_from_area`).  This is the model the fixed procedure
   converges to with perfect measurements, so the full-information oracle isolates the effect of
   noise and finite experiments; ``T_n = T_a`` (moments) would change the model class as well.
 * integrating: ``K_v`` exact and ``L_n = T_ar`` of the dynamics additional to the integrator
@@ -79,15 +79,9 @@ import scipy.optimize
 
 from envs.systems.controllers import Controller
 from envs.structures import PARAMETER_RANGES, STRUCTURES, design, relative_scale
-from envs.identification.models import (
-    FOPDTModel,
-    IntegratingModel,
-    SOPDTModel,
-    apparent_time_constant,
-    fopdt_from_area,
-    sopdt_from_moments,
-    step_time_constant,
-)
+from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
+from envs.identification.moments import apparent_time_constant, sopdt_from_moments
+from envs.identification.open_loop_areas import fopdt_from_area, step_time_constant
 from envs.systems.plants import Plant
 from envs.identification.procedure import Identification
 from envs.analysis.scoring import Constraints, CostWeights, Score, score

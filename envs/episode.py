@@ -41,7 +41,9 @@ from dataclasses import replace
 import numpy as np
 
 from envs.identification.closed_loop_experiment import ClosedLoopStepResult, closed_loop_step
-from envs.identification.open_loop_experiments import open_loop_pulse, open_loop_ramp, open_loop_step
+from envs.identification.open_loop_pulse import open_loop_pulse
+from envs.identification.open_loop_ramp import open_loop_ramp
+from envs.identification.open_loop_step import open_loop_step
 from envs.systems.plants import Plant
 from envs.identification.prbs_experiment import open_loop_prbs
 from envs.identification.procedure import PULSE_LENGTH, Identification, ProcedureFailed, experiment_deviation, identify

@@ -15,7 +15,9 @@ import numpy as np
 from envs.evidence import Evidence
 
 if TYPE_CHECKING:
-    from envs.identification.open_loop_experiments import OpenLoopPulseResult, OpenLoopRampResult, OpenLoopStepResult
+    from envs.identification.open_loop_pulse import OpenLoopPulseResult
+    from envs.identification.open_loop_ramp import OpenLoopRampResult
+    from envs.identification.open_loop_step import OpenLoopStepResult
     from envs.identification.relay import RelayResult
 
 __all__ = ["FEATURES", "LEAST_SQUARES_FEATURES", "MEASURED_FEATURES", "LOG_CLIP", "features", "feature_names"]

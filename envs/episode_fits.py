@@ -12,12 +12,13 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from envs.evidence import Evidence, RecordFit
-from envs.identification.models import FOPDTModel, SOPDTModel, mismatch_time
+from envs.identification.models import FOPDTModel, SOPDTModel
+from envs.identification.open_loop_areas import mismatch_time
 from envs.identification.prbs_experiment import fit_record
 from envs.identification.procedure import Identification
 
 if TYPE_CHECKING:
-    from envs.identification.open_loop_experiments import OpenLoopStepResult
+    from envs.identification.open_loop_step import OpenLoopStepResult
 
 __all__ = ["RecordFit", "latest_model", "with_fit", "least_squares_identification"]
 

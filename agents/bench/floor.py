@@ -9,7 +9,7 @@ nothing.  The ratio of an episode's measured time to its floor says how much of 
 
 :func:`compiled_calls_timed` measures it by replacing, for the duration of a ``with`` block, every
 numba dispatcher bound to a name in a loaded ``envs`` module (and ``scipy.linalg.expm`` and the
-``dgebal`` of :mod:`envs.systems.plants`) by a timing wrapper; the cost of the wrapper itself (two
+``dgebal`` of :mod:`envs.systems.state_space`) by a timing wrapper; the cost of the wrapper itself (two
 clock reads, measured around an empty call) is subtracted per call.  Compiled code that calls
 compiled code is timed once, as part of its outermost call.  Run the same episodes once without
 the timers first: a kernel that has to be compiled while its neighbours are wrapped would see a

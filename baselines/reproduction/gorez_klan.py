@@ -19,8 +19,9 @@ import numpy as np
 from baselines.reproduction.common import Reproduction, Row, printed, within_rounding
 from envs.analysis.loop_analysis import plant_margins
 from envs.systems.controllers import SeriesPID
-from envs.systems.families import benchmark_plants
-from envs.identification.models import SOPDTModel, apparent_time_constant, sopdt_from_moments, theta_from_tau
+from envs.systems.benchmark_batches import benchmark_plants
+from envs.identification.models import SOPDTModel
+from envs.identification.moments import apparent_time_constant, sopdt_from_moments, theta_from_tau
 from envs.systems.plants import Plant
 from envs.analysis.robustness import loop_margins
 
@@ -94,7 +95,7 @@ def gorez_klan_models() -> Reproduction:
 
 def _models_plot(directory: Path, models: dict) -> Path:
     from baselines.reproduction import plots
-    from envs.simulation.delay_systems import open_loop_response
+    from envs.simulation.open_loop import open_loop_response
 
     timepts = np.linspace(0.0, 4.0, 801)
     curves = {}

@@ -20,10 +20,11 @@ import numpy as np
 from baselines.rules.dtc import fppi_eq28_29, fppi_time_constant, msp_eq43, msp_time_constant
 from baselines.reproduction.common import Reproduction, Row, printed, printed_decimals, within_rounding
 from envs.identification.experiments import closed_loop_step, open_loop_pulse, open_loop_ramp, open_loop_step
-from envs.systems.families import benchmark_plants
-from envs.identification.models import FOPDTModel, mismatch_time
+from envs.systems.benchmark_batches import benchmark_plants
+from envs.identification.models import FOPDTModel
+from envs.identification.open_loop_areas import mismatch_time
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 
 __all__ = ["table1", "table2", "fopdt_procedure", "pulse_area_scan", "PULSE_DURATION"]
 

@@ -46,15 +46,11 @@ from envs.systems.controllers import Controller
 from envs.base_design import FPPI_DEAD_TIME_ERROR, MSP_RELATIVE_DEAD_TIME_ERROR  # the constants of fppi-eq34 and msp-eq50
 from envs.design import MIN_RELATIVE_DEAD_TIME, fppi_design, msp_design, pid_design
 from envs.structures import STRUCTURES
-from envs.identification.models import (
-    FOPDTModel,
-    IntegratingModel,
-    Model,
-    SOPDTModel,
-    fopdt_from_moments,
-    mismatch_time,
-)
-from envs.identification.open_loop_experiments import open_loop_pulse, open_loop_step
+from envs.identification.models import FOPDTModel, IntegratingModel, Model, SOPDTModel
+from envs.identification.moments import fopdt_from_moments
+from envs.identification.open_loop_areas import mismatch_time
+from envs.identification.open_loop_pulse import open_loop_pulse
+from envs.identification.open_loop_step import open_loop_step
 from envs.systems.plants import Plant
 from envs.identification.procedure import PULSE_LENGTH, Identification, IdentifiedModels
 

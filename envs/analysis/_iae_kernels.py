@@ -4,7 +4,7 @@
 :func:`step_iae`, which does the rest without returning to Python, so that the cost is the
 arithmetic and not the glue around it:
 
-1. the one-step map (:func:`_discretize`, that of :func:`envs.simulation.delay_systems.discretize`, see below);
+1. the one-step map (:func:`_discretize`, that of :func:`envs.simulation.discretization.discretize`, see below);
 2. whether the error keeps a steady offset after each step (:func:`_steady_offsets`, the loop's
    DC gain);
 3. both step runs (a unit load step and a unit set-point step, from rest) over the horizons of
@@ -16,7 +16,7 @@ Every compiled function calls only compiled functions of this module: numba's on
 invalidated per file, and a function that inlined one from another file could keep a stale copy.
 
 The one-step map.  :func:`discretize_compiled` returns the
-:class:`~envs.simulation.delay_systems.DiscreteDelaySystem` of :func:`~envs.simulation.delay_systems.discretize` (the readable
+:class:`~envs.simulation.discretization.DiscreteDelaySystem` of :func:`~envs.simulation.discretization.discretize` (the readable
 reference, kept for the experiments): the same sub-intervals between the fractional parts of the
 delays, the same zero-order hold of ``d`` and first-order hold of the delayed signals, composed in
 the same order.  Two things differ, both exact in exact arithmetic, so the results agree to
@@ -33,7 +33,7 @@ rounding (the tests check ``1e-12``):
   (2009).
 
 The runs.  They compute the numbers of the general path on the same map, bit for bit: the
-recursion is that of :func:`envs.simulation.delay_systems.simulate` (same operations in the same order, with the
+recursion is that of :func:`envs.simulation.runs.simulate` (same operations in the same order, with the
 terms of the inputs that are zero skipped, which adds exact zeros there), the areas are those of
 :func:`envs.analysis.performance.integrated_absolute_error`, and their sums use numpy's pairwise summation
 (:func:`_pairwise_sum`), as ``np.sum`` does.  The steady offsets are decided by a Gaussian
@@ -50,7 +50,8 @@ import math
 import numba
 import numpy as np
 
-from envs.simulation.delay_systems import DelaySystem, DiscreteDelaySystem
+from envs.simulation.delay_systems import DelaySystem
+from envs.simulation.discretization import DiscreteDelaySystem
 
 __all__ = ["discretize_compiled", "expm", "step_iae"]
 
@@ -71,7 +72,7 @@ _PADE13 = (
 
 
 def discretize_compiled(system: DelaySystem, dt: float) -> DiscreteDelaySystem:
-    """:func:`envs.simulation.delay_systems.discretize`, compiled (see the module docstring); same errors."""
+    """:func:`envs.simulation.discretization.discretize`, compiled (see the module docstring); same errors."""
     if not dt > 0 or not np.isfinite(dt):
         raise ValueError(f"dt must be finite and > 0, got {dt!r}")
     delays = np.asarray(system.delays, dtype=float)
@@ -231,7 +232,7 @@ def _room(areas, steps):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _discretize(A, B1, B2, delays, dt):  # pragma: no cover - compiled
-    """``(Phi, Gamma, R, whole_samples, fraction)`` of :class:`~envs.simulation.delay_systems.DiscreteDelaySystem`."""
+    """``(Phi, Gamma, R, whole_samples, fraction)`` of :class:`~envs.simulation.discretization.DiscreteDelaySystem`."""
     n, nd, nv = A.shape[0], B1.shape[1], delays.size
     whole = np.empty(nv, np.int64)
     fraction = np.empty(nv)
@@ -286,7 +287,7 @@ def _breaks(fraction, dt):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _channel_weights(s, fraction, dt):  # pragma: no cover - compiled
-    """:func:`envs.simulation.delay_systems._channel_weights`: ``v_i(j dt + s) = sum_k c[i, k] w_i[j - m_i - 1 + k]``."""
+    """:func:`envs.simulation.discretization._channel_weights`: ``v_i(j dt + s) = sum_k c[i, k] w_i[j - m_i - 1 + k]``."""
     c = np.zeros((fraction.size, 3))
     for i in range(fraction.size):
         if s <= fraction[i]:
@@ -459,7 +460,7 @@ def _advance(Phi, gamma, R, c_e, d_e, f_e, C2, d_w, D22, whole, a, limit, x, his
 @numba.njit(cache=True, inline="always")
 def _pair(row, x, inputs, weights, signals):  # pragma: no cover - compiled
     """``row . x[:, k] + inputs[k] + weights . signals[:, k]`` for both runs ``k``, summed in that
-    order (that of :func:`envs.simulation.delay_systems._affine`); the two runs share each coefficient load."""
+    order (that of :func:`envs.simulation._run_kernels._affine_rows`); the two runs share each coefficient load."""
     load, setpoint = 0.0, 0.0
     for c in range(x.shape[0]):
         load += row[c] * x[c, 0]

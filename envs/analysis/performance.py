@@ -28,13 +28,13 @@ weighted IAE is certainly above the budget.  The test keeps a relative margin of
 
 How it is computed.  The loop is assembled as rows of coefficients (:func:`~envs.simulation.loops.loop_rows`),
 and everything else is one compiled call (:func:`~envs.analysis._iae_kernels.step_iae`): the loop's one-step
-map (that of :func:`~envs.simulation.delay_systems.discretize` to rounding: within ``1e-10`` relative in the IAE,
+map (that of :func:`~envs.simulation.discretization.discretize` to rounding: within ``1e-10`` relative in the IAE,
 measured <= 1.1e-11), the steady offsets, both step runs over the horizons with the trapezoidal
-areas, their sums and the tests above.  It gives the numbers of :func:`~envs.simulation.delay_systems.simulate`
+areas, their sums and the tests above.  It gives the numbers of :func:`~envs.simulation.runs.simulate`
 and :func:`integrated_absolute_error` on the same map bit for bit.  That general path is
 ``iae(..., method="reference")``: the loop as a :class:`~envs.simulation.delay_systems.DelaySystem`
-(:func:`~envs.simulation.loops.closed_loop`), its map by :func:`~envs.simulation.delay_systems.discretize`,
-both runs by :class:`~envs.simulation.delay_systems.LoopRun`, the areas by
+(:func:`~envs.simulation.loops.closed_loop`), its map by :func:`~envs.simulation.discretization.discretize`,
+both runs by :class:`~envs.simulation.runs.LoopRun`, the areas by
 :func:`integrated_absolute_error` and the offsets by numpy's DC gain; it agrees with the compiled
 path within the ``1e-10`` of the map above, and bit for bit on the compiled map
 (``tests/unit/fast_paths/test_resumable_runs.py``).
@@ -50,14 +50,9 @@ import numpy as np
 
 from envs.analysis._iae_kernels import step_iae
 from envs.systems.controllers import Controller
-from envs.simulation.delay_systems import (
-    MAX_RUN_SAMPLES,
-    DelaySystem,
-    DiscreteDelaySystem,
-    LoopRun,
-    discretize,
-    divergence_limit,
-)
+from envs.simulation.delay_systems import MAX_RUN_SAMPLES, DelaySystem, divergence_limit
+from envs.simulation.discretization import DiscreteDelaySystem, discretize
+from envs.simulation.runs import LoopRun
 from envs.simulation.loops import closed_loop, loop_rows, sample_time
 from envs.systems.plants import Plant
 

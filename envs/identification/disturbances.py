@@ -152,8 +152,8 @@ def _stream(seed: np.ndarray, key: int) -> np.random.Generator:
 
 def _load_response(source: np.random.Generator, level: float, plant, dt: float, scale: float, size: int):
     """``(first sample, input step, the plant's response to it)``, the response an
-    :class:`~envs.simulation.delay_systems.OpenLoopRun` (exact for the held step)."""
-    from envs.simulation.delay_systems import OpenLoopRun
+    :class:`~envs.simulation.open_loop.OpenLoopRun` (exact for the held step)."""
+    from envs.simulation.open_loop import OpenLoopRun
 
     span = min(LOAD_SPAN * scale, size * dt)
     start = min(int(source.uniform(0.0, span) / dt), size - 1)

@@ -1,6 +1,7 @@
 """Shared machinery of the identification experiments: validation, sampling, noise, runs, results.
 
-Private helpers used by :mod:`envs.identification.closed_loop_experiment`, :mod:`envs.identification.open_loop_experiments`,
+Private helpers used by :mod:`envs.identification.closed_loop_experiment`, the open-loop
+experiments (:mod:`envs.identification.open_loop_step`, ``open_loop_ramp``, ``open_loop_pulse``),
 :mod:`envs.identification.relay` and :mod:`envs.identification.commissioning`; the public names are the sampling constants and
 :class:`ExperimentResult`, the base of every experiment's result.
 
@@ -29,7 +30,7 @@ Conventions (see :mod:`envs.identification.experiments` for the full list)
   component of the next state reaches ``DIVERGENCE_LIMIT`` times the largest input so far; the
   outputs up to that sample are finite); else the cap.  The open-loop runs reach it over growing
   horizons (doubling) in chunks (:func:`run_until_settled`), the closed-loop step sample by sample
-  in compiled calls (:func:`envs.identification.closed_loop_experiment._run_closed_loop`); either way the sample
+  in compiled calls (:func:`envs.identification.closed_loop_run._run_closed_loop`); either way the sample
   and the signals up to it are those of simulating and testing the whole run.
 """
 

@@ -3,9 +3,13 @@
 This module is the public entry point; the experiments live in cohesive modules and are
 re-exported here:
 
-* :mod:`envs.identification.closed_loop_experiment`: experiment 1;
-* :mod:`envs.identification.open_loop_experiments`: experiments 2-4;
-* :mod:`envs.identification.relay`: experiment 5;
+* :mod:`envs.identification.closed_loop_experiment`: experiment 1 (its run:
+  :mod:`~envs.identification.closed_loop_run`);
+* :mod:`envs.identification.open_loop_step`, :mod:`~envs.identification.open_loop_ramp`,
+  :mod:`~envs.identification.open_loop_pulse`: experiments 2-4 (their shared run:
+  :mod:`~envs.identification.open_loop_run`);
+* :mod:`envs.identification.relay`: experiment 5 (its time stepping:
+  :mod:`~envs.identification.relay_simulation`; its limit cycle: :mod:`~envs.identification.relay_cycle`);
 * :mod:`envs.identification.commissioning`: the commissioning PI and the maximum sensitivity;
 * :mod:`envs.identification.steady_state`: steady-state detection and noise estimation;
 * :mod:`envs.identification.experiment_base`: validation, sampling, noise, runs and :class:`ExperimentResult`.
@@ -57,14 +61,9 @@ References
 from envs.identification.closed_loop_experiment import ClosedLoopStepResult, closed_loop_step
 from envs.identification.commissioning import COMMISSIONING_MAX_SENSITIVITY, commissioning_pi, max_sensitivity
 from envs.identification.experiment_base import MAX_DURATION, SAMPLES_PER_RESIDENCE_TIME, ExperimentResult
-from envs.identification.open_loop_experiments import (
-    OpenLoopPulseResult,
-    OpenLoopRampResult,
-    OpenLoopStepResult,
-    open_loop_pulse,
-    open_loop_ramp,
-    open_loop_step,
-)
+from envs.identification.open_loop_pulse import OpenLoopPulseResult, open_loop_pulse
+from envs.identification.open_loop_ramp import OpenLoopRampResult, open_loop_ramp
+from envs.identification.open_loop_step import OpenLoopStepResult, open_loop_step
 from envs.identification.relay import RelayResult, relay_feedback
 from envs.identification.steady_state import CONFIDENCE, STEADY_STATE_TOLERANCE, steady_state_index, steady_state_mask
 

@@ -42,7 +42,8 @@ from envs.identification.experiment_base import (
 )
 from envs.identification.least_squares import LeastSquaresFit, least_squares_fit
 from envs.identification.models import FOPDTModel, SOPDTModel
-from envs.simulation.delay_systems import MAX_RUN_SAMPLES, open_loop_response
+from envs.simulation.delay_systems import MAX_RUN_SAMPLES
+from envs.simulation.open_loop import open_loop_response
 from envs.systems.plants import Plant
 from envs.validation import require_number
 

@@ -24,7 +24,8 @@ import numpy as np
 
 from envs.identification.closed_loop_experiment import ClosedLoopStepResult, closed_loop_step
 from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
-from envs.identification.open_loop_experiments import OpenLoopPulseResult, OpenLoopStepResult, open_loop_pulse, open_loop_step
+from envs.identification.open_loop_pulse import OpenLoopPulseResult, open_loop_pulse
+from envs.identification.open_loop_step import OpenLoopStepResult, open_loop_step
 from envs.systems.plants import Plant
 
 __all__ = ["IdentifiedModels", "Identification", "identify", "experiment_deviation", "usable_closed_loop", "PULSE_LENGTH"]

@@ -2,7 +2,7 @@
 
 :class:`PlantProcess` samples a :class:`~envs.systems.plants.Plant` ``G(s) e^{-Ls}`` with the exact
 simulation of :mod:`envs.simulation.delay_systems`: the zero-order-hold map of
-:func:`~envs.simulation.delay_systems.delayed_zoh` (the dead time split into whole samples and an
+:func:`~envs.simulation.discretization.delayed_zoh` (the dead time split into whole samples and an
 exact fractional part, no Pade approximation), advanced one sample per :meth:`PlantProcess.apply`
 for whatever input the caller holds.  So the process path (a discrete controller on sampled data)
 and the LTI path (``deadtime analyze``) can be compared where both apply: they differ only by the
@@ -16,27 +16,29 @@ plant only at ``u_0 = 0``); the measurement is ``y + n`` with white Gaussian noi
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from envs.process.protocol import Units
-from envs.simulation.delay_systems import delayed_zoh
+from envs.simulation.discretization import delayed_zoh
 from envs.systems.plants import as_plant
 from envs.validation import require_number
 
-__all__ = ["PlantProcess", "SAMPLES_PER_RESIDENCE_TIME"]
+__all__ = ["PlantProcess", "PlantProcessOptions", "SAMPLES_PER_RESIDENCE_TIME"]
 
 SAMPLES_PER_RESIDENCE_TIME = 200
 """Default samples per ``T_ar`` of the plant (``T_ar/200``, the experiments' default sampling)."""
 
 
-class PlantProcess:
-    """A :class:`~envs.systems.plants.Plant` as a process (see the module docstring).
+@dataclass(frozen=True)
+class PlantProcessOptions:
+    """How :class:`PlantProcess` runs its plant; the keyword arguments of ``PlantProcess`` fill it.
 
-    Parameters
+    Attributes
     ----------
-    plant : Plant, dict or any form :func:`~envs.systems.plants.as_plant` takes
     sample_time : float, optional
         Default ``T_ar/SAMPLES_PER_RESIDENCE_TIME`` (``T_ar`` of the plant).
     input_limits : (float, float)
@@ -50,37 +52,36 @@ class PlantProcess:
         load at the plant input (1): the amplitudes of the environments.
     settling_time : float, optional
         Default ``10 T_ar``.
+    name : str
+        The process's name in reports.  Default ``"plant"``.
     """
 
-    def __init__(
-        self,
-        plant: object,
-        *,
-        sample_time: float | None = None,
-        input_limits: tuple[float, float] = (-math.inf, math.inf),
-        operating_input: float = 0.0,
-        noise_std: float = 0.0,
-        setpoint_step: float = 1.0,
-        input_step: float | None = None,
-        load_step: float = 1.0,
-        settling_time: float | None = None,
-        name: str = "plant",
-    ) -> None:
+    sample_time: float | None = None
+    input_limits: tuple[float, float] = (-math.inf, math.inf)
+    operating_input: float = 0.0
+    noise_std: float = 0.0
+    setpoint_step: float = 1.0
+    input_step: float | None = None
+    load_step: float = 1.0
+    settling_time: float | None = None
+    name: str = "plant"
+
+
+class PlantProcess:
+    """A :class:`~envs.systems.plants.Plant` as a process (see the module docstring).
+
+    Parameters
+    ----------
+    plant : Plant, dict or any form :func:`~envs.systems.plants.as_plant` takes
+    options : PlantProcessOptions, optional
+        Default ``PlantProcessOptions()``.
+    **overrides
+        Fields of :class:`PlantProcessOptions` to set, e.g. ``PlantProcess(plant, noise_std=0.1)``.
+    """
+
+    def __init__(self, plant: object, options: PlantProcessOptions | None = None, **overrides: object) -> None:
         self.plant = as_plant(plant)
-        scale = self.plant.step_time_scale()
-        self.sample_time = scale / SAMPLES_PER_RESIDENCE_TIME if sample_time is None else require_number(
-            sample_time, "sample_time", positive=True)
-        self.input_limits = (float(input_limits[0]), float(input_limits[1]))
-        self.operating_input = require_number(operating_input, "operating_input")
-        if self.plant.integrating and self.operating_input != 0.0:
-            raise ValueError(f"operating_input must be 0 for an integrating plant (no other input is at rest), got {operating_input!r}")
-        self.noise_std = require_number(noise_std, "noise_std", nonnegative=True)
-        self.setpoint_step = require_number(setpoint_step, "setpoint_step", nonzero=True)
-        self.input_step = 1.0 / self.plant.gain if input_step is None else require_number(input_step, "input_step", nonzero=True)
-        self.load_step = require_number(load_step, "load_step", nonzero=True)
-        self.load_gain = None  # the load enters at the plant input
-        self.settling_time = 10.0 * scale if settling_time is None else require_number(settling_time, "settling_time", positive=True)
-        self.name = name
+        self._configure(dataclasses.replace(options or PlantProcessOptions(), **overrides))
         self.units = Units(time="", input="", output="", load="")
         ss = self.plant.state_space()
         self._phi, gamma0, gamma1, self._whole = delayed_zoh(ss, self.plant.dead_time, self.sample_time)
@@ -89,6 +90,26 @@ class PlantProcess:
         self._c, self._d = np.asarray(ss.C, dtype=float).ravel(), float(ss.D.ravel()[0]) if ss.D.size else 0.0
         self._steady = self._steady_state(ss)
         self.reset(0)
+
+    def _configure(self, options: PlantProcessOptions) -> None:
+        """The options checked, each one a named attribute of the process (its interface)."""
+        scale = self.plant.step_time_scale()
+        self.sample_time = scale / SAMPLES_PER_RESIDENCE_TIME if options.sample_time is None else require_number(
+            options.sample_time, "sample_time", positive=True)
+        self.input_limits = (float(options.input_limits[0]), float(options.input_limits[1]))
+        self.operating_input = require_number(options.operating_input, "operating_input")
+        if self.plant.integrating and self.operating_input != 0.0:
+            raise ValueError("operating_input must be 0 for an integrating plant (no other input is at rest), "
+                             f"got {options.operating_input!r}")
+        self.noise_std = require_number(options.noise_std, "noise_std", nonnegative=True)
+        self.setpoint_step = require_number(options.setpoint_step, "setpoint_step", nonzero=True)
+        self.input_step = (1.0 / self.plant.gain if options.input_step is None
+                           else require_number(options.input_step, "input_step", nonzero=True))
+        self.load_step = require_number(options.load_step, "load_step", nonzero=True)
+        self.load_gain = None  # the load enters at the plant input
+        self.settling_time = (10.0 * scale if options.settling_time is None
+                              else require_number(options.settling_time, "settling_time", positive=True))
+        self.name = options.name
 
     def _steady_state(self, ss) -> np.ndarray:
         """The state at rest for the operating input: ``x = -A^{-1} B u_0`` (0 if ``u_0 = 0``)."""
@@ -120,7 +141,7 @@ class PlantProcess:
 
     def apply(self, control: float, load: float = 0.0) -> None:
         """Hold ``clip(control) + load`` at the plant input for one sample: ``x <- Phi x + Gamma0
-        u[k - m] + Gamma1 u[k - m - 1]`` (:func:`~envs.simulation.delay_systems.delayed_zoh`)."""
+        u[k - m] + Gamma1 u[k - m - 1]`` (:func:`~envs.simulation.discretization.delayed_zoh`)."""
         low, high = self.input_limits
         self._inputs.append(min(max(float(control), low), high) + float(load))
         k = len(self._inputs) - 1

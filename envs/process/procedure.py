@@ -13,7 +13,7 @@ experiment from the operating point and back to it, through the
 2. **The commissioning controller**: the loop's existing controller if the user gives it
    (``source="given"``), else a conservative PI designed from a first open-loop step of
    ``input_step`` (``source="open-loop step"``): the step's moments give ``K``, ``T_ar`` and ``T_a``
-   (Gorez-Klan eq. 2-3 .. 2-6, :func:`~envs.identification.models.normalized_moments`) and the moment
+   (Gorez-Klan eq. 2-3 .. 2-6, :func:`~envs.identification.moments.normalized_moments`) and the moment
    FOPDT ``K e^{-(T_ar - T_a) s}/(T_a s + 1)``, for which
    :func:`~envs.identification.commissioning.commissioning_pi` designs the lambda-type PI of the
    environments, detuned to ``Ms <= 1.4`` on that model.
@@ -26,10 +26,10 @@ experiment from the operating point and back to it, through the
    step's ``T_ar``, or a fifth of ``settling_time`` when the controller was given.
 4. **Open-loop step** of ``setpoint_step/K_n`` (the output rises by about one set-point step, as the
    environments' unit rise), to steady state: ``T_n`` (eq. 11), ``L_n``, ``T_f_bar`` (eq. 22) and the
-   reaction curves (Marlin 6.3), by :func:`~envs.identification.open_loop_experiments.identify_open_loop_step`.
+   reaction curves (Marlin 6.3), by :func:`~envs.identification.open_loop_step.identify_open_loop_step`.
 5. **Relay** of amplitude ``setpoint_step/|K_n|`` (within the input limits) and hysteresis
    ``3 sigma`` (the environments' :data:`~envs.episode.RELAY_HYSTERESIS`) until periodic: ``K_u``,
-   ``T_u`` (:func:`~envs.identification.relay.relay_estimates`).  Beyond the papers: it is reported, and
+   ``T_u`` (:func:`~envs.identification.relay_cycle.relay_estimates`).  Beyond the papers: it is reported, and
    the fixed procedure's observation does not read it (as in the environments' fixed mode).
 
 The least-squares identification (:mod:`envs.identification.least_squares`) is not run on a
@@ -61,10 +61,12 @@ import numpy as np
 from envs.episode import RELAY_HYSTERESIS
 from envs.identification.closed_loop_experiment import ClosedLoopStepResult, identify_closed_loop_step
 from envs.identification.commissioning import commissioning_pi
-from envs.identification.models import FOPDTModel, apparent_time_constant, fopdt_from_moments, normalized_moments
-from envs.identification.open_loop_experiments import OpenLoopStepResult, identify_open_loop_step
+from envs.identification.models import FOPDTModel
+from envs.identification.moments import apparent_time_constant, fopdt_from_moments, normalized_moments
+from envs.identification.open_loop_step import OpenLoopStepResult, identify_open_loop_step
 from envs.identification.procedure import Identification
-from envs.identification.relay import RelayResult, relay_estimates
+from envs.identification.relay import RelayResult
+from envs.identification.relay_cycle import relay_estimates
 from envs.identification.steady_state import SteadyStateTest, window_samples
 from envs.process.control_laws import discrete_law
 from envs.process.protocol import Process, check_process

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envs.identification.relay import relay_periodic
+from envs.identification.relay_cycle import relay_periodic
 from envs.process.control_laws import DiscreteFPPI, DiscretePID
 from envs.process.protocol import Process, ProcessStopped
 from envs.simulation._run_kernels import CONFIDENCE, STEADY_STATE_TOLERANCE
@@ -213,7 +213,7 @@ def relay(
     sample after the crossing, and the switching instant (for the period) is interpolated linearly
     between the two samples around it.  ``sign`` is the sign of the process gain (negative
     feedback).  Stops once the last three periods agree
-    (:func:`~envs.identification.relay.relay_periodic`), else after ``steps`` samples."""
+    (:func:`~envs.identification.relay_cycle.relay_periodic`), else after ``steps`` samples."""
     samples, dt = _Samples(), process.sample_time
     state, switches, times = 1.0, [], []
     previous_error = None

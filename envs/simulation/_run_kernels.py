@@ -2,12 +2,12 @@
 closed-loop step run that fuses them.
 
 * :func:`_loop_sample` is one sample of the recursion of a
-  :class:`~envs.simulation.delay_systems.DiscreteDelaySystem` (:func:`_run_one` and :func:`_run` run it over a
-  horizon for :func:`envs.simulation.delay_systems.simulate_batch` and :class:`envs.simulation.delay_systems.LoopRun`);
+  :class:`~envs.simulation.discretization.DiscreteDelaySystem` (:func:`_run_one` and :func:`_run` run it over a
+  horizon for :func:`envs.simulation.runs.simulate_batch` and :class:`envs.simulation.runs.LoopRun`);
 * :func:`_add_sample` and :func:`_window_steady` are one sample of the running sums and one window
   of the tests of :func:`envs.identification.steady_state.steady_state_mask` (:func:`_extend_sums` and
   :func:`_tests` run them over new samples for :class:`envs.identification.steady_state.SteadyStateTest`);
-* :func:`_closed_loop_run` runs the closed-loop step of :mod:`envs.identification.closed_loop_experiment` sample
+* :func:`_closed_loop_run` runs the closed-loop step of :mod:`envs.identification.closed_loop_run` sample
   by sample (the loop, the measurement, the drive, both steady-state tests, the excursion
   and the divergence under the largest input so far) and stops at the first sample that settles or
   aborts.
@@ -39,7 +39,7 @@ NO_EVENT, SETTLED, ABORTED = 0, 1, 2
 # --------------------------------------------------------------------------- the loop recursion
 @numba.njit(cache=True, inline="always")
 def _loop_sample(Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, d, r, limit, offset, j, z, x, x_next, v, past, history):  # pragma: no cover
-    """Sample ``j`` of the recursion of :class:`~envs.simulation.delay_systems.DiscreteDelaySystem` for the input
+    """Sample ``j`` of the recursion of :class:`~envs.simulation.discretization.DiscreteDelaySystem` for the input
     ``d[r]``: the outputs ``z[j]``, the delayed signals ``history[offset + j] = w[j]`` and the state
     ``x`` (from ``x[j]`` to ``x[j + 1]``, in place); returns False if a state reached ``limit`` (the
     state is updated all the same).
@@ -198,7 +198,7 @@ def _closed_loop_run(
     Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, offset, reference, noise, divergence_limit, peak,
     x, history, z, measured, drive, sums, window, integrating, dt, excursion, has_excursion, begin, until,
 ):  # pragma: no cover - compiled  # fmt: skip
-    """The closed-loop step of :func:`envs.identification.closed_loop_experiment._run_closed_loop` from sample
+    """The closed-loop step of :func:`envs.identification.closed_loop_run._run_closed_loop` from sample
     ``begin`` (after the samples before it) until the first sample that settles or aborts, or to
     ``until - 1``; returns ``(SETTLED, k)``, ``(ABORTED, k)`` or ``(NO_EVENT, until - 1)``.
 
@@ -207,7 +207,7 @@ def _closed_loop_run(
     ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` and the drive (``u``, or
     its trapezoidal integral ``drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1])`` with
     ``t[k] = k dt`` if ``integrating``, the numbers of
-    :func:`envs.identification.closed_loop_experiment._cumulative_integral`), whose running sums ``sums[0]`` and
+    :func:`envs.identification.closed_loop_run._cumulative_integral`), whose running sums ``sums[0]`` and
     ``sums[1]`` give the steady-state tests of the windows ending at ``k`` (the measurement against
     ``reference``).
 

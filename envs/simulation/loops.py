@@ -16,7 +16,9 @@ import numpy as np
 
 from envs.systems.controllers import Controller, packed_block
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import DelaySystem, discretize, simulate
+from envs.simulation.delay_systems import DelaySystem
+from envs.simulation.discretization import discretize
+from envs.simulation.runs import simulate
 
 __all__ = [
     "closed_loop",
@@ -208,7 +210,7 @@ def simulation_step(
     ``T_ar / samples_per_residence_time`` (``T_ar`` of the true plant), reduced if needed so that
     every dead time in the loop spans at least one sample (a negligible plant dead time is none,
     :data:`envs.systems.plants.NEGLIGIBLE_DEAD_TIME`) (the recursion of
-    :func:`envs.simulation.delay_systems.discretize` is explicit then).  ``system`` is the loop's
+    :func:`envs.simulation.discretization.discretize` is explicit then).  ``system`` is the loop's
     :func:`closed_loop`, if already built.
     """
     return sample_time(plant, (closed_loop(plant, controller) if system is None else system).delays, samples_per_residence_time)

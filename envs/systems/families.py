@@ -3,7 +3,8 @@
 A random plant is drawn in three independent steps, so that what varies meaningfully is the shape:
 
 1. a *shape*: a unit-gain rational ``G0(s)`` chosen uniformly from the family's ``shapes``, with
-   its parameters drawn uniformly from :class:`ShapeRanges` (table below);
+   its parameters drawn uniformly from :class:`~envs.systems.shapes.ShapeRanges` (the shapes
+   are :mod:`envs.systems.shapes`);
 2. a *dead-time fraction* ``f = L / T_ar`` uniform over ``dead_time_fraction`` (for ``fopdt`` this
    is the normalized dead time ``tau = L / (L + T)`` of Gorez-Klan section 2);
 3. a *scale*: the average residence time ``T_ar`` (Gorez-Klan eq. 2-5; for an integrating plant
@@ -15,28 +16,11 @@ The delay-free part is ``G0`` with time stretched so that its own residence time
 ``(1 - f) T_ar``, and ``L = f T_ar``.  Integrating plants are ``K G0(s) e^{-Ls} / s``: ``G0`` is
 the ``1/Q(s)`` of ``K e^{-Ls}/(s Q(s))`` (:class:`IntegratingConfig`) and ``K`` the velocity gain.
 
-=============  ======================================================  ===========================
-shape          ``G0(s)``                                               parameters (uniform)
-=============  ======================================================  ===========================
-lag            ``1/(s+1)``                                             --
-two-lags       ``1/((s+1)(r s+1))``                                    ``r``: time_constant_ratio
-underdamped    ``1/(s^2 + 2 zeta s + 1)``                              ``zeta``: damping
-lag-n          ``1/(s+1)^n``                                           ``n``: lag_orders (integers)
-geometric      ``1/((1+s)(1+as)(1+a^2 s)(1+a^3 s))``                   ``a``: geometric_ratio
-nmp            ``(1-as)/(s+1)^m``                                      ``a``: zero_time_constant,
-                                                                       ``m``: one of nmp_orders
-resonant       ``1/((s+1)(s^2/w^2 + 2 zeta s/w + 1))`` (Ingimundarson  ``w``: resonant_frequency,
-               P5: ``w = 3``, ``zeta = 1/3``)                          ``zeta``: resonant_damping
-parallel       ``(1-c)/(s+1) + c/(Ts+1)`` (Ingimundarson P6:           ``c``: slow_weight,
-               ``c = 0.5``, ``T = 10``)                                ``T``: slow_time_constant
-=============  ======================================================  ===========================
-
-Ingimundarson's P7 ``64/((s+1)(s+2)(s+4)(s+8))`` is the geometric shape with ``a = 1/2``.
-
 The ``stable`` family is the mixture of the three self-regulating families: each plant comes from
 ``fopdt``, ``sopdt`` or ``lag-chain`` with equal probability (:class:`MixtureConfig`); it is the
-default of the environments on self-regulating plants.  The ``benchmark`` family draws uniformly from the fixed batches of :func:`benchmark_plants`,
-unscaled.  Every sampler takes a ``numpy.random.Generator`` and draws from nothing else.
+default of the environments on self-regulating plants.  The ``benchmark`` family draws uniformly
+from the fixed batches of :func:`~envs.systems.benchmark_batches.benchmark_plants`, unscaled.  Every
+sampler takes a ``numpy.random.Generator`` and draws from nothing else.
 
 References
 ----------
@@ -48,16 +32,17 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
-from envs.systems.plants import Plant, shape_residence_time
+from envs.systems.benchmark_batches import _KINDS, _benchmark_batch
+from envs.systems.coefficients import shape_residence_time
+from envs.systems.plants import Plant
+from envs.systems.shapes import _SHAPES, SHAPES, ShapeRanges, _check_interval, _positive
 
 __all__ = [
     "FAMILIES",
-    "SHAPES",
-    "ShapeRanges",
     "RandomFamilyConfig",
     "FopdtConfig",
     "SopdtConfig",
@@ -65,120 +50,13 @@ __all__ = [
     "IntegratingConfig",
     "BenchmarkConfig",
     "MixtureConfig",
-    "benchmark_plants",
     "check_family_config",
     "sample_plant",
     "sample_plants",
 ]
 
+
 FAMILIES: tuple[str, ...] = ("fopdt", "sopdt", "lag-chain", "integrating", "benchmark", "stable")
-
-
-def _check_interval(name: str, value: object, condition: Callable[[float, float], bool], requirement: str) -> None:
-    try:
-        low, high = (float(v) for v in value)  # type: ignore[union-attr]
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a pair (low, high), got {value!r}") from None
-    if not (np.isfinite(low) and np.isfinite(high) and low <= high and condition(low, high)):
-        raise ValueError(f"{name} must be (low, high) with low <= high and {requirement}, got {value!r}")
-
-
-def _positive(name: str, value: object) -> None:
-    _check_interval(name, value, lambda low, high: low > 0, "0 < low")
-
-
-# --------------------------------------------------------------------------- shapes
-@dataclass(frozen=True)
-class ShapeRanges:
-    """Ranges of the normalized shape parameters; each is drawn uniformly from its range.
-
-    Attributes
-    ----------
-    time_constant_ratio : (float, float)
-        ``r = T2/T1`` of ``two-lags``, in ``(0, 1]``.  Default ``(0.05, 1.0)``.
-    damping : (float, float)
-        ``zeta`` of ``underdamped``, ``> 0``.  Default ``(0.4, 1.0)``.
-    lag_orders : (int, int)
-        Inclusive range of ``n`` of ``lag-n``, ``>= 1``.  Default ``(2, 10)`` (Gorez-Klan P2: 10).
-    geometric_ratio : (float, float)
-        ``a`` of ``geometric``, in ``(0, 1]``.  Default ``(0.2, 0.9)`` (Gorez-Klan P1: 0.4).
-    zero_time_constant : (float, float)
-        ``a`` of the right-half-plane zero ``(1 - a s)`` of ``nmp``, ``> 0``.  Default
-        ``(0.1, 2.0)`` (Ingimundarson P3: 1, P4: 2).
-    nmp_orders : tuple of int
-        Orders ``m`` of ``nmp``, one drawn uniformly.  Default ``(3, 5)``.
-    resonant_frequency, resonant_damping : (float, float)
-        ``w`` (relative to the real pole) and ``zeta`` of ``resonant``.  Defaults ``(1.5, 5.0)``
-        and ``(0.2, 0.7)`` (Ingimundarson P5: 3, 1/3).
-    slow_weight, slow_time_constant : (float, float)
-        ``c`` in ``[0, 1]`` and ``T > 0`` of ``parallel``.  Defaults ``(0.2, 0.8)`` and
-        ``(3.0, 30.0)`` (Ingimundarson P6: 0.5, 10).
-    """
-
-    time_constant_ratio: tuple[float, float] = (0.05, 1.0)
-    damping: tuple[float, float] = (0.4, 1.0)
-    lag_orders: tuple[int, int] = (2, 10)
-    geometric_ratio: tuple[float, float] = (0.2, 0.9)
-    zero_time_constant: tuple[float, float] = (0.1, 2.0)
-    nmp_orders: tuple[int, ...] = (3, 5)
-    resonant_frequency: tuple[float, float] = (1.5, 5.0)
-    resonant_damping: tuple[float, float] = (0.2, 0.7)
-    slow_weight: tuple[float, float] = (0.2, 0.8)
-    slow_time_constant: tuple[float, float] = (3.0, 30.0)
-
-    def __post_init__(self) -> None:
-        for name in ("damping", "zero_time_constant", "resonant_frequency", "resonant_damping", "slow_time_constant"):
-            _positive(name, getattr(self, name))
-        for name in ("time_constant_ratio", "geometric_ratio"):
-            _check_interval(name, getattr(self, name), lambda low, high: 0 < low and high <= 1, "0 < low, high <= 1")
-        _check_interval("slow_weight", self.slow_weight, lambda lo, hi: lo >= 0 and hi <= 1, "0 <= low, high <= 1")
-        _check_interval(
-            "lag_orders", self.lag_orders, lambda low, high: low >= 1 and low == int(low) and high == int(high),
-            "integers >= 1",
-        )
-        if not self.nmp_orders or any(int(m) != m or m < 1 for m in self.nmp_orders):
-            raise ValueError(f"nmp_orders must be a non-empty tuple of integers >= 1, got {self.nmp_orders!r}")
-
-
-def _lags(*time_constants: float) -> np.ndarray:
-    den = np.array([1.0])
-    for t in time_constants:
-        den = np.convolve(den, [t, 1.0])  # numpy.polymul of polynomials without leading zeros
-    return den
-
-
-def _underdamped(rng: np.random.Generator, r: ShapeRanges) -> tuple[np.ndarray, np.ndarray]:
-    return np.array([1.0]), np.array([1.0, 2.0 * rng.uniform(*r.damping), 1.0])
-
-
-def _nmp(rng: np.random.Generator, r: ShapeRanges) -> tuple[np.ndarray, np.ndarray]:
-    a = rng.uniform(*r.zero_time_constant)
-    order = int(r.nmp_orders[rng.integers(len(r.nmp_orders))])
-    return np.array([-a, 1.0]), _lags(*[1.0] * order)
-
-
-def _resonant(rng: np.random.Generator, r: ShapeRanges) -> tuple[np.ndarray, np.ndarray]:
-    w, zeta = rng.uniform(*r.resonant_frequency), rng.uniform(*r.resonant_damping)
-    return np.array([1.0]), np.convolve([1.0, 1.0], [1.0 / w**2, 2.0 * zeta / w, 1.0])
-
-
-def _parallel(rng: np.random.Generator, r: ShapeRanges) -> tuple[np.ndarray, np.ndarray]:
-    c, t = rng.uniform(*r.slow_weight), rng.uniform(*r.slow_time_constant)
-    return np.array([(1.0 - c) * t + c, 1.0]), _lags(1.0, t)  # (1-c)/(s+1) + c/(ts+1)
-
-
-# Each shape draws its parameters and returns a unit-static-gain (num, den), descending powers.
-_SHAPES: dict[str, Callable[[np.random.Generator, ShapeRanges], tuple[np.ndarray, np.ndarray]]] = {
-    "lag": lambda rng, r: (np.array([1.0]), _lags(1.0)),
-    "two-lags": lambda rng, r: (np.array([1.0]), _lags(1.0, rng.uniform(*r.time_constant_ratio))),
-    "underdamped": _underdamped,
-    "lag-n": lambda rng, r: (np.array([1.0]), _lags(*[1.0] * int(rng.integers(*r.lag_orders, endpoint=True)))),
-    "geometric": lambda rng, r: (np.array([1.0]), _lags(*(rng.uniform(*r.geometric_ratio) ** np.arange(4)))),
-    "nmp": _nmp,
-    "resonant": _resonant,
-    "parallel": _parallel,
-}
-SHAPES: tuple[str, ...] = tuple(_SHAPES)
 
 
 # --------------------------------------------------------------------------- configs
@@ -319,9 +197,6 @@ class MixtureConfig:
 
     def members(self) -> tuple[RandomFamilyConfig, ...]:
         return (self.fopdt, self.sopdt, self.lag_chain)
-
-
-_KINDS = ("stable", "integrating", "all")
 _CONFIGS: dict[str, type] = {
     "stable": MixtureConfig,
     "fopdt": FopdtConfig,
@@ -333,90 +208,6 @@ _CONFIGS: dict[str, type] = {
 
 
 _DEFAULT_CONFIGS: dict[str, object] = {}
-
-
-# --------------------------------------------------------------------------- benchmark batches
-def benchmark_plants(kind: str = "all") -> dict[str, Plant]:
-    """The fixed test batches of the papers, by name.
-
-    Parameters
-    ----------
-    kind : {"stable", "integrating", "all"}
-        ``"stable"``: Gorez-Klan P1, P2 and Ingimundarson's seven stable processes;
-        ``"integrating"``: Ingimundarson's eight integrating processes; ``"all"``: both.
-
-    Returns
-    -------
-    dict of str to Plant
-        Names ``gorez-klan-P1``, ``gorez-klan-P2``, ``ingimundarson-stable-P1`` ..
-        ``-P7``, ``ingimundarson-integrating-P1`` .. ``-P8``, in that order.
-
-    Raises
-    ------
-    ValueError
-        If ``kind`` is not one of the three.
-
-    References
-    ----------
-    Gorez-Klan eq. 4-15 (``alpha = 0.4``) and 4-16 (``n = 10``), both with ``T_ar = 1`` and no
-    dead time.  Ingimundarson section 4.4, ``P_i(s) e^{-5s}``, and section 5.3,
-    ``P_i(s) e^{-5s}/s``.
-
-    Examples
-    --------
-    >>> round(benchmark_plants("stable")["ingimundarson-stable-P1"].residence_time, 9)
-    17.0
-    """
-    if kind not in _KINDS:
-        raise ValueError(f"kind must be one of {', '.join(_KINDS)}; got {kind!r}")
-    lags = Plant.from_time_constants
-    plants: dict[str, Plant] = {}
-    if kind in ("stable", "all"):
-        a = 0.4
-        t = 1.0 / (1.0 + a + a**2 + a**3)  # T_ar = T (1 + a + a^2 + a^3) = 1
-        plants["gorez-klan-P1"] = lags(1.0, [t * a**k for k in range(4)])
-        plants["gorez-klan-P2"] = lags(1.0, [0.1] * 10)  # T_ar = 10 T = 1
-        for i, (num, den) in enumerate(_ingimundarson_stable(), start=1):
-            plants[f"ingimundarson-stable-P{i}"] = Plant(tuple(num), tuple(den), 5.0)
-    if kind in ("integrating", "all"):
-        for i, (num, den) in enumerate(_ingimundarson_integrating(), start=1):
-            plants[f"ingimundarson-integrating-P{i}"] = Plant(tuple(num), tuple(np.polymul(den, [1.0, 0.0])), 5.0)
-    return plants
-
-
-def _benchmark_batch(kind: str) -> tuple[Plant, ...]:
-    """``benchmark_plants(kind)`` as a tuple, built once (the plants are immutable)."""
-    if kind not in _BENCHMARK_BATCHES:
-        _BENCHMARK_BATCHES[kind] = tuple(benchmark_plants(kind).values())
-    return _BENCHMARK_BATCHES[kind]
-
-
-_BENCHMARK_BATCHES: dict[str, tuple[Plant, ...]] = {}
-
-
-def _ingimundarson_stable() -> list[tuple[np.ndarray, np.ndarray]]:
-    """``P_1 .. P_7`` of section 4.4 as ``(num, den)``."""
-    return [
-        (np.array([1.0]), _lags(10.0, 2.0)),  # 1/((10s+1)(2s+1))
-        (np.array([1.0]), _lags(1.0, 1.0, 1.0)),  # 1/(s+1)^3
-        (np.array([-1.0, 1.0]), _lags(*[1.0] * 5)),  # (-s+1)/(s+1)^5
-        (np.array([-2.0, 1.0]), _lags(1.0, 1.0, 1.0)),  # (-2s+1)/(s+1)^3
-        (np.array([9.0]), np.polymul([1.0, 1.0], [1.0, 2.0, 9.0])),  # 9/((s+1)(s^2+2s+9))
-        (np.array([0.55, 0.1]), np.polymul([1.0, 1.0], [1.0, 0.1])),  # 0.5/(s+1) + 0.05/(s+0.1)
-        (np.array([64.0]), np.poly([-1.0, -2.0, -4.0, -8.0])),  # 64/((s+1)(s+2)(s+4)(s+8))
-    ]
-
-
-def _ingimundarson_integrating() -> list[tuple[np.ndarray, np.ndarray]]:
-    """``P_1 .. P_8`` of section 5.3 (the dynamics additional to ``1/s``) as ``(num, den)``."""
-    stable = _ingimundarson_stable()
-    return [
-        (np.array([1.0]), _lags(1.0)),  # 1/(s+1)
-        (np.array([1.0]), _lags(0.1, 1.0)),  # 1/((0.1s+1)(s+1))
-        *stable[1:4],  # 1/(s+1)^3, (-s+1)/(s+1)^5, (-2s+1)/(s+1)^3
-        (np.array([1.0]), np.polymul([1.0, 1.0], [1.0, 2.0, 9.0])),  # 1/((s+1)(s^2+2s+9)), gain 1/9
-        *stable[5:],  # 0.5/(s+1) + 0.05/(s+0.1), 64/((s+1)(s+2)(s+4)(s+8))
-    ]
 
 
 # --------------------------------------------------------------------------- samplers

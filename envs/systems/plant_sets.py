@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from envs.systems.families import FAMILIES, benchmark_plants, sample_plant
+from envs.systems.families import FAMILIES, sample_plant
+from envs.systems.benchmark_batches import benchmark_plants
 from envs.systems.plants import Plant
 
 __all__ = ["PLANT_SET_ENTROPY", "SPLITS", "plant_set", "benchmark_set"]
@@ -62,7 +63,7 @@ def benchmark_set(structure: str) -> dict[str, Plant]:
 
     ``"pid"`` and ``"fppi"``: Gorez-Klan P1, P2 and Ingimundarson's seven stable processes;
     ``"msp"``: Ingimundarson's eight integrating processes (see
-    :func:`envs.systems.families.benchmark_plants`).
+    :func:`envs.systems.benchmark_batches.benchmark_plants`).
     """
     from envs.structures import structure as structure_named  # the structures sit above the plants
 

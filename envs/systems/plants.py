@@ -7,25 +7,26 @@ at the origin, the others in the open left half plane).  Everything else in dead
 validated :class:`Plant`; invalid data is refused with a ``ValueError`` that names the field.
 
 The moments used by the method of moments (Gorez-Klan eq. 2-3 .. 2-6 and appendix A) are exact
-functions of the coefficients, see :meth:`Plant.taylor_coefficients`.
+functions of the coefficients, see :meth:`Plant.taylor_coefficients`.  The coefficients are checked
+and their moments computed in :mod:`envs.systems.coefficients`; the state-space realization of ``G``
+(:meth:`Plant.state_space`) is built in :mod:`envs.systems.state_space`.
 """
 
 from __future__ import annotations
 
-import math
 import reprlib
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Sequence
 
-import numba
 import numpy as np
-import scipy.linalg
-import scipy.signal
 
+from envs.systems.coefficients import MAX_COEFFICIENTS, _as_coefficients, _roots, _taylor_coefficients
+from envs.systems.state_space import StateSpace, _balanced, _controllable_form, _read_only, _scaled_controllable_form
 from envs.validation import require_dead_time
 
-__all__ = ["Plant", "StateSpace", "as_plant", "NEGLIGIBLE_DEAD_TIME", "GAIN_RANGE", "MAX_COEFFICIENTS", "TIME_SCALE_RANGE"]
+__all__ = ["Plant", "as_plant", "NEGLIGIBLE_DEAD_TIME", "GAIN_RANGE", "MAX_COEFFICIENTS", "TIME_SCALE_RANGE"]
+
 
 GAIN_RANGE = (1e-12, 1e12)
 """The documented range of ``|K|`` (static or velocity gain): everything downstream is gain
@@ -35,184 +36,12 @@ TIME_SCALE_RANGE = (1e-12, 1e12)
 """The documented range of the time scale :meth:`Plant.step_time_scale` (``T_ar``), in the plant's
 own time unit; outside it a plant is refused (``den``)."""
 
-MAX_COEFFICIENTS = 101
-"""The documented largest plant: at most this many coefficients in ``num`` and in ``den`` (order 100;
-the lag chains of the plant families reach order 10).  Larger ones are refused (``num``, ``den``): the
-poles' computation grows with the cube of the order (3,000 coefficients take half a minute, 6,000
-over two), so a plant of millions would never finish."""
-
 NEGLIGIBLE_DEAD_TIME = 1e-4
 """Closed-loop simulations (experiments and IAE) take a dead time below this fraction of
 :meth:`Plant.step_time_scale` as zero (:attr:`Plant.simulation_dead_time`) instead of sampling finer
 than it: the normalized IAE changes by about ``L/T_ar`` (< 1e-4, below the method's own error of
 6e-4), while resolving it would need ``T_ar/L`` samples per residence time (at 1e-7, more than
 the memory holds).  The frequency-domain analysis always uses the exact dead time."""
-
-
-@dataclass(frozen=True)
-class StateSpace:
-    """A continuous-time state-space realization ``x' = A x + B u``, ``y = C x + D u``."""
-
-    A: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    D: np.ndarray
-
-
-def _read_only(state_space: StateSpace) -> StateSpace:
-    for matrix in (state_space.A, state_space.B, state_space.C, state_space.D):
-        matrix.setflags(write=False)
-    return state_space
-
-
-def _as_coefficients(values: Any, field: str) -> tuple[float, ...]:
-    if isinstance(values, list | tuple | np.ndarray) and len(values) > MAX_COEFFICIENTS:
-        raise ValueError(f"{field} must have at most {MAX_COEFFICIENTS} coefficients (the documented limit, "
-                         f"envs.systems.plants.MAX_COEFFICIENTS), got {len(values)}")
-    if type(values) is tuple and values and all(isinstance(v, float) and math.isfinite(v) for v in values):  # usual
-        for k, v in enumerate(values):
-            if v != 0.0:
-                return tuple(float(c) for c in values[k:])
-        raise ValueError(f"{field} must not be all zero")
-    array = _numbers(values, field)
-    if array.size == 0:
-        raise ValueError(f"{field} must not be empty")
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{field} must be finite numbers, got {reprlib.repr(values)}")
-    nonzero = np.flatnonzero(array)
-    if nonzero.size == 0:
-        raise ValueError(f"{field} must not be all zero")
-    return tuple(float(v) for v in array[nonzero[0]:])
-
-
-def _numbers(values: Any, field: str) -> np.ndarray:
-    """``values`` as a flat float array; booleans and strings, which numpy would convert, are refused."""
-    items = values if isinstance(values, list | tuple) else [values]
-    if any(isinstance(v, bool | str | bytes | np.bool_) for v in items):
-        raise ValueError(f"{field} must be a list of numbers, got {reprlib.repr(values)}")
-    try:
-        array = np.asarray(values)
-        if array.dtype.kind not in "iufO":  # O: e.g. Fraction or sympy numbers, converted by float()
-            raise TypeError
-        return array.astype(float).ravel()
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{field} must be a list of numbers, got {reprlib.repr(values)}") from None
-
-
-def _roots(coefficients: np.ndarray) -> np.ndarray:
-    """``numpy.roots`` of coefficients without leading or trailing zeros: the eigenvalues of the same
-    companion matrix, without its trimming (and, for a single root, without LAPACK)."""
-    p = np.asarray(coefficients, dtype=float)
-    if p.size < 2:
-        return np.zeros(0)
-    if p.size == 2:
-        return np.array([-p[1] / p[0]])
-    m = p.size - 1
-    companion = np.zeros((m, m))  # numpy.roots's np.diag(np.ones(m - 1), -1), without its calls
-    companion.ravel()[m :: m + 1] = 1.0
-    companion[0, :] = -p[1:] / p[0]
-    return np.linalg.eigvals(companion)
-
-
-def _balanced(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``scipy.linalg.matrix_balance(A, permute=False, separate=True)`` as ``(B, scaling)``: the same
-    LAPACK ``dgebal`` call, without its generic validation and permutation bookkeeping (most of its cost).
-
-    A matrix that is not finite, or a LAPACK error, is left to ``matrix_balance`` (its error).
-    """
-    if A.dtype == np.float64 and A.ndim == 2 and A.shape[0] == A.shape[1] > 0 and np.isfinite(A).all():
-        B, lo, hi, ps, info = _DGEBAL(A, scale=1, permute=0)
-        if info >= 0:
-            scaling = np.ones_like(ps, dtype=float)
-            scaling[lo : hi + 1] = ps[lo : hi + 1]
-            return B, scaling
-    B, (scaling, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
-    return B, scaling
-
-
-_DGEBAL = scipy.linalg.get_lapack_funcs("gebal", (np.zeros((1, 1)),))  # the dgebal matrix_balance uses
-
-
-def _controllable_form(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``scipy.signal.tf2ss(num, den)``, bit for bit, of a proper ``num/den`` with ``den[0] != 0``
-    and at least one pole, without its generic conversions and checks (most of its cost).
-
-    A numerator whose normalized leading coefficient is within 1e-14 of zero, which tf2ss trims
-    with a warning, is left to tf2ss.
-    """
-    num, den = num / den[0], den / den[0]
-    if abs(num[0]) <= 1e-14:
-        return scipy.signal.tf2ss(num, den)
-    n = den.size - 1
-    num = np.concatenate([np.zeros(den.size - num.size), num])
-    A = np.zeros((n, n))
-    A[0] = -den[1:]
-    A[1:, :-1] = np.eye(n - 1)
-    B = np.zeros((n, 1))
-    B[0, 0] = 1.0
-    C = num[None, 1:] - num[0] * den[None, 1:]
-    return A, B, C, np.array([[num[0]]])
-
-
-def _taylor_coefficients(num: tuple[float, ...], den: tuple[float, ...], dead_time: float) -> tuple[float, float]:
-    """``(p1, p2)`` of :meth:`Plant.taylor_coefficients` for the rational part ``num/den`` (without the
-    integrator) and the dead time ``dead_time``.
-
-    Only the three lowest coefficients enter, so they are read as Python floats (the same divisions
-    as on arrays, without building them).
-    """
-    n1 = num[-2] / num[-1] if len(num) > 1 else 0.0  # ascending, normalized: 1 + n1 s + n2 s^2
-    n2 = num[-3] / num[-1] if len(num) > 2 else 0.0
-    d1 = den[-2] / den[-1] if len(den) > 1 else 0.0
-    d2 = den[-3] / den[-1] if len(den) > 2 else 0.0
-    g1 = n1 - d1  # appendix A: n1 = g1 + d1
-    g2 = n2 - d1 * g1 - d2  # n2 = g2 + d1 g1 + d2
-    L = dead_time
-    p1 = g1 - L  # times e^{-Ls} = 1 - L s + L^2 s^2 / 2
-    p2 = g2 - L * g1 + L * L / 2
-    return float(p1), float(p2)
-
-
-def shape_residence_time(num: Any, den: Any) -> float:
-    """``T_ar`` of ``Plant(num, den, 0.0)`` (stable ``num/den``), without building and validating the plant.
-
-    For samplers that only need the residence time of a shape they then scale into a plant, which is
-    validated; the coefficients are normalized exactly as :class:`Plant` does.
-    """
-    num, den = _as_coefficients(num, "num"), _as_coefficients(den, "den")
-    scale = den[0]
-    num = tuple(v / scale for v in num)
-    den = tuple(v / scale for v in den)
-    if den[-1] == 0.0:
-        den = den[:-1]
-    return -_taylor_coefficients(num, den, 0.0)[0]
-
-
-@numba.njit(cache=True)
-def _scaled_controllable_form(num, den, scale):  # pragma: no cover - compiled
-    """``A, B, C, D = _controllable_form(num, den)`` followed by ``A / scale``, ``B / scale``: the same
-    elementwise operations, for a numerator whose normalized leading coefficient is not trimmed."""
-    n = den.size - 1
-    lead = den[0]
-    padded = np.zeros(den.size)  # num / den[0], padded to the size of den
-    for i in range(num.size):
-        padded[den.size - num.size + i] = num[i] / lead
-    monic = np.empty(den.size)
-    for i in range(den.size):
-        monic[i] = den[i] / lead
-    A = np.zeros((n, n))  # its zeros stay +0.0 = 0.0 / scale (scale > 0)
-    for j in range(n):
-        A[0, j] = -monic[j + 1] / scale
-    for i in range(1, n):
-        A[i, i - 1] = 1.0 / scale
-    B = np.zeros((n, 1))
-    B[0, 0] = 1.0 / scale
-    C = np.empty((1, n))
-    for j in range(n):
-        C[0, j] = padded[j + 1] - padded[0] * monic[j + 1]
-    D = np.empty((1, 1))
-    D[0, 0] = padded[0]
-    return A, B, C, D
 
 
 @dataclass(frozen=True)

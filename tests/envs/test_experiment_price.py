@@ -14,7 +14,7 @@ import pytest
 
 import envs  # noqa: F401  (registers the ids)
 from envs.analysis.scoring import CostWeights, score
-from envs.identification.open_loop_experiments import open_loop_step
+from envs.identification.open_loop_step import open_loop_step
 from envs.identification.procedure import experiment_deviation
 from envs.systems.plants import Plant
 from envs.interface import episode_of, tuning_env_of

@@ -21,7 +21,7 @@ import pytest
 import envs  # noqa: F401
 from envs.analysis.scoring import FEASIBLE_CAP, VIOLATION_BAND, Constraints, score, violation_cost
 from envs.structures import PARAMETER_RANGES, design, relative_scale
-from envs.identification import closed_loop_experiment, open_loop_experiments, prbs_experiment, relay
+from envs.identification import closed_loop_experiment, open_loop_pulse, open_loop_ramp, open_loop_step, prbs_experiment, relay
 from envs.identification.closed_loop_experiment import closed_loop_step
 from envs.identification.procedure import identify
 from envs.identification.steady_state import noise_level
@@ -75,7 +75,7 @@ def test_cost_order_holds_over_random_designs(structure, family):
 @pytest.fixture
 def fixed_noise(monkeypatch):
     """Every experiment's noise at level 0.05 whatever ``noise_std`` it is given (the same records)."""
-    for module in (closed_loop_experiment, open_loop_experiments, prbs_experiment, relay):
+    for module in (closed_loop_experiment, open_loop_step, open_loop_ramp, open_loop_pulse, prbs_experiment, relay):
         original = module.measurement_noise
 
         def patched(rng, noise_std, *args, _original=original, **kwargs):

@@ -28,7 +28,7 @@ from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.simulation.loops import closed_loop_response, simulation_step
 from envs.analysis.performance import iae
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow], derandomize=True)
 

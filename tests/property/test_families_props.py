@@ -10,10 +10,10 @@ from envs.systems.families import (
     IntegratingConfig,
     LagChainConfig,
     SopdtConfig,
-    benchmark_plants,
     sample_plant,
     sample_plants,
 )
+from envs.systems.benchmark_batches import benchmark_plants
 
 CONFIGS = {"fopdt": FopdtConfig(), "sopdt": SopdtConfig(), "lag-chain": LagChainConfig(),
            "integrating": IntegratingConfig()}

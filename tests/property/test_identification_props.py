@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from envs.identification.experiments import closed_loop_step, open_loop_step
-from envs.identification.models import sopdt_from_moments, theta_from_tau
+from envs.identification.moments import sopdt_from_moments, theta_from_tau
 from envs.systems.plants import Plant
 
 taus = st.floats(min_value=0.0, max_value=1.0)

@@ -12,7 +12,7 @@ import pytest
 
 from baselines.reproduction.common import within_rounding
 from baselines.reproduction.ingimundarson_tables import PAPER_INPUTS_TR43, PULSE_DURATION, TABLE2, pulse_area_scan, table2
-from envs.systems.families import benchmark_plants
+from envs.systems.benchmark_batches import benchmark_plants
 
 CASES = sorted(TABLE2)
 REPRODUCED = {

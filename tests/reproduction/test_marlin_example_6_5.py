@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 
 from envs.identification.least_squares import METHODS, least_squares_fit
-from envs.identification.open_loop_experiments import open_loop_step
+from envs.identification.open_loop_step import open_loop_step
 from envs.systems.plants import Plant
 
 DT = 0.333  # min (Example 6.5)

@@ -24,7 +24,8 @@ from baselines.oracle import (
     relative_scale,
 )
 from envs.design import MIN_RELATIVE_DEAD_TIME, pid_design
-from envs.systems.families import benchmark_plants, sample_plants
+from envs.systems.families import sample_plants
+from envs.systems.benchmark_batches import benchmark_plants
 from envs.systems.plants import Plant
 from envs.identification.procedure import identify
 from envs.analysis.scoring import FEASIBLE_CAP, Constraints, score

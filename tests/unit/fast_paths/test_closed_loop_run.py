@@ -1,17 +1,17 @@
 """The compiled closed-loop step run and recursion against the readable paths, bit for bit.
 
-* :func:`envs.identification.closed_loop_experiment._run_closed_loop` (compiled calls of
+* :func:`envs.identification.closed_loop_run._run_closed_loop` (compiled calls of
   :func:`envs.simulation._run_kernels._closed_loop_run`) against ``method="reference"``, the chunked run it
-  replaced (:class:`~envs.simulation.delay_systems.LoopRun` continued chunk by chunk, the new samples tested by
+  replaced (:class:`~envs.simulation.runs.LoopRun` continued chunk by chunk, the new samples tested by
   :class:`~envs.identification.steady_state.SteadyStateTest`, through
   :func:`~envs.identification.experiment_base.run_until_settled`): the same last sample, outcome and signals up to
   it, on random plants of every family with and without noise, with excursions and small caps,
   diverging runs included; and ``closed_loop_step(..., method="reference")`` against the default;
-* a diverging run against :func:`_causal_divergence` (:class:`~envs.simulation.delay_systems.LoopRun` advanced one
-  sample at a time under the limit of :func:`~envs.simulation.delay_systems.simulate` for the inputs so far): it
+* a diverging run against :func:`_causal_divergence` (:class:`~envs.simulation.runs.LoopRun` advanced one
+  sample at a time under the limit of :func:`~envs.simulation.runs.simulate` for the inputs so far): it
   aborts at the first sample whose state step reaches ``DIVERGENCE_LIMIT`` times the largest input
   so far, whatever the chunks of the reference run, the blocks of noise drawn or the noise after it;
-* the recursion of :func:`envs.simulation.delay_systems.simulate` (:func:`envs.simulation._run_kernels._run_one`) against the
+* the recursion of :func:`envs.simulation.runs.simulate` (:func:`envs.simulation._run_kernels._run_one`) against the
   same recursion written as a Python loop.
 """
 
@@ -20,19 +20,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envs.identification.closed_loop_experiment import (
-    _cumulative_integral,
-    _loop_sample_time,
-    _run_closed_loop,
-    closed_loop_step,
-)
+from envs.identification.closed_loop_experiment import _loop_sample_time, closed_loop_step
+from envs.identification.closed_loop_run import _cumulative_integral, _run_closed_loop
 from envs.identification.commissioning import commissioning_pi
 from envs.systems.controllers import FPPI, MSP, PID
 from envs.identification.experiment_base import MeasurementNoise, excursion_index
 from envs.systems.families import FAMILIES, sample_plants
 from envs.simulation.loops import closed_loop_of_block, simulation_step
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import DIVERGENCE_LIMIT, LoopRun, discretize, simulate
+from envs.simulation.delay_systems import DIVERGENCE_LIMIT
+from envs.simulation.discretization import discretize
+from envs.simulation.runs import LoopRun, simulate
 from envs.identification.steady_state import window_samples
 
 
@@ -106,8 +104,8 @@ def _diverged(run, limit) -> bool:
 
 def _causal_divergence(plant, controller, amplitude, noise, dt):
     """``(j, z)``: the first sample ``j`` whose state step diverges (None if none) under the limit of
-    :func:`~envs.simulation.delay_systems.simulate` for the inputs up to it (``DIVERGENCE_LIMIT`` times the largest
-    so far), by :class:`~envs.simulation.delay_systems.LoopRun` advanced one sample at a time; ``z`` the outputs."""
+    :func:`~envs.simulation.runs.simulate` for the inputs up to it (``DIVERGENCE_LIMIT`` times the largest
+    so far), by :class:`~envs.simulation.runs.LoopRun` advanced one sample at a time; ``z`` the outputs."""
     system = closed_loop_of_block(plant, controller.block())
     inputs = np.column_stack([np.full(noise.size, amplitude), np.zeros(noise.size), noise])
     run = LoopRun(discretize(system, dt), noise.size)
@@ -199,7 +197,7 @@ def test_divergence_limit_is_that_of_the_inputs_so_far(name, spike):
 
 
 def _recursion_reference(discrete, inputs):
-    """The recursion of :class:`~envs.simulation.delay_systems.DiscreteDelaySystem` as a Python loop, every sum in
+    """The recursion of :class:`~envs.simulation.discretization.DiscreteDelaySystem` as a Python loop, every sum in
     the order of the compiled one (over the state, the inputs, then the delayed signals)."""
     s = discrete.system
     n, nv, steps = s.n_states, s.delays.size, inputs.shape[0]

@@ -9,7 +9,7 @@
   random loops of every controller type, and against the point-by-point reference;
 * :func:`envs.identification.commissioning._first_violation` against the table of ``max |1/(1 + k L)|`` over
   gains and frequencies in complex arithmetic;
-* the compiled recursion of :func:`envs.simulation.delay_systems.open_loop_response` against the same recursion
+* the compiled recursion of :func:`envs.simulation.open_loop.open_loop_response` against the same recursion
   written as a Python loop.
 """
 
@@ -30,7 +30,8 @@ from envs.systems.families import FAMILIES, sample_plants
 from envs.simulation.loops import loop_response
 from envs.systems.plants import Plant
 from envs.analysis.robustness import _bracketed_roots, _peaks, _refine, frequency_grid, loop_margins
-from envs.simulation.delay_systems import delayed_zoh, open_loop_response
+from envs.simulation.discretization import delayed_zoh
+from envs.simulation.open_loop import open_loop_response
 
 
 # ----------------------------------------------------------------------------- roots and peaks

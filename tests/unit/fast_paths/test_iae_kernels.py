@@ -10,14 +10,14 @@ same exact arithmetic in different orders):
 * ``expm`` against ``scipy.linalg.expm`` on random matrices of the sizes and norms of the
   discretization blocks (measured <= 7.4e-12 relative to the largest entry, at norm ~300; the
   blocks of the loops have norms below ~40);
-* ``discretize_compiled`` against :func:`envs.simulation.delay_systems.discretize` (scipy's ``expm`` of the
+* ``discretize_compiled`` against :func:`envs.simulation.discretization.discretize` (scipy's ``expm`` of the
   ``3n x 3n`` block) on loops of every controller structure, with 0, 1 and 2 delays, whole and
   fractional: ``Phi``, ``Gamma``, ``R`` within ``1e-13`` of their largest entry (measured
   <= 2e-15), whole samples and fractions equal;
 * the IAE with either discretization, within ``1e-10`` (measured <= 1.1e-11 on the bench loops:
   the 2000-step recursion amplifies the rounding of the map, most for the fastest loops), the
-  reference being the general path (:func:`~envs.simulation.delay_systems.simulate_batch` and
-  :func:`~envs.analysis.performance.integrated_absolute_error`) on :func:`~envs.simulation.delay_systems.discretize`'s map.
+  reference being the general path (:func:`~envs.simulation.runs.simulate_batch` and
+  :func:`~envs.analysis.performance.integrated_absolute_error`) on :func:`~envs.simulation.discretization.discretize`'s map.
 """
 
 from __future__ import annotations
@@ -31,7 +31,9 @@ from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.simulation.loops import closed_loop, loop_rows, simulation_step
 from envs.analysis.performance import SETTLED_SHARE, iae, integrated_absolute_error
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import DelaySystem, discretize, simulate_batch
+from envs.simulation.delay_systems import DelaySystem
+from envs.simulation.discretization import discretize
+from envs.simulation.runs import simulate_batch
 
 LOOPS = {
     "pi-fopdt": (Plant.from_time_constants(1.0, [1.0], 0.7), PID(0.8, 1.5)),

@@ -1,13 +1,13 @@
 """Fast paths of an environment's reset against the numpy/scipy code they replace, bit for bit.
 
-* :func:`envs.identification.models._trapezoid`, ``_trapezoid_of_distance`` and ``_moments`` (compiled
+* :func:`envs.identification.sampled_signals._trapezoid`, ``_trapezoid_of_distance`` and ``_moments`` (compiled
   terms, numpy's sum) against ``numpy.trapezoid``;
-* :func:`envs.identification.models._signals` (compiled checks) against its numpy checks and errors;
+* :func:`envs.identification.sampled_signals._signals` (compiled checks) against its numpy checks and errors;
 * :func:`envs.identification.commissioning._pi_loop_on_grid` (compiled) against
   :meth:`envs.systems.plants.Plant.frequency_response` (to rounding), the PI it chooses against the numpy
   path's, and ``_first_violation_fast`` against ``_first_violation``;
-* :func:`envs.systems.plants._balanced` against ``scipy.linalg.matrix_balance``, :func:`envs.systems.plants._roots`
-  against ``numpy.roots``, and :func:`envs.systems.plants.shape_residence_time` against a built plant.
+* :func:`envs.systems.state_space._balanced` against ``scipy.linalg.matrix_balance``, :func:`envs.systems.coefficients._roots`
+  against ``numpy.roots``, and :func:`envs.systems.coefficients.shape_residence_time` against a built plant.
 """
 
 from __future__ import annotations
@@ -17,9 +17,11 @@ import pytest
 import scipy.linalg
 
 from envs.identification import commissioning
-from envs.identification import models as identification
+from envs.identification import sampled_signals as identification
 from envs.systems.families import sample_plants
-from envs.systems.plants import Plant, _balanced, _roots, shape_residence_time
+from envs.systems.plants import Plant
+from envs.systems.coefficients import _roots, shape_residence_time
+from envs.systems.state_space import _balanced
 
 
 def _bits(value) -> bytes:
@@ -151,7 +153,7 @@ def test_shape_residence_time_equals_the_plants(family):
 
 @pytest.mark.parametrize("family", ["stable", "lag-chain", "integrating", "benchmark"])
 def test_compiled_controllable_form_equals_the_numpy_one(family):
-    from envs.systems.plants import _controllable_form, _scaled_controllable_form
+    from envs.systems.state_space import _controllable_form, _scaled_controllable_form
 
     for plant in sample_plants(family, 60, 8):
         scale = plant.step_time_scale()
@@ -165,7 +167,8 @@ def test_compiled_controllable_form_equals_the_numpy_one(family):
 
 
 def test_pulse_distance_equals_the_numpy_expression():
-    from envs.identification.models import IntegratingModel, _pulse_distance
+    from envs.identification.models import IntegratingModel
+    from envs.identification.open_loop_areas import _pulse_distance
 
     rng = np.random.default_rng(6)
     for size in (2, 3, 50, 129, 1000, 5003):

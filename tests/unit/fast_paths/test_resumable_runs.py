@@ -1,8 +1,8 @@
 """Runs continued over growing horizons against the same runs restarted from the start.
 
 The experiments and the IAE extend a simulation by doubling its horizon until it settles.  They
-continue it from the saved state and delay buffer (:class:`envs.simulation.delay_systems.LoopRun`,
-:class:`envs.simulation.delay_systems.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.simulation._run_kernels`, which
+continue it from the saved state and delay buffer (:class:`envs.simulation.runs.LoopRun`,
+:class:`envs.simulation.open_loop.OpenLoopRun`, the compiled closed-loop step of :mod:`envs.simulation._run_kernels`, which
 stops at its first steady or aborting sample), and only the new samples are tested for steady state
 (:func:`envs.identification.steady_state.steady_state_tail`, :class:`envs.identification.steady_state.SteadyStateTest`).  The recursions and the running sums are causal, so
 the results must be those of restarting every horizon from rest, bit for bit: every comparison here
@@ -16,13 +16,13 @@ import math
 import numpy as np
 import pytest
 
-from envs.identification.closed_loop_experiment import _cumulative_integral, _run_closed_loop
+from envs.identification.closed_loop_run import _cumulative_integral, _run_closed_loop
 from envs.analysis._iae_kernels import discretize_compiled
 from envs.identification.commissioning import commissioning_pi
 from envs.systems.controllers import FPPI, MSP, PID, SeriesPID
 from envs.identification.experiment_base import excursion_index, run_until_settled
 from envs.simulation.loops import closed_loop, closed_loop_of_block, loop_rows, simulation_step
-from envs.identification.open_loop_experiments import _run_to_steady_state
+from envs.identification.open_loop_run import _run_to_steady_state
 from envs.analysis.performance import (
     OFFSET_TOLERANCE,
     IAEBound,
@@ -32,14 +32,9 @@ from envs.analysis.performance import (
     integrated_absolute_error,
 )
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import (
-    LoopRun,
-    OpenLoopRun,
-    discretize,
-    open_loop_response,
-    simulate,
-    simulate_batch,
-)
+from envs.simulation.discretization import discretize
+from envs.simulation.open_loop import OpenLoopRun, open_loop_response
+from envs.simulation.runs import LoopRun, simulate, simulate_batch
 from envs.identification.steady_state import (
     SteadyStateTest,
     steady_state_mask,

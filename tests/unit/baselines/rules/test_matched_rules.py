@@ -27,7 +27,8 @@ from baselines.rules.tune import TR_FLOORS
 from envs.design import pid_design
 from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
 from envs.identification.procedure import identify
-from envs.systems.families import benchmark_plants, sample_plants
+from envs.systems.families import sample_plants
+from envs.systems.benchmark_batches import benchmark_plants
 
 RELATIVE_TOLERANCE = 1e-3
 FAMILIES = ("fopdt", "sopdt", "lag-chain", "integrating", "stable")

@@ -1,6 +1,6 @@
 """The registry of every rule (baselines.rules.registry): names, citations, inputs, and each rule's numbers.
 
-Every rule designs a controller on a benchmark plant (envs.systems.families.benchmark_plants) from the
+Every rule designs a controller on a benchmark plant (envs.systems.benchmark_batches.benchmark_plants) from the
 noise-free fixed procedure; the ``mu`` and ``T_r`` rules equal the design maps of envs.design at
 their parameter, and their parameters are checked against the source (Gorez-Klan section 3,
 Ingimundarson Tables 1 and 2, eq. 34, 43, 50); the PI/PID rules are the pid_registry rules
@@ -28,13 +28,9 @@ from baselines.rules.registry import (
     get_rule,
 )
 from envs.design import fppi_design, msp_design, pid_design
-from envs.systems.families import benchmark_plants
-from envs.identification.models import (
-    FOPDTModel,
-    IntegratingModel,
-    SOPDTModel,
-    sopdt_from_moments,
-)
+from envs.systems.benchmark_batches import benchmark_plants
+from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel
+from envs.identification.moments import sopdt_from_moments
 from envs.systems.plants import Plant
 from envs.identification.procedure import identify
 

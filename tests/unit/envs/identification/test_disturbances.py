@@ -13,8 +13,8 @@ import pytest
 from envs.identification.closed_loop_experiment import closed_loop_step
 from envs.identification.disturbances import Disturbances, DisturbedNoise
 from envs.identification.experiment_base import measurement_noise, sample_time
-from envs.identification.open_loop_experiments import open_loop_step
-from envs.simulation.delay_systems import open_loop_response
+from envs.identification.open_loop_step import open_loop_step
+from envs.simulation.open_loop import open_loop_response
 from envs.simulation.loops import closed_loop_response
 from envs.systems.plants import Plant
 

@@ -49,7 +49,7 @@ def shaped(num, den, gain: float, delay: float, integrating: bool) -> Plant:
 
 # --------------------------------------------------------------------------- commissioning PI
 def shapes():
-    """Unit-gain shapes of the plant families (envs.systems.families' table) and harsher ones."""
+    """Unit-gain shapes of the plant families (envs.systems.shapes' table) and harsher ones."""
     out = {"lag": ([1], [1, 1])}
     out |= {f"two-lags-{r}": ([1], np.polymul([1, 1], [r, 1])) for r in (0.05, 0.5, 1.0)}
     out |= {f"underdamped-{z}": ([1], [1, 2 * z, 1]) for z in (0.2, 0.4, 0.7, 1.0)}

@@ -1,4 +1,4 @@
-"""Identification formulas (envs.identification.models) against exact and analytic references.
+"""Identification formulas (the models and formulas of envs.identification) against exact and analytic references.
 
 References: Gorez-Klan eq. 2-4 .. 2-10, the table of section 4 (P1, P2) and appendices A and B;
 Ingimundarson eq. 10-12, 20-22, 45-46; Marlin section 6.3 (eq. 6.2-6.6).
@@ -11,31 +11,29 @@ import pytest
 import scipy.optimize
 
 from envs.systems.controllers import PID
-from envs.identification.models import (
-    MIN_TIME_CONSTANT_FRACTION,
-    FOPDTModel,
-    IntegratingModel,
-    SOPDTModel,
+from envs.identification.models import FOPDTModel, IntegratingModel, SOPDTModel, model_from_dict
+from envs.identification.moments import (
     apparent_time_constant,
     closed_loop_moments,
-    fopdt_from_area,
     fopdt_from_moments,
-    integrate,
-    mismatch_time,
-    model_from_dict,
     normalized_moments,
-    pulse_mismatch_area,
-    ramp_time_constant,
-    reaction_curve_tangent,
-    reaction_curve_two_point,
     residence_time_from_area,
     sopdt_from_moments,
-    step_time_constant,
     theta_from_tau,
 )
+from envs.identification.open_loop_areas import (
+    MIN_TIME_CONSTANT_FRACTION,
+    fopdt_from_area,
+    mismatch_time,
+    pulse_mismatch_area,
+    ramp_time_constant,
+    step_time_constant,
+)
+from envs.identification.reaction_curve import reaction_curve_tangent, reaction_curve_two_point
+from envs.identification.sampled_signals import integrate
 from envs.simulation.loops import closed_loop_response
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 
 
 def exact_moment_fopdt(plant: Plant) -> tuple[float, float]:

@@ -16,18 +16,18 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from envs.identification.least_squares import (
+from envs.identification.least_squares import least_squares_fit
+from envs.identification.difference_equation import (
     ITERATION_TOLERANCE,
     arx_regression,
     arx_response,
     instrumental_variables,
-    least_squares_fit,
     sopdt_from_arx,
 )
-from envs.identification.open_loop_experiments import open_loop_step
+from envs.identification.open_loop_step import open_loop_step
 from envs.identification.prbs_experiment import fit_record, open_loop_prbs, prbs_levels
 from envs.identification.relay import relay_feedback
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 from envs.systems.plants import Plant
 
 METHODS = ("instrumental-variables", "least-squares")

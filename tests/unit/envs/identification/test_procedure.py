@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from envs.systems.families import benchmark_plants
+from envs.systems.benchmark_batches import benchmark_plants
 from envs.identification.procedure import PULSE_LENGTH, identify
 
 PLANTS = benchmark_plants()

@@ -1,7 +1,7 @@
 """The two process adapters: the project's plants and the TCLab emulator.
 
 * ``PlantProcess`` samples a plant with the exact simulation: an input held sample by sample gives
-  the samples of :func:`envs.simulation.delay_systems.open_loop_response` (the same zero-order-hold
+  the samples of :func:`envs.simulation.open_loop.open_loop_response` (the same zero-order-hold
   map; a fractional dead time included) to rounding; it starts at rest at its operating point; its
   noise is seeded.
 * ``TCLabProcess`` gives the measurements of ``tclab.TCLabModel`` used directly with
@@ -20,11 +20,11 @@ import random
 import numpy as np
 import pytest
 
-from envs.process.plant_process import PlantProcess
+from envs.process.plant_process import PlantProcess, PlantProcessOptions
 from envs.process.protocol import check_process
 from envs.process.runs import hold
 from envs.process.tclab_process import TCLabProcess
-from envs.simulation.delay_systems import open_loop_response
+from envs.simulation.open_loop import open_loop_response
 from envs.systems.plants import Plant
 
 
@@ -71,6 +71,18 @@ def test_plant_noise_is_seeded_and_one_value_per_sample():
 def test_an_integrating_plant_only_rests_at_zero_input():
     with pytest.raises(ValueError, match="operating_input must be 0 for an integrating plant"):
         PlantProcess(Plant.from_time_constants(1.0, [1.0], 1.0, integrating=True), operating_input=1.0)
+
+
+def test_plant_process_options_are_one_object_that_keywords_fill():
+    plant = Plant.from_time_constants(1.0, [1.0], 0.2)
+    options = PlantProcessOptions(sample_time=0.05, noise_std=0.1, operating_input=0.5, name="tank")
+    given, filled = PlantProcess(plant, options), PlantProcess(plant, sample_time=0.05, noise_std=0.1, operating_input=0.5, name="tank")
+    overridden = PlantProcess(plant, options, noise_std=0.0)
+    assert (given.sample_time, given.noise_std, given.operating_input, given.name) == (0.05, 0.1, 0.5, "tank")
+    assert np.array_equal(hold(given, 0.5, 40).output, hold(filled, 0.5, 40).output)
+    assert overridden.noise_std == 0.0 and options.noise_std == 0.1
+    with pytest.raises(TypeError, match="noise"):
+        PlantProcess(plant, noise=0.1)
 
 
 def _direct_tclab(seed: int, inputs: np.ndarray, loads: np.ndarray) -> np.ndarray:

@@ -24,14 +24,10 @@ from envs.systems.controllers import FPPI, MSP, PID
 from envs.simulation.loops import closed_loop, closed_loop_response
 from envs.analysis.performance import integrated_absolute_error
 from envs.systems.plants import Plant
-from envs.simulation.delay_systems import (
-    SystemBuilder,
-    delayed_zoh,
-    discretize,
-    open_loop_response,
-    simulate,
-    simulate_batch,
-)
+from envs.simulation.delay_systems import SystemBuilder
+from envs.simulation.discretization import delayed_zoh, discretize
+from envs.simulation.open_loop import open_loop_response
+from envs.simulation.runs import simulate, simulate_batch
 
 
 # ----------------------------------------------------------------------------- analytic responses

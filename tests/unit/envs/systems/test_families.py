@@ -18,12 +18,12 @@ from envs.systems.families import (
     FopdtConfig,
     IntegratingConfig,
     LagChainConfig,
-    ShapeRanges,
     SopdtConfig,
-    benchmark_plants,
     sample_plant,
     sample_plants,
 )
+from envs.systems.benchmark_batches import benchmark_plants
+from envs.systems.shapes import ShapeRanges
 from envs.systems.plants import Plant
 
 RANDOM_FAMILIES = ("fopdt", "sopdt", "lag-chain", "integrating")

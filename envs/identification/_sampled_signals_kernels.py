@@ -1,9 +1,9 @@
-"""The compiled kernels of :mod:`envs.identification.models`: checks and trapezoid terms.
+"""The compiled kernels of :mod:`envs.identification.sampled_signals`: checks and trapezoid terms.
 
 The terms of the trapezoidal rule
 (``numpy.trapezoid(y, t)`` is ``(diff(t) * (y[1:] + y[:-1]) / 2.0).sum()``) formed without numpy's
 temporaries; numpy's own ``sum`` adds the terms (its pairwise summation) in
-:mod:`envs.identification.models`, so the results are numpy.trapezoid's bits (the unit tests
+:mod:`envs.identification.sampled_signals`, so the results are numpy.trapezoid's bits (the unit tests
 compare them).
 
 Every compiled function calls only compiled functions of this module: numba's on-disk cache is
