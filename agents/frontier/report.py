@@ -66,6 +66,7 @@ def frontier_plot(result: dict[str, Any], path: Path) -> Path:
     for level in result["risk_levels"]:
         axes.axvline(100 * level, color="0.8", linewidth=0.8, zorder=0)
     axes.set_xscale("symlog", linthresh=1.0)
+    axes.set_xlim(left=0.0)
     axes.set_xlabel("risk: plants on which one model's design violates (%, per seed, averaged)")
     axes.set_ylabel("mean cost")
     axes.set_title(f"{result['env_id']}: cost against risk over the knob (circle: s = 0)")
