@@ -13,7 +13,7 @@ seeds keeps only the last two terms.
 * :func:`crossed_bootstrap`: the two-way (pigeonhole) bootstrap: seeds and plants resampled
   independently, per draw the mean of the resampled matrix; the percentile interval.  It counts the
   residual about twice and the seeds short by ``(k-1)/k`` (McCullagh 2000, section 3), and with ten
-  seeds its percentile interval is too narrow where the seeds' variance dominates (measured by
+  seeds its percentile interval is too narrow where the variance between seeds dominates (measured by
   :func:`coverage`: 0.89 at ``sd_seed = sd_plant``; docs/frontier.md).
 * :func:`crossed_variance`: the moment (two-way ANOVA) estimates of the three components, the
   standard error of the mean from them, and a Student-t interval with Satterthwaite's degrees of
