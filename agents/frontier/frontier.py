@@ -72,7 +72,7 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
         For an unknown environment, an empty or non-finite knob grid, no family, or two of one name.
     """
     from agents.environments import make_env
-    from agents.evaluation.evaluate import _played_env, _regime, _score_plants
+    from agents.evaluation.evaluate import _check_trained_on, _played_env, _regime, _score_plants
     from baselines.rules.family import member_name
 
     knobs = _checked_knobs(knobs)
@@ -97,6 +97,7 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
                 continue
             keys[family.name, knob] = []
             for index, (policy, identity) in enumerate(zip(family.members, family.identities)):
+                _check_trained_on(policy, env_id, f"policy {family.name!r}")
                 agents.update(_member(family, index, policy, identity, knob, env_id, scoring, keys, _played_env))
     print(f"frontier {env_id}: {len(families)} families x {len(knobs)} knobs on {n} validation plants", file=sys.stderr, flush=True)
     results, _, _ = _score_plants(env, env_id, regime, regime, plants, seed, rules, agents, cache, False, workers,

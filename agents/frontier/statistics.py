@@ -31,8 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-__all__ = ["CrossedInterval", "Coverage", "METHODS", "coverage", "crossed_bootstrap", "crossed_interval",
-           "crossed_variance", "simulate_crossed"]
+__all__ = ["COVERAGE_SETTINGS", "CrossedInterval", "Coverage", "METHODS", "coverage", "coverage_table", "crossed_bootstrap", "crossed_interval",
+           "crossed_variance", "simulate_crossed", "variance_components"]
 
 
 @dataclass(frozen=True)
@@ -158,3 +158,25 @@ def coverage(interval: Callable[[np.ndarray], CrossedInterval], *, replicates: i
         widths.append(found.high - found.low)
     share = hits / replicates
     return Coverage(share, float(np.sqrt(share * (1.0 - share) / replicates)), replicates, float(np.mean(widths)))
+
+
+COVERAGE_SETTINGS: tuple[tuple[float, float, float], ...] = ((0.3, 1.0, 0.5), (1.0, 1.0, 0.5), (0.0, 1.0, 1.0), (0.1, 0.5, 2.0))
+"""``(sd_seed, sd_plant, sd_residual)`` of the coverage check: plants dominate, seeds as large as plants, no
+seed effect, the residual dominates (10 seeds, 200 plants, mean 0.2)."""
+
+
+def coverage_table(replicates: int = 1000, resamples: int = 500) -> str:
+    """The coverage of both methods at nominal 0.95 in each of :data:`COVERAGE_SETTINGS`, as Markdown
+    (``python -m agents.frontier.statistics``; docs/frontier.md)."""
+    lines = ["| sd_seed | sd_plant | sd_residual | crossed variance | two-way bootstrap |", "|---:|---:|---:|---:|---:|"]
+    methods = (crossed_variance, lambda d: crossed_bootstrap(d, resamples=resamples))
+    for sd_seed, sd_plant, sd_residual in COVERAGE_SETTINGS:
+        found = [coverage(method, replicates=replicates, sd_seed=sd_seed, sd_plant=sd_plant, sd_residual=sd_residual)
+                 for method in methods]
+        cells = " | ".join(f"{c.covered:.3f} +- {c.standard_error:.3f}" for c in found)
+        lines.append(f"| {sd_seed:g} | {sd_plant:g} | {sd_residual:g} | {cells} |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(coverage_table())

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from agents.frontier.statistics import coverage, crossed_bootstrap, crossed_interval, crossed_variance, simulate_crossed, variance_components
+from agents.frontier.statistics import COVERAGE_SETTINGS, coverage, crossed_bootstrap, crossed_interval, crossed_variance, simulate_crossed, variance_components
 
 # (sd_seed, sd_plant, sd_residual): plants dominate, seeds as large as plants, no seed effect, residual dominates
-SETTINGS = [(0.3, 1.0, 0.5), (1.0, 1.0, 0.5), (0.0, 1.0, 1.0), (0.1, 0.5, 2.0)]
+SETTINGS = COVERAGE_SETTINGS
 REPLICATES = 1000  # binomial SE of a coverage of 0.95: 0.0069; 0.93 is 2.9 SE below
 
 
