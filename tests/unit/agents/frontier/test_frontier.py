@@ -100,3 +100,29 @@ def test_bad_input_is_one_line(callable_module, capsys, policies, knobs, message
                    "--out", str(callable_module / "out")])
     error = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and message in error[-1] and "Traceback" not in "\n".join(error)
+
+
+@pytest.mark.parametrize("env_id, kwargs", [("DeadTime/PID-v3", {}), ("DeadTime/FPPI-v3", {"action": "parameter"}),
+                                            ("DeadTime/MSP-v3", {})])
+def test_a_learned_knob_multiplies_the_design_parameter(env_id, kwargs):
+    from agents.environments import make_env
+    from agents.evaluation.policies import CallablePolicy
+    from agents.frontier.families import at_knob
+
+    env = make_env(env_id, kwargs)
+    observation, _ = env.reset(seed=3)
+    unwrapped = env.unwrapped
+    base = CallablePolicy("base", lambda observation: np.array([-0.1], dtype=np.float32))
+    parameter = unwrapped.parameter_from_action(-0.1)
+    for knob in (-0.3, 0.0, 0.4):
+        action, _ = at_knob("x", base, knob, env).predict(observation)
+        # float32 action: 2^-24 relative, times log(p_max/p_min) <= 10 in the log of the parameter
+        assert unwrapped.parameter_from_action(float(action[-1])) == pytest.approx(parameter * np.exp(knob), rel=1e-5)
+
+
+def test_deadtime_evaluate_takes_a_family_member(capsys):
+    from agents.evaluation.policies import parse_policies
+
+    assert [spec.name for spec in parse_policies("amigo-pid@0.5,simc-pi", "pid")] == ["amigo-pid@0.5", "simc-pi"]
+    with pytest.raises(ValueError, match="must be a number"):
+        parse_policies("amigo-pid@x", "pid")
