@@ -132,10 +132,11 @@ def frontier_table(families: Sequence[Family], knobs: Sequence[float], results: 
                    keys: dict[tuple[str, float], list[str]], setting: dict[str, Any]) -> dict[str, Any]:  # fmt: skip
     """The frontier of per-plant ``results`` (one mapping of policy name to result per plant);
     ``keys[family, knob]`` names the policies (one per seed) of each family at each knob."""
-    rows = []
+    rows, costs = [], {}
     for family in families:
         for knob in knobs:
             cost = np.array([[found[name].cost for found in results] for name in keys[family.name, knob]])
+            costs[family.name, knob] = cost
             violated = np.array([[not found[name].feasible for found in results] for name in keys[family.name, knob]])
             rows.append({"family": family.name, "kind": family.kind, "knob": knob, "mean_cost": float(cost.mean()),
                          "risk": float(violated.mean(axis=1).mean()), "risk_union": float(violated.any(axis=0).mean()),
@@ -143,10 +144,33 @@ def frontier_table(families: Sequence[Family], knobs: Sequence[float], results: 
     chosen = {f.name: {_level(r): _choose([row for row in rows if row["family"] == f.name], r) for r in RISK_LEVELS}
               for f in families}
     best = {_level(r): {group: _best(families, rows, chosen, r, group) for group in ("rule", "learned")} for r in RISK_LEVELS}
+    for level in best.values():
+        level["difference"] = _difference(level["learned"], level["rule"], costs)
     oracle = {"mean_cost": float(np.mean([found["oracle"].cost for found in results])),
               "risk": float(np.mean([not found["oracle"].feasible for found in results]))}
     return {**setting, "risk_levels": list(RISK_LEVELS), "knobs": list(knobs), "rows": rows, "chosen": chosen,
             "best": best, "oracle": oracle}
+
+
+def _difference(learned: dict[str, Any] | None, rule: dict[str, Any] | None, costs: dict) -> dict[str, Any] | None:
+    """The best learned family's mean cost minus the best rule family's, paired by plant, at their chosen knobs,
+    with its 95% interval, seeds and plants random (:func:`agents.frontier.statistics.crossed_interval`; one
+    seed: plants random, Student t)."""
+    from scipy import stats
+
+    from agents.frontier.statistics import crossed_interval
+
+    if learned is None or rule is None:
+        return None
+    paired = costs[learned["family"], learned["knob"]] - costs[rule["family"], rule["knob"]].mean(axis=0)
+    if paired.shape[1] < 2:
+        return None
+    if paired.shape[0] >= 2:
+        return crossed_interval(paired).to_dict()
+    mean, se = float(paired.mean()), float(paired.std(ddof=1) / np.sqrt(paired.shape[1]))
+    half = float(stats.t.ppf(0.975, paired.shape[1] - 1)) * se
+    return {"estimate": mean, "low": mean - half, "high": mean + half, "standard_error": se,
+            "method": "plants random, one seed (t)"}
 
 
 def _level(r: float) -> str:

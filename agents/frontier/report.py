@@ -38,10 +38,13 @@ def frontier_markdown(result: dict[str, Any]) -> str:
     for family, chosen in result["chosen"].items():
         cells = ["cannot reach" if knob is None else f"s = {knob:g}" for knob in chosen.values()]
         lines.append(f"| {family} | " + " | ".join(cells) + " |")
-    lines += ["", "| risk level | best rule family | best learned family |", "|---|---|---|"]
+    lines += ["", "| risk level | best rule family | best learned family | learned - rule [95%, seeds and plants random] |",
+              "|---|---|---|---|"]
     for level, best in result["best"].items():
         cells = ["-" if b is None else f"{b['family']} (s = {b['knob']:g}): {b['mean_cost']:.4g} at {_percent(b['risk'])}"
                  for b in (best["rule"], best["learned"])]
+        d = best.get("difference")
+        cells.append("-" if d is None else f"{d['estimate']:.3g} [{d['low']:.3g}, {d['high']:.3g}]")
         lines.append(f"| {level} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 

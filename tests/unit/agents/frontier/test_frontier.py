@@ -33,7 +33,24 @@ def test_risk_is_per_seed_then_averaged_and_the_union_is_beside_it():
     assert (conservative["risk"], conservative["mean_cost"]) == (0.0, 4.0)
     # only s = 1 reaches the declared levels (all below 25%)
     assert table["chosen"]["a"] == {"0.5%": 1.0, "1%": 1.0, "2%": 1.0, "5%": 1.0}
-    assert table["best"]["1%"] == {"rule": None, "learned": {"family": "a", "knob": 1.0, "mean_cost": 4.0, "risk": 0.0}}
+    assert table["best"]["1%"] == {"rule": None, "learned": {"family": "a", "knob": 1.0, "mean_cost": 4.0, "risk": 0.0},
+                                   "difference": None}
+
+
+def test_the_matched_difference_is_paired_by_plant_with_seeds_random():
+    from agents.frontier.statistics import crossed_variance
+
+    rng = np.random.default_rng(0)
+    learned = rng.normal(3.0, 1.0, size=(3, 6))
+    rule = rng.normal(4.0, 1.0, size=6)
+    results = [{**{f"l#{j}@0.0": _result(learned[j, i], False) for j in range(3)}, "r@0.0": _result(rule[i], False),
+                "oracle": _result(1.0, False)} for i in range(6)]
+    keys = {("l", 0.0): [f"l#{j}@0.0" for j in range(3)], ("r", 0.0): ["r@0.0"]}
+    families = [Family("l", "agent", (None,) * 3), Family("r", "rule", ("r",))]
+    table = frontier_table(families, [0.0], results, keys, {"env_id": "x", "n": 6, "seed": 0})
+    difference = table["best"]["0.5%"]["difference"]
+    assert difference == crossed_variance(learned - rule).to_dict()
+    assert difference["estimate"] == pytest.approx(learned.mean() - rule.mean(), rel=1e-12)
 
 
 def test_a_selector_knob_lowers_its_threshold():
