@@ -54,7 +54,7 @@ def _knobs(text: str | None) -> list[float]:
 
 
 def _check_sizes(args: argparse.Namespace) -> None:
-    for name, value, low, high in (("--n", args.n, 1, MAX_TEST_PLANTS), ("--workers", args.workers, 1, MAX_WORKERS)):
+    for name, value, low, high in (("--n", args.n, 2, MAX_TEST_PLANTS), ("--workers", args.workers, 1, MAX_WORKERS)):
         if not low <= value <= high:
             raise CommandError(f"{name} must be an integer from {low} to {high}, got {value}")
     if args.seed < 0:

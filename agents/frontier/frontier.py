@@ -69,13 +69,18 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
     Raises
     ------
     ValueError
-        For an unknown environment, an empty or non-finite knob grid, no family, or two of one name.
+        For an unknown environment, an empty or non-finite knob grid, ``n`` not from 2 to the limit, no
+        family, or two of one name.
     """
     from agents.environments import make_env
     from agents.evaluation.evaluate import _check_trained_on, _played_env, _regime, _score_plants
     from baselines.rules.family import member_name
 
+    from agents.limits import MAX_TEST_PLANTS
+
     knobs = _checked_knobs(knobs)
+    if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= MAX_TEST_PLANTS:
+        raise ValueError(f"n must be an integer from 2 to {MAX_TEST_PLANTS}, got {n!r}")
     if not families:
         raise ValueError("frontier needs at least one policy")
     names = [f.name for f in families]
