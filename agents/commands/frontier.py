@@ -74,9 +74,7 @@ def run(args: argparse.Namespace) -> int:
     regime = None if args.env_kwargs is None else load_json_argument(args.env_kwargs, "--env-kwargs")
     make_env(args.env)  # an unknown id is named before any policy is loaded
     families = parse_families(args.policies)
-    out.mkdir(parents=True, exist_ok=True)
-    result = frontier(args.env, families, knobs, n=args.n, seed=args.seed, env_kwargs=regime, workers=args.workers,
-                      cache=out / "cache.jsonl")
+    result = frontier(args.env, families, knobs, n=args.n, seed=args.seed, env_kwargs=regime, workers=args.workers, out=out)
     write_frontier(out, result, plots=not args.no_plots)
     if args.json:
         print(json.dumps(result, indent=2))

@@ -58,13 +58,15 @@ def _validation_plants(family: str, n: int) -> list[tuple[str, str, Any]]:
 
 
 def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = DEFAULT_KNOBS, n: int = 200, seed: int = 0, *,
-             env_kwargs: dict[str, Any] | None = None, workers: int = 1, cache: Any = None,
+             env_kwargs: dict[str, Any] | None = None, workers: int = 1, out: Any = None,
              warn: Callable[[str], None] | None = None) -> dict[str, Any]:  # fmt: skip
     """Every family's frontier on ``n`` validation plants of ``env_id``'s regime (module docstring).
 
     Returns the ``frontier.json`` object: ``rows`` (family, kind, knob, mean cost, risk, union risk,
     seeds, plants), ``chosen`` (per family, per risk level, the knob or None), ``best`` (per risk level
     the best rule family and the best learned family), the oracle's mean cost and risk, and the setting.
+    With ``out`` (a Path), the per-plant results are cached in ``out/cache.jsonl`` (created once every
+    input is checked); the tables are :func:`agents.frontier.report.write_frontier`'s.
 
     Raises
     ------
@@ -73,7 +75,7 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
         family, or two of one name.
     """
     from agents.environments import make_env
-    from agents.evaluation.evaluate import _check_trained_on, _played_env, _regime, _score_plants
+    from agents.evaluation.evaluate import _check_trained_on, _first_episode, _played_env, _regime, _score_plants
     from baselines.rules.family import member_name
 
     from agents.limits import MAX_TEST_PLANTS
@@ -105,6 +107,11 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
                 _check_trained_on(policy, env_id, f"policy {family.name!r}")
                 agents.update(_member(family, index, policy, identity, knob, env_id, scoring, keys, _played_env))
     print(f"frontier {env_id}: {len(families)} families x {len(knobs)} knobs on {n} validation plants", file=sys.stderr, flush=True)
+    _first_episode(env, plants[0][2], seed)  # a regime argument only an episode reads is refused before anything is written
+    cache = None
+    if out is not None:  # created once every input is checked
+        out.mkdir(parents=True, exist_ok=True)
+        cache = out / "cache.jsonl"
     results, _, _ = _score_plants(env, env_id, regime, regime, plants, seed, rules, agents, cache, False, workers,
                                   warn or (lambda line: print(line, file=sys.stderr)))
     return frontier_table(families, knobs, results, keys, {"env_id": env_id, "n": n, "seed": seed, "env_kwargs": regime})

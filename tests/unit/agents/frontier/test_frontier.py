@@ -117,6 +117,7 @@ def test_bad_input_is_one_line(callable_module, capsys, policies, knobs, message
                    "--out", str(callable_module / "out")])
     error = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and message in error[-1] and "Traceback" not in "\n".join(error)
+    assert not (callable_module / "out").exists()  # nothing written
 
 
 @pytest.mark.parametrize("env_id, kwargs", [("DeadTime/PID-v3", {}), ("DeadTime/FPPI-v3", {"action": "parameter"}),
