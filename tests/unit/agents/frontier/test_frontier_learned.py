@@ -32,3 +32,19 @@ def test_frontier_of_a_learned_rule_of_two_seeds(tmp_path: Path) -> None:
     assert main(["frontier", "--env", ENV, "--policies", f"fppi-eq34,lr={tmp_path}/lr-seed*", "--knobs=-0.5,0.5",
                  "--n", "5", "--out", str(out), "--no-plots"]) == 0
     assert json.loads((out / "frontier.json").read_text())["rows"] == result["rows"]
+
+
+@pytest.mark.slow
+def test_frontier_of_a_stable_baselines3_agent_of_two_seeds(tmp_path: Path) -> None:
+    """A tiny PPO agent (two seeds) on PID-v0: its family by the shifted action, one curve of two seeds."""
+    tiny = ["total_timesteps=32", "hyperparameters.n_steps=16", "hyperparameters.batch_size=16", "hyperparameters.n_epochs=2",
+            "eval_freq=0", "checkpoint_freq=0", "progress_bar=false"]
+    for seed in (0, 1):
+        assert main(["train", "--config", str(ROOT / "configs" / "ppo.yaml"), "--env", "DeadTime/PID-v0",
+                     "--out", str(tmp_path / f"ppo-seed{seed}"), *tiny, f"seed={seed}"]) == 0
+    out = tmp_path / "frontier"
+    assert main(["frontier", "--env", "DeadTime/PID-v0", "--policies", f"ppo={tmp_path}/ppo-seed*", "--knobs=-1,1",
+                 "--n", "4", "--out", str(out), "--no-plots"]) == 0
+    rows = json.loads((out / "frontier.json").read_text())["rows"]
+    assert [(row["knob"], row["seeds"], row["kind"]) for row in rows] == [(-1.0, 2, "agent"), (0.0, 2, "agent"), (1.0, 2, "agent")]
+    assert all(row["risk"] <= row["risk_union"] for row in rows)
