@@ -97,10 +97,8 @@ def knob_kind(rule) -> str:
 
 
 def rule_at(rule, knob: float):
-    """The member ``knob`` of ``rule``'s family, a :class:`~baselines.rules.registry.Rule` named
-    :func:`member_name` (the rule's own design at ``knob = 0``, bit for bit)."""
-    from baselines.rules.registry import Rule
-
+    """The member ``knob`` of ``rule``'s family: ``rule`` (a :class:`~baselines.rules.registry.Rule`) with the
+    name :func:`member_name` and the design at ``knob`` (the rule's own design at ``knob = 0``, bit for bit)."""
     factor = math.exp(float(knob))
     kind = knob_kind(rule)
     if kind == "parameter":
@@ -110,8 +108,9 @@ def rule_at(rule, knob: float):
             return rule.parameter(inputs) * factor
 
         def design(inputs):
+            reference = rule(inputs)  # the rule's own checks (plant kind, model)
             if knob == 0:
-                return rule(inputs)
+                return reference
             return structure.design(structure.model_of(inputs), parameter(inputs))
     elif kind == "time constant":
         function, default = _TIME_CONSTANT_RULES[rule.name]
@@ -131,7 +130,7 @@ def rule_at(rule, knob: float):
             return controller if knob == 0 else replace(controller, kp=controller.kp / factor)
 
     citation = f"{rule.citation}; family member s = {float(knob):g} ({kind} knob, baselines.rules.family)"
-    return Rule(member_name(rule.name, knob), citation, rule.controller, rule.plants, design, parameter)
+    return replace(rule, name=member_name(rule.name, knob), citation=citation, design=design, parameter=parameter)
 
 
 def _rule_model(name: str, inputs):

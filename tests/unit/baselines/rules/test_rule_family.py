@@ -67,3 +67,11 @@ def test_member_names_read_back_and_bad_knobs_are_one_clear_error():
         get_rule("amigo-pid@9")
     with pytest.raises(ValueError, match="unknown rule"):
         get_rule("no-such-rule@0.5")
+
+
+def test_a_member_refuses_the_wrong_plant_kind_as_its_rule_does(inputs):
+    for name in ("gorez-klan-mu-2", "fppi-eq34", "imc-pid"):
+        with pytest.raises(ValueError, match="for self-regulating plants"):
+            get_rule(f"{name}@0.5")(inputs["integrating"])
+    with pytest.raises(ValueError, match="for integrating plants"):
+        get_rule("msp-eq50@0.5")(inputs["stable"])
