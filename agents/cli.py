@@ -75,6 +75,8 @@ COMMANDS: dict[str, Command] = {
                           "costs, paired differences, a plot against one argument, what the agents do"),
     "protocol": _described("agents.commands.protocol", "a preregistered protocol: register its test seed, run it "
                            "(train, choose on validation, test once), report it, check its interval's coverage"),
+    "frontier": _described("agents.commands.frontier", "any policy on a regime's frontier: mean cost against risk over "
+                           "its knob on validation plants, the knob of least cost at each risk level"),
     "study": _described("agents.commands.study", "the research analyses behind the docs' numbers (deadtime study NAME --help)"),
     "convert-model": Command(
         "agents.commands.convert_model", "rewrite a model saved with pickles into files that load as data",

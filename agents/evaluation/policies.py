@@ -187,7 +187,7 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
         when loaded (:func:`load_agent`).
     """
     from baselines.procedures import is_procedure, procedure
-    from baselines.rules.registry import RULES
+    from baselines.rules.registry import RULES, get_rule
 
     items = [item.strip() for item in text.split(",")]
     if not text.strip() or any(not item for item in items):
@@ -198,7 +198,7 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
             specs += [PolicySpec(name, "rule") for name in applicable_rules(structure)]
         elif item in ("oracle", "oracle-full"):
             specs.append(PolicySpec(item, item))
-        elif item in RULES:
+        elif item in RULES or ("@" in item and get_rule(item)):  # a rule, or a member RULE@S of its family
             specs.append(PolicySpec(item, "rule"))
         elif is_procedure(item):
             procedure(item)  # raises: amplitudes out of range

@@ -478,7 +478,13 @@ RULES: dict[str, Rule] = {
 
 
 def get_rule(name: str) -> Rule:
-    """The rule called ``name``; an unknown name is a ValueError that says where the names are."""
+    """The rule called ``name``, or the member ``RULE@S`` of a rule's family (:mod:`baselines.rules.family`);
+    an unknown name is a ValueError that says where the names are."""
+    if isinstance(name, str) and "@" in name and name not in RULES:
+        from baselines.rules.family import rule_at, split_member_name
+
+        base, knob = split_member_name(name)
+        return rule_at(get_rule(base), knob)
     try:
         return RULES[name]
     except (KeyError, TypeError):  # TypeError: a name that cannot be a key (a list)

@@ -1,0 +1,95 @@
+"""The families of ``deadtime frontier --policies``: a comma-separated list, each item one of
+
+* a rule name of :data:`baselines.rules.registry.RULES` (its family: :mod:`baselines.rules.family`);
+* ``module:function`` or ``NAME=module:function``: a Python callable ``observation -> action``, imported
+  from the working directory or ``sys.path`` (it runs the module's code: name only your own);
+* ``PATH`` or ``NAME=PATH``: a stable-baselines3 agent, a learned rule or a selector, as ``deadtime
+  evaluate`` loads them (:func:`agents.evaluation.policies.load_agent`; loading an agent runs pickled
+  code from its folder: load only agents you trust).  ``PATH`` may be a glob pattern
+  (``NAME=runs/sac-seed*``): each match is one seed's trained model of one family.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import re
+import sys
+from importlib import import_module
+from typing import Any
+
+from agents.frontier.frontier import RULE, Family
+
+__all__ = ["parse_families"]
+
+_CALLABLE = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*")
+_KINDS = {"agent": "agent", "learned-rule": "learned rule", "selector": "selector"}
+
+
+def parse_families(text: str) -> list[Family]:
+    """The families of ``--policies`` (module docstring), in order.
+
+    Raises
+    ------
+    ValueError
+        One line naming the item: empty, an unknown rule, a module that cannot be imported, a name that
+        is no function, a path that matches nothing, or an agent that cannot be loaded.
+    """
+    items = [item.strip() for item in str(text).split(",")]
+    if not str(text).strip() or any(not item for item in items):
+        raise ValueError(f"--policies must be a comma-separated list of policies, got {text!r}")
+    return [_family(item) for item in items]
+
+
+def _family(item: str) -> Family:
+    from baselines.rules.registry import RULES, get_rule
+
+    name, _, target = item.rpartition("=")
+    if target in RULES:
+        return Family(name or target, RULE, (target,))
+    if _CALLABLE.fullmatch(target) and not os.path.exists(target):
+        return Family(name or target.rpartition(":")[2], "callable", (_callable(target),), (None,))
+    if "=" in item or os.sep in target or glob.has_magic(target) or os.path.exists(target):
+        return _loaded(name, target)
+    get_rule(item)  # raises: unknown rule, naming the closest
+    raise ValueError(f"unknown policy {item!r}")
+
+
+def _callable(target: str) -> Any:
+    from agents.evaluation.policies import CallablePolicy
+
+    module_name, _, function_name = target.partition(":")
+    if os.getcwd() not in sys.path:
+        sys.path.append(os.getcwd())
+    try:
+        module = import_module(module_name)
+    except Exception as error:  # noqa: BLE001  (whatever the user's module raises on import is bad input)
+        raise ValueError(f"--policies: cannot import {module_name!r} ({type(error).__name__}: {error})") from None
+    function = getattr(module, function_name, None)
+    if not callable(function):
+        raise ValueError(f"--policies: module {module_name!r} has no function {function_name!r}")
+    return CallablePolicy(function_name, function)
+
+
+def _loaded(name: str, pattern: str) -> Family:
+    """One family of the trained models ``pattern`` matches (one per seed), all of one kind."""
+    from agents.evaluation.evaluate import _identity
+    from agents.evaluation.policies import PolicySpec, load_agent
+    from agents.training.learned_rule_policy import is_learned_rule
+    from agents.training.selector_policy import is_selector
+
+    paths = sorted(glob.glob(pattern)) if glob.has_magic(pattern) else [pattern]
+    if not paths:
+        raise ValueError(f"--policies: {pattern!r} matches no file")
+    members, identities, kinds = [], [], set()
+    for path in paths:
+        kind = "selector" if is_selector(path) else "learned-rule" if is_learned_rule(path) else "agent"
+        spec = PolicySpec(name, kind, path)
+        own, policy = load_agent(spec)
+        name = name or own
+        members.append(policy)
+        identities.append(_identity(spec, policy, dict(getattr(policy, "env_kwargs", None) or {})))
+        kinds.add(kind)
+    if len(kinds) > 1:
+        raise ValueError(f"--policies: {pattern!r} matches models of different kinds ({', '.join(sorted(kinds))})")
+    return Family(name, _KINDS[kinds.pop()], tuple(members), tuple(identities))
