@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from envs.interface import tuning_env_of
+
 __all__ = ["KnobPolicy", "KnobSelector", "at_knob"]
 
 
@@ -39,7 +41,7 @@ class KnobPolicy:
 
     def predict(self, observation: Any, deterministic: bool = True, **kwargs: Any) -> tuple[Any, Any]:
         action, state = self.policy.predict(observation, deterministic=deterministic, **kwargs)
-        unwrapped = self.env.unwrapped
+        unwrapped = tuning_env_of(self.env)
         if self.knob == 0 or unwrapped.identification is None:  # no design yet (the plan's step)
             return action, state
         moved = np.array(action, dtype=np.float64).reshape(-1)
@@ -82,6 +84,6 @@ def at_knob(name: str, policy: Any, knob: float, env: Any) -> Any:
     """
     if hasattr(policy, "rule_of"):
         return KnobSelector(name, policy, float(knob))
-    if env.unwrapped.discrete is not None:
+    if tuning_env_of(env).discrete is not None:
         raise ValueError(f"policy {name!r} plays a discrete action (the agent mode's MaskablePPO): it has no knob")
     return KnobPolicy(name, policy, float(knob), env)

@@ -75,6 +75,7 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
         family, or two of one name.
     """
     from agents.environments import make_env
+    from envs.interface import tuning_env_of
     from agents.evaluation.evaluate import _check_trained_on, _first_episode, _played_env, _regime, _score_plants
     from baselines.rules.family import member_name
 
@@ -90,7 +91,7 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
         raise ValueError(f"two families are named {next(x for x in names if names.count(x) > 1)!r}; name them with NAME=...")
     regime = _regime(env_kwargs)
     env = make_env(env_id, {"experiments": "fixed", **regime})
-    unwrapped = env.unwrapped
+    unwrapped = tuning_env_of(env)
     plants = _validation_plants(unwrapped.family, n)
     scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **regime,
                "noise_std": unwrapped.options.noise_std}
