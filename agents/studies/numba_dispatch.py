@@ -22,6 +22,8 @@ from numba.core.registry import CPUDispatcher
 import envs  # noqa: F401  (registers the ids)
 
 SLOTS, ROUNDS, CALLS = 32, 2, 2000
+LIMITS = {"--slots": 1024, "--rounds": 100, "--calls": 1_000_000}
+"""The largest value of each argument: a few minutes of work at most (the defaults take seconds)."""
 
 
 @numba.njit
@@ -47,6 +49,9 @@ def numba_dispatch(slots: int = SLOTS, rounds: int = ROUNDS, calls: int = CALLS)
     """One line per kernel (calls per episode, arguments, dispatch time) and the total per episode."""
     if min(slots, rounds, calls) < 1:
         raise ValueError(f"--slots, --rounds and --calls must be at least 1, got {slots}, {rounds}, {calls}")
+    for name, value in zip(LIMITS, (slots, rounds, calls)):
+        if value > LIMITS[name]:
+            raise ValueError(f"{name} must be at most {LIMITS[name]}, got {value}")
     vec = gymnasium.make_vec("DeadTime/PID-v0", num_envs=slots, experiments="fixed")
     _play(vec, rounds)  # the same episodes played once unrecorded: every kernel compiled for their types
     seen: dict[str, list] = {}

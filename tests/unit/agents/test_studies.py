@@ -84,6 +84,12 @@ def test_the_numba_dispatch_study_refuses_zero_calls_in_one_line() -> None:
     assert status == 2 and out == "" and len(err.strip().splitlines()) == 1 and "--calls" in err
 
 
+@pytest.mark.parametrize("argument", ["--slots", "--rounds", "--calls"])
+def test_the_numba_dispatch_study_refuses_unbounded_work_in_one_line(argument: str) -> None:
+    status, out, err = run("study", "numba-dispatch", argument, "1000000000000")
+    assert status == 2 and out == "" and len(err.strip().splitlines()) == 1 and argument in err
+
+
 @pytest.mark.slow
 def test_the_headroom_study_runs_small_on_the_protocols_regimes(tmp_path: Path) -> None:
     """Two validation plants, two noise draws: one row per plan regime of protocol v1, the headroom the
