@@ -67,10 +67,12 @@ def refresh(package: str | os.PathLike) -> None:
         package = package.parent
     modules = kernel_modules(package)
     digest = source_digest(modules)
-    for rank, directory in enumerate(cache_directories(package)):
-        if rank == 0:  # the one numba uses when it can write it: made now, so the digest predates every cache file
+    found = False
+    for directory in cache_directories(package):
+        if not found:  # the first writable one is numba's: made now, so that its digest predates its caches
             try:
                 directory.mkdir(parents=True, exist_ok=True)
+                found = os.access(directory, os.W_OK)
             except OSError:
                 continue
         if directory.is_dir():
