@@ -4,3 +4,7 @@ quasi-polynomial loop of :mod:`.loop_transfer`), the load and set-point IAE (:mo
 compiled in :mod:`._iae_kernels`), both together (:mod:`.loop_analysis`, ``deadtime analyze``) and
 the episode's cost (:mod:`.scoring`).
 """
+
+from envs._kernel_cache import refresh
+
+refresh(__file__)  # before any kernel of the package is loaded (envs._kernel_cache)

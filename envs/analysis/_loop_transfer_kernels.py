@@ -9,8 +9,8 @@ in the same order (products summed term by term, no fused multiply-adds), so the
 same bit for bit (``loop_packed(..., method="reference")`` is the readable path, and
 ``tests/unit/envs/analysis/test_loop_transfer.py`` holds the two equal).
 
-Every compiled function calls only compiled functions of this module: numba's on-disk cache is
-invalidated per file, and a function that inlined one from another file could keep a stale copy.
+Every compiled function calls only compiled functions of this package, whose numba cache
+:mod:`envs._kernel_cache` drops whenever any of its kernel modules changes.
 """
 
 from __future__ import annotations

@@ -26,10 +26,12 @@ Design:
   coefficients are formed once per loop (:func:`_prepare`), and a side of one term reuses their
   polynomial's value for its term.  The loop arrives as one packed array
   (:func:`packed_margins`), which numba unboxes quicker than a tuple of arrays.
-* Everything compiled is in this file: numba invalidates its cache of a function only when the
-  function's own file changes, so a compiled callee or a constant imported from another module
-  would be kept stale.  The constants are passed in (:data:`SETTINGS`, built from
-  :mod:`envs.analysis.robustness`).
+* The compiled pieces live in three modules of this package: the loop at a frequency and the grids
+  (:mod:`envs.analysis._frequency_response_kernels`), the searches, grid, refinement and winding number
+  (this module), the crossovers, peaks and margins (:mod:`envs.analysis._crossing_kernels`); the
+  cache of all three is dropped together when any kernel module of the package changes
+  (:mod:`envs._kernel_cache`).  The constants of :mod:`envs.analysis.robustness` are passed in
+  (:data:`SETTINGS`), never read as globals of another package.
 * The figures agree with :func:`envs.analysis.robustness.loop_margins` on the same loop to rounding: the
   values of ``L`` differ in the last bits (and :func:`transfer_at` is the more
   accurate at low frequencies), so a stability verdict or a crossover count could differ only for
@@ -48,6 +50,10 @@ import math
 import numba
 import numpy as np
 
+from envs.analysis._crossing_kernels import _crossovers, _gain_margin, _peaks, _phase_and_delay_margins
+from envs.analysis._crossing_kernels import _chandrupatla  # noqa: F401  (its tests reach it from here)
+from envs.analysis._frequency_response_kernels import _logspace, _magnitude, _prepare, _values, transfer_at
+from envs.analysis._frequency_response_kernels import _evaluate  # noqa: F401  (its tests reach it from here)
 from envs.analysis.loop_transfer import QuasiRational
 from envs.analysis.robustness import (
     MAX_ARG_STEP,
@@ -69,8 +75,6 @@ tuple: numba's cache index would pickle a named tuple's class by its module's na
 SETTINGS_ARRAY = np.array(SETTINGS, dtype=float)
 """:data:`SETTINGS` as :func:`_analysis` takes them (an array unboxes quicker than a tuple; the
 integers are exact as floats)."""
-EPS = float(np.finfo(float).eps)
-LN10 = math.log(10.0)
 HIGH_FREQUENCY_POINTS = 64  # per decade, as in envs.analysis.robustness._high_frequency
 LOW_FREQUENCY_DECADES = 40  # as in envs.analysis.robustness._low_frequency
 
@@ -112,6 +116,7 @@ def packed_margins(packed: np.ndarray, shape: tuple[int, int, int, int], integra
     return assemble_margins(*figures)
 
 
+
 @jit
 def _packed_analysis(packed, numerator_rows, numerator_width, denominator_rows, denominator_width, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover
     """:func:`_analysis` of a loop given as :meth:`~envs.analysis.loop_transfer.QuasiRational.packed` gives it."""
@@ -150,106 +155,6 @@ def _analysis(transfer, integrators, time_scale, high_points, low_decades, setti
     phase, at_phase = phase[:negative], at_phase[:negative]
     peaks = _peaks(transfer, omega, magnitudes, closed, peak_points, peak_spacing)
     return unstable, tame, peaks, _gain_margin(phase, at_phase), _phase_and_delay_margins(gains, at_gains), gains, phase
-
-
-@inline
-def _polynomial_at(rows, i, w):  # pragma: no cover - compiled
-    """``(Re, Im)`` of ``a(i w)``, ``a = rows[i]``, by Horner's rule in real arithmetic."""
-    re, im = 0.0, 0.0
-    for k in range(rows.shape[1]):
-        re, im = rows[i, k] - im * w, re * w
-    return re, im
-
-
-@jit
-def _prepare(numerator, numerator_delays, denominator, denominator_delays):  # pragma: no cover - compiled
-    """The loop as :func:`transfer_at` takes it: each side's rows, dead times, summed coefficients
-    (:func:`_summed`) and whether its one row equals them (:func:`_quasi_polynomial_at`)."""
-    numerator_sums, denominator_sums = _summed(numerator), _summed(denominator)
-    return (
-        numerator, numerator_delays, numerator_sums, _same_row(numerator, numerator_sums),
-        denominator, denominator_delays, denominator_sums, _same_row(denominator, denominator_sums),
-    )  # fmt: skip
-
-
-@inline
-def _summed(rows):  # pragma: no cover - compiled
-    """The coefficients of ``sum_i a_i``, ``a_i = rows[i]``, each summed from ``0.0`` in row order."""
-    sums = np.empty(rows.shape[1])
-    for k in range(rows.shape[1]):
-        c = 0.0
-        for i in range(rows.shape[0]):
-            c += rows[i, k]
-        sums[k] = c
-    return sums
-
-
-@inline
-def _same_row(rows, sums):  # pragma: no cover - compiled
-    """Whether ``rows`` is one row equal to ``sums`` bit for bit (sign of zero included)."""
-    if rows.shape[0] != 1:
-        return False
-    for k in range(sums.size):
-        if not (rows[0, k] == sums[k] and math.copysign(1.0, rows[0, k]) == math.copysign(1.0, sums[k])):
-            return False
-    return True
-
-
-@inline
-def _quasi_polynomial_at(rows, delays, sums, same, w):  # pragma: no cover - compiled
-    """``sum_i a_i(i w) e^{-i w alpha_i}`` as ``(sum_i a_i)(i w) + sum_i a_i(i w) (e^{-i w alpha_i} - 1)``,
-    ``a_i = rows[i]``, ``alpha_i = delays[i]``: the polynomial ``sum_i a_i`` from the summed
-    coefficients ``sums``, so that its root at the origin is exact.  If ``same`` (one row, equal
-    to ``sums``), ``a_0(i w)`` is that polynomial's value (the same operations on the same numbers)."""
-    re, im = 0.0, 0.0
-    for k in range(sums.size):
-        re, im = sums[k] - im * w, re * w
-    sum_re, sum_im = re, im
-    for i in range(rows.shape[0]):
-        if delays[i] == 0.0:
-            continue
-        a_re, a_im = (sum_re, sum_im) if same else _polynomial_at(rows, i, w)
-        half = 0.5 * w * delays[i]
-        sin, cos = math.sin(half), math.cos(half)
-        e_re, e_im = -2.0 * sin * sin, -2.0 * sin * cos  # e^{-i w alpha} - 1
-        re += a_re * e_re - a_im * e_im
-        im += a_re * e_im + a_im * e_re
-    return complex(re, im)
-
-
-@inline
-def transfer_at(transfer, w):  # pragma: no cover - compiled
-    """``L(i w)`` of ``transfer = _prepare(*QuasiRational.arrays)`` at one frequency.
-
-    Inlined where it is called (:func:`_values`, :func:`_crossing_function`): a call of a compiled
-    function with array arguments costs more than the evaluation itself (reference counting).
-    """
-    numerator, numerator_delays, numerator_sums, numerator_same = transfer[0], transfer[1], transfer[2], transfer[3]
-    denominator, denominator_delays, denominator_sums, denominator_same = transfer[4], transfer[5], transfer[6], transfer[7]
-    return _quasi_polynomial_at(numerator, numerator_delays, numerator_sums, numerator_same, w) / _quasi_polynomial_at(
-        denominator, denominator_delays, denominator_sums, denominator_same, w
-    )
-
-
-@jit
-def _evaluate(arrays, omega):  # pragma: no cover - compiled
-    """``L(i omega)`` on an array, of the loop ``arrays = QuasiRational.arrays``."""
-    return _values(_prepare(arrays[0], arrays[1], arrays[2], arrays[3]), omega)
-
-
-@jit
-def _values(transfer, omega):  # pragma: no cover - compiled
-    """``L(i omega)`` on an array (``transfer`` as :func:`_prepare` gives it)."""
-    values = np.empty(omega.size, dtype=np.complex128)
-    for i in range(omega.size):
-        values[i] = transfer_at(transfer, omega[i])
-    return values
-
-
-@inline
-def _magnitude(z):  # pragma: no cover - compiled
-    """``abs(z)`` (without ``hypot``'s guard against overflow, which these values do not need)."""
-    return math.sqrt(z.real * z.real + z.imag * z.imag)
 
 
 @jit
@@ -300,29 +205,6 @@ def _high_frequency(transfer, start, points):  # pragma: no cover - compiled
             return w, top < 1.0
         w *= 10
     return w, top < 1.0
-
-
-@inline
-def _linspace(start, stop, count):  # pragma: no cover - compiled
-    """``numpy.linspace(start, stop, count)``, computed as numpy does (``count >= 2``)."""
-    div = count - 1
-    delta = stop - start
-    step = delta / div
-    y = np.empty(count)
-    for i in range(count):
-        y[i] = (i / div * delta if step == 0 else i * step) + start
-    y[-1] = stop
-    return y
-
-
-@inline
-def _logspace(start, stop, count):  # pragma: no cover - compiled
-    """``numpy.logspace(start, stop, count)`` (``count >= 2``) as ``e^{y ln 10}`` (within a few ulp
-    of ``10^y``, at a third of the cost)."""
-    y = _linspace(start, stop, count)
-    for i in range(count):
-        y[i] = math.exp(LN10 * y[i])
-    return y
 
 
 @inline
@@ -395,168 +277,3 @@ def _winding(values, integrators):  # pragma: no cover - compiled
     # + 0.0: a negative zero imaginary part is on the upper side, as in the count above
     change = math.atan2(last.imag + 0.0, last.real) - math.atan2(first.imag + 0.0, first.real) + 2 * math.pi * count
     return round((integrators * math.pi - 2 * change) / (2 * math.pi))
-
-
-@jit
-def _crossovers(transfer, omega, values, magnitudes, xtol, max_iterations):  # pragma: no cover - compiled
-    """:func:`envs.analysis.robustness._crossovers`: the gain crossovers (``log |L| = 0``) and the phase
-    crossovers (``Im L = 0``), each the grid points where the function is zero and the root of every
-    bracket, in increasing order (``magnitudes = |L|`` on the grid).
-
-    ``log |L|`` is taken only at the ends of a bracket: elsewhere only its sign enters, which is
-    that of ``|L| - 1`` (``log`` is exact at 1 and, away from 1, at least about ``1e-16`` in size,
-    far above its rounding), so the tests on ``|L|`` below are those on ``log |L|`` (a product of
-    two logarithms cannot underflow to zero)."""
-    n = omega.size
-    roots, found = np.empty((2, n)), np.zeros(2, dtype=np.int64)
-    for kind in range(2):
-        for i in range(n):
-            if kind == 0:
-                zero = magnitudes[i] == 1.0
-                change = i < n - 1 and (
-                    (magnitudes[i] < 1.0 and magnitudes[i + 1] > 1.0) or (magnitudes[i] > 1.0 and magnitudes[i + 1] < 1.0)
-                )
-            else:
-                zero = values[i].imag == 0
-                change = i < n - 1 and values[i].imag * values[i + 1].imag < 0
-            if zero:
-                roots[kind, found[kind]] = omega[i]
-                found[kind] += 1
-            elif change:
-                if kind == 0:
-                    fa, fb = math.log(magnitudes[i]), math.log(magnitudes[i + 1])
-                else:
-                    fa, fb = values[i].imag, values[i + 1].imag
-                x = _chandrupatla(transfer, kind, math.log(omega[i]), math.log(omega[i + 1]), fa, fb, xtol, max_iterations)
-                roots[kind, found[kind]] = math.exp(x)
-                found[kind] += 1
-    return roots[0, : found[0]].copy(), roots[1, : found[1]].copy()
-
-
-@inline
-def _crossing_function(transfer, kind, x):  # pragma: no cover - compiled
-    """``log |L|`` (``kind = 0``) or ``Im L`` (``kind = 1``) at ``omega = e^x``."""
-    at = transfer_at(transfer, math.exp(x))
-    return math.log(_magnitude(at)) if kind == 0 else at.imag
-
-
-@jit
-def _chandrupatla(transfer, kind, a, b, fa, fb, xtol, max_iterations):  # pragma: no cover - compiled
-    """One bracket of :func:`envs.analysis.robustness._bracketed_roots` (the same iterates)."""
-    x1, x2, x3, f1, f2, f3 = b, a, a, fb, fa, fa
-    t = 0.5
-    for _ in range(max_iterations):
-        xt = x1 + t * (x2 - x1)
-        ft = _crossing_function(transfer, kind, xt)
-        if (ft > 0 and f1 > 0) or (ft < 0 and f1 < 0) or (ft == 0 and f1 == 0):  # np.sign(ft) == np.sign(f1)
-            x3, f3 = x1, f1
-        else:
-            x3, f3, x2, f2 = x2, f2, x1, f1
-        x1, f1 = xt, ft
-        xm, fm = (x1, f1) if abs(f1) < abs(f2) else (x2, f2)
-        tl = (2 * EPS * abs(xm) + xtol) / abs(x2 - x1)
-        if tl > 0.5 or fm == 0:
-            return xm
-        xi = (x1 - x2) / (x3 - x2)
-        phi = (f1 - f2) / (f3 - f2)
-        t = 0.5
-        if phi**2 < xi and (1 - phi) ** 2 < 1 - xi:
-            t = f1 / (f2 - f1) * f3 / (f2 - f3) + (x3 - x1) / (x2 - x1) * f1 / (f3 - f1) * f2 / (f3 - f2)
-        t = min(max(t, tl), 1 - tl)
-    return x1 if abs(f1) < abs(f2) else x2
-
-
-@inline
-def _measure(value, k):  # pragma: no cover - compiled
-    """``PEAK_MEASURES[k]`` of :mod:`envs.analysis.robustness`: ``|1/(1+L)|`` (``Ms``), ``|L/(1+L)|`` (``Mt``)."""
-    closed = _magnitude(1 + value)
-    return 1 / closed if k == 0 else _magnitude(value) / closed
-
-
-@inline
-def _argmax(samples):  # pragma: no cover - compiled
-    """``numpy.argmax``: the first maximum (the first ``nan`` if any)."""
-    best = 0
-    for i in range(samples.size):
-        if math.isnan(samples[i]):
-            return i
-        if samples[i] > samples[best]:
-            best = i
-    return best
-
-
-@jit
-def _peaks(transfer, omega, magnitudes, closed, points, spacing):  # pragma: no cover - compiled
-    """:func:`envs.analysis.robustness._peaks`: ``(Ms, frequency, Mt, frequency)``, each grid maximum refined
-    by zoomed sampling and a parabola (``magnitudes = |L|``, ``closed = |1 + L|`` on the grid: the
-    terms of :func:`_measure`)."""
-    best, at_best = np.empty(2), np.empty(2)
-    for k in range(2):
-        samples = np.empty(omega.size)
-        for i in range(omega.size):
-            samples[i] = 1 / closed[i] if k == 0 else magnitudes[i] / closed[i]
-        i = _argmax(samples)
-        best[k], at_best[k] = samples[i], omega[i]
-        low, high = math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])
-        vertex = math.nan
-        while high > low:
-            x = _linspace(low, high, points)
-            frequencies = np.empty(points)
-            for i in range(points):
-                frequencies[i] = math.exp(x[i])
-            at = _values(transfer, frequencies)
-            samples = np.empty(points)
-            for i in range(points):
-                samples[i] = _measure(at[i], k)
-            j = _argmax(samples)
-            if samples[j] > best[k]:
-                best[k], at_best[k] = samples[j], math.exp(x[j])
-            low, high = x[max(j - 1, 0)], x[min(j + 1, points - 1)]
-            if x[1] - x[0] <= spacing:
-                vertex = _vertex(x, samples, j)
-                break
-        if not math.isnan(vertex):
-            value = _measure(_values(transfer, np.array([math.exp(vertex)]))[0], k)
-            if value > best[k]:
-                best[k], at_best[k] = value, math.exp(vertex)
-    return best[0], at_best[0], best[1], at_best[1]
-
-
-@inline
-def _vertex(x, samples, j):  # pragma: no cover - compiled
-    """:func:`envs.analysis.robustness._vertex`, with ``nan`` for None."""
-    if j == 0 or j == x.size - 1:
-        return math.nan
-    left, middle, right = samples[j - 1], samples[j], samples[j + 1]
-    curvature = left - 2 * middle + right
-    if not curvature < 0:
-        return math.nan
-    return x[j] + 0.5 * (x[1] - x[0]) * (left - right) / curvature
-
-
-@jit
-def _gain_margin(phase_crossovers, values):  # pragma: no cover - compiled
-    """:func:`envs.analysis.robustness._gain_margin`."""
-    best, frequency = math.inf, math.nan
-    for i in range(values.size):
-        factor = 1 / abs(values[i])
-        if factor > 1 and (math.isnan(frequency) or factor < best):
-            best, frequency = factor, phase_crossovers[i]
-    return best, frequency
-
-
-@jit
-def _phase_and_delay_margins(gain_crossovers, values):  # pragma: no cover - compiled
-    """:func:`envs.analysis.robustness._phase_and_delay_margins` (the phase margin smallest in magnitude)."""
-    phase_margin, at_phase, delay_margin, at_delay = math.inf, math.nan, math.inf, math.nan
-    margins = np.empty(values.size)
-    for i in range(values.size):
-        angle = math.atan2(values[i].imag, values[i].real)
-        margin = (angle + 2 * math.pi) % (2 * math.pi) - math.pi
-        delay = ((angle + math.pi) % (2 * math.pi)) / gain_crossovers[i]
-        margins[i] = margin
-        if math.isnan(at_phase) or abs(margin) < abs(phase_margin):
-            phase_margin, at_phase = margin, gain_crossovers[i]
-        if math.isnan(at_delay) or delay < delay_margin:
-            delay_margin, at_delay = delay, gain_crossovers[i]
-    return phase_margin, at_phase, delay_margin, at_delay, margins

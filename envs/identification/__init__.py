@@ -7,3 +7,7 @@ FOPDT, SOPDT, integrating), the formulas that read them off sampled signals (:mo
 difference equations of :mod:`.difference_equation`; the trapezoids of :mod:`.sampled_signals`) and
 the papers' fixed identification procedure (:mod:`.procedure`).
 """
+
+from envs._kernel_cache import refresh
+
+refresh(__file__)  # before any kernel of the package is loaded (envs._kernel_cache)

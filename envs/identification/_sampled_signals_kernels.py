@@ -6,8 +6,8 @@ temporaries; numpy's own ``sum`` adds the terms (its pairwise summation) in
 :mod:`envs.identification.sampled_signals`, so the results are numpy.trapezoid's bits (the unit tests
 compare them).
 
-Every compiled function calls only compiled functions of this module: numba's on-disk cache is
-invalidated per file, and a function that inlined one from another file could keep a stale copy.
+Every compiled function calls only compiled functions of this package, whose numba cache
+:mod:`envs._kernel_cache` drops whenever any of its kernel modules changes.
 """
 
 from __future__ import annotations

@@ -4,3 +4,7 @@ systems (:mod:`.runs`, compiled sample by sample in :mod:`._run_kernels`), an op
 a held input (:mod:`.open_loop`), and plant-controller loops assembled as such systems and simulated
 (:mod:`.loops`).
 """
+
+from envs._kernel_cache import refresh
+
+refresh(__file__)  # before any kernel of the package is loaded (envs._kernel_cache)

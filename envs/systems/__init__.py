@@ -4,3 +4,7 @@ shapes :mod:`.shapes`) and the papers' benchmark batches (:mod:`.benchmark_batch
 validation and test sets (:mod:`.plant_sets`), and the controllers (PID forms, FPPI, modified Smith
 predictor) as blocks (:mod:`.controllers`).
 """
+
+from envs._kernel_cache import refresh
+
+refresh(__file__)  # before any kernel of the package is loaded (envs._kernel_cache)

@@ -7,8 +7,8 @@ of its caller); :func:`~envs.systems.controllers.packed_block` packs them into o
 :func:`envs.simulation.loops.loop_rows`.  The tests hold the compiled blocks equal to those built
 with :class:`~envs.simulation.delay_systems.SystemBuilder`.
 
-Every compiled function calls only compiled functions of this module: numba's on-disk cache is
-invalidated per file, and a function that inlined one from another file could keep a stale copy.
+Every compiled function calls only compiled functions of this package, whose numba cache
+:mod:`envs._kernel_cache` drops whenever any of its kernel modules changes.
 """
 
 from __future__ import annotations
