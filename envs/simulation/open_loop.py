@@ -43,24 +43,34 @@ class OpenLoopRun:
     ``response(steps)`` returns the first ``steps`` outputs for ``inputs`` (the longest horizon), the
     same samples as ``open_loop_response(state_space, delay, inputs[:steps], dt)``: the recursion is
     causal, so it is only continued from the last horizon, and the discretization is done once.
+    The delayed inputs are copied out of ``inputs`` as the horizon grows (at least doubling), not
+    for the longest horizon at once: a run that settles early touches a few pages of a long cap.
     """
 
     def __init__(self, state_space, delay: float, inputs: np.ndarray, dt: float) -> None:
-        u = np.asarray(inputs, dtype=float).ravel()
-        Phi, gamma0, gamma1, m = delayed_zoh(state_space, delay, dt)
-        fractional = bool(np.any(gamma1))
-        padded = np.concatenate([np.zeros(m + 1), u])
-        self._u_now, self._u_before = padded[1 : u.size + 1], padded[: u.size]
-        self._direct = self._u_before if fractional else self._u_now
+        self._u = np.asarray(inputs, dtype=float).ravel()
+        Phi, gamma0, gamma1, self._m = delayed_zoh(state_space, delay, dt)
+        self._fractional = bool(np.any(gamma1))
         self._C = np.array(state_space.C, dtype=float).ravel()
         self._D = float(state_space.D.ravel()[0]) if state_space.D.size else 0.0
         self._Phi, self._g0, self._g1 = np.ascontiguousarray(Phi), gamma0.ravel(), gamma1.ravel()
         self._x = np.zeros(Phi.shape[0])
-        self._y = np.empty(u.size)
-        self._done = 0
+        self._y = np.empty(self._u.size)
+        self._done = self._copied = 0
+
+    def _delayed_inputs(self, steps: int) -> None:
+        """The delayed inputs of at least the first ``steps`` samples: slices of
+        ``[0] * (m + 1) + inputs[:copied]``, the first samples of :func:`open_loop_response`'s ``padded``."""
+        copied = min(max(steps, 2 * self._copied), self._u.size)
+        padded = np.concatenate([np.zeros(self._m + 1), self._u[:copied]])  # padded[k + m + 1] = u[k]
+        self._u_now, self._u_before = padded[1 : copied + 1], padded[:copied]
+        self._direct = self._u_before if self._fractional else self._u_now
+        self._copied = copied
 
     def response(self, steps: int) -> np.ndarray:
         if steps > self._done:
+            if steps > self._copied:
+                self._delayed_inputs(steps)
             _open_loop_run(self._Phi, self._g0, self._g1, self._C, self._D, self._u_now[:steps], self._u_before[:steps],
                            self._direct[:steps], self._x, self._y, self._done)  # fmt: skip
             self._done = steps
