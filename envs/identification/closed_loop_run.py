@@ -171,13 +171,16 @@ class _CompiledRun:
         self.noise, self.reference, self.dt = noise, float(amplitude), float(discrete.dt)
         limit = 0.0 if excursion_limit is None else float(excursion_limit)
         self.settings = (int(window), bool(integrating), self.dt, limit, excursion_limit is not None)
-        self.buffers = _RunBuffers(discrete.Phi.shape[0], whole.size, self.offset, discrete.system.n_outputs, noise.size)
+        self.buffers = _RunBuffers(discrete.Phi.shape[0], whole.size, self.offset, discrete.system.n_outputs, 0)
+        self.size = noise.size  # the longest run allowed
         self.buffers.peak[0] = max(1.0, abs(self.reference))  # the largest input before any noise
 
     def advance(self, begin: int, until: int) -> tuple[int, int]:
         """The samples ``begin .. until - 1`` (after those before them), drawing their noise:
         ``(outcome, end)``, ``end`` the sample that settled or aborted, else ``until - 1``."""
         b = self.buffers
+        if until > b.size:
+            b.grow(min(max(until, 2 * b.size), self.size))
         return _closed_loop_run(
             *self.arrays, self.offset, self.reference, self.noise.first(until), self.limit, b.peak,
             b.x, b.history, b.z, b.measured, b.drive, b.sums, *self.settings, begin, until,
@@ -207,14 +210,16 @@ def _without_load(arrays: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
 
 class _RunBuffers:
     """The arrays :func:`envs.simulation._run_kernels._closed_loop_run` continues from one horizon to the next
-    (state, delayed signals, outputs, measurement, drive, running sums, largest input so far), for the
-    longest run allowed.
+    (state, delayed signals, outputs, measurement, drive, running sums, largest input so far), for
+    runs of up to ``size`` samples, grown (:meth:`grow`) as the run goes on.
 
-    Uninitialized but for the rows before sample 0 (a run fills each row before it reads it): only
-    the pages a run reaches are touched, and a horizon needs no copy of the earlier ones.
+    Uninitialized but for the rows before sample 0 (a run fills each row before it reads it): a
+    horizon needs no copy of the earlier ones until the buffers grow, and a run that settles early
+    touches the pages of a short run, not those of the longest run allowed.
     """
 
     def __init__(self, n_states: int, n_delays: int, offset: int, n_outputs: int, size: int) -> None:
+        self.size, self.offset = int(size), offset
         self.x = np.zeros(n_states)
         self.history = np.empty((offset + size + 1, n_delays))
         self.history[: offset + 1] = 0.0  # w[k] = 0 for k < 0: the loop starts at rest (every delay >= dt)
@@ -223,6 +228,19 @@ class _RunBuffers:
         self.sums = np.empty((2, 3, size + 1))
         self.sums[:, :, 0] = 0.0  # the running sums before sample 0
         self.peak = np.ones(1)
+
+    def grow(self, size: int) -> None:
+        """Room for ``size`` samples (at least the present), the rows so far copied over (their values)."""
+        old, self.size = self.size, int(size)
+        history, z, measured, drive, sums = self.history, self.z, self.measured, self.drive, self.sums
+        self.history = np.empty((self.offset + self.size + 1, history.shape[1]))
+        self.history[: history.shape[0]] = history
+        self.z = np.empty((self.size, z.shape[1]))
+        self.z[:old] = z
+        self.measured, self.drive = np.empty(self.size), np.empty(self.size)
+        self.measured[:old], self.drive[:old] = measured, drive
+        self.sums = np.empty((2, 3, self.size + 1))
+        self.sums[:, :, : old + 1] = sums
 
 
 def _cumulative_integral(t: np.ndarray, values: np.ndarray) -> np.ndarray:
