@@ -5,7 +5,9 @@ install has gymnasium 1.4.0 (constraints.txt), so the two cannot share one virtu
 environments run under gymnasium 1.2, so this builds a virtual environment beside the test with what
 ``envs`` needs (pinned by constraints.txt) but gymnasium 1.2.x, the project on ``PYTHONPATH``, and
 rl-zoo3 2.9.0; trains a few steps of SAC on ``DeadTime/PID-v3`` with
-``python -m rl_zoo3.train`` and configs/rl_zoo3/sac.yaml, and loads the saved model there.
+``python -m rl_zoo3.train`` and configs/rl_zoo3/sac.yaml, and loads the saved model there; then, in the
+project's own environment, converts it (``deadtime convert-model --trust``, with rl-zoo3's statistics
+copied beside the model) and scores it with ``deadtime evaluate``.
 docs/training_and_evaluation.md ("Training with rl-zoo3") states the supported range.
 
 Slow (minutes: the installs and the first episodes' compilation); skipped, with the reason, when the
@@ -96,3 +98,16 @@ def test_rl_zoo3_trains_sac_on_a_deadtime_id_under_gymnasium_1_2(tmp_path: Path)
     assert loaded.returncode == 0, loaded.stderr[-3000:]
     version, steps = loaded.stdout.split()
     assert version.startswith("1.2.") and int(steps) == 64
+
+    model = models[0]
+    statistics = model.parent / model.stem / "vecnormalize.pkl"  # where rl-zoo3 saves them
+    (model.parent / f"{model.stem}.vecnormalize.pkl").write_bytes(statistics.read_bytes())
+    ours = {**os.environ, "PYTHONPATH": str(REPO)}
+    converted = _run([sys.executable, "-m", "agents.cli", "convert-model", str(model), "--trust", "--env", "DeadTime/PID-v3"],
+                     600, cwd=tmp_path, env=ours)
+    assert converted.returncode == 0, converted.stderr[-3000:]
+    evaluated = _run([sys.executable, "-m", "agents.cli", "evaluate", "--env", "DeadTime/PID-v3", "--policies",
+                      f"zoo={model}", "--n", "2", "--seed", "0", "--out", str(tmp_path / "eval")],
+                     1200, cwd=tmp_path, env=ours)
+    assert evaluated.returncode == 0, evaluated.stderr[-3000:]
+    assert "zoo" in (tmp_path / "eval" / "results.md").read_text()
