@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import IO
 
 from agents.files.reader import exists, read_json, read_text, stored_path
+from agents.files.writer import write_bytes
 
 __all__ = ["COMPRESSED_NAMES", "compress_file", "compressed_bytes", "exists", "open_text", "read_json", "read_text",
            "stored_path"]
@@ -40,8 +41,6 @@ def compress_file(path: str | Path) -> Path:
     """Replace ``path`` by ``path.gz`` (:func:`compressed_bytes`); returns the new path."""
     path = Path(path)
     target = path.with_name(path.name + ".gz")
-    temporary = path.with_name(f".{target.name}.tmp")
-    temporary.write_bytes(compressed_bytes(path.read_bytes()))
-    temporary.replace(target)
+    write_bytes(target, compressed_bytes(path.read_bytes()))
     path.unlink()
     return target

@@ -28,6 +28,8 @@ from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
 
+from agents.files.writer import write_text
+
 __all__ = ["COMMON", "NAMESPACE", "PAGES", "common_page", "environment_names", "main", "page", "pages", "write_pages"]
 
 NAMESPACE = "DeadTime"
@@ -332,7 +334,7 @@ def write_pages() -> list[Path]:
     written = []
     for path, text in pages().items():
         if not path.is_file() or path.read_text() != text:
-            path.write_text(text)
+            write_text(path, text)
             written.append(path)
     return written
 

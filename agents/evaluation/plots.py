@@ -20,6 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.writer import write_figure
+
 __all__ = ["cost_distribution_plot", "nyquist_plot", "responses_plot"]
 
 _HORIZON = 12.0  # in T_ar
@@ -71,7 +73,7 @@ def cost_distribution_plot(costs: dict[str, np.ndarray], roles: dict[str, str], 
     ax.set_title(title)
     ax.legend(handles=[*ax.get_legend_handles_labels()[0], *keys], loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_figure(path, fig, 110)
     plt.close(fig)
     return path
 
@@ -166,7 +168,7 @@ def responses_plot(plant: Any, controllers: dict[str, Any], path: Path, title: s
     fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 2), fontsize=8, frameon=False)
     fig.suptitle(title)
     fig.tight_layout(rect=(0, 0.04 + 0.035 * ((len(handles) + 1) // 2), 1, 1))
-    fig.savefig(path, dpi=110)
+    write_figure(path, fig, 110)
     plt.close(fig)
     return path
 
@@ -198,6 +200,6 @@ def nyquist_plot(plant: Any, controllers: dict[str, Any], max_sensitivity: float
     ax.legend(fontsize=8, loc="lower right")
     ax.set_title(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_figure(path, fig, 110)
     plt.close(fig)
     return path

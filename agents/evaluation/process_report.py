@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from agents.evaluation.process_policies import ProcessPolicyResult
+from agents.files.writer import write_figure
 from envs.process.performance import RunProtocol
 from envs.process.procedure import ProcessIdentification
 
@@ -232,7 +233,7 @@ def experiments_plot(found: ProcessIdentification, units: Any, path: Path) -> Pa
     axes[-1, 0].set_xlabel(f"t ({units.time})", fontsize=8)
     figure.suptitle(f"{found.process}: experiments and fitted models", fontsize=10)
     figure.tight_layout()
-    figure.savefig(path, dpi=90)
+    write_figure(path, figure, 90)
     plt.close(figure)
     return path
 
@@ -260,6 +261,6 @@ def responses_plot(results: list[ProcessPolicyResult], units: Any, path: Path) -
     axes[0, 0].plot([], [], lw=0.5, color="0.7", label="rules")
     axes[0, 0].legend(fontsize=7)
     figure.tight_layout()
-    figure.savefig(path, dpi=90)
+    write_figure(path, figure, 90)
     plt.close(figure)
     return path

@@ -2,7 +2,8 @@
 
 Every result file (a run's records and checkpoints, ``deadtime evaluate``'s tables, the outputs of
 ``deadtime regimes``, a sweep's summary, their figures) is written to a temporary file in the same directory, flushed to disk and moved into
-place with ``os.replace``, so an interruption (Ctrl-C, SIGKILL, a full disk) never leaves a
+place with ``os.replace`` (which replaces a symbolic link planted at the final name, never writing through
+it), so an interruption (Ctrl-C, SIGKILL, a full disk) never leaves a
 half-written file under the final name, and a write that fails (a full disk) leaves no empty file
 and says which file it could not write (:class:`agents.files.reader.FileProblem`).
 :func:`file_digest` is the checksum recorded for each checkpoint file and each file of the learned
@@ -24,8 +25,8 @@ from typing import IO, Any
 
 from agents.files.reader import FileProblem
 
-__all__ = ["atomic_write", "atomic_write_all", "csv_text", "figure_writer", "file_digest", "text_writer", "write_csv",
-           "write_json", "write_text"]
+__all__ = ["atomic_write", "atomic_write_all", "csv_text", "figure_writer", "file_digest", "text_writer", "write_bytes",
+           "write_csv", "write_figure", "write_json", "write_text"]
 
 
 def _not_written(path: Path, error: OSError) -> FileProblem:
@@ -80,9 +81,10 @@ def text_writer(text: str) -> Callable[[IO[bytes]], None]:
     return lambda handle: handle.write(text.encode())
 
 
-def figure_writer(figure: Any, dpi: int) -> Callable[[IO[bytes]], None]:
-    """A writer of a matplotlib ``figure`` as PNG."""
-    return functools.partial(figure.savefig, format="png", dpi=dpi)
+def figure_writer(figure: Any, dpi: int | str, **savefig_kwargs: Any) -> Callable[[IO[bytes]], None]:
+    """A writer of a matplotlib ``figure`` as PNG (``dpi="figure"``: the figure's own); ``savefig_kwargs``
+    (``bbox_inches="tight"``) go to ``figure.savefig``."""
+    return functools.partial(figure.savefig, format="png", dpi=dpi, **savefig_kwargs)
 
 
 def csv_text(rows: Iterable[Sequence[Any]]) -> str:
@@ -95,6 +97,16 @@ def csv_text(rows: Iterable[Sequence[Any]]) -> str:
 def write_text(path: str | Path, text: str) -> Path:
     """Write a UTF-8 text file atomically."""
     return atomic_write(path, text_writer(text))
+
+
+def write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` atomically."""
+    return atomic_write(path, lambda handle: handle.write(data))
+
+
+def write_figure(path: str | Path, figure: Any, dpi: int | str, **savefig_kwargs: Any) -> Path:
+    """Write a matplotlib ``figure`` as PNG atomically (:func:`figure_writer`)."""
+    return atomic_write(path, figure_writer(figure, dpi, **savefig_kwargs))
 
 
 def write_csv(path: str | Path, rows: Iterable[Sequence[Any]]) -> Path:

@@ -12,6 +12,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+from agents.files.writer import write_figure
+
 __all__ = ["CSV_FIELDS", "frontier_markdown", "frontier_plot", "write_frontier"]
 
 CSV_FIELDS = ("family", "kind", "knob", "mean_cost", "risk", "risk_union", "seeds", "plants")
@@ -75,7 +77,7 @@ def frontier_plot(result: dict[str, Any], path: Path) -> Path:
     axes.set_title(f"{result['env_id']}: cost against risk over the knob (circle: s = 0)")
     axes.legend(fontsize=7)
     figure.tight_layout()
-    figure.savefig(path, dpi=120)
+    write_figure(path, figure, 120)
     plt.close(figure)
     return path
 

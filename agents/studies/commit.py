@@ -21,6 +21,7 @@ from pathlib import Path
 
 from agents.compressed import compress_file, compressed_bytes
 from agents.files.reader import read_csv, read_json
+from agents.files.writer import write_bytes
 from agents.sweeps.config import load_sweep
 from agents.sweeps.summary import write_summary
 
@@ -37,7 +38,7 @@ def _per_plant(source: Path, agent_only: bool) -> bytes:
 
 def _write(target: Path, data: bytes) -> None:
     target.parent.mkdir(parents=True, exist_ok=True)
-    target.with_name(target.name + ".gz").write_bytes(compressed_bytes(data))
+    write_bytes(target.with_name(target.name + ".gz"), compressed_bytes(data))
 
 
 def commit(source: Path, target: Path) -> None:
@@ -46,7 +47,7 @@ def commit(source: Path, target: Path) -> None:
     if missing:  # refused before ``target`` is created
         raise ValueError(f"{source} is not a finished sweep's folder: it holds no {', '.join(missing)}")
     target.mkdir(parents=True, exist_ok=True)
-    (target / "sessions.json").write_bytes((source / "sessions.json").read_bytes())
+    write_bytes(target / "sessions.json", (source / "sessions.json").read_bytes())
     for path in sorted((source / "runs").glob("*/evaluations.json")) + sorted((source / "runs").glob("*/learned_rule.json")):
         _write(target / "runs" / path.parent.name / path.name, path.read_bytes())
     for path in sorted((source / "eval").glob("*/*/per_plant.csv")):

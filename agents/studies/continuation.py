@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.writer import atomic_write
 from agents.studies.headroom import GRID, continuation_costs, first_experiment
 
 __all__ = ["CONTINUATION_ENTROPY", "THRESHOLDS", "continuation_training", "learned_continuation"]
@@ -98,7 +99,7 @@ def learned_continuation(env: Any, designs: dict[float, Any], weights: list[Any]
         x, y = continuation_training(env, training, CONTINUATION_EPISODE_SEED, first, designs, weights)
         if cache is not None:
             cache.parent.mkdir(parents=True, exist_ok=True)
-            np.savez_compressed(cache, x=x, y=y, identity=identity)
+            atomic_write(cache, lambda handle: np.savez_compressed(handle, x=x, y=y, identity=identity))
     models = [HistGradientBoostingRegressor(random_state=0).fit(x, y[:, m]) for m in range(y.shape[1])]
     x_valid = np.array([_first_features(env, plant, validation_seed + k, first)[0] for k, plant in enumerate(validation)])
     predicted = np.column_stack([model.predict(x_valid) for model in models])

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.writer import atomic_write, write_text
 from agents.protocol.statistics import t_interval
 from agents.studies.continuation import CONTINUATION_ENTROPY, learned_continuation
 from agents.studies.headroom import _protocol_reference, markdown, plant_costs, policy_design, summarize
@@ -143,7 +144,7 @@ def _cached_agent_costs(run_dir: Path, plants: list[Any], episode_seed: int, wor
         return found["costs"], found["feasible"]
     costs, feasible = agent_costs(run_dir, plants, episode_seed)
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path, costs=costs, feasible=feasible)
+    atomic_write(path, lambda handle: np.savez_compressed(handle, costs=costs, feasible=feasible))
     return costs, feasible
 
 
@@ -205,7 +206,7 @@ def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replica
             costs = np.stack([plant_costs(env, plant, protocol.validation.episode_seed + k, replicates, weights,
                                           firsts=(first,), designs=designs) for k, plant in enumerate(stream)])
             cache.parent.mkdir(parents=True, exist_ok=True)
-            np.savez_compressed(cache, costs=costs, fits=identity)
+            atomic_write(cache, lambda handle: np.savez_compressed(handle, costs=costs, fits=identity))
         row = {"regime": regime.name, "fits": {f"{a:g}": str(by_second[a].path.parent) for a in seconds},
                **summarize(costs[..., 0], protocol.test.plants, comparisons, protocol.alpha, (first,), seconds)}
         row["protocol"] = _protocol_reference(protocol.name, regime.name)
@@ -229,8 +230,8 @@ def learned_headroom(protocol_path: Path, fits: list[Path], plants: int, replica
         print(f"headroom {regime.name}, learned designs: {row['headroom']:.3g}", file=sys.stderr, flush=True)
     table = markdown(rows, protocol.test.plants, comparisons) + _continuation_markdown(rows) + _learners_markdown(rows)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "headroom_learned_design.md").write_text(table)
-    (out / "headroom_learned_design.json").write_text(json.dumps(
+    write_text(out / "headroom_learned_design.md", table)
+    write_text(out / "headroom_learned_design.json", json.dumps(
         {"protocol": str(protocol_path), "design": "learned", "plants": plants, "replicates": replicates, "rows": rows},
         indent=1) + "\n")
     return table

@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.writer import write_figure, write_text
+
 __all__ = ["BANDS", "choices", "regime_choices"]
 
 BANDS: tuple[float, ...] = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
@@ -143,7 +145,7 @@ def plot(regimes: list[dict[str, Any]], path: Path) -> None:
     for axis in axes[:, 0]:
         axis.set_ylabel("share of choices / of plants violating")
     figure.tight_layout()
-    figure.savefig(path, dpi=120, bbox_inches="tight")
+    write_figure(path, figure, 120, bbox_inches="tight")
     plt.close(figure)
 
 
@@ -156,7 +158,7 @@ def choices(protocol_path: Path, run_dir: Path, regimes: list[str], out: Path | 
     table = markdown(found)
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "choices.md").write_text(table)
-        (out / "choices.json").write_text(json.dumps({"protocol": str(protocol_path), "regimes": found}, indent=1) + "\n")
+        write_text(out / "choices.md", table)
+        write_text(out / "choices.json", json.dumps({"protocol": str(protocol_path), "regimes": found}, indent=1) + "\n")
         plot(found, out / "choices.png")
     return table

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.writer import write_bytes, write_figure, write_text
 from envs.interface import tuning_env_of
 
 __all__ = ["replay", "replay_agent", "summarize"]
@@ -154,7 +155,7 @@ def plot(agents: list[dict[str, Any]], path: Path) -> None:
     axes[0][0].set_ylabel("second experiment's amplitude")
     if points:
         figure.colorbar(shown, ax=axes[0].tolist(), label="experiments before the commit")
-    figure.savefig(path, dpi=120, bbox_inches="tight")
+    write_figure(path, figure, 120, bbox_inches="tight")
     plt.close(figure)
 
 
@@ -180,8 +181,8 @@ def replay(run_dirs: list[Path], plants: int, out: Path | None) -> str:
     table = markdown(agents)
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "replay.md").write_text(table)
+        write_text(out / "replay.md", table)
         data = json.dumps({"plants": plants, "agents": agents}) + "\n"
-        (out / "replay.json.gz").write_bytes(compressed_bytes(data.encode()))
+        write_bytes(out / "replay.json.gz", compressed_bytes(data.encode()))
         plot(agents, out / "replay.png")
     return table

@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.files.writer import write_bytes, write_figure, write_text
+
 __all__ = ["transfer"]
 
 
@@ -157,7 +159,7 @@ def plot(summary: list[dict[str, Any]], groups: list[str], path: Path) -> None:
     axis.set_yscale("log")
     axis.set_ylabel("cost on the emulator (mean, 95%)")
     axis.legend(fontsize=7)
-    figure.savefig(path, dpi=120, bbox_inches="tight")
+    write_figure(path, figure, 120, bbox_inches="tight")
     plt.close(figure)
 
 
@@ -174,8 +176,8 @@ def transfer(groups: dict[str, list[str]], seeds: int, out: Path | None, conditi
     table = markdown(summary, list(groups))
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "transfer.md").write_text(table)
+        write_text(out / "transfer.md", table)
         data = json.dumps({"groups": groups, "seeds": seeds, "summary": summary, "rows": rows}) + "\n"
-        (out / "transfer.json.gz").write_bytes(compressed_bytes(data.encode()))
+        write_bytes(out / "transfer.json.gz", compressed_bytes(data.encode()))
         plot(summary, list(groups), out / "transfer.png")
     return table

@@ -11,6 +11,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from agents.files.writer import write_figure
 from envs.analysis.scoring import FEASIBLE_CAP, VIOLATION_BAND, violation_cost
 
 
@@ -31,4 +32,4 @@ def violation_cost_plot(path: str | Path) -> None:
     axes.set_ylabel("cost")
     axes.legend(fontsize=7, loc="upper left")
     figure.tight_layout()
-    figure.savefig(path)
+    write_figure(path, figure, "figure")

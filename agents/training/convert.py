@@ -192,6 +192,7 @@ def _write_config(config_path: Path, model_path: Path, model: Any, env_id: str |
     """The run config of a model saved without one: its algorithm, policy and ``policy_kwargs`` as loaded."""
     import yaml
 
+    from agents.files.writer import write_text
     from agents.training.config import TrainConfig, algorithm_class
     from agents.training.train import _ACTIVATIONS, _OPTIMIZERS
 
@@ -223,7 +224,7 @@ def _write_config(config_path: Path, model_path: Path, model: Any, env_id: str |
         text = yaml.safe_dump(config.to_dict(), sort_keys=False)
     except yaml.YAMLError as error:
         raise ValueError(f"{model_path}: its policy_kwargs cannot be written in a config ({error})") from None
-    config_path.write_text(text)
+    write_text(config_path, text)
 
 
 def _check_same_actions(model_path: Path, model: Any, vecnormalize: Any) -> None:

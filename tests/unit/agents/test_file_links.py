@@ -77,3 +77,29 @@ def test_a_name_that_is_not_a_plain_file_name_is_refused_in_one_line(name):
 @pytest.mark.parametrize("name", ["pid-noise10-time", "learned-plan-cert-3000", "a.b", "x_y"])
 def test_plain_names_pass(name):
     assert plain_name(name, "label") == name
+
+
+def test_a_study_writes_its_table_and_figure_in_place_of_planted_links(tmp_path, monkeypatch):
+    """``transfer.md`` and ``transfer.png`` planted as links to a file outside ``--out``: each is replaced
+    by a regular file, the link's target unchanged."""
+    import agents.studies.transfer as study
+
+    link, target = _planted(tmp_path, "transfer.md")
+    figure = link.with_name("transfer.png")
+    figure.symlink_to(target)
+    rows = [{"condition": "c", "seed": seed, "policy": "rule-a", "run": "rule-a", "role": "rule", "cost": 1.0 + seed,
+             "feasible": True, "predicted": 1.0, "note": None} for seed in (0, 1)]
+    monkeypatch.setattr(study, "_one_run", lambda condition, seed, groups: [rows[seed]])
+    table = study.transfer({}, 2, link.parent, conditions=("c",))
+    for path in (link, figure):
+        assert path.is_file() and not path.is_symlink()
+    assert link.read_text() == table and figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and target.read_text() == "kept\n"
+
+
+def test_a_figure_is_written_in_place_of_a_planted_link(tmp_path):
+    from agents.studies.violation_cost_plot import violation_cost_plot
+
+    link, target = _planted(tmp_path, "violation_cost.png")
+    violation_cost_plot(link)
+    assert link.is_file() and not link.is_symlink() and link.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert target.read_text() == "kept\n"
