@@ -30,7 +30,7 @@ from types import FrameType
 from typing import Any
 
 __all__ = ["GRACE_S", "Terminated", "descendants", "end_children", "ignore_interrupts", "ignore_interrupts_in_worker", "interrupted",
-           "signals_as_interrupts"]
+           "signals_as_interrupts", "terminated"]
 
 GRACE_S = 2.0
 """Seconds a child has, after SIGTERM, to end by itself before SIGKILL."""
@@ -84,10 +84,20 @@ def ignore_interrupts_in_worker() -> None:
 
 def interrupted(error: BaseException) -> bool:
     """Whether ``error`` is, or was raised while handling, a ``KeyboardInterrupt`` (Ctrl-C or SIGTERM)."""
+    return _in_chain(error, KeyboardInterrupt)
+
+
+def terminated(error: BaseException) -> bool:
+    """Whether ``error`` is, or was raised while handling, SIGTERM's :class:`Terminated`."""
+    return _in_chain(error, Terminated)
+
+
+def _in_chain(error: BaseException, kind: type[BaseException]) -> bool:
+    """Whether ``error`` or an exception of its chain (causes and contexts) is a ``kind``."""
     seen: set[int] = set()
     current: BaseException | None = error
     while current is not None and id(current) not in seen:
-        if isinstance(current, KeyboardInterrupt):
+        if isinstance(current, kind):
             return True
         seen.add(id(current))
         current = current.__cause__ or current.__context__

@@ -28,7 +28,10 @@ from typing import Any
 
 from agents.commands.arguments import require_directory
 
-__all__ = ["add_arguments", "run"]
+__all__ = ["CHUNK_PLANTS", "add_arguments", "run"]
+
+CHUNK_PLANTS = 250
+"""Plants per evaluation task by default (``--chunk-plants``); the tables do not depend on it."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -49,8 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--workers", type=int, default=1,
                      help="run the fits and the evaluations (chunks of plants) as tasks on a new local Ray instance of N "
                           "CPUs (default 1: one after another in this process, without Ray); the tables do not depend on it")
-    run.add_argument("--chunk-plants", type=int, default=250,
-                     help="plants per evaluation task (default 250); the tables do not depend on it")
+    run.add_argument("--chunk-plants", type=int, default=CHUNK_PLANTS,
+                     help=f"plants per evaluation task (default {CHUNK_PLANTS}); the tables do not depend on it")
     run.add_argument("--address", help="run the tasks on the Ray cluster at this address (HOST:PORT, or auto) instead, as "
                                        "deadtime sweep does; every node needs this checkout at the same path and --out "
                                        "(and --fits) on a file system they all see")
@@ -120,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, protocol: Any, out: Path) -> int:
     """``deadtime protocol run``; Ctrl-C or SIGTERM ends it with status 130 or 143 and the command that resumes."""
     from agents.interruptions import ignore_interrupts, interrupted
+    from agents.interruptions import terminated as was_terminated
     from agents.protocol.run import run_protocol
 
     if args.workers < 0 or args.chunk_plants < 1:
@@ -131,27 +135,13 @@ def _run(args: argparse.Namespace, protocol: Any, out: Path) -> int:
     except BaseException as error:  # noqa: BLE001  (an interruption, maybe wrapped by numba or torch, is said here)
         if not interrupted(error):
             raise
-        terminated = _terminated(error)
+        terminated = was_terminated(error)
         with ignore_interrupts():  # a second signal while the line is printed shows no traceback
             print(f"\ndeadtime protocol: {'terminated' if terminated else 'interrupted'}; the finished fits and evaluated "
                   f"plants are kept in {out / 'work'}; continue with: {_resume_command(args)}", file=sys.stderr)
         return 143 if terminated else 130
     print(f"deadtime protocol: {len(done)} regime(s) done: {', '.join(done)}", file=sys.stderr)
     return 0
-
-
-def _terminated(error: BaseException) -> bool:
-    """Whether SIGTERM (:class:`agents.interruptions.Terminated`) is in ``error``'s chain."""
-    from agents.interruptions import Terminated
-
-    seen: set[int] = set()
-    current: BaseException | None = error
-    while current is not None and id(current) not in seen:
-        if isinstance(current, Terminated):
-            return True
-        seen.add(id(current))
-        current = current.__cause__ or current.__context__
-    return False
 
 
 def _resume_command(args: argparse.Namespace) -> str:
@@ -161,6 +151,6 @@ def _resume_command(args: argparse.Namespace) -> str:
     words += ["--fits", args.fits] if args.fits else []
     words += ["--validation-only"] if args.validation_only else []
     words += ["--workers", str(args.workers)] if args.workers != 1 else []
-    words += ["--chunk-plants", str(args.chunk_plants)] if args.chunk_plants != 250 else []
+    words += ["--chunk-plants", str(args.chunk_plants)] if args.chunk_plants != CHUNK_PLANTS else []
     words += ["--address", args.address] if args.address else []
     return shlex.join([*words, "--resume"])
