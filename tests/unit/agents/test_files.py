@@ -313,14 +313,16 @@ def test_a_deeply_nested_checkpoint_manifest_is_damaged(tmp_path: Path) -> None:
         read_manifest(path)
 
 
-def test_ctrl_c_before_the_run_exists_advises_no_resume(tmp_path: Path) -> None:
+def test_ctrl_c_before_the_run_exists_advises_no_resume(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``--resume --out DIR`` would fail on a folder without its ``config.yaml``: it is not advised there."""
-    from agents.commands.train import _interrupted_advice
+    from agents.commands.train import _interrupted
 
-    assert "--resume" not in _interrupted_advice(tmp_path / "nothing", "")
+    assert _interrupted(KeyboardInterrupt(), tmp_path / "nothing", "") == 130
+    assert "--resume" not in capsys.readouterr().err
     (tmp_path / "run").mkdir()
     (tmp_path / "run" / "config.yaml").write_text("algorithm: SAC\n")
-    assert _interrupted_advice(tmp_path / "run", "").endswith(f"deadtime train --out {tmp_path / 'run'} --resume")
+    assert _interrupted(KeyboardInterrupt(), tmp_path / "run", "") == 130
+    assert capsys.readouterr().err.strip().endswith(f"deadtime train --out {tmp_path / 'run'} --resume")
 
 
 def test_resume_without_checkpoints_of_a_trained_run_is_refused(tmp_path: Path) -> None:
