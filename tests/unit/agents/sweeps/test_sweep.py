@@ -82,6 +82,17 @@ def test_bad_sweep_files_get_one_line_and_exit_2(tmp_path: Path, text: str, mess
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("label", ["..", ".", "", "a/b", "a\\\\b", "-x", " x", "a\\tb", "x" * 201])
+def test_a_label_that_is_not_a_plain_file_name_is_one_line_and_exit_2(tmp_path: Path, label: str) -> None:
+    """A trial group's label names its trials' run folders (``LABEL-ENV-sSEED``): a plain file name only
+    (agents/files/names.py), refused before anything is written."""
+    path = _sweep_file(tmp_path, GOOD.replace("  - config:", f'  - label: "{label}"\n    config:'))
+    status, out, err = run("sweep", "--config", str(path), "--out", str(tmp_path / "out"))
+    assert (status, out) == (2, "")
+    assert err.count("\n") == 1 and "trials[0].label must be a plain file name" in err, err
+    assert not (tmp_path / "out").exists()
+
+
 def test_missing_sweep_file(tmp_path: Path) -> None:
     status, _, err = run("sweep", "--config", str(tmp_path / "none.yaml"), "--out", str(tmp_path / "out"))
     assert (status, err.strip()) == (2, f"deadtime sweep: error: --config {tmp_path / 'none.yaml'}: no such file")
