@@ -5,29 +5,20 @@ held by one run at a time; damaged state is named, never trusted nor silently re
 from __future__ import annotations
 
 import errno
-import io
 import json
 import os
 import subprocess
 import sys
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime as run
 
-from agents.cli import main
 from agents.files.lock import LOCK_NAME, FolderInUse, folder_lock
 from agents.files.reader import FileProblem, load_yaml, load_yaml_file, parse_json, read_csv, read_json, read_text
 from agents.files.writer import atomic_write_all, write_text
 
 REPO = Path(__file__).resolve().parents[3]
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
 
 
 # ------------------------------------------------------------------------------------- reading

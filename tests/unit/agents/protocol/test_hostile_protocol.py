@@ -3,30 +3,21 @@ used, in one line, before anything is trained or written."""
 
 from __future__ import annotations
 
-import io
 import json
 import subprocess
 import sys
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
 import pytest
+from in_process import run_deadtime as run
 from tiny_protocol import write_tiny_protocol
 
-from agents.cli import main
 from agents.protocol.config import load_protocol
 from agents.protocol.every_rule import write_every_rule
 from agents.protocol.report import write_report
 from agents.protocol.run import PER_PLANT, SUMMARY, _write_table, start
 from agents.protocol.streams import read_registry
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
-
 
 def _files(folder: Path) -> dict[str, bytes]:
     return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}

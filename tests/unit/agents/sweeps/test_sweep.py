@@ -7,31 +7,22 @@ local Ray instance in a subprocess, as a user would; they are slow (about a minu
 from __future__ import annotations
 
 import csv
-import io
 import json
 import os
 import signal
 import subprocess
 import sys
 import time
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime as run
 from ray_cluster import driver_environment
 
-from agents.cli import main
 from agents.sweeps.config import load_sweep
 
 REPO = Path(__file__).resolve().parents[4]
 SMOKE = REPO / "configs" / "sweeps" / "smoke.yaml"
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
 
 
 def _sweep_file(tmp_path: Path, text: str) -> Path:
