@@ -14,6 +14,7 @@ from tiny_protocol import write_tiny_protocol
 from agents.cli import main
 from agents.studies import headroom as study
 
+
 def _protocol(tmp_path: Path, entropy: int) -> Path:
     """The tiny protocol (tests/tiny_protocol.py) of validation stream ``entropy``."""
     return write_tiny_protocol(tmp_path, entropy=entropy, file_name=f"p{entropy}")

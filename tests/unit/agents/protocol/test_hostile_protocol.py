@@ -19,6 +19,7 @@ from agents.protocol.report import write_report
 from agents.protocol.run import PER_PLANT, SUMMARY, _write_table, start
 from agents.protocol.streams import read_registry
 
+
 def _files(folder: Path) -> dict[str, bytes]:
     return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 

@@ -15,6 +15,7 @@ from agents.protocol.report import write_report
 from agents.protocol.run import PER_PLANT, SUMMARY, run_protocol
 from agents.protocol.streams import register_test_seed
 
+
 @pytest.mark.slow
 def test_a_tiny_protocol_runs_resumes_and_reports(tmp_path):
     path = write_tiny_protocol(tmp_path, wide=True, register=True)
