@@ -11,9 +11,9 @@ chooses the fit: a stable-baselines3 agent (:func:`agents.training.train.train`)
 writes, how it resumes and what its seed drives: :mod:`agents.training.train` and
 :mod:`agents.training.learned_rule`.
 
-Ctrl-C prints the command that continues the run and exits with status 130; SIGINT or SIGTERM
-during an agent's training stops it at the next rollout boundary with a checkpoint, and exits with
-128 + the signal.
+Ctrl-C prints the command that continues the run and exits with status 130, SIGTERM the same with
+status 143; SIGINT or SIGTERM during an agent's training stops it at the next rollout boundary with a
+checkpoint, and exits with 128 + the signal.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from agents.interruptions import interrupted, terminated
 from agents.limits import MAX_BUFFER_SIZE, MAX_ENVS, MAX_EVAL_EPISODES, MAX_LAYER_WIDTH, MAX_LAYERS, MAX_NESTING, MAX_YAML_NODES
 
 if TYPE_CHECKING:
@@ -89,16 +90,20 @@ def _command_from(args: argparse.Namespace) -> list[str]:
     return words + (["--resume"] if args.resume else []) + list(args.overrides)
 
 
-def _interrupted_advice(run_dir: Path, kept: str) -> str:
-    """The line printed after Ctrl-C ends ``deadtime train`` outside a training step: what is ``kept``
-    and how to go on.
+def _interrupted(error: BaseException, run_dir: Path, kept: str) -> int:
+    """After Ctrl-C or SIGTERM (``error``, maybe wrapped by a compiled call) ends ``deadtime train`` outside
+    a training step: one line saying what is ``kept`` and how to go on; status 130, or 143 for SIGTERM.
 
     ``--resume --out DIR`` is advised only where it works, a run directory with its ``config.yaml``;
     before that is written nothing of the run exists, and the same command starts it again.
     """
+    how = "terminated" if terminated(error) else "interrupted"
     if not (run_dir / "config.yaml").is_file():
-        return "deadtime train: interrupted before the run started; nothing was written (run the same command again)"
-    return f"deadtime train: interrupted; {kept}; continue with: deadtime train --out {shlex.quote(str(run_dir))} --resume"
+        line = f"deadtime train: {how} before the run started; nothing was written (run the same command again)"
+    else:
+        line = f"deadtime train: {how}; {kept}; continue with: deadtime train --out {shlex.quote(str(run_dir))} --resume"
+    print(f"\n{line}", file=sys.stderr)
+    return 143 if terminated(error) else 130
 
 
 def _train_agent(config: TrainConfig, *, resume: bool, command: str) -> int:
@@ -107,10 +112,9 @@ def _train_agent(config: TrainConfig, *, resume: bool, command: str) -> int:
 
     try:
         result = train(config, resume=resume, command=command)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as error:
         run_dir = run_directory(config)
-        print(f"\n{_interrupted_advice(run_dir, f'latest checkpoint at {checkpoint_steps(run_dir)} steps')}", file=sys.stderr)
-        return 130
+        return _interrupted(error, run_dir, f"latest checkpoint at {checkpoint_steps(run_dir)} steps")
     if result.status == "interrupted":
         name = signal.Signals(result.stopped_by).name if result.stopped_by else "a stop request"
         print(f"deadtime train: stopped by {name}; checkpoint of {result.num_timesteps} steps in "
@@ -124,19 +128,19 @@ def _train_agent(config: TrainConfig, *, resume: bool, command: str) -> int:
 
 
 def _fit_learned_rule(config: LearnedRuleConfig, *, resume: bool, command: str) -> int:
-    """Fit the learned rule, report where the rule is (exit 130 on Ctrl-C, with the command that continues)."""
+    """Fit the learned rule, report where the rule is (exit 130 on Ctrl-C, 143 on SIGTERM, with the command
+    that continues)."""
     from agents.files.reader import read_json
     from agents.training.learned_rule import certification_line, fit, labels_kept, run_directory
 
     try:
         result = fit(config, resume=resume, command=command)
     except (KeyboardInterrupt, SystemError) as error:
-        if isinstance(error, SystemError) and not isinstance(error.__context__, KeyboardInterrupt):
-            raise  # a SystemError that is not Ctrl-C inside a compiled call
+        if not interrupted(error):
+            raise  # a SystemError that is not Ctrl-C or SIGTERM inside a compiled call
         run_dir = run_directory(config)
         kept = f"{labels_kept(config, run_dir)} labelled training plants are kept in {run_dir / 'dataset'}"
-        print(f"\n{_interrupted_advice(run_dir, kept)}", file=sys.stderr)
-        return 130
+        return _interrupted(error, run_dir, kept)
     rule = read_json(result.run_dir / "learned_rule.json", dict)
     print(f"{result.num_timesteps} training plants ({result.session_steps} labelled by the oracle in this session, "
           f"{result.train_seconds:.1f} s); chosen {rule['kind']} with margin {rule['margin']:g}"
@@ -149,17 +153,15 @@ def _fit_learned_rule(config: LearnedRuleConfig, *, resume: bool, command: str) 
 
 
 def _fit_selector(config: SelectorConfig, *, resume: bool, command: str) -> int:
-    """Fit a selector, report where it is (exit 130 on Ctrl-C: a selector's fit starts again, its own
-    learned design's labels are kept)."""
+    """Fit a selector, report where it is (exit 130 on Ctrl-C, 143 on SIGTERM: a selector's fit starts
+    again, its own learned design's labels are kept)."""
     from agents.training.selector import fit, run_directory
 
     try:
         result = fit(config, resume=resume, command=command)
     except (KeyboardInterrupt, SystemError) as error:
-        if isinstance(error, SystemError) and not isinstance(error.__context__, KeyboardInterrupt):
+        if not interrupted(error):
             raise
-        kept = "a finished fit of its learned candidate is kept"
-        print(f"\n{_interrupted_advice(run_directory(config), kept)}", file=sys.stderr)
-        return 130
+        return _interrupted(error, run_directory(config), "a finished fit of its learned candidate is kept")
     print(f"selector: {result.run_dir / 'selector.json'} (deadtime evaluate --policies selector={result.run_dir})")
     return 0

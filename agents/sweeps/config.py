@@ -7,7 +7,7 @@ trained agent, and of the rules and the oracle once per environment, on the held
     env_kwargs: {noise_std: 0.1}      # optional: the study's regime, given to every trial's
                                       # environment (over its config's) and to the evaluation
     trials:
-      - label: sac                    # names the runs (default: the config file's stem)
+      - label: sac                    # names the runs, a plain file name (default: the config file's stem)
         config: configs/sac.yaml      # a training config, as for `deadtime train`
         overrides: [total_timesteps=3000]
         envs: [DeadTime/PID-v0, DeadTime/FPPI-v0]
@@ -38,6 +38,7 @@ from typing import Any
 
 from agents.limits import MAX_RESAMPLES, MAX_SEEDS, MAX_TEST_PLANTS, require_at_most
 from agents.training.config import TrainConfig, load_config
+from agents.files.names import plain_name
 from agents.files.reader import load_yaml_file
 from agents.training.schema import integer_field as _integer, mapping_field as _mapping
 
@@ -170,9 +171,7 @@ def _group(data: Any, where: str) -> TrialGroup:
     config = data["config"]
     if not isinstance(config, str) or not Path(config).is_file():
         raise ValueError(f"{where}.config: no such file: {config!r}")
-    label = data.get("label", Path(config).stem)
-    if not isinstance(label, str) or not label or "/" in label:
-        raise ValueError(f"{where}.label must be a non-empty name without '/', got {label!r}")
+    label = plain_name(data.get("label", Path(config).stem), f"{where}.label")  # names the trials' run folders
     overrides = _strings(data["overrides"], f"{where}.overrides") if data.get("overrides") else ()
     return TrialGroup(label, str(Path(config).resolve()), overrides, _strings(data["envs"], f"{where}.envs"), _seeds(data["seeds"], f"{where}.seeds"))
 

@@ -11,26 +11,17 @@ selector's choices per band of docs/selector.md are ``deadtime study selector-ch
 
 from __future__ import annotations
 
-import io
 import json
 import re
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
-from agents.cli import main
+from in_process import run_deadtime as run
 
 REPO = Path(__file__).resolve().parents[2]
 README = (REPO / "README.md").read_text()
 DOCS = REPO / "docs"
 COMMAND_LINE = (DOCS / "command_line.md").read_text()
 MODEL = '{"type": "fopdt", "gain": 2.5, "time_constant": 12, "dead_time": 4}'
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
 
 
 def test_the_exit_3_line_is_what_tune_prints():

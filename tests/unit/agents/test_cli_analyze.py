@@ -10,18 +10,16 @@ exception escaping ``main`` fails them, as a traceback would.
 
 from __future__ import annotations
 
-import io
 import json
 import os
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime as _main
 
-from agents.cli import main
 from envs.analysis.loop_analysis import analyze
 from envs.systems.controllers import controller_from_dict
 from envs.systems.plants import Plant
@@ -115,17 +113,6 @@ def test_bad_input_gives_one_line_naming_the_field(runs, name, field):
 
 
 # ----------------------------------------------------------------------------- in-process rows
-def _main(*argv: str) -> tuple[int, str, str]:
-    """Run ``main`` capturing its streams; SystemExit (argparse) gives its code."""
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        try:
-            code = main(list(argv))
-        except SystemExit as exit_:
-            code = exit_.code
-    return code, out.getvalue(), err.getvalue()
-
-
 def _assert_one_line_error(code, out, err, field):
     assert code not in (0, None)
     assert out == ""

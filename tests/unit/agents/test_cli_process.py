@@ -31,6 +31,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from in_process import run_deadtime
 
 import envs  # noqa: F401
 from agents.cli import main
@@ -38,10 +39,7 @@ from envs.interface import tuning_env_of
 
 
 def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        status = main(["process", *args])
-    return status, out.getvalue(), err.getvalue()
+    return run_deadtime("process", *args)
 
 
 @pytest.fixture(scope="module")

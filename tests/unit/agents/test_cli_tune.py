@@ -8,17 +8,16 @@ the same analysis.
 
 from __future__ import annotations
 
-import io
 import json
 import math
 import re
 import os
 import subprocess
 import sys
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime as run
 
 from agents.cli import main
 from baselines.rules.pid import ultimate_point, zn_ultimate_pi
@@ -30,13 +29,6 @@ REPO = Path(__file__).resolve().parents[3]
 STABLE = {"num": [1.0], "den": [10.0, 1.0], "delay": 5.0}
 INTEGRATING = {"num": [1.0], "den": [2.0, 1.0, 0.0], "delay": 5.0}
 SECOND_ORDER = {"num": [1.0], "den": [20.0, 12.0, 1.0], "delay": 5.0}
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
 
 
 def tune_json(rule: str, plant: dict | None, model: dict | None = None, status: int = 0) -> dict:

@@ -5,29 +5,20 @@ held by one run at a time; damaged state is named, never trusted nor silently re
 from __future__ import annotations
 
 import errno
-import io
 import json
 import os
 import subprocess
 import sys
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime as run
 
-from agents.cli import main
 from agents.files.lock import LOCK_NAME, FolderInUse, folder_lock
 from agents.files.reader import FileProblem, load_yaml, load_yaml_file, parse_json, read_csv, read_json, read_text
 from agents.files.writer import atomic_write_all, write_text
 
 REPO = Path(__file__).resolve().parents[3]
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
 
 
 # ------------------------------------------------------------------------------------- reading
@@ -313,14 +304,16 @@ def test_a_deeply_nested_checkpoint_manifest_is_damaged(tmp_path: Path) -> None:
         read_manifest(path)
 
 
-def test_ctrl_c_before_the_run_exists_advises_no_resume(tmp_path: Path) -> None:
+def test_ctrl_c_before_the_run_exists_advises_no_resume(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``--resume --out DIR`` would fail on a folder without its ``config.yaml``: it is not advised there."""
-    from agents.commands.train import _interrupted_advice
+    from agents.commands.train import _interrupted
 
-    assert "--resume" not in _interrupted_advice(tmp_path / "nothing", "")
+    assert _interrupted(KeyboardInterrupt(), tmp_path / "nothing", "") == 130
+    assert "--resume" not in capsys.readouterr().err
     (tmp_path / "run").mkdir()
     (tmp_path / "run" / "config.yaml").write_text("algorithm: SAC\n")
-    assert _interrupted_advice(tmp_path / "run", "").endswith(f"deadtime train --out {tmp_path / 'run'} --resume")
+    assert _interrupted(KeyboardInterrupt(), tmp_path / "run", "") == 130
+    assert capsys.readouterr().err.strip().endswith(f"deadtime train --out {tmp_path / 'run'} --resume")
 
 
 def test_resume_without_checkpoints_of_a_trained_run_is_refused(tmp_path: Path) -> None:

@@ -9,47 +9,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tiny_protocol import write_tiny_protocol
 
 from agents.cli import main
 from agents.studies import headroom as study
 
-RULE = """default:
-  algorithm: learned-rule
-  env_id: DeadTime/PID-v3
-  env_kwargs: {experiments: fixed}
-  seed: 0
-  training_plants: 30
-  validation_plants: 10
-  margins: [0.0, 0.2]
-  models: [quantile-boosting]
-"""
-
-PROTOCOL = """name: tiny
-seeds: {{first: 0, count: 2}}
-alpha: 0.05
-streams:
-  validation: {{entropy: {entropy}, plants: 5, episode_seed: 50000000}}
-  test: {{entropy: 12, plants: 6, episode_seed: 60000000}}
-selection:
-  violation_target: 0.5
-  confidence: 0.95
-  rules: [simc-pi]
-  plans: [plan-1-1]
-comparisons: [[plan, best-rule]]
-regimes:
-  - name: pid-tiny
-    env: DeadTime/PID-v3
-    env_kwargs: {{noise_std: 0.01}}
-    plan:
-      - {{label: tiny-plan, config: {rule}, overrides: ["env_kwargs.plan=[3, 0.1]"]}}
-"""
-
 
 def _protocol(tmp_path: Path, entropy: int) -> Path:
-    (tmp_path / "rule.yaml").write_text(RULE)
-    path = tmp_path / f"p{entropy}.yaml"
-    path.write_text(PROTOCOL.format(entropy=entropy, rule=tmp_path / "rule.yaml"))
-    return path
+    """The tiny protocol (tests/tiny_protocol.py) of validation stream ``entropy``."""
+    return write_tiny_protocol(tmp_path, entropy=entropy, file_name=f"p{entropy}")
 
 
 @pytest.fixture

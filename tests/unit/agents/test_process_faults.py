@@ -5,15 +5,13 @@ those tests, and their rows keep what was measured before it."""
 
 from __future__ import annotations
 
-import io
 import json
 import textwrap
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime
 
-from agents.cli import main
 
 FAULTY = """
 from envs.process.tclab_process import TCLabProcess
@@ -64,10 +62,7 @@ def _module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str, **fields
 
 
 def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(["process", *args])
-    return status, out.getvalue(), err.getvalue()
+    return run_deadtime("process", *args)
 
 
 @pytest.mark.parametrize(("factory", "message"), [

@@ -3,15 +3,13 @@ output (here, or beside the code it studies); the command prints what its functi
 
 from __future__ import annotations
 
-import io
 import json
 import re
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime as run
 
-from agents.cli import main
 from agents.commands.study import STUDIES
 
 REPO = Path(__file__).resolve().parents[3]
@@ -28,16 +26,6 @@ RUN_SMALL = {
     "transfer": "tests/unit/agents/test_transfer.py::test_the_study_runs_a_condition_with_a_rule_only_group",
     "violation_cost_plot": "tests/unit/agents/test_studies.py::test_the_violation_cost_plot_writes_its_figure",
 }
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        try:
-            status = main(list(args))
-        except SystemExit as exit:
-            status = exit.code
-    return status, out.getvalue(), err.getvalue()
 
 
 @pytest.mark.parametrize("name", list(STUDIES))

@@ -2,38 +2,23 @@
 
 from __future__ import annotations
 
-import io
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
-
-from agents.cli import main
-
-
-def _one_line(argv: list[str]) -> str:
-    err = io.StringIO()
-    with redirect_stdout(io.StringIO()), redirect_stderr(err):
-        try:
-            code = main(argv)
-        except SystemExit as exit_:
-            code = exit_.code
-    lines = err.getvalue().strip().splitlines()
-    assert code == 2 and len(lines) == 1 and "Traceback" not in err.getvalue(), (code, err.getvalue()[-2000:])
-    return lines[0]
+from in_process import error_line
 
 
 @pytest.mark.parametrize("source", ["missing", "empty"])
 def test_commit_refuses_a_folder_that_is_not_a_finished_sweep_and_creates_no_target(tmp_path: Path, source: str) -> None:
     (tmp_path / "empty").mkdir()
     target = tmp_path / "results" / "sweep"
-    line = _one_line(["study", "commit", str(tmp_path / source), str(target)])
+    line = error_line("study", "commit", str(tmp_path / source), str(target))
     assert "is not a finished sweep's folder: it holds no sweep.yaml, sessions.json, summary.json" in line
     assert not (tmp_path / "results").exists()
 
 
 @pytest.mark.parametrize("plants", ["0", "-3"])
 def test_sequential_replay_refuses_no_plants_before_loading_an_agent(tmp_path: Path, plants: str) -> None:
-    line = _one_line(["study", "sequential-replay", str(tmp_path), "--plants", plants, "--out", str(tmp_path / "out")])
+    line = error_line("study", "sequential-replay", str(tmp_path), "--plants", plants, "--out", str(tmp_path / "out"))
     assert f"--plants must be a whole number of at least 1, got {plants}" in line
     assert not (tmp_path / "out").exists()

@@ -12,16 +12,14 @@ family configs), not on :class:`envs.systems.plants.Plant` itself.
 
 from __future__ import annotations
 
-import io
 import json
-from contextlib import redirect_stderr, redirect_stdout
 
 import control
 import gymnasium as gym
 import pytest
+from in_process import error_line
 
 import envs  # noqa: F401  (registers the ids)
-from agents.cli import main
 from envs.systems.families import FopdtConfig, LagChainConfig
 from envs.systems.plant_sets import benchmark_plants
 from envs.systems.plants import Plant, as_plant
@@ -75,11 +73,4 @@ def test_the_command_line_refuses_it_in_one_line(command):
     plant = json.dumps(FIRST_ORDER)
     argv = ["analyze", "--plant", plant, "--controller", json.dumps({"type": "pid", "kp": 1.2, "ti": 9, "td": 1.5, "n": 10})] \
         if command == "analyze" else ["tune", "--rule", "simc-pi", "--plant", plant]
-    err = io.StringIO()
-    with redirect_stdout(io.StringIO()), redirect_stderr(err):
-        try:
-            code = main(argv)
-        except SystemExit as exit_:
-            code = exit_.code
-    lines = err.getvalue().strip().splitlines()
-    assert code == 2 and len(lines) == 1 and REFUSED in lines[0], err.getvalue()
+    assert REFUSED in error_line(*argv)

@@ -6,63 +6,22 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from tiny_protocol import write_tiny_protocol
 
 from agents.protocol.config import load_protocol
-from agents.protocol.streams import register_test_seed
-
-RULE = """default:
-  algorithm: learned-rule
-  env_id: DeadTime/PID-v3
-  env_kwargs: {experiments: fixed}
-  seed: 0
-  training_plants: 20
-  validation_plants: 10
-  margins: [0.0, 0.2]
-  models: [quantile-boosting]
-"""
-
-PROTOCOL = """name: tiny
-seeds: {{first: 0, count: 2}}
-alpha: 0.05
-streams:
-  validation: {{entropy: 11, plants: 4, episode_seed: 50000000}}
-  test: {{entropy: 12, plants: 5, episode_seed: 60000000}}
-selection:
-  violation_target: 0.5
-  confidence: 0.95
-  rules: [simc-pi, gorez-klan-mu-2]
-  plans: [plan-1-1, plan-3-0.1]
-  fixed_procedure: plan-1-1
-comparisons: [[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure]]
-regimes:
-  - name: pid-quiet
-    env: DeadTime/PID-v3
-    env_kwargs: {{noise_std: 0.01}}
-    fixed: [{{label: tiny-fixed, config: {rule}}}]
-    plan: [{{label: tiny-plan, config: {rule}, overrides: ["env_kwargs.plan=[3, 0.1]"]}}]
-  - name: pid-noisy
-    env: DeadTime/PID-v3
-    env_kwargs: {{noise_std: 0.05}}
-    fixed: [{{label: tiny-fixed, config: {rule}}}]
-    plan: [{{label: tiny-plan, config: {rule}, overrides: ["env_kwargs.plan=[3, 0.1]"]}}]
-"""
 
 
-def write_tiny_protocol(folder: Path) -> Path:
-    """Two regimes, two seeds, a few plants, written into ``folder`` and registered.  Its path."""
-    (folder / "rule.yaml").write_text(RULE)
-    (folder / "protocols").mkdir()
-    path = folder / "protocols" / "tiny.yaml"
-    path.write_text(PROTOCOL.format(rule=folder / "rule.yaml"))
-    protocol = load_protocol(path)
-    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
-    return path
+def write_two_regimes(folder: Path) -> Path:
+    """The tiny protocol (tests/tiny_protocol.py) of two regimes, 20 training plants per fit, 4 validation and
+    5 test plants, written into ``folder`` and registered.  Its path."""
+    return write_tiny_protocol(folder, regimes={"pid-quiet": 0.01, "pid-noisy": 0.05}, plants=(20, 4, 5),
+                               comparisons="[[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure]]", register=True)
 
 
 @pytest.fixture
 def tiny_protocol() -> Callable[[Path], Path]:
-    """:func:`write_tiny_protocol`."""
-    return write_tiny_protocol
+    """:func:`write_two_regimes`."""
+    return write_two_regimes
 
 
 @pytest.fixture(scope="module")
@@ -71,6 +30,6 @@ def tiny_serial_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Pat
     from agents.protocol.run import run_protocol
 
     folder = tmp_path_factory.mktemp("serial")
-    path = write_tiny_protocol(folder)
+    path = write_two_regimes(folder)
     assert run_protocol(load_protocol(path), folder / "out") == ["pid-quiet", "pid-noisy"]
     return path, folder / "out"

@@ -3,76 +3,21 @@ used, in one line, before anything is trained or written."""
 
 from __future__ import annotations
 
-import io
 import json
 import subprocess
 import sys
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
 import pytest
+from in_process import run_deadtime as run
+from tiny_protocol import write_tiny_protocol
 
-from agents.cli import main
 from agents.protocol.config import load_protocol
 from agents.protocol.every_rule import write_every_rule
 from agents.protocol.report import write_report
 from agents.protocol.run import PER_PLANT, SUMMARY, _write_table, start
-from agents.protocol.streams import read_registry, register_test_seed
-
-RULE = """default:
-  algorithm: learned-rule
-  env_id: DeadTime/PID-v3
-  env_kwargs: {experiments: fixed}
-  seed: 0
-  training_plants: 30
-  validation_plants: 10
-  margins: [0.0, 0.2]
-  models: [quantile-boosting]
-"""
-
-PROTOCOL = """name: tiny
-seeds: {{first: 0, count: 2}}
-alpha: 0.05
-streams:
-  validation: {{entropy: 11, plants: 5, episode_seed: 50000000}}
-  test: {{entropy: 12, plants: 6, episode_seed: 60000000}}
-selection:
-  violation_target: 0.5
-  confidence: 0.95
-  rules: [simc-pi, gorez-klan-mu-2]
-  plans: [plan-1-1, plan-3-0.1]
-  fixed_procedure: plan-1-1
-comparisons: [[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure], [plan, best-plan]]
-regimes:
-  - name: pid-tiny
-    env: DeadTime/PID-v3
-    env_kwargs: {{noise_std: 0.01}}
-    fixed:
-      - {{label: tiny-fixed, config: {rule}}}
-    plan:
-      - {{label: tiny-plan, config: {rule}, overrides: ["env_kwargs.plan=[3, 0.1]"]}}
-"""
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
-
-
-def _protocol(tmp_path: Path, *edits: tuple[str, str]) -> Path:
-    (tmp_path / "rule.yaml").write_text(RULE)
-    folder = tmp_path / "protocols"
-    folder.mkdir(exist_ok=True)
-    text = PROTOCOL.format(rule=tmp_path / "rule.yaml")
-    for old, new in edits:
-        assert old in text
-        text = text.replace(old, new, 1)
-    path = folder / "tiny.yaml"
-    path.write_text(text)
-    return path
+from agents.protocol.streams import read_registry
 
 
 def _files(folder: Path) -> dict[str, bytes]:
@@ -84,7 +29,7 @@ def _files(folder: Path) -> dict[str, bytes]:
 @pytest.mark.parametrize("field", ["name: pid-tiny", "label: tiny-fixed"])
 def test_a_name_that_is_not_a_plain_file_name_is_refused_at_load(tmp_path, field, name):
     key = field.split(":")[0]
-    path = _protocol(tmp_path, (field, f'{key}: "{name}"'))
+    path = write_tiny_protocol(tmp_path, edits=((field, f'{key}: "{name}"'),))
     where = r"regimes\[0\]\.name" if key == "name" else r"regimes\[0\]\.fixed\[0\]\.label"
     with pytest.raises(ValueError, match=f"{where} must be a plain file name") as error:
         load_protocol(path)
@@ -94,7 +39,7 @@ def test_a_name_that_is_not_a_plain_file_name_is_refused_at_load(tmp_path, field
 def test_a_regime_named_dot_dot_writes_nothing_beside_the_run_folder(tmp_path):
     """``protocol run``, ``every-rule`` and ``report`` with a regime named ``..``: refused, the parent of
     ``--out`` unchanged."""
-    path = _protocol(tmp_path, ("name: pid-tiny", 'name: ".."'))
+    path = write_tiny_protocol(tmp_path, edits=(("name: pid-tiny", 'name: ".."'),))
     (tmp_path / "selection.json").write_text("mine")
     before = _files(tmp_path)
     for action in ("run", "every-rule", "report"):
@@ -120,7 +65,7 @@ def test_a_regime_named_dot_dot_writes_nothing_beside_the_run_folder(tmp_path):
 def test_every_name_of_the_protocol_is_checked_at_load_naming_its_field(tmp_path, edit, message):
     """An unknown rule, plan or fixed procedure, ``oracle`` as a rule, a comparison no regime makes: refused
     at load (by ``register`` too, which records nothing), naming the field, before any learner is trained."""
-    path = _protocol(tmp_path, edit)
+    path = write_tiny_protocol(tmp_path, edits=(edit,))
     with pytest.raises(ValueError, match=message):
         load_protocol(path)
     status, out, err = run("protocol", "register", str(path))
@@ -157,7 +102,7 @@ def test_two_registrations_at_once_keep_both_entries(tmp_path):
     ("extra", 1, r"entry 0 has the unknown field 'extra'"),
 ])
 def test_a_registry_field_of_the_wrong_type_is_one_line(tmp_path, field, value, message):
-    path = _protocol(tmp_path)
+    path = write_tiny_protocol(tmp_path)
     entry = {"entropy": 99, "protocol": "x.yaml", "sha256": "a" * 64, field: value}
     path.with_name("test_seeds.json").write_text(json.dumps([entry]))
     with pytest.raises(ValueError, match=message):
@@ -171,9 +116,8 @@ def test_a_registry_field_of_the_wrong_type_is_one_line(tmp_path, field, value, 
 # ------------------------------------------------------------------------------------- report and every-rule
 def _run_folder(tmp_path: Path, chosen: dict[str, str] | None = None, nan: bool = False) -> tuple[Path, Path]:
     """A protocol registered and a run folder of one tested regime with made-up per-plant costs."""
-    path = _protocol(tmp_path)
+    path = write_tiny_protocol(tmp_path, register=True)
     protocol = load_protocol(path)
-    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
     out = tmp_path / "out"
     start(protocol, out, resume=False)
     chosen = chosen or {"best-rule": "simc-pi", "fixed-procedure": "plan-1-1", "best-plan": "plan-3-0.1",

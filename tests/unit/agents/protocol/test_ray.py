@@ -4,28 +4,18 @@ and interrupted by SIGTERM then resumed on local workers, each writing the seria
 from __future__ import annotations
 
 import json
-import os
-import secrets
 import shlex
-import shutil
 import signal
-import socket
 import subprocess
 import sys
-import tempfile
-import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from ray_cluster import driver_environment
 
 from agents.protocol.run import PER_PLANT, SUMMARY
 
 REGIMES = ("pid-quiet", "pid-noisy")
-
-
-def _environment() -> dict[str, str]:
-    return {**os.environ, "OPENBLAS_NUM_THREADS": "1", "RAY_ADDRESS": ""}
 
 
 def _command(protocol: Path, out: Path, *extra: str) -> list[str]:
@@ -44,64 +34,6 @@ def _assert_same_run(expected: Path, found: Path) -> None:
         assert (found / regime / PER_PLANT).read_bytes() == (expected / regime / PER_PLANT).read_bytes(), regime
         for name in ("selection.json", SUMMARY):
             assert _without_commit(found / regime / name) == _without_commit(expected / regime / name), (regime, name)
-
-
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
-def _kill_session(session: int) -> None:
-    """SIGKILL every process of the session ``ray start`` ran in (Ray starts its own process groups)."""
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-        except OSError:
-            continue
-        if int(stat[stat.rindex(")") + 2:].split()[3]) == session:
-            try:
-                os.kill(int(entry.name), signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-
-
-@pytest.fixture
-def ray_start_cluster() -> Iterator[tuple[str, dict[str, str]]]:
-    """A one-node cluster of ``ray start --head`` (two CPUs, token authentication) on free ports; stopped
-    at the end.  Its address, and the environment of a driver on this machine."""
-    ray = Path(sys.executable).with_name("ray")
-    if not ray.is_file() or not Path("/proc").is_dir():
-        pytest.skip(f"ray start is unavailable: no {ray}" if not ray.is_file() else "ray start is unavailable: no /proc")
-    root = Path(tempfile.mkdtemp(prefix="dtray", dir="/tmp"))  # short: Ray's socket paths have a length limit
-    (root / "home" / ".ray").mkdir(parents=True)
-    (root / "home" / ".ray" / "auth_token").write_text(secrets.token_hex(32))
-    environment = {key: value for key, value in _environment().items() if not key.startswith("RAY_AUTH")}
-    environment["HOME"] = str(root / "home")
-    port = _free_port()
-    command = [str(ray), "start", "--head", "--block", f"--port={port}", f"--temp-dir={root / 'ray'}", "--num-cpus=2",
-               "--include-dashboard=false", f"--dashboard-port={_free_port()}", f"--ray-client-server-port={_free_port()}",
-               f"--dashboard-agent-listen-port={_free_port()}", "--disable-usage-stats"]
-    head = subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            start_new_session=True)
-    try:
-        deadline, lines = time.monotonic() + 120, []
-        while time.monotonic() < deadline:
-            line = head.stdout.readline()
-            lines.append(line)
-            if "Ray runtime started" in line:
-                break
-            if not line and head.poll() is not None:
-                pytest.skip(f"ray start is unavailable: it exited with status {head.returncode}: {''.join(lines)[-500:]}")
-        else:
-            pytest.skip("ray start is unavailable: the head node did not start within 120 s")
-        yield f"127.0.0.1:{port}", environment
-    finally:
-        _kill_session(head.pid)
-        head.wait(timeout=30)
-        shutil.rmtree(root, ignore_errors=True)
 
 
 @pytest.mark.slow
@@ -131,7 +63,7 @@ def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial
     run's tables."""
     protocol, serial = tiny_serial_run
     out = tmp_path / "out"
-    first = subprocess.Popen(_command(protocol, out, *workers), cwd=tmp_path, env=_environment(), stderr=subprocess.PIPE,
+    first = subprocess.Popen(_command(protocol, out, *workers), cwd=tmp_path, env=driver_environment(), stderr=subprocess.PIPE,
                              text=True)
     try:
         seen = []
@@ -143,7 +75,7 @@ def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial
         kept = next((out / "work" / "runs").glob("*/s*/learned_rule.json"))
         stamp = kept.stat().st_mtime_ns
 
-        second = subprocess.run(_command(protocol, out, "--resume"), cwd=tmp_path, env=_environment(), capture_output=True,
+        second = subprocess.run(_command(protocol, out, "--resume"), cwd=tmp_path, env=driver_environment(), capture_output=True,
                                 text=True, timeout=300)
         assert second.returncode == 2 and second.stderr.count("\n") == 1, second.stderr
         assert "in use by another deadtime protocol run" in second.stderr
@@ -161,7 +93,7 @@ def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial
     assert resume == ["deadtime", "protocol", "run", str(protocol), "--out", str(out), *workers, "--resume"]
 
     on_ray = [] if workers else ["--workers", "2"]
-    again = subprocess.run([sys.executable, "-m", "agents.cli", *resume[1:], *on_ray], cwd=tmp_path, env=_environment(),
+    again = subprocess.run([sys.executable, "-m", "agents.cli", *resume[1:], *on_ray], cwd=tmp_path, env=driver_environment(),
                            capture_output=True, text=True, timeout=1800)
     assert again.returncode == 0, again.stderr[-3000:]
     assert kept.stat().st_mtime_ns == stamp  # the finished fit read back, not trained again

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import pytest
+from tiny_protocol import write_rule, write_tiny_protocol
 
 from agents.protocol.config import load_protocol
 from agents.protocol.every_rule import write_every_rule
@@ -14,50 +15,11 @@ from agents.protocol.report import write_report
 from agents.protocol.run import PER_PLANT, SUMMARY, run_protocol
 from agents.protocol.streams import register_test_seed
 
-RULE = """default:
-  algorithm: learned-rule
-  env_id: DeadTime/PID-v3
-  env_kwargs: {experiments: fixed}
-  seed: 0
-  training_plants: 30
-  validation_plants: 10
-  margins: [0.0, 0.2]
-  models: [quantile-boosting]
-"""
-
-PROTOCOL = """name: tiny
-seeds: {{first: 0, count: 2}}
-alpha: 0.05
-streams:
-  validation: {{entropy: 11, plants: 5, episode_seed: 50000000}}
-  test: {{entropy: 12, plants: 6, episode_seed: 60000000}}
-selection:
-  violation_target: 0.5
-  confidence: 0.95
-  rules: [simc-pi, gorez-klan-mu-2]
-  plans: [plan-1-1, plan-3-0.1]
-  fixed_procedure: plan-1-1
-comparisons: [[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure], [plan, best-plan]]
-regimes:
-  - name: pid-tiny
-    env: DeadTime/PID-v3
-    env_kwargs: {{noise_std: 0.01}}
-    fixed:
-      - {{label: tiny-fixed, config: {rule}}}
-      - {{label: tiny-fixed-wide, config: {rule}, overrides: ["margins=[0.5]"]}}
-    plan:
-      - {{label: tiny-plan, config: {rule}, overrides: ["env_kwargs.plan=[3, 0.1]"]}}
-"""
-
 
 @pytest.mark.slow
 def test_a_tiny_protocol_runs_resumes_and_reports(tmp_path):
-    (tmp_path / "rule.yaml").write_text(RULE)
-    (tmp_path / "protocols").mkdir()
-    path = tmp_path / "protocols" / "tiny.yaml"
-    path.write_text(PROTOCOL.format(rule=tmp_path / "rule.yaml"))
+    path = write_tiny_protocol(tmp_path, wide=True, register=True)
     protocol = load_protocol(path)
-    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
     out = tmp_path / "out"
     assert run_protocol(protocol, out, validation_only=True) == ["pid-tiny"]
     regime = out / "pid-tiny"
@@ -132,9 +94,8 @@ regimes:
 @pytest.mark.slow
 def test_the_base_rule_is_compared_where_declared_and_scored_though_not_among_the_rules(tmp_path):
     """``base-rule`` is the structure's own rule (on the PI: ``simc-pi``), fixed in advance, not chosen."""
-    (tmp_path / "rule.yaml").write_text(RULE)
     path = tmp_path / "tiny-pi.yaml"
-    path.write_text(PI_PROTOCOL.format(rule=tmp_path / "rule.yaml"))
+    path.write_text(PI_PROTOCOL.format(rule=write_rule(tmp_path)))
     protocol = load_protocol(path)
     register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
     out = tmp_path / "out"
@@ -174,9 +135,8 @@ regimes:
 @pytest.mark.slow
 def test_a_sequential_primary_is_trained_chosen_and_compared_with_the_plan_primary(tmp_path):
     """As protocol v4 declares it: a sequential and a plan-mode primary, no fixed-mode candidate."""
-    (tmp_path / "rule.yaml").write_text(RULE)
     path = tmp_path / "tiny-seq.yaml"
-    path.write_text(SEQ_PROTOCOL.format(rule=tmp_path / "rule.yaml"))
+    path.write_text(SEQ_PROTOCOL.format(rule=write_rule(tmp_path)))
     protocol = load_protocol(path)
     assert [learner.label for learner in protocol.regimes[0].seq] == ["tiny-seq"]
     register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))

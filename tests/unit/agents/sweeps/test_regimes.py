@@ -4,15 +4,13 @@ a direct computation, the behaviour of an agent replayed by hand, and bad input.
 from __future__ import annotations
 
 import csv
-import io
 import json
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
 import pytest
+from in_process import run_deadtime as _run
 
-from agents.cli import main
 from agents.evaluation.seed_statistics import paired_difference
 from agents.sweeps.regimes import behaviour, compare_regimes
 
@@ -142,13 +140,6 @@ def test_behaviour_of_a_plan_mode_agent(monkeypatch: pytest.MonkeyPatch) -> None
     assert found["experiments_chosen"] == 0.0 and found["experiments_completed_by_commit"] == 2.0
     assert found["plan_amplitude_quartiles"] == [[pytest.approx(1.0)] * 3, [pytest.approx(0.1)] * 3]
     assert found["design_action_quartiles"] == [0.25, 0.25, 0.25]
-
-
-def _run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
 
 
 def test_the_command_writes_its_outputs(tmp_path: Path) -> None:

@@ -7,30 +7,22 @@ local Ray instance in a subprocess, as a user would; they are slow (about a minu
 from __future__ import annotations
 
 import csv
-import io
 import json
 import os
 import signal
 import subprocess
 import sys
 import time
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime as run
+from ray_cluster import driver_environment
 
-from agents.cli import main
 from agents.sweeps.config import load_sweep
 
 REPO = Path(__file__).resolve().parents[4]
 SMOKE = REPO / "configs" / "sweeps" / "smoke.yaml"
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
 
 
 def _sweep_file(tmp_path: Path, text: str) -> Path:
@@ -81,6 +73,17 @@ def test_bad_sweep_files_get_one_line_and_exit_2(tmp_path: Path, text: str, mess
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("label", ["..", ".", "", "a/b", "a\\\\b", "-x", " x", "a\\tb", "x" * 201])
+def test_a_label_that_is_not_a_plain_file_name_is_one_line_and_exit_2(tmp_path: Path, label: str) -> None:
+    """A trial group's label names its trials' run folders (``LABEL-ENV-sSEED``): a plain file name only
+    (agents/files/names.py), refused before anything is written."""
+    path = _sweep_file(tmp_path, GOOD.replace("  - config:", f'  - label: "{label}"\n    config:'))
+    status, out, err = run("sweep", "--config", str(path), "--out", str(tmp_path / "out"))
+    assert (status, out) == (2, "")
+    assert err.count("\n") == 1 and "trials[0].label must be a plain file name" in err, err
+    assert not (tmp_path / "out").exists()
+
+
 def test_missing_sweep_file(tmp_path: Path) -> None:
     status, _, err = run("sweep", "--config", str(tmp_path / "none.yaml"), "--out", str(tmp_path / "out"))
     assert (status, err.strip()) == (2, f"deadtime sweep: error: --config {tmp_path / 'none.yaml'}: no such file")
@@ -95,10 +98,6 @@ def test_unreachable_address_is_refused_at_once_and_leaves_nothing(tmp_path: Pat
 
 
 # ------------------------------------------------------------------------------ end to end
-def _environment() -> dict[str, str]:
-    return {**os.environ, "OPENBLAS_NUM_THREADS": "1", "RAY_ADDRESS": ""}
-
-
 def _sweep_command(out: Path, *extra: str) -> list[str]:
     return [sys.executable, "-m", "agents.cli", "sweep", "--config", str(SMOKE), "--out", str(out), *extra]
 
@@ -111,7 +110,7 @@ def _agent_costs(path: Path) -> list[str]:
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("sweep") / "smoke"
-    subprocess.run(_sweep_command(out, "--json"), cwd=REPO, env=_environment(), check=True, capture_output=True, timeout=900)
+    subprocess.run(_sweep_command(out, "--json"), cwd=REPO, env=driver_environment(), check=True, capture_output=True, timeout=900)
     return out
 
 
@@ -125,12 +124,12 @@ def test_smoke_sweep_equals_the_runs_done_one_by_one(smoke: Path, tmp_path: Path
     run_dir, evaluation = tmp_path / "run", tmp_path / "eval"
     overrides = [*trial.overrides, f"seed={trial.seed}"]
     done = subprocess.run([sys.executable, "-m", "agents.cli", "train", "--config", trial.config_path, "--env", trial.env_id,
-                           "--out", str(run_dir), *overrides], cwd=REPO, env=_environment(), capture_output=True, timeout=600)
+                           "--out", str(run_dir), *overrides], cwd=REPO, env=driver_environment(), capture_output=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     e = sweep.evaluation
     done = subprocess.run([sys.executable, "-m", "agents.cli", "evaluate", "--env", trial.env_id, "--policies", f"agent={run_dir}",
                            "--n", str(e.n), "--seed", str(e.seed), "--out", str(evaluation), "--no-plots"],
-                          cwd=REPO, env=_environment(), capture_output=True, timeout=600)
+                          cwd=REPO, env=driver_environment(), capture_output=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     one_by_one = _agent_costs(evaluation / "per_plant.csv")
     assert one_by_one == _agent_costs(smoke / "eval" / "PID-v3" / trial.name / "per_plant.csv")
@@ -147,7 +146,7 @@ def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path,
     group, as a terminal sends it), or SIGTERM to the driver (as a scheduler ends a job): exit status
     130 or 143, one line saying how to resume, no summary."""
     out = tmp_path / "killed"
-    driver = subprocess.Popen(_sweep_command(out), cwd=REPO, env=_environment(), stdout=subprocess.DEVNULL,
+    driver = subprocess.Popen(_sweep_command(out), cwd=REPO, env=driver_environment(), stdout=subprocess.DEVNULL,
                               stderr=subprocess.PIPE, text=True, start_new_session=True)
     deadline = time.monotonic() + 600
     while not list(out.glob("runs/*/checkpoints/latest.json")) and time.monotonic() < deadline and driver.poll() is None:
@@ -166,7 +165,7 @@ def test_a_killed_sweep_resumes_to_the_same_summary(smoke: Path, tmp_path: Path,
     assert not any(out.glob("summary.*"))
     (session,) = json.loads((out / "sessions.json").read_text())  # on record, with the time it spent
     assert session["status"] == ("running" if how == signal.SIGKILL else "interrupted") and session["wall_time_s"] >= 0
-    done = subprocess.run(_sweep_command(out, "--resume", "--json"), cwd=REPO, env=_environment(), capture_output=True,
+    done = subprocess.run(_sweep_command(out, "--resume", "--json"), cwd=REPO, env=driver_environment(), capture_output=True,
                           text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     assert not json.loads(done.stdout)["failed"]  # a trial stopped before its first checkpoint starts again
@@ -203,7 +202,7 @@ evaluation: {{policies: [all-rules, oracle], n: 3, resamples: 100}}
 failure: {{max_failures: 1}}
 """)
     done = subprocess.run([sys.executable, "-m", "agents.cli", "sweep", "--config", str(path), "--out", str(tmp_path / "out"),
-                           "--json"], cwd=REPO, env=_environment(), capture_output=True, text=True, timeout=900)
+                           "--json"], cwd=REPO, env=driver_environment(), capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     summary = json.loads(done.stdout)
     assert list(summary["failed"]) == ["bad-PID-v0-s0"]
@@ -236,7 +235,7 @@ trials:
 evaluation: {{policies: [fppi-eq34, plan-1-1, oracle], n: 2, resamples: 100}}
 """)
     done = subprocess.run([sys.executable, "-m", "agents.cli", "sweep", "--config", str(path), "--out", str(tmp_path / "out"),
-                           "--json"], cwd=REPO, env=_environment(), capture_output=True, text=True, timeout=900)
+                           "--json"], cwd=REPO, env=driver_environment(), capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     summary = json.loads(done.stdout)
     assert summary["failed"] == {}
@@ -275,74 +274,6 @@ def test_bad_env_kwargs_of_a_sweep_are_one_line_and_exit_2(tmp_path: Path, value
 
 
 # ------------------------------------------------------------------------------ a real cluster
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
-def _kill_session(session: int) -> None:
-    """SIGKILL every process of the session ``ray start`` ran in (the head node's processes, which
-    Ray starts in process groups of their own, so a process group is not enough)."""
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-        except OSError:
-            continue
-        if int(stat[stat.rindex(")") + 2:].split()[3]) == session:
-            try:
-                os.kill(int(entry.name), signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-
-
-@pytest.fixture
-def ray_start_cluster() -> tuple[str, dict[str, str]]:
-    """A one-node cluster of ``ray start --head`` on free ports in a temporary directory, with token
-    authentication (a token in the temporary home, as ``ray start`` finds one); stopped at the end.
-    The address, and the environment of a driver on this machine (the same home, RAY_AUTH_MODE unset)."""
-    import secrets
-    import shutil
-    import tempfile
-
-    ray = Path(sys.executable).with_name("ray")
-    if not ray.is_file() or not Path("/proc").is_dir():
-        pytest.skip(f"ray start is unavailable: no {ray}" if not ray.is_file() else "ray start is unavailable: no /proc")
-    root = Path(tempfile.mkdtemp(prefix="dtray", dir="/tmp"))  # short: Ray's socket paths have a length limit
-    (root / "home" / ".ray").mkdir(parents=True)
-    (root / "home" / ".ray" / "auth_token").write_text(secrets.token_hex(32))
-    environment = {key: value for key, value in _environment().items() if not key.startswith("RAY_AUTH")}
-    environment["HOME"] = str(root / "home")
-    port = _free_port()
-    command = [str(ray), "start", "--head", "--block", f"--port={port}", f"--temp-dir={root / 'ray'}", "--num-cpus=2",
-               "--include-dashboard=false", f"--dashboard-port={_free_port()}", f"--ray-client-server-port={_free_port()}",
-               f"--dashboard-agent-listen-port={_free_port()}", "--disable-usage-stats"]
-    head = subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            start_new_session=True)
-    try:
-        deadline = time.monotonic() + 120
-        lines = []
-        while time.monotonic() < deadline:
-            line = head.stdout.readline()
-            lines.append(line)
-            if "Ray runtime started" in line:
-                break
-            if not line and head.poll() is not None:
-                pytest.skip(f"ray start is unavailable: it exited with status {head.returncode}: {''.join(lines)[-500:]}")
-        else:
-            pytest.skip("ray start is unavailable: the head node did not start within 120 s")
-        assert "Token authentication is enabled" in "".join(lines)
-        yield f"127.0.0.1:{port}", environment
-    finally:
-        _kill_session(head.pid)
-        head.wait(timeout=30)
-        shutil.rmtree(root, ignore_errors=True)
-
-
 @pytest.mark.slow
 def test_a_sweep_on_a_ray_start_cluster_by_address_equals_the_local_run(smoke: Path, tmp_path: Path,
                                                                        ray_start_cluster: tuple[str, dict[str, str]]) -> None:

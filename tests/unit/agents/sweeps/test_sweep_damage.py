@@ -5,27 +5,18 @@ before the connection, or Ray's side is stood in for); the end-to-end cases are 
 
 from __future__ import annotations
 
-import io
 import json
 import shutil
 import signal
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
+from in_process import run_deadtime as run
 
-from agents.cli import main
 
 REPO = Path(__file__).resolve().parents[4]
 SMOKE = REPO / "configs" / "sweeps" / "smoke.yaml"
 TRIAL = "sac-PID-v3-s0"
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        status = main(list(args))
-    return status, out.getvalue(), err.getvalue()
 
 
 def _snapshot(directory: Path) -> dict[str, bytes]:

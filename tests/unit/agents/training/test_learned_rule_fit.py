@@ -350,9 +350,10 @@ def test_a_damaged_model_file_is_named(fitted: dict, tmp_path: Path, capsys) -> 
 
 
 @pytest.mark.slow
-def test_ctrl_c_keeps_the_labels_written_and_resume_labels_only_the_rest(tmp_path: Path) -> None:
-    """A fit interrupted by SIGINT while labelling exits 130 with one line saying how many labels are
-    kept and how to continue; the continued fit labels only the others."""
+@pytest.mark.parametrize("how, status, word", [("SIGINT", 130, "interrupted"), ("SIGTERM", 143, "terminated")])
+def test_sigint_or_sigterm_keeps_the_labels_written_and_resume_labels_only_the_rest(tmp_path: Path, how: str, status: int, word: str) -> None:
+    """A fit interrupted by SIGINT (SIGTERM) while labelling exits 130 (143) with one line saying how many
+    labels are kept and how to continue; the continued fit labels only the others."""
     import os
     import re
     import signal
@@ -368,10 +369,10 @@ def test_ctrl_c_keeps_the_labels_written_and_resume_labels_only_the_rest(tmp_pat
     deadline = time.monotonic() + 300
     while not (run_dir / "dataset" / "training-000000.json").exists() and time.monotonic() < deadline:
         time.sleep(0.05)
-    process.send_signal(signal.SIGINT)
+    process.send_signal(getattr(signal, how))
     _, err = process.communicate(timeout=300)
-    assert process.returncode == 130, err[-2000:]
-    found = re.search(r"interrupted; (\d+) labelled training plants are kept in .*; continue with: deadtime train --out "
+    assert process.returncode == status, err[-2000:]
+    found = re.search(rf"{word}; (\d+) labelled training plants are kept in .*; continue with: deadtime train --out "
                       rf"{re.escape(str(run_dir))} --resume", err)
     assert found, err[-2000:]
     kept = int(found.group(1))
