@@ -148,6 +148,7 @@ SHARED_DOC = """
     | `experiment_set`  | `"all"` (v3: `"design"`)    | the agent mode's experiment types: all of the plant's kind, or those the design reads (Action Space) |
     | `discrete_action` | `False`                     | agent mode with `design_step`: a `Discrete` action with `action_masks()` instead of the `Box` (Action Space; :mod:`envs.discrete_action`) |
     | `disturbances`    | `None` (none)               | `{kind: level}` beyond the white noise, kinds `"drift"` (random walk, `level` per `sqrt(T_ar)`) and, for self-regulating plants, `"load"` (unmeasured input step during the experiment, `level` of output) (:mod:`envs.identification.disturbances`) |
+    | `quantization`    | `0.0` (none)                | the sensor's resolution, in the units of `noise_std` (>= 0): every measured output of the experiments is floored to a multiple of it, as the TCLab's sensor (:func:`envs.identification.noise.sensor_reading`) |
 
     ``identification="seeds"`` is the identification of the source papers (the method of moments and the
     papers' formulas).  A bad value raises one ``ValueError`` naming the argument.

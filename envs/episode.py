@@ -109,10 +109,10 @@ def start_fixed(
     :class:`IdentificationFailed`, as a procedure whose closed-loop steps failed raises
     :class:`~envs.identification.procedure.ProcedureFailed`."""
     amplitude, noise_std = options.seed_amplitude, options.noise_std
-    if options.disturbances.active or amplitude != 1.0 or options.production:
+    if options.disturbances.active or amplitude != 1.0 or options.production or options.quantization:
         attempts = DISTURBED_ATTEMPTS if options.disturbances.active else 1
         found = identify(plant, rng, noise_std, amplitude=amplitude, disturbances=options.disturbances, attempts=attempts,
-                         deviation=options.production)
+                         deviation=options.production, quantization=options.quantization)
     else:
         found = identify(plant, rng, noise_std)  # the v0 call
     evidence = evidence_from_identification(found, options, amplitude)
@@ -139,9 +139,11 @@ def _usable(result: ClosedLoopStepResult) -> bool:
 
 
 def _run(kind: str, plant: Plant, rng: np.random.Generator, amplitude: float, evidence: Evidence, noise_std: float, limit: float):
-    # Each experiment gets the episode's disturbances only when there are any, so that the v0
-    # calls stay exactly what they were.
+    # Each experiment gets the episode's disturbances and quantization only when there are any, so
+    # that the v0 calls stay exactly what they were.
     extra = {"disturbances": evidence.options.disturbances} if evidence.options.disturbances.active else {}
+    if evidence.options.quantization:
+        extra["quantization"] = evidence.options.quantization
     if kind == "closed-loop-step":
         return closed_loop_step(plant, rng, amplitude=amplitude, noise_std=noise_std, excursion_limit=limit, **extra)
     first = evidence.closed_loop

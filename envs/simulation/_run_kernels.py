@@ -195,7 +195,7 @@ def _tests(c, n, first, size, target, has_target, out):  # pragma: no cover - co
 # --------------------------------------------------------------------------- the closed-loop step run
 @numba.njit(cache=True)
 def _closed_loop_run(
-    Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, offset, reference, noise, divergence_limit, peak,
+    Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, offset, reference, noise, quantum, divergence_limit, peak,
     x, history, z, measured, drive, sums, window, integrating, dt, excursion, has_excursion, begin, until,
 ):  # pragma: no cover - compiled  # fmt: skip
     """The closed-loop step of :func:`envs.identification.closed_loop_run._run_closed_loop` from sample
@@ -204,7 +204,9 @@ def _closed_loop_run(
 
     Sample ``k`` of the loop (:func:`_loop_sample`, inputs ``[reference, 0, noise[k]]``, or
     ``[reference, noise[k]]`` if the caller dropped the columns of the zero input, outputs
-    ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` and the drive (``u``, or
+    ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` (floored to a multiple of
+    ``quantum`` if it is not 0: the sensor's reading, :func:`envs.identification.noise.sensor_reading`;
+    the loop itself feeds back ``y + noise[k]``) and the drive (``u``, or
     its trapezoidal integral ``drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1])`` with
     ``t[k] = k dt`` if ``integrating``, the numbers of
     :func:`envs.identification.closed_loop_run._cumulative_integral`), whose running sums ``sums[0]`` and
@@ -238,6 +240,8 @@ def _closed_loop_run(
                                x_next, v, past, history)  # fmt: skip
         y, u = z[k, 0], z[k, 1]
         measured[k] = y + noise[k]
+        if quantum != 0.0:
+            measured[k] -= measured[k] % quantum
         if not integrating:
             drive[k] = u
         elif k == 0:
