@@ -127,7 +127,8 @@ def closed_loop_step(
     quantization : float
         The sensor's resolution (>= 0, output units; 0: none): the measured output is floored to a
         multiple of it (:func:`~envs.identification.noise.sensor_reading`, the TCLab's quantizer) in
-        the record and in the steady-state tests; the commissioning controller acts on the measurement
+        the record and in the steady-state tests (the readings' mean within one step more of the set
+        point: a floor reads up to a step low); the commissioning controller acts on the measurement
         before the quantizer.
 
     Returns

@@ -103,7 +103,8 @@ def _reference_run_closed_loop(
     every input before it.
     """
     run = LoopRun(discretize(system, dt), 2 * _first_steps(window))
-    output_test, drive_test = SteadyStateTest(window, target=amplitude), SteadyStateTest(window)
+    output_test = SteadyStateTest(window, target=amplitude, resolution=noise.quantization)
+    drive_test = SteadyStateTest(window)
     limit = divergence_limit(plant.gain)
     done, peak = 0, max(1.0, abs(float(amplitude)))  # the samples tested, the largest input so far
 

@@ -143,13 +143,14 @@ class _Profile:
 
     def __call__(self, sigma: float) -> float:
         coef, basis = self.coef, self.basis
-        outer = basis[:, :, None] * basis[:, None, :]  # n x p x p
+        p = basis.shape[1]
+        outer = (basis[:, :, None] * basis[:, None, :]).reshape(-1, p * p)  # n x p^2
         limit = 0.5 * max(sigma, 0.05)
         for _ in range(25):
             logp, g, h = _interval(self.j, coef @ basis.T, sigma)
             gradient = g @ basis  # blocks x p
-            hessian = np.einsum("bn,npq->bpq", h, outer)
-            hessian -= (1e-10 * (1.0 + np.abs(h).sum(axis=1)))[:, None, None] * np.eye(basis.shape[1])
+            hessian = (h @ outer).reshape(-1, p, p)
+            hessian -= (1e-10 * (1.0 + np.abs(h).sum(axis=1)))[:, None, None] * np.eye(p)
             step = -np.linalg.solve(hessian, gradient[:, :, None])[:, :, 0]
             coef = coef + np.clip(step, -limit, limit)
             if float(np.max(np.abs(step))) < 1e-5:

@@ -151,7 +151,7 @@ class _RelaySimulation:
 
     def periodic(self, tolerance: float) -> bool:
         """The last three periods (each between switches of the same direction) agree."""
-        return relay_periodic(self.switches, self.times, self.measured, tolerance)
+        return relay_periodic(self.switches, self.times, self.measured, tolerance, self.quantization)
 
 
 @numba.njit(cache=True)

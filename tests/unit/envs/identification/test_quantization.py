@@ -149,3 +149,27 @@ def test_the_environment_s_records_are_quantized():
     assert evidence.options.quantization == q and len(evidence.results) == 2
     for result in evidence.results.values():
         assert _on_the_steps(result.output, q)
+
+
+def test_the_measured_observation_reads_the_noise_through_the_quantizer():
+    """Noise a quarter of the step: the plain estimate of the readings is about 0, the observation's
+    is the noise (the tolerance: the measured range of the estimate at ``q/5``, 0.06 to 2.1,
+    tests/unit/envs/identification/test_quantized_noise.py); the closed-loop step settles (its
+    readings' mean is within a step of the set point) instead of running to its cap."""
+    from envs.episode import LOG_CLIP
+    from envs.identification.quantized_noise import quantized_noise_level
+    from envs.identification.steady_state import noise_level
+
+    for seed in range(3):
+        env = gym.make("DeadTime/FPPI-v3", noise_std=0.005, quantization=0.02)
+        observation, _ = env.reset(seed=seed)
+        evidence = env.unwrapped.episode.evidence
+        output = evidence.closed_loop.output
+        assert evidence.noise_estimate == quantized_noise_level(output, 0.02)
+        assert 0.06 * 0.005 <= evidence.noise_estimate <= 2.1 * 0.005
+        assert observation[env.unwrapped.feature_names.index("log_noise_ratio")] > -LOG_CLIP
+        assert evidence.closed_loop.relative_duration < 100.0 and not evidence.closed_loop.aborted
+        plain = gym.make("DeadTime/FPPI-v3", noise_std=0.005)
+        plain.reset(seed=seed)
+        evidence = plain.unwrapped.episode.evidence
+        assert evidence.noise_estimate == noise_level(evidence.closed_loop.output)
