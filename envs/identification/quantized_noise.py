@@ -28,7 +28,8 @@ quantizer from the readings and ``q``, in two regimes.
 
 With ``q = 0`` the estimate is exactly :func:`~envs.identification.steady_state.noise_level`.  The measured
 error on records of known noise (constant levels at random offsets, slow ramps, first-order step
-responses) is in docs/environments/overview.md and its test (``tests/unit/envs/identification/test_quantized_noise.py``).
+responses) is in docs/environments/overview.md ("A sensor of finite resolution") and in the docstring
+of its test, ``tests/unit/envs/identification/test_quantized_noise.py``.
 """
 
 from __future__ import annotations
