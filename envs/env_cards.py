@@ -72,7 +72,7 @@ SHARED_DOC = """
     | `dead_time_fraction` | `open-loop-step` | ``L_n/T_ar`` of the open-loop step's FOPDT model (Ingimundarson & Hagglund eq. 11) |
     | `log_mismatch` | `open-loop-step` | ``log10(T_f_bar/T_n)``, the mismatch area of the open-loop step (Ingimundarson & Hagglund eq. 22) |
     | `log_pulse_area` | `pulse` | ``log10(A/(K_n L_n))``, the area of the pulse experiment (Ingimundarson & Hagglund eq. 46; pulse ``a/(K_n tau_p)`` of length ``tau_p = L_n/3``) |
-    | `log_noise_ratio` | `closed-loop-step` | ``log10(sigma/a)`` of the closed-loop step at amplitude ``a``; with ``measured_observation=True`` (v3) ``sigma`` is estimated from the step's record (the median absolute fourth difference over ``0.6745 sqrt(70)``, :func:`envs.identification.steady_state.noise_level`), in v0-v2 it is the configured ``noise_std`` |
+    | `log_noise_ratio` | `closed-loop-step` | ``log10(sigma/a)`` of the closed-loop step at amplitude ``a``; with ``measured_observation=True`` (v3) ``sigma`` is estimated from the step's record (the median absolute fourth difference over ``0.6745 sqrt(70)``, :func:`envs.identification.steady_state.noise_level`; with `quantization`, the estimate that knows the sensor's resolution, :func:`envs.identification.quantized_noise.quantized_noise_level`), in v0-v2 it is the configured ``noise_std`` |
     | `log_relay_gain` | `relay` | ``log10(K_u |K_n|)``, the ultimate gain of the relay experiment (hysteresis ``3 sigma``) |
     | `relay_period` | `relay` | ``P_u/T_ar``, the relay's period |
     | `ramp_time_constant` | `open-loop-ramp` | ``T_n/T_ar`` from an open-loop ramp (Ingimundarson & Hagglund eq. 12) |
@@ -148,6 +148,7 @@ SHARED_DOC = """
     | `experiment_set`  | `"all"` (v3: `"design"`)    | the agent mode's experiment types: all of the plant's kind, or those the design reads (Action Space) |
     | `discrete_action` | `False`                     | agent mode with `design_step`: a `Discrete` action with `action_masks()` instead of the `Box` (Action Space; :mod:`envs.discrete_action`) |
     | `disturbances`    | `None` (none)               | `{kind: level}` beyond the white noise, kinds `"drift"` (random walk, `level` per `sqrt(T_ar)`) and, for self-regulating plants, `"load"` (unmeasured input step during the experiment, `level` of output) (:mod:`envs.identification.disturbances`) |
+    | `quantization`    | `0.0` (none)                | the sensor's resolution, in the units of `noise_std` (>= 0): every measured output of the experiments is floored to a multiple of it, as the TCLab's sensor (:func:`envs.identification.noise.sensor_reading`); the measured observation's noise estimate then knows the resolution (:func:`envs.identification.quantized_noise.quantized_noise_level`) |
 
     ``identification="seeds"`` is the identification of the source papers (the method of moments and the
     papers' formulas).  A bad value raises one ``ValueError`` naming the argument.

@@ -12,7 +12,8 @@ group                 arguments                                             read
 :class:`PlantConfig`  ``family``, ``family_config``                          :class:`envs.plant_source.PlantSource`
 :class:`ExperimentConfig`  ``noise_std``, ``identification``,               :class:`envs.episode_options.EpisodeOptions` (the
                       ``amplitude_limit``, ``disturbances``,                experiments and the identification)
-                      ``measured_observation``, ``experiment_set``
+                      ``measured_observation``, ``experiment_set``,
+                      ``quantization``
 :class:`ScoringConfig`  ``constraints``, ``weights``, ``violation_cost``     :func:`envs.tuning_episode.scoring_of`
 :class:`DesignConfig`  ``action``, ``design_features``                       :class:`envs.design_map.DesignMap`,
                                                                             :class:`envs.observation.ObservationLayout`
@@ -99,6 +100,9 @@ class ExperimentConfig:
         The observation made of the records only (v3: True).
     experiment_set : {"all", "design"}
         Agent mode's experiment types: all of the plant's kind, or those the design reads (v3: ``"design"``).
+    quantization : float
+        The sensor's resolution, in the units of ``noise_std``: every measured output is floored to a
+        multiple of it, as the TCLab's sensor does (0: none).
     """
 
     noise_std: float = 0.01
@@ -107,6 +111,7 @@ class ExperimentConfig:
     disturbances: dict | None = None
     measured_observation: bool = False
     experiment_set: str = "all"
+    quantization: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -197,7 +202,7 @@ class EnvConfig:
 ARGUMENTS: tuple[str, ...] = (
     "experiments", "family", "family_config", "noise_std", "constraints", "weights", "budget", "excursion_limit",
     "render_mode", "action", "design_features", "identification", "amplitude_limit", "disturbances", "design_step",
-    "violation_cost", "measured_observation", "experiment_set", "plan", "discrete_action",
+    "violation_cost", "measured_observation", "experiment_set", "plan", "discrete_action", "quantization",
 )  # fmt: skip
 """The keyword arguments of every tuning environment (in the order of the environments' Arguments table)."""
 assert set(ARGUMENTS) == {*_GROUP_OF, "render_mode"}

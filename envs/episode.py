@@ -24,8 +24,10 @@ the records, as on a real loop, where nobody is told the noise level: the median
 difference of the latest usable closed-loop step's measured output over ``0.6745 sqrt(70)``
 (:func:`~envs.identification.steady_state.noise_level`; the median absolute deviation estimator
 of the finest-scale differences, as Donoho and Johnstone's wavelet estimate, with fourth
-differences so that the step response's own curvature does not count).  Without it (v0-v2), the
-environment's configured ``noise_std``.
+differences so that the step response's own curvature does not count).  With a quantizing sensor
+(the environments' ``quantization``) most fourth differences of the readings are 0, and the estimate
+is :func:`~envs.identification.quantized_noise.quantized_noise_level`, which knows the resolution
+(:func:`measured_noise`).  Without it (v0-v2), the environment's configured ``noise_std``.
 
 Every experiment but the first needs ``K_n`` and ``T_ar``; choosing one before a closed-loop step
 has identified them runs the closed-loop step instead.  Each type keeps its latest result.  An
@@ -48,6 +50,7 @@ from envs.systems.plants import Plant
 from envs.identification.prbs_experiment import open_loop_prbs
 from envs.identification.procedure import PULSE_LENGTH, Identification, ProcedureFailed, experiment_deviation, identify
 from envs.identification.relay import relay_feedback
+from envs.identification.quantized_noise import quantized_noise_level
 from envs.identification.steady_state import noise_level
 from envs.episode_features import FEATURES, LEAST_SQUARES_FEATURES, LOG_CLIP, MEASURED_FEATURES, feature_names, features
 from envs.episode_fits import latest_model, least_squares_identification, with_fit
@@ -68,6 +71,7 @@ __all__ = [
     "RELAY_HYSTERESIS",
     "Evidence",
     "evidence_from_identification",
+    "measured_noise",
     "start_fixed",
     "failed_start",
     "run_experiment",
@@ -90,12 +94,21 @@ def evidence_from_identification(
     second = "pulse" if identification.integrating else "open-loop-step"
     counts = tuple(int(name in ("closed-loop-step", second)) for name in evidence.experiments)
     results = {"closed-loop-step": identification.closed_loop, second: identification.open_loop}
-    sigma = noise_level(identification.closed_loop.output) if options.measured else options.noise_std
+    sigma = measured_noise(identification.closed_loop.output, options) if options.measured else options.noise_std
     measured = {"noise_estimate": sigma} if options.measured else {}
     return replace(
         evidence, counts=counts, results=results, experiment_time=identification.experiment_time,
         noise_ratio=sigma / amplitude, experiment_deviation=identification.experiment_deviation, **measured,
     )  # fmt: skip
+
+
+def measured_noise(output: np.ndarray, options: EpisodeOptions) -> float:
+    """The noise level a measured observation reads from a record: :func:`~envs.identification.steady_state.noise_level`,
+    or with a quantizing sensor (``options.quantization`` not 0) the estimate that knows its resolution
+    (:func:`~envs.identification.quantized_noise.quantized_noise_level`)."""
+    if options.quantization:
+        return quantized_noise_level(output, options.quantization)
+    return noise_level(output)
 
 
 def start_fixed(
@@ -109,10 +122,10 @@ def start_fixed(
     :class:`IdentificationFailed`, as a procedure whose closed-loop steps failed raises
     :class:`~envs.identification.procedure.ProcedureFailed`."""
     amplitude, noise_std = options.seed_amplitude, options.noise_std
-    if options.disturbances.active or amplitude != 1.0 or options.production:
+    if options.disturbances.active or amplitude != 1.0 or options.production or options.quantization:
         attempts = DISTURBED_ATTEMPTS if options.disturbances.active else 1
         found = identify(plant, rng, noise_std, amplitude=amplitude, disturbances=options.disturbances, attempts=attempts,
-                         deviation=options.production)
+                         deviation=options.production, quantization=options.quantization)
     else:
         found = identify(plant, rng, noise_std)  # the v0 call
     evidence = evidence_from_identification(found, options, amplitude)
@@ -139,9 +152,11 @@ def _usable(result: ClosedLoopStepResult) -> bool:
 
 
 def _run(kind: str, plant: Plant, rng: np.random.Generator, amplitude: float, evidence: Evidence, noise_std: float, limit: float):
-    # Each experiment gets the episode's disturbances only when there are any, so that the v0
-    # calls stay exactly what they were.
+    # Each experiment gets the episode's disturbances and quantization only when there are any, so
+    # that the v0 calls stay exactly what they were.
     extra = {"disturbances": evidence.options.disturbances} if evidence.options.disturbances.active else {}
+    if evidence.options.quantization:
+        extra["quantization"] = evidence.options.quantization
     if kind == "closed-loop-step":
         return closed_loop_step(plant, rng, amplitude=amplitude, noise_std=noise_std, excursion_limit=limit, **extra)
     first = evidence.closed_loop
@@ -203,7 +218,7 @@ def run_experiment(
     if usable:
         changes["results"] = {**evidence.results, kind: result}
         if kind == "closed-loop-step" and evidence.options.measured:
-            changes["noise_estimate"] = noise_level(result.output)
+            changes["noise_estimate"] = measured_noise(result.output, evidence.options)
             changes["noise_ratio"] = changes["noise_estimate"] / amplitude
         elif kind == "closed-loop-step":
             changes["noise_ratio"] = noise_std / amplitude

@@ -82,6 +82,11 @@ class EpisodeOptions:
     noise_std : float
         The white measurement noise of every experiment, relative to a unit output change (the
         environments' ``noise_std``).
+    quantization : float
+        The sensor's resolution, in the units of ``noise_std`` (the environments' ``quantization``; 0:
+        none): every experiment's measured output is floored to a multiple of it
+        (:func:`envs.identification.noise.sensor_reading`), and the measured observation's noise
+        estimate knows it (:func:`envs.identification.steady_state.quantized_noise_level`).
     """
 
     identification: str = "seeds"
@@ -92,6 +97,7 @@ class EpisodeOptions:
     measured: bool = False
     experiment_types: tuple[str, ...] | None = None
     noise_std: float = 0.0
+    quantization: float = 0.0
 
     def __post_init__(self) -> None:
         if self.identification not in IDENTIFICATIONS:
@@ -121,13 +127,14 @@ class EpisodeOptions:
         return cls.for_structure(
             structure, noise_std=config.noise_std, identification=config.identification, amplitude_limit=config.amplitude_limit,
             disturbances=config.disturbances, production=production, measured=config.measured_observation,
-            experiment_set=config.experiment_set,
+            experiment_set=config.experiment_set, quantization=config.quantization,
         )  # fmt: skip
 
     @classmethod
     def for_structure(
         cls, structure: str, *, noise_std: float = 0.0, identification: str = "seeds", amplitude_limit: float | None = None,
         disturbances=None, production: bool = False, measured: bool = False, experiment_set: str = "all",
+        quantization: float = 0.0,
     ) -> EpisodeOptions:  # fmt: skip
         """The options of an environment of ``structure`` (``"pid"``, ``"fppi"`` or ``"msp"``), from its
         arguments (``amplitude_limit=None`` is no limit; ``disturbances`` a mapping ``{kind: level}``).
@@ -158,7 +165,8 @@ class EpisodeOptions:
             types = kind.design_experiments + (("prbs",) if identification == "least-squares" else ())
         return cls(identification=identification, order=kind.least_squares_order or 1, amplitude_limit=limit,
                    disturbances=found, production=bool(production), measured=bool(measured), experiment_types=types,
-                   noise_std=require_number(noise_std, "noise_std", nonnegative=True))
+                   noise_std=require_number(noise_std, "noise_std", nonnegative=True),
+                   quantization=require_number(quantization, "quantization", nonnegative=True))
 
 
 DEFAULT_OPTIONS = EpisodeOptions()

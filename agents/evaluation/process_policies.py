@@ -81,8 +81,9 @@ def process_observation(env: Any, found: ProcessIdentification) -> np.ndarray:
 
     from envs.episode import evidence_from_identification
 
-    if env.options.measured:
-        evidence = evidence_from_identification(found.identification, env.options, abs(found.setpoint_step))
+    if env.options.measured:  # the noise estimate knows the process's sensor resolution (output units, as the records)
+        options = replace(env.options, quantization=found.quantization)
+        evidence = evidence_from_identification(found.identification, options, abs(found.setpoint_step))
     else:
         evidence = evidence_from_identification(found.identification, replace(env.options, noise_std=found.noise_ratio))
     return env.observe(found.identification, evidence)

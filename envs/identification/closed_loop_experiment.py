@@ -95,6 +95,7 @@ def closed_loop_step(
     *,
     method: str = "compiled",
     disturbances=None,
+    quantization: float = 0.0,
 ) -> ClosedLoopStepResult:
     """Set-point step in closed loop, run to steady state, identified by the method of moments.
 
@@ -123,6 +124,12 @@ def closed_loop_step(
         chunked run (see the module docstring), which gives the same result bit for bit, slower.
     disturbances : Disturbances, optional
         Drift and load beyond the white noise (:mod:`envs.identification.disturbances`).
+    quantization : float
+        The sensor's resolution (>= 0, output units; 0: none): the measured output is floored to a
+        multiple of it (:func:`~envs.identification.noise.sensor_reading`, the TCLab's quantizer) in
+        the record and in the steady-state tests (the readings' mean within one step more of the set
+        point: a floor reads up to a step low); the commissioning controller acts on the measurement
+        before the quantizer.
 
     Returns
     -------
@@ -150,7 +157,7 @@ def closed_loop_step(
     scale = plant.step_time_scale()
     block = controller.block()  # built once: its delays set dt, then it closes the loop
     dt = _loop_sample_time(plant, block, dt)
-    noise = measurement_noise(rng, noise_std, cap_steps(scale, dt, max_duration), disturbances, plant, dt)
+    noise = measurement_noise(rng, noise_std, cap_steps(scale, dt, max_duration), disturbances, plant, dt, quantization)
     window = window_samples(scale, dt)
     run = _run_closed_loop(plant, controller, amplitude, noise, dt, window, excursion_limit, block=block, method=method)
     return _identify_closed_loop(plant, controller, amplitude, run, window, scale)

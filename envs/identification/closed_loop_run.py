@@ -24,6 +24,7 @@ import numpy as np
 
 from envs.systems.controllers import Controller
 from envs.identification.experiment_base import MeasurementNoise, as_noise, excursion_index, ExperimentRun, run_until_settled
+from envs.identification.noise import sensor_reading
 from envs.simulation.loops import closed_loop_of_block
 from envs.systems.plants import Plant
 from envs.simulation._run_kernels import ABORTED, NO_EVENT, SETTLED, _closed_loop_run
@@ -102,7 +103,8 @@ def _reference_run_closed_loop(
     every input before it.
     """
     run = LoopRun(discretize(system, dt), 2 * _first_steps(window))
-    output_test, drive_test = SteadyStateTest(window, target=amplitude), SteadyStateTest(window)
+    output_test = SteadyStateTest(window, target=amplitude, resolution=noise.quantization)
+    drive_test = SteadyStateTest(window)
     limit = divergence_limit(plant.gain)
     done, peak = 0, max(1.0, abs(float(amplitude)))  # the samples tested, the largest input so far
 
@@ -118,7 +120,7 @@ def _reference_run_closed_loop(
                 break
         peak = peaks[-1]
         y, u = sim.outputs[:, 0], sim.outputs[:, 1]
-        measured = y + values[: y.size]
+        measured = sensor_reading(y + values[: y.size], noise.quantization)
         nonfinite = np.flatnonzero(~np.isfinite(y))
         finite = int(nonfinite[0]) if nonfinite.size else y.size  # a diverging sample's outputs are finite
         abort = excursion_index(y[done:finite], excursion_limit)
@@ -182,7 +184,7 @@ class _CompiledRun:
         if until > b.size:
             b.grow(min(max(until, 2 * b.size), self.size))
         return _closed_loop_run(
-            *self.arrays, self.offset, self.reference, self.noise.first(until), self.limit, b.peak,
+            *self.arrays, self.offset, self.reference, self.noise.first(until), self.noise.quantization, self.limit, b.peak,
             b.x, b.history, b.z, b.measured, b.drive, b.sums, *self.settings, begin, until,
         )  # fmt: skip
 

@@ -76,7 +76,7 @@ def sample_time(plant: Plant, dt: float | None) -> float:
 
 def measurement_noise(
     rng: np.random.Generator, noise_std: float, steps: int, disturbances=None, plant: Plant | None = None,
-    dt: float | None = None,
+    dt: float | None = None, quantization: float = 0.0,
 ) -> MeasurementNoise:  # fmt: skip
     """The noise of one experiment of at most ``steps`` samples, from a child stream seeded by ``rng``.
 
@@ -85,14 +85,20 @@ def measurement_noise(
     ``disturbances`` (:class:`envs.identification.disturbances.Disturbances`; they need the ``plant``
     and ``dt``), the noise is white plus the disturbances, drawn from streams spawned from the same
     seed (:class:`envs.identification.disturbances.DisturbedNoise`): the white part is unchanged.
+    ``quantization`` (the sensor's resolution, >= 0) is carried to the experiment, which reads its
+    measurements through :func:`~envs.identification.noise.sensor_reading`; it draws nothing.
     """
     seed = rng.integers(0, 2**32, size=4, dtype=np.uint64)
     white = MeasurementNoise(noise_std, steps, np.random.Generator(np.random.PCG64(seed)))
     if disturbances is None or not disturbances.active:
-        return white
-    from envs.identification.disturbances import DisturbedNoise
+        noise = white
+    else:
+        from envs.identification.disturbances import DisturbedNoise
 
-    return DisturbedNoise(white, seed, disturbances, plant, dt, plant.step_time_scale())
+        noise = DisturbedNoise(white, seed, disturbances, plant, dt, plant.step_time_scale())
+    if quantization:
+        noise.quantization = require_number(quantization, "quantization", nonnegative=True)
+    return noise
 
 
 def as_noise(noise: MeasurementNoise | np.ndarray) -> MeasurementNoise:

@@ -3,13 +3,28 @@
 :func:`envs.identification.experiment_base.measurement_noise` makes one per experiment, from a child
 stream of the episode's generator (the conventions are in :mod:`envs.identification.experiment_base`);
 :class:`envs.identification.disturbances.DisturbedNoise` adds a drift and a load to it.
+
+The sensor may also have a finite resolution (``quantization``, the step ``q`` of its readings, in
+output units): :func:`sensor_reading` floors a measurement to a multiple of ``q``, ``y - (y mod q)``,
+exactly the quantizer of the TCLab (``tclab.TCLabModel.quantize``: ``T - T % 0.3223``, the Arduino's
+A/D converter), without its clip to [-50, 132.2] degC (the outputs here are deviations in relative
+units).  At ``q = 0`` a reading is the measurement itself, untouched.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MeasurementNoise"]
+__all__ = ["MeasurementNoise", "sensor_reading"]
+
+
+def sensor_reading(measured, quantization: float):
+    """``measured`` (a float or an array) as the sensor reads it: floored to a multiple of
+    ``quantization`` (``measured - measured % quantization``, the TCLab's quantizer), or ``measured``
+    itself, the same object, at ``quantization == 0``."""
+    if quantization == 0.0:
+        return measured
+    return measured - measured % quantization
 
 
 class MeasurementNoise:
@@ -18,7 +33,11 @@ class MeasurementNoise:
     ``first(count)`` is the noise of samples ``0 .. count - 1``: the standard normals ``z`` of the
     child stream ``source`` in order, drawn up to the largest ``count`` asked so far (none at all when
     ``noise_std`` is 0).  ``size`` is the cap, the number of samples of the longest run allowed.
+    ``quantization`` is the sensor's resolution the experiment applies to its measurements
+    (:func:`sensor_reading`; 0: none).
     """
+
+    quantization: float = 0.0
 
     def __init__(self, noise_std: float, size: int, source: np.random.Generator | None) -> None:
         self.noise_std, self.size, self._source = noise_std, int(size), source

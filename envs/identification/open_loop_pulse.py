@@ -78,6 +78,7 @@ def open_loop_pulse(
     max_duration: float | None = None,
     *,
     disturbances=None,
+    quantization: float = 0.0,
 ) -> OpenLoopPulseResult:
     """Pulse of height ``h_p`` and duration ``tau_p`` into an integrating plant; ``A`` of eq. 46.
 
@@ -89,7 +90,7 @@ def open_loop_pulse(
         ``h_p`` (non-zero) and ``tau_p`` (> 0).
     gain, dead_time : float
         ``K_n`` (velocity gain) and ``L_n`` of the two-parameter model, from experiment 1.
-    noise_std, dt, excursion_limit, max_duration, disturbances
+    noise_std, dt, excursion_limit, max_duration, disturbances, quantization
         As in :func:`closed_loop_step`; ``dt`` is shrunk so that ``tau_p`` is a whole number of samples.
 
     Notes
@@ -110,7 +111,7 @@ def open_loop_pulse(
     pulse_samples = max(int(round(duration / sample_time(plant, dt))), 1)
     dt = duration / pulse_samples
     steps = cap_steps(scale, dt, max_duration, minimum=3.0 * (duration + model.dead_time))
-    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt)
+    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt, quantization)
     inputs = np.zeros(steps)  # np.where(np.arange(steps) < pulse_samples, height, 0.0), without the index array
     inputs[:pulse_samples] = height
     window = window_samples(max(model.dead_time, duration), dt)

@@ -29,6 +29,7 @@ from envs.identification.models import FOPDTModel
 from envs.identification.open_loop_areas import fopdt_from_area, ramp_time_constant
 from envs.identification.open_loop_run import _self_regulating
 from envs.identification.sampled_signals import integrate
+from envs.identification.noise import sensor_reading
 from envs.systems.plants import Plant
 from envs.systems.state_space import StateSpace
 from envs.simulation.open_loop import open_loop_response
@@ -73,6 +74,7 @@ def open_loop_ramp(
     excursion_limit: float | None = None,
     *,
     disturbances=None,
+    quantization: float = 0.0,
 ) -> OpenLoopRampResult:
     """Open-loop ramp of rate ``h`` for ``T_ar``: ``T_n`` by Ingimundarson eq. 12.
 
@@ -89,6 +91,8 @@ def open_loop_ramp(
         Ramp rate ``h`` (non-zero).
     residence_time, gain : float
         ``T_ar`` and ``K_n`` from experiment 1.
+    noise_std, dt, excursion_limit, disturbances, quantization
+        As in :func:`~envs.identification.closed_loop_experiment.closed_loop_step`.
     """
     plant, rng = _self_regulating(plant, "open_loop_ramp"), check_rng(rng)
     rate = require_number(rate, "rate", nonzero=True)
@@ -97,13 +101,14 @@ def open_loop_ramp(
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     dt, scale = sample_time(plant, dt), plant.step_time_scale()
     steps, cut = fixed_length_steps(residence_time / dt - 1e-9)
-    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt).first(steps)  # the ramp runs to its end
+    sensor = measurement_noise(rng, noise_std, steps, disturbances, plant, dt, quantization)
+    noise = sensor.first(steps)  # the ramp runs to its end
     y = open_loop_response(_with_input_integrator(plant.state_space()), plant.dead_time, np.full(steps, rate), dt)
     t = np.arange(steps) * dt
     abort = excursion_index(y, excursion_limit)
     if abort is None and cut:
         abort = steps - 1
-    run = ExperimentRun(t, rate * t, y + noise, y, steps - 1 if abort is None else abort, abort is None, abort is not None)
+    run = ExperimentRun(t, rate * t, sensor_reading(y + noise, sensor.quantization), y, steps - 1 if abort is None else abort, abort is None, abort is not None)
     record = record_fields(run, scale)
     if abort is not None:
         record.update(duration=float(t[abort]), relative_duration=float(t[abort] / scale))

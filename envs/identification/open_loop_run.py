@@ -18,6 +18,7 @@ from envs.identification.experiment_base import (
     ExperimentRun,
     run_until_settled,
 )
+from envs.identification.noise import sensor_reading
 from envs.systems.plants import Plant
 from envs.simulation.open_loop import OpenLoopRun
 from envs.identification.steady_state import SteadyStateTest
@@ -37,7 +38,8 @@ def _run_to_steady_state(
     """Simulate ``inputs`` (held per sample) over growing horizons, from ``start + 6 window``
     samples and doubling, until the measured output is steady from sample ``start`` on
     (:func:`~envs.identification.steady_state.steady_state_index`), the cap (``inputs.size`` samples) or an
-    excursion of the true output.  ``noise`` is drawn as the run grows (or given, one sample per input)."""
+    excursion of the true output.  ``noise`` is drawn as the run grows (or given, one sample per input);
+    the measurement is read through the sensor (:func:`~envs.identification.noise.sensor_reading`)."""
     noise = as_noise(noise)
     response = OpenLoopRun(plant.state_space(), plant.dead_time, inputs, dt)
     test = SteadyStateTest(window)
@@ -47,7 +49,7 @@ def _run_to_steady_state(
     def trial(steps: int, horizon: int) -> tuple:
         y = response.response(steps)
         old = done[0]
-        measured[old:steps] = y[old:] + noise.first(steps)[old:]
+        measured[old:steps] = sensor_reading(y[old:] + noise.first(steps)[old:], noise.quantization)
         abort = excursion_index(y[old:], excursion_limit)
         hits = np.flatnonzero(test.extend(measured[:steps])[max(start - old, 0) :])
         done[0] = steps

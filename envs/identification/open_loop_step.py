@@ -134,6 +134,7 @@ def open_loop_step(
     max_duration: float | None = None,
     *,
     disturbances=None,
+    quantization: float = 0.0,
 ) -> OpenLoopStepResult:
     """Open-loop step of height ``h``: ``T_n`` (eq. 11), then on to steady state for ``T_f_bar``.
 
@@ -147,7 +148,7 @@ def open_loop_step(
         Step height ``h`` (non-zero).
     residence_time, gain : float
         ``T_ar`` and ``K_n`` from experiment 1 (:func:`closed_loop_step`).
-    noise_std, dt, excursion_limit, max_duration, disturbances
+    noise_std, dt, excursion_limit, max_duration, disturbances, quantization
         As in :func:`closed_loop_step`.
 
     Returns
@@ -172,7 +173,7 @@ def open_loop_step(
     noise_std = require_number(noise_std, "noise_std", nonnegative=True)
     dt, scale = sample_time(plant, dt), plant.step_time_scale()
     steps = cap_steps(scale, dt, max_duration, minimum=2.0 * residence_time)
-    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt)
+    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt, quantization)
     window = window_samples(residence_time, dt)
     start = math.ceil(snap_to_integer(2.0 * residence_time / dt))
     run = _run_to_steady_state(plant, np.full(steps, height), noise, dt, window, start, excursion_limit)

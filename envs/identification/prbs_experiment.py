@@ -44,6 +44,7 @@ from envs.identification.least_squares import LeastSquaresFit, least_squares_fit
 from envs.identification.models import FOPDTModel, SOPDTModel
 from envs.simulation.delay_systems import MAX_RUN_SAMPLES
 from envs.simulation.open_loop import open_loop_response
+from envs.identification.noise import sensor_reading
 from envs.systems.plants import Plant
 from envs.validation import require_number
 
@@ -123,6 +124,7 @@ def open_loop_prbs(
     order: int = 1,
     *,
     disturbances=None,
+    quantization: float = 0.0,
 ) -> OpenLoopPRBSResult:
     """One period of the PRBS of levels ``+-h`` and clock ``T_ar/3``, fitted by least squares.
 
@@ -136,7 +138,7 @@ def open_loop_prbs(
         Level ``h`` (non-zero); ``1/K_n`` moves the output by about ``+-1``.
     residence_time : float
         ``T_ar`` from the closed-loop step: the clock is ``T_ar/3``, the dead times searched ``0 .. T_ar``.
-    noise_std, dt, excursion_limit, disturbances
+    noise_std, dt, excursion_limit, disturbances, quantization
         As in :func:`~envs.identification.closed_loop_experiment.closed_loop_step`.
     order : {1, 2}
         Of the least-squares model (FOPDT or SOPDT).
@@ -156,13 +158,14 @@ def open_loop_prbs(
     per_clock = max(int(math.ceil(clock)), 1) if clock < MAX_RUN_SAMPLES else MAX_RUN_SAMPLES
     steps, cut = fixed_length_steps(levels.size * per_clock - 1)
     inputs = height * levels[np.arange(steps) // per_clock]  # np.repeat(levels, per_clock), cut at the bound
-    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt).first(steps)
+    sensor = measurement_noise(rng, noise_std, steps, disturbances, plant, dt, quantization)
+    noise = sensor.first(steps)
     y = open_loop_response(plant.state_space(), plant.dead_time, inputs, dt)
     abort = excursion_index(y, excursion_limit)
     if abort is None and cut:
         abort = steps - 1
     end = steps - 1 if abort is None else abort
-    run = ExperimentRun(np.arange(steps) * dt, inputs, y + noise, y, end, abort is None, abort is not None)
+    run = ExperimentRun(np.arange(steps) * dt, inputs, sensor_reading(y + noise, sensor.quantization), y, end, abort is None, abort is not None)
     result = OpenLoopPRBSResult(**record_fields(run, scale), height=height, clock=per_clock * dt, fit=None)
     if abort is not None:
         return result

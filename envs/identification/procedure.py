@@ -111,7 +111,7 @@ def experiment_deviation(result) -> float:
 
 def identify(
     plant: Plant, rng: np.random.Generator, noise_std: float = 0.0, *, amplitude: float = 1.0, disturbances=None,
-    attempts: int = 1, deviation: bool = False,
+    attempts: int = 1, deviation: bool = False, quantization: float = 0.0,
 ) -> Identification:  # fmt: skip
     """Run the fixed procedure on the true ``plant`` (see the module docstring).
 
@@ -119,7 +119,8 @@ def identify(
     (:class:`envs.identification.disturbances.Disturbances`) adds drift or load to their measurements;
     ``attempts`` closed-loop steps at most are run until one identifies a usable model (a drift or a
     load can spoil one), each charged (time and deviation); ``deviation``: compute
-    ``experiment_deviation`` (else 0; the cost reads it only when production has a price).
+    ``experiment_deviation`` (else 0; the cost reads it only when production has a price);
+    ``quantization``: the sensor's resolution (:func:`~envs.identification.noise.sensor_reading`; 0: none).
 
     Raises
     ------
@@ -129,13 +130,14 @@ def identify(
     """
     spent = lost = 0.0
     for attempt in range(attempts):
-        first = closed_loop_step(plant, rng, amplitude=amplitude, noise_std=noise_std, disturbances=disturbances)
+        first = closed_loop_step(plant, rng, amplitude=amplitude, noise_std=noise_std, disturbances=disturbances,
+                                 quantization=quantization)
         if usable_closed_loop(first):
             break
         spent, lost = spent + first.duration, lost + (experiment_deviation(first) if deviation else 0.0)
     else:
         raise ProcedureFailed(first, attempts, spent, lost)
-    found = _second_experiment(plant, rng, noise_std, amplitude, disturbances, first)
+    found = _second_experiment(plant, rng, noise_std, amplitude, disturbances, first, quantization)
     if deviation:
         found = replace(found, experiment_deviation=experiment_deviation(first) + experiment_deviation(found.open_loop) + lost)
     if attempt == 0:
@@ -161,14 +163,16 @@ def usable_closed_loop(first: ClosedLoopStepResult) -> bool:
     return bool(np.isfinite(first.gain) and first.gain != 0 and np.isfinite(first.residence_time) and first.residence_time > 0)
 
 
-def _second_experiment(plant: Plant, rng, noise_std: float, amplitude: float, disturbances, first) -> Identification:
+def _second_experiment(
+    plant: Plant, rng, noise_std: float, amplitude: float, disturbances, first, quantization: float = 0.0
+) -> Identification:
     height = amplitude / first.gain  # a rise of the output by the amplitude, whatever the sign of the gain
     if plant.integrating:
         model = first.integrating_model
         duration = PULSE_LENGTH * model.dead_time
         second = open_loop_pulse(
             plant, rng, height / duration, duration, model.gain, model.dead_time, noise_std=noise_std,
-            disturbances=disturbances,
+            disturbances=disturbances, quantization=quantization,
         )  # the pulse raises the output by about the amplitude: K_n h_p tau_p = a
         return Identification(
             integrating=True,
@@ -184,7 +188,7 @@ def _second_experiment(plant: Plant, rng, noise_std: float, amplitude: float, di
             open_loop=second,
         )
     second = open_loop_step(plant, rng, height, first.residence_time, first.gain, noise_std=noise_std,
-                            disturbances=disturbances)
+                            disturbances=disturbances, quantization=quantization)
     return Identification(
         integrating=False,
         gain=first.gain,

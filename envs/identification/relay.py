@@ -85,6 +85,7 @@ def relay_feedback(
     period_tolerance: float = 1e-3,
     *,
     disturbances=None,
+    quantization: float = 0.0,
 ) -> RelayResult:
     """Relay feedback around the plant until the oscillation is periodic: ``T_u`` and ``K_u``.
 
@@ -115,7 +116,7 @@ def relay_feedback(
         Relay amplitude ``d`` (> 0).
     hysteresis : float
         ``epsilon >= 0``, in output units.
-    noise_std, excursion_limit, max_duration, disturbances
+    noise_std, excursion_limit, max_duration, disturbances, quantization
         As in :func:`closed_loop_step`.
     dt : float, optional
         Sample time; default ``T/SAMPLES_PER_RESIDENCE_TIME``, at most ``L/20`` (but not below
@@ -138,10 +139,10 @@ def relay_feedback(
     period_tolerance = require_number(period_tolerance, "period_tolerance", positive=True)
     dt, scale = _relay_sample_time(plant, dt), plant.step_time_scale()
     steps = cap_steps(scale, dt, max_duration)
-    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt)
+    noise = measurement_noise(rng, noise_std, steps, disturbances, plant, dt, quantization)
     values = noise.first(NOISE_BLOCK).tolist()
     sign = 1.0 if plant.gain > 0 else -1.0
-    relay = _RelaySimulation(plant, dt, amplitude * sign, hysteresis, values[0])
+    relay = _RelaySimulation(plant, dt, amplitude * sign, hysteresis, values[0], noise.quantization)
     aborted = converged = False
     drawn = noise.first(NOISE_BLOCK)
     j = 1

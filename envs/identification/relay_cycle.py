@@ -23,26 +23,31 @@ from envs.identification.steady_state import noise_level
 __all__ = ["relay_estimates", "relay_periodic"]
 
 
-def relay_periodic(switches: list[float], times: list[float], measured: list[float], tolerance: float) -> bool:
+def relay_periodic(
+    switches: list[float], times: list[float], measured: list[float], tolerance: float, quantization: float = 0.0
+) -> bool:
     """Whether the last three periods of a relay's switching instants (each period between switches
     of the same direction) agree to ``tolerance``, widened by the period jitter the noise of the
     ``measured`` output since the first of them explains (:func:`_period_tolerance`); needs seven
     switches (three periods after the first half period).  The simulated relay and a sampled
-    process's (:mod:`envs.process.runs`) use this same test."""
+    process's (:mod:`envs.process.runs`) use this same test.  Readings of a sensor of resolution
+    ``quantization`` (not 0) add its error, ``q/sqrt(12)``, to the noise."""
     if len(switches) < 7:
         return False
     s = np.asarray(switches[-5:])
     last = s[2:] - s[:-2]
-    return bool(np.ptp(last) <= _period_tolerance(times, measured, tolerance, s[0]) * np.mean(last))
+    return bool(np.ptp(last) <= _period_tolerance(times, measured, tolerance, s[0], quantization) * np.mean(last))
 
 
-def _period_tolerance(times: list[float], measured: list[float], tolerance: float, since: float) -> float:
+def _period_tolerance(times: list[float], measured: list[float], tolerance: float, since: float, quantization: float = 0.0) -> float:
     """``tolerance`` plus three times the relative period jitter expected from the noise:
     a switching instant moves by ``sigma/|y'|``, and ``|y'| ~ 2 pi a/T`` for an oscillation of
     amplitude ``a`` and period ``T``."""
     first = bisect.bisect_left(times, since)  # numpy.searchsorted of the list, without converting it
     y = np.asarray(measured[first:])
     noise, spread = noise_level(y), 0.5 * np.ptp(y) if y.size else 0.0
+    if quantization:  # the quantizer's error, uniform over a step
+        noise = math.hypot(noise, quantization / math.sqrt(12.0))
     if noise == 0.0:
         return tolerance
     if spread <= 10.0 * noise:  # chattering on noise (too little hysteresis): not a limit cycle

@@ -14,6 +14,7 @@ import numba
 import numpy as np
 import scipy.linalg
 
+from envs.identification.noise import sensor_reading
 from envs.identification.relay_cycle import relay_periodic
 from envs.systems.plants import Plant
 
@@ -27,11 +28,14 @@ class _RelaySimulation:
     same numbers), with far less overhead per call.
     """
 
-    def __init__(self, plant: Plant, dt: float, level: float, hysteresis: float, initial_noise: float) -> None:
+    def __init__(
+        self, plant: Plant, dt: float, level: float, hysteresis: float, initial_noise: float, quantization: float = 0.0
+    ) -> None:
         ss = plant.state_space()
         self.A, self.B = ss.A, ss.B[:, 0]
         self.C, self.D = ss.C[0], float(ss.D[0, 0])
         self.dead_time, self.dt, self.level, self.hysteresis = plant.dead_time, dt, level, hysteresis
+        self.quantization = quantization  # the sensor's resolution: the relay switches on its readings
         self.full_step = self._propagator(dt)
         self._full_step_matrix = np.ascontiguousarray(self.full_step[0])  # for _plain_steps (the same products)
         self.event_tolerance = 1e-12 * dt  # an event this close to the end of a step belongs to the next
@@ -44,7 +48,8 @@ class _RelaySimulation:
         if self.dead_time == 0.0:
             self.plant_input, self.next_event = level, 1
         initial = self.D * self.plant_input
-        self.times, self.true, self.measured, self.relay_output = [0.0], [initial], [initial + initial_noise], [level]
+        first = sensor_reading(initial + initial_noise, quantization)
+        self.times, self.true, self.measured, self.relay_output = [0.0], [initial], [first], [level]
         self.switches: list[float] = []
 
     def _propagator(self, span: float) -> tuple[np.ndarray, np.ndarray]:
@@ -85,7 +90,8 @@ class _RelaySimulation:
         times, true, measured = np.empty(count), np.empty(count), np.empty(count)
         done, aborted, x = _plain_steps(
             self._full_step_matrix, self.x, self._forced[1], self.C, self.D, self.plant_input, self.times[-1], self.dt,
-            self.state, self.hysteresis, pending, self.event_tolerance, noise, first, stop, limit is not None,
+            self.state, self.hysteresis, pending, self.event_tolerance, noise, self.quantization, first, stop,
+            limit is not None,
             0.0 if limit is None else float(limit), times, true, measured,
         )  # fmt: skip
         if done:
@@ -108,7 +114,7 @@ class _RelaySimulation:
                 self._forced = (self.plant_input, self.full_step[1] * self.plant_input)
             self.x = self.full_step[0].dot(self.x) + self._forced[1]
         true = float(self.C.dot(self.x)) + self.D * self.plant_input
-        measured = true + noise
+        measured = sensor_reading(true + noise, self.quantization)
         switch = self._crossing(start, self.measured[-1], measured)
         if switch is not None:
             self.state = -self.state
@@ -117,7 +123,7 @@ class _RelaySimulation:
             if switch + self.dead_time < end - self.event_tolerance:  # dead time shorter than the step
                 self.x, self.plant_input, self.next_event = self._advance(saved[0], start, saved[1], saved[2])
                 true = float(self.C.dot(self.x)) + self.D * self.plant_input
-                measured = true + noise
+                measured = sensor_reading(true + noise, self.quantization)
         self.times.append(end)
         self.true.append(true)
         self.measured.append(measured)
@@ -145,15 +151,16 @@ class _RelaySimulation:
 
     def periodic(self, tolerance: float) -> bool:
         """The last three periods (each between switches of the same direction) agree."""
-        return relay_periodic(self.switches, self.times, self.measured, tolerance)
+        return relay_periodic(self.switches, self.times, self.measured, tolerance, self.quantization)
 
 
 @numba.njit(cache=True)
-def _plain_steps(phi, x, forced, C, D, plant_input, time, dt, state, hysteresis, pending, tolerance, noise, first, stop,
-                 limited, limit, times, true, measured):  # pragma: no cover - compiled
+def _plain_steps(phi, x, forced, C, D, plant_input, time, dt, state, hysteresis, pending, tolerance, noise, quantum, first,
+                 stop, limited, limit, times, true, measured):  # pragma: no cover - compiled
     """The samples of :meth:`_RelaySimulation.plain_steps`: ``x <- phi x + gamma u`` and ``y = C x + D u``
     with the BLAS products of ``ndarray.dot`` (numba's ``np.dot`` calls the same kernels: the unit tests
-    compare the results), stopping before a sample whose measured output crosses the relay's threshold
+    compare the results), stopping before a sample whose measured output (floored to a multiple of
+    ``quantum`` unless it is 0, the sensor's reading) crosses the relay's threshold
     or that contains the pending event, and after one whose true output leaves ``[-limit, limit]``.
 
     Returns ``(samples run, aborted, x)``; the samples' times and outputs are written to ``times``,
@@ -167,6 +174,8 @@ def _plain_steps(phi, x, forced, C, D, plant_input, time, dt, state, hysteresis,
         following = np.dot(phi, x) + forced
         output = np.dot(C, following) + D * plant_input
         now = output + noise[j]
+        if quantum != 0.0:  # the sensor's reading (envs.identification.noise.sensor_reading)
+            now = now - now % quantum
         error = -now
         if (error < threshold) if state > 0 else (error > threshold):
             return done, False, x

@@ -107,14 +107,15 @@ class SteadyStateTest:
     ``extend(signal)``, given the signal so far (whose earlier samples are those of the previous
     calls), returns ``steady_state_mask(timepts, signal, window, target=target)[previous size:]`` bit for
     bit: the running sums are continued from their last value in the same order as one ``cumsum`` of
-    the whole signal, and every test is the same elementwise expression.
+    the whole signal, and every test is the same elementwise expression.  A ``resolution`` (not 0;
+    readings of a sensor of that step) widens the test against the ``target`` by it.
     """
 
-    def __init__(self, window: int, *, target: float | None = None) -> None:
+    def __init__(self, window: int, *, target: float | None = None, resolution: float = 0.0) -> None:
         self._n = int(window)
         if self._n < 3:
             raise ValueError(f"window must be >= 3 samples, got {window!r}")
-        self._target = target
+        self._target, self._resolution = target, float(resolution)
         self._size = 0
         self._sums = np.zeros((3, 1025))  # running sums of y, k y and curvature^2, from 0 at sample 0
 
@@ -134,7 +135,7 @@ class SteadyStateTest:
         if first < size:
             target = self._target
             _tests(self._sums, n, first, size, 0.0 if target is None else float(target), target is not None,
-                   mask[first - old :])  # fmt: skip
+                   self._resolution, mask[first - old :])  # fmt: skip
         return mask
 
 

@@ -132,6 +132,8 @@ class ProcessIdentification:
         ``sigma/|setpoint_step|``, the environments' noise-to-amplitude ratio.
     load_gain : float or None
         The process's ``load_gain`` (the static effect of its load on the output), if it gives one.
+    quantization : float
+        The process's sensor resolution ``quantization``, in output units (0 if it gives none).
     process_time : float
         Time spent on the process, settling and returns included.
     records : dict of str to Record
@@ -151,6 +153,7 @@ class ProcessIdentification:
     load_gain: float | None
     process_time: float
     records: dict = field(repr=False, default_factory=dict)
+    quantization: float = 0.0
 
     @property
     def closed_loop(self) -> ClosedLoopStepResult:
@@ -252,7 +255,7 @@ def identify_process(
         process=str(process.name), sample_time=dt, input_limits=tuple(float(v) for v in process.input_limits),
         operating_point=point, setpoint_step=step, commissioning=commissioning, identification=identification,
         relay=found_relay, noise_ratio=point.noise_std / abs(step), load_gain=getattr(process, "load_gain", None),
-        process_time=clock.time, records=clock.records,
+        process_time=clock.time, records=clock.records, quantization=float(getattr(process, "quantization", None) or 0.0),
     )  # fmt: skip
 
 

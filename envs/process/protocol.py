@@ -83,6 +83,10 @@ class Process(Protocol):
         The static gain from the load to the output, if known (an attribute a process may leave out): the load test's cost is normalized
         by ``|load_gain load_step|``, as the environments' by ``|K|`` for a unit load at the plant
         input (None: the identified ``K_n``, the load taken as entering at the input).
+    quantization : float, optional
+        The resolution of the output's sensor, in output units, if known (an attribute a process may
+        leave out; 0 or absent: none known): the observation's noise estimate then reads the records
+        as quantized (:func:`envs.identification.quantized_noise.quantized_noise_level`).
     units : Units
     """
 
@@ -137,6 +141,8 @@ def check_process(process: object) -> Process:
         require_number(getattr(process, name), f"process.{name}", nonzero=True)
     if getattr(process, "load_gain", None) is not None:
         require_number(process.load_gain, "process.load_gain", nonzero=True)
+    if getattr(process, "quantization", None) is not None:
+        require_number(process.quantization, "process.quantization", nonnegative=True)
     check_load_step(process, process.load_step, "process.load_step")
     limits = process.input_limits
     if not (isinstance(limits, tuple | list) and len(limits) == 2):

@@ -83,4 +83,5 @@ def emulator_factory(conditions: TCLabConditions) -> Callable[[], Any]:
             step = conditions.quantization  # the emulator's quantize(), of this step
             return value if step == 0 else max(-50, min(132.2, value - value % step))
 
+    ConditionedModel.quantization = float(conditions.quantization)  # the sensor's resolution, for TCLabProcess
     return ConditionedModel

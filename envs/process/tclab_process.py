@@ -50,7 +50,10 @@ from typing import Any
 from envs.process.protocol import Units
 from envs.validation import require_number
 
-__all__ = ["TCLabProcess"]
+__all__ = ["TCLAB_QUANTIZATION", "TCLabProcess"]
+
+TCLAB_QUANTIZATION = 0.3223
+"""The step of the kit's temperature readings, degC (``tclab.TCLabModel.quantize``)."""
 
 
 class TCLabProcess:
@@ -74,6 +77,10 @@ class TCLabProcess:
         Makes the emulator; default ``tclab.TCLabModel(synced=False)``.  Anything with its interface
         (``T1``, ``Q1``, ``Q2``, ``update(t)``, ``tlast``, ``close``), e.g. a subclass with other
         heater powers.
+    quantization : float, optional
+        The sensor's resolution, degC: default the ``quantization`` attribute of ``lab_factory`` (the
+        emulators of :func:`~envs.process.tclab_conditions.emulator_factory` have it), else the kit's
+        0.3223 degC.  The observation's noise estimate reads the records with it.
     """
 
     name = "tclab"
@@ -96,6 +103,7 @@ class TCLabProcess:
         load_step: float = 100.0,
         settling_time: float = 900.0,
         lab_factory: Callable[[], Any] | None = None,
+        quantization: float | None = None,
     ) -> None:
         self.sample_time = require_number(sample_time, "sample_time", positive=True)
         self.operating_input = require_number(operating_input, "operating_input")
@@ -104,6 +112,9 @@ class TCLabProcess:
         self.load_step = require_number(load_step, "load_step", nonzero=True)
         self.settling_time = require_number(settling_time, "settling_time", positive=True)
         self._factory = lab_factory if lab_factory is not None else _emulator
+        if quantization is None:
+            quantization = getattr(lab_factory, "quantization", TCLAB_QUANTIZATION)
+        self.quantization = require_number(quantization, "quantization", nonnegative=True)
         self._lab: Any = None
         self._random = random.Random(0)
         self._samples = 0

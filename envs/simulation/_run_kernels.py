@@ -158,10 +158,11 @@ def _add_sample(sums, y, k):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _window_steady(c, n, k, target, has_target):  # pragma: no cover - compiled
+def _window_steady(c, n, k, target, has_target, resolution):  # pragma: no cover - compiled
     """The tests of :func:`envs.identification.steady_state.steady_state_mask` for the window of ``n`` samples
     ending at ``k >= n - 1``, from the running sums ``c`` (each the same expression, in the same
-    order, as the vectorized mask)."""
+    order, as the vectorized mask); a ``resolution`` (not 0) widens the test against the target by
+    it: readings of a sensor of that step lie within it of the value."""
     total = c[0, k + 1] - c[0, k + 1 - n]
     mean = total / n
     centered = (c[1, k + 1] - c[1, k + 1 - n]) - (float(k) - (n - 1) / 2.0) * total
@@ -170,7 +171,10 @@ def _window_steady(c, n, k, target, has_target):  # pragma: no cover - compiled
     tol = STEADY_STATE_TOLERANCE * (abs(target) if has_target else abs(mean))
     ok = abs(change) <= CONFIDENCE * sigma * math.sqrt(12.0 / n) + tol
     if has_target:
-        ok = ok and abs(mean - target) <= CONFIDENCE * sigma / math.sqrt(n) + tol
+        bound = CONFIDENCE * sigma / math.sqrt(n) + tol
+        if resolution != 0.0:
+            bound += resolution
+        ok = ok and abs(mean - target) <= bound
     else:
         previous = (c[0, k + 1 - n] - c[0, k + 1 - 2 * n]) / n if k - n >= n - 1 else np.inf
         ok = ok and abs(mean - previous) <= CONFIDENCE * sigma * math.sqrt(2.0 / n) + tol
@@ -186,16 +190,16 @@ def _extend_sums(sums, y, old, size):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _tests(c, n, first, size, target, has_target, out):  # pragma: no cover - compiled
+def _tests(c, n, first, size, target, has_target, resolution, out):  # pragma: no cover - compiled
     """:func:`_window_steady` for the windows ending at ``first .. size - 1`` (``out``)."""
     for k in range(first, size):
-        out[k - first] = _window_steady(c, n, k, target, has_target)
+        out[k - first] = _window_steady(c, n, k, target, has_target, resolution)
 
 
 # --------------------------------------------------------------------------- the closed-loop step run
 @numba.njit(cache=True)
 def _closed_loop_run(
-    Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, offset, reference, noise, divergence_limit, peak,
+    Phi, Gamma, R, C1, D11, D12, C2, D21, D22, whole, a, offset, reference, noise, quantum, divergence_limit, peak,
     x, history, z, measured, drive, sums, window, integrating, dt, excursion, has_excursion, begin, until,
 ):  # pragma: no cover - compiled  # fmt: skip
     """The closed-loop step of :func:`envs.identification.closed_loop_run._run_closed_loop` from sample
@@ -204,12 +208,14 @@ def _closed_loop_run(
 
     Sample ``k`` of the loop (:func:`_loop_sample`, inputs ``[reference, 0, noise[k]]``, or
     ``[reference, noise[k]]`` if the caller dropped the columns of the zero input, outputs
-    ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` and the drive (``u``, or
+    ``z[k] = [y, u]``) gives the measurement ``measured[k] = y + noise[k]`` (floored to a multiple of
+    ``quantum`` if it is not 0: the sensor's reading, :func:`envs.identification.noise.sensor_reading`;
+    the loop itself feeds back ``y + noise[k]``) and the drive (``u``, or
     its trapezoidal integral ``drive[k] = drive[k - 1] + (u[k] + u[k - 1])/2 (t[k] - t[k - 1])`` with
     ``t[k] = k dt`` if ``integrating``, the numbers of
     :func:`envs.identification.closed_loop_run._cumulative_integral`), whose running sums ``sums[0]`` and
     ``sums[1]`` give the steady-state tests of the windows ending at ``k`` (the measurement against
-    ``reference``).
+    ``reference``, within ``quantum`` more if it is not 0).
 
     Sample ``k`` aborts if its true output leaves ``[-excursion, excursion]`` (``has_excursion``) or
     if a component of the next state reaches ``divergence_limit * peak[0]``, ``peak[0]`` being the
@@ -238,6 +244,8 @@ def _closed_loop_run(
                                x_next, v, past, history)  # fmt: skip
         y, u = z[k, 0], z[k, 1]
         measured[k] = y + noise[k]
+        if quantum != 0.0:
+            measured[k] -= measured[k] % quantum
         if not integrating:
             drive[k] = u
         elif k == 0:
@@ -250,8 +258,8 @@ def _closed_loop_run(
         _add_sample(sums[1], drive, k)
         if not bounded or (has_excursion and not abs(y) <= excursion):
             return ABORTED, k
-        if k >= window - 1 and _window_steady(sums[0], window, k, reference, True) and _window_steady(
-            sums[1], window, k, 0.0, False
+        if k >= window - 1 and _window_steady(sums[0], window, k, reference, True, quantum) and _window_steady(
+            sums[1], window, k, 0.0, False, 0.0
         ):
             return SETTLED, k
     return NO_EVENT, until - 1

@@ -359,6 +359,9 @@ def test_a_v3_agent_and_a_selector_read_the_v3_observation_of_the_process(monkey
     from agents.evaluation.process_policies import evaluate_policies, process_observation
     from agents.evaluation.policies import PolicySpec
     from envs.episode import LOG_CLIP, evidence_from_identification
+    from dataclasses import replace
+
+    from envs.identification.quantized_noise import quantized_noise_level
     from envs.identification.steady_state import noise_level
     from envs.process.performance import RunProtocol
     from envs.process.procedure import identify_process
@@ -373,16 +376,17 @@ def test_a_v3_agent_and_a_selector_read_the_v3_observation_of_the_process(monkey
     results = {r.name: r for r in evaluate_policies(process, found, RunProtocol.from_identification(found, 1.0), specs)}
     env = tuning_env_of(gym.make("DeadTime/PID-v3"))
     names = env.feature_names
-    expected = env.observe(found.identification, evidence_from_identification(found.identification, env.options,
+    options = replace(env.options, quantization=found.quantization)  # the sensor's resolution, 0.3223 degC
+    expected = env.observe(found.identification, evidence_from_identification(found.identification, options,
                                                                                 abs(found.setpoint_step)))
     assert np.array_equal(_V3Agent.seen[0], expected) and np.array_equal(process_observation(env, found), expected)
     assert len(expected) == len(names) and "check_ms" in names and "failed_experiments" in names
-    # measured from the record, as in simulation: the emulator's quantized readings give a zero estimate
-    # (the log's floor), which the out-of-distribution check names
-    sigma = noise_level(found.identification.closed_loop.output)
-    ratio = math.log10(sigma / abs(found.setpoint_step)) if sigma > 0 else -LOG_CLIP
-    assert expected[names.index("log_noise_ratio")] == pytest.approx(ratio, abs=1e-6)
-    assert "log_noise_ratio" in (results["v3"].note or "") or sigma > 0
+    # measured from the record, as in simulation, knowing the sensor's resolution: the emulator's
+    # quantized readings give the plain estimate 0 (the log's floor), this one the noise
+    assert noise_level(found.identification.closed_loop.output) == 0.0
+    sigma = quantized_noise_level(found.identification.closed_loop.output, found.quantization)
+    assert sigma > 0 and expected[names.index("log_noise_ratio")] == pytest.approx(math.log10(sigma / abs(found.setpoint_step)), abs=1e-6)
+    assert expected[names.index("log_noise_ratio")] > -LOG_CLIP
     assert results["v3"].parameter == pytest.approx(env.parameter_from_action(0.0)) and results["v3"].score is not None
     assert np.array_equal(_Selector.seen[0], expected)
     assert results["sel"].controller.to_dict() == results["simc-pi"].controller.to_dict()

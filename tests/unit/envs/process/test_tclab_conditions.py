@@ -57,3 +57,34 @@ def test_an_unmeasured_load_steps_on_at_its_time_after_each_reset():
         outputs[name] = values
     assert outputs["load"][:100] == outputs["plain"][:100]  # nothing before its time
     assert outputs["load"][-1] > outputs["plain"][-1] + 0.1  # heater 2 warms sensor 1 after it
+
+
+def test_the_noise_estimate_knows_the_sensor_s_resolution():
+    """The nominal emulator's readings (noise 0.043 degC, steps of 0.3223 degC) give the closed-loop
+    step's median absolute fourth difference 0, the log's floor; knowing the resolution, the estimate is
+    the noise (measured over the eight conditions and seeds 0 and 3: 0.037 to 0.052 degC, quantized
+    ones; the tolerance is the step responses' measured range at ``sigma/q = 0.1``, 0.44 to 1.55).
+    Without the quantizer the estimate is the plain one."""
+    import math
+
+    import gymnasium as gym
+
+    import envs  # noqa: F401
+    from envs.episode import LOG_CLIP, evidence_from_identification
+    from envs.identification.steady_state import noise_level
+    from dataclasses import replace
+
+    assert TCLabProcess().quantization == 0.3223 == TCLabProcess(lab_factory=emulator_factory(CONDITIONS[0])).quantization
+    found = _identified(CONDITIONS[0])
+    output = found.identification.closed_loop.output
+    assert found.quantization == 0.3223 and noise_level(output) == 0.0
+    env = gym.make("DeadTime/PID-v3").unwrapped
+    options = replace(env.options, quantization=found.quantization)
+    evidence = evidence_from_identification(found.identification, options, abs(found.setpoint_step))
+    assert 0.44 * 0.043 <= evidence.noise_estimate <= 1.55 * 0.043
+    ratio = env.observe(found.identification, evidence)[env.feature_names.index("log_noise_ratio")]
+    assert -LOG_CLIP < ratio == pytest.approx(math.log10(evidence.noise_estimate / abs(found.setpoint_step)), abs=1e-6)
+    plain = _identified(CONDITIONS[6])  # no quantization
+    assert plain.quantization == 0.0 and TCLabProcess(quantization=0.0).quantization == 0.0
+    with pytest.raises(ValueError, match="quantization"):
+        TCLabProcess(quantization=-1.0)
