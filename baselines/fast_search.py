@@ -41,9 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
+from envs.analysis.feasibility import FeasibilityMargins, feasibility_margins
 from envs.analysis.loop_analysis import plant_margins
 from envs.analysis.performance import IAEBound, iae
-from envs.analysis.robustness import Margins
 from envs.analysis.scoring import (
     FEASIBLE_CAP,
     Constraints,
@@ -77,7 +77,7 @@ UNSTABLE_MARGIN = -1.0
 """The signed margin of an unstable loop (negative: only its sign enters the root finding)."""
 
 
-def margin_of(margins: Margins, relative_delay_margin: float, constraints: Constraints) -> float:
+def margin_of(margins: FeasibilityMargins, relative_delay_margin: float, constraints: Constraints) -> float:
     """The least relative margin of the enabled constraints (``>= 0`` exactly when feasible;
     :data:`UNSTABLE_MARGIN` for an unstable loop); ``inf`` when no constraint is enabled."""
     if not margins.stable:
@@ -99,8 +99,10 @@ def margin_of(margins: Margins, relative_delay_margin: float, constraints: Const
 
 @dataclass
 class Scorer:
-    """Scores relative parameters of one plant and model: the robustness analysis alone
-    (:meth:`margin`), or the cost with its IAE stopped above a budget (:meth:`cost`)."""
+    """Scores relative parameters of one plant and model: the robustness figures the constraints need
+    (:meth:`margin`; :func:`envs.analysis.feasibility.feasibility_margins`, those of the full analysis
+    bit for bit, many designs in one call by :meth:`analyse`), or the cost with its IAE stopped above a
+    budget (:meth:`cost`).  The full analysis runs only for the figures of :meth:`score`."""
 
     plant: Plant
     controller_of: Callable[[float], object]
@@ -110,7 +112,8 @@ class Scorer:
     weights: CostWeights
 
     def __post_init__(self) -> None:
-        self.analysed: dict[float, tuple[object, Margins, float]] = {}
+        self.analysed: dict[float, tuple[object, FeasibilityMargins, float]] = {}
+        self.gain_margin = self.constraints.min_gain_margin is not None
         self.costs: dict[float, float] = {}
         self.performances: dict[float, tuple] = {}
         scale = self.plant.residence_time
@@ -120,12 +123,19 @@ class Scorer:
         self.load_scale = abs(self.plant.gain) * scale * (scale if self.plant.integrating else 1.0)
         self.iae_weights = (self.weights.load / self.load_scale, self.weights.setpoint / scale)
 
-    def _analysis(self, x: float) -> tuple[object, Margins, float]:
-        if x not in self.analysed:
-            controller = self.controller_of(math.exp(x))
-            margins = plant_margins(self.plant, controller)
+    def analyse(self, xs) -> None:
+        """The robustness figures at every ``log`` parameter of ``xs`` not analysed yet, in one call."""
+        new = [float(x) for x in dict.fromkeys(xs) if float(x) not in self.analysed]
+        if not new:
+            return
+        controllers = [self.controller_of(math.exp(x)) for x in new]
+        for x, controller, margins in zip(new, controllers, feasibility_margins(self.plant, controllers, self.gain_margin)):
             relative_dm = _relative_delay_margin(margins.delay_margin, self.plant, self.constraints.zero_delay)
             self.analysed[x] = (controller, margins, relative_dm)
+
+    def _analysis(self, x: float) -> tuple[object, FeasibilityMargins, float]:
+        if x not in self.analysed:
+            self.analyse([x])
         return self.analysed[x]
 
     def margin(self, x: float) -> float:
@@ -169,11 +179,12 @@ class Scorer:
         """Every figure at ``x``: those of :func:`~envs.analysis.scoring.score`, from the analysis and the
         simulation already made where the cost at ``x`` is known (then not run again)."""
         x = float(x)
-        controller, margins, relative_dm = self._analysis(x)
+        controller, _, relative_dm = self._analysis(x)
         if x not in self.performances:
             return score(self.plant, controller, experiment_time=self.experiment_time,
                          experiment_deviation=self.experiment_deviation, constraints=self.constraints, weights=self.weights)
         performance, load_cost, setpoint_cost = self.performances[x]
+        margins = plant_margins(self.plant, controller)  # every figure: Score holds them all
         return Score(self.costs[x], True, {}, True, margins.ms, margins.gain_margin, margins.phase_margin_deg,
                      margins.delay_margin, relative_dm, performance.load, performance.setpoint, load_cost, setpoint_cost,
                      self.experiment_cost, margins, performance.lower_bound)
@@ -235,6 +246,7 @@ def fast_search(scorer: Scorer, bounds: tuple[float, float], probe: float, toler
     """Steps 1-4 of the module docstring on ``bounds`` (``log`` parameter); ``probe``, ``tolerance`` and
     ``evaluations`` are the reference's binding probe and Brent's tolerance and evaluation limit."""
     points = np.linspace(bounds[0], bounds[1], BRACKET_POINTS)
+    scorer.analyse(points)
     feasible = [scorer.feasible(x) for x in points]
     if not any(feasible):
         return FastSearch(None, None)
