@@ -6,9 +6,14 @@ the boundary of the feasible set (the ``Ms`` or delay-margin cliff), and a scori
 differently: the robustness analysis decides feasibility, the IAE simulation only ranks feasible
 designs.  :func:`fast_search` uses that, in ``log`` of the relative parameter ``x``:
 
-1. **Bracket**: the robustness analysis alone on a coarse grid of :data:`BRACKET_POINTS` points.
-   Its signed margin ``m(x)`` (the least relative margin of the enabled constraints, :func:`margin_of`;
-   ``>= 0`` exactly when the design is feasible) is continuous where the loop stays stable.
+1. **Bracket**: the robustness analysis alone on a coarse grid of :data:`BRACKET_POINTS` points, in
+   one compiled call (:func:`envs.analysis.feasibility.feasibility_margins`: only the figures the
+   constraints read, equal to the full analysis' bit for bit).  A design whose ``|S|`` exceeds the
+   ``Ms`` bound on the analysis' unrefined frequency grid is infeasible whatever the rest of the
+   analysis finds, which is then skipped (*screening*: the aggressive designs, often unstable, whose
+   refined grids are the longest).  The signed margin ``m(x)`` (the least relative margin of the
+   enabled constraints, :func:`margin_of`; ``>= 0`` exactly when the design is feasible) is
+   continuous where the loop stays stable.
 2. **Boundary**: where the least conservative feasible grid point has an infeasible aggressive
    neighbour, the root of ``m`` between them by Brent's root finder (``scipy.optimize.brentq``) to
    :data:`BOUNDARY_TOLERANCE` in ``x``, taken on its feasible side: the *feasibility boundary*, the
@@ -28,7 +33,9 @@ designs.  :func:`fast_search` uses that, in ``log`` of the relative parameter ``
 
 Where no grid point is feasible the reference search runs instead (its least-violating parameter).
 The figures at the parameter returned are those of :func:`envs.analysis.scoring.score` bit for bit
-(the same analysis and simulation, kept from the search).  Agreement with the reference and speed: docs/performance.md,
+(the same simulation, kept from the search, and the full analysis of that design).  The compiled
+feasibility figures and the screening change no decision of the search: its results, the count of
+designs analysed included, are those of the full analysis of every design.  Agreement with the reference and speed: docs/performance.md,
 "Labels"; ``tests/unit/baselines/test_fast_search.py``.
 """
 
@@ -73,6 +80,9 @@ REFERENCE_ERROR = 1.2e-3
 """The cost error of the reference search, measured against a dense search (the reference on a
 300-point grid) on 100 training plants of each structure: at most 1.13e-3, rounded up.  The fast
 search's cost is at most the reference's plus this (docs/performance.md, "Labels")."""
+SCREEN_MARGIN = 1e-9
+"""A bracket design is screened out where its ``|S|`` exceeds the ``Ms`` bound by this much relative
+(far above rounding, so that ``Ms/bound - 1 > 0`` holds for its ``Ms``)."""
 UNSTABLE_MARGIN = -1.0
 """The signed margin of an unstable loop (negative: only its sign enters the root finding)."""
 
@@ -113,6 +123,7 @@ class Scorer:
 
     def __post_init__(self) -> None:
         self.analysed: dict[float, tuple[object, FeasibilityMargins, float]] = {}
+        self.screened: set[float] = set()  # designs found infeasible by screening, not analysed
         self.gain_margin = self.constraints.min_gain_margin is not None
         self.costs: dict[float, float] = {}
         self.performances: dict[float, tuple] = {}
@@ -123,13 +134,20 @@ class Scorer:
         self.load_scale = abs(self.plant.gain) * scale * (scale if self.plant.integrating else 1.0)
         self.iae_weights = (self.weights.load / self.load_scale, self.weights.setpoint / scale)
 
-    def analyse(self, xs) -> None:
-        """The robustness figures at every ``log`` parameter of ``xs`` not analysed yet, in one call."""
-        new = [float(x) for x in dict.fromkeys(xs) if float(x) not in self.analysed]
+    def analyse(self, xs, screen: bool = False) -> None:
+        """The robustness figures at every ``log`` parameter of ``xs`` not analysed yet, in one call;
+        with ``screen``, a design whose ``Ms`` certainly exceeds the bound is only marked infeasible
+        (:meth:`feasible` knows it; :func:`~envs.analysis.feasibility.feasibility_margins`)."""
+        new = [float(x) for x in dict.fromkeys(xs) if float(x) not in self.analysed and not (screen and float(x) in self.screened)]
         if not new:
             return
+        bound = self.constraints.max_sensitivity
+        threshold = bound * (1 + SCREEN_MARGIN) if screen and bound is not None else math.inf
         controllers = [self.controller_of(math.exp(x)) for x in new]
-        for x, controller, margins in zip(new, controllers, feasibility_margins(self.plant, controllers, self.gain_margin)):
+        for x, controller, margins in zip(new, controllers, feasibility_margins(self.plant, controllers, self.gain_margin, threshold)):
+            if margins is None:
+                self.screened.add(x)
+                continue
             relative_dm = _relative_delay_margin(margins.delay_margin, self.plant, self.constraints.zero_delay)
             self.analysed[x] = (controller, margins, relative_dm)
 
@@ -145,7 +163,7 @@ class Scorer:
 
     def feasible(self, x: float) -> bool:
         """Whether the design at ``x`` satisfies every constraint."""
-        return self.margin(x) >= 0.0
+        return float(x) not in self.screened and self.margin(x) >= 0.0
 
     def violations(self, x: float) -> dict[str, float]:
         """The violations at ``x`` (:func:`~envs.analysis.scoring.constraint_violations`)."""
@@ -191,8 +209,8 @@ class Scorer:
 
     @property
     def evaluations(self) -> int:
-        """Designs analysed (each analysis is one design scored, in part or whole)."""
-        return len(self.analysed)
+        """Designs analysed (each analysis is one design scored, in part or whole; a screened one too)."""
+        return len(self.screened | set(self.analysed))
 
 
 @dataclass(frozen=True)
@@ -246,11 +264,12 @@ def fast_search(scorer: Scorer, bounds: tuple[float, float], probe: float, toler
     """Steps 1-4 of the module docstring on ``bounds`` (``log`` parameter); ``probe``, ``tolerance`` and
     ``evaluations`` are the reference's binding probe and Brent's tolerance and evaluation limit."""
     points = np.linspace(bounds[0], bounds[1], BRACKET_POINTS)
-    scorer.analyse(points)
+    scorer.analyse(points, screen=True)
     feasible = [scorer.feasible(x) for x in points]
     if not any(feasible):
         return FastSearch(None, None)
     first = feasible.index(True)
+    scorer.analyse(points[max(first - 1, 0) : first])  # the root finder's infeasible end needs its margin
     boundary = float(points[0]) if first == 0 else _boundary(scorer, float(points[first - 1]), float(points[first]))
     candidates = [boundary] + [float(x) for x, ok in zip(points, feasible) if ok and x > boundary]
     best, best_cost = boundary, scorer.cost(boundary)

@@ -22,25 +22,37 @@ import numba
 import numpy as np
 
 from envs.analysis._crossing_kernels import _peak, _phase_and_delay_margins, _roots, _gain_margin
-from envs.analysis._frequency_response_kernels import _values
-from envs.analysis._robustness_kernels import _grid_magnitudes, _loop_grid, _unpacked, _winding
+from envs.analysis._frequency_response_kernels import _magnitude, _values
+from envs.analysis._robustness_kernels import _grid_magnitudes, _initial_grid, _refine, _unpacked, _winding
 
 jit = numba.njit(cache=True, error_model="numpy")
 
+SCREENED = -2.0
+"""``out[0]`` of a screened loop (:func:`_feasibility`)."""
 FIGURES = 6
 """Columns of :func:`_batch`: unstable poles, tame (1 or 0), ``Ms``, gain margin, phase margin (rad), delay margin."""
 
 
 @jit
-def _feasibility(transfer, integrators, time_scale, high_points, low_decades, settings, gain_margin, out):  # pragma: no cover
+def _feasibility(transfer, integrators, time_scale, high_points, low_decades, settings, gain_margin, screen, out):  # pragma: no cover
     """The figures of :data:`FIGURES` of one loop into ``out`` (those of
     :func:`envs.analysis._robustness_kernels._analysis`); ``nan`` for those not computed: every figure
-    after the winding number of an unstable loop, the gain margin where ``gain_margin`` is false."""
+    after the winding number of an unstable loop, the gain margin where ``gain_margin`` is false.
+
+    Screening: where ``|S| = 1/|1 + L|`` exceeds ``screen`` at a point of the grid before its refinement
+    (a point of the refined grid, so the full analysis' ``Ms``, the largest of ``|S|`` over that grid
+    refined further, exceeds it too), ``out[0]`` is :data:`SCREENED` and nothing else is computed: with
+    ``screen`` above the ``Ms`` bound the design is infeasible, stable or not.  ``inf`` screens nothing."""
     root_xtol, peak_spacing = settings[3], settings[6]
     max_root_iterations, peak_points = int(settings[4]), int(settings[5])
-    omega, values, tame = _loop_grid(transfer, integrators, time_scale, high_points, low_decades, settings)
-    unstable = _winding(values, integrators)
     out[:] = math.nan
+    omega, values, tame = _initial_grid(transfer, integrators, time_scale, high_points, low_decades, settings)
+    for i in range(values.size):
+        if 1 / _magnitude(1 + values[i]) > screen:  # Ms above it, or an unstable loop
+            out[0] = SCREENED
+            return
+    omega, values = _refine(transfer, omega, values, settings[1], int(settings[2]))
+    unstable = _winding(values, integrators)
     out[0], out[1] = unstable, 1.0 if tame else 0.0
     if unstable != 0 or not tame:
         return
@@ -61,12 +73,12 @@ def _feasibility(transfer, integrators, time_scale, high_points, low_decades, se
 
 
 @jit
-def _batch(packed, offsets, shapes, integrators, time_scale, high_points, low_decades, settings, gain_margin):  # pragma: no cover
+def _batch(packed, offsets, shapes, integrators, time_scale, high_points, low_decades, settings, gain_margin, screen):  # pragma: no cover
     """:func:`_feasibility` of loop ``j``, packed in ``packed[offsets[j]:offsets[j + 1]]`` with the
     sizes ``shapes[j]`` and ``integrators[j]`` poles at the origin, for every ``j``: an array of one row of :data:`FIGURES` per loop."""
     figures = np.empty((shapes.shape[0], FIGURES))
     for j in range(shapes.shape[0]):
         rows, width, denominator_rows, denominator_width = shapes[j, 0], shapes[j, 1], shapes[j, 2], shapes[j, 3]
         transfer = _unpacked(packed[offsets[j] : offsets[j + 1]], rows, width, denominator_rows, denominator_width)
-        _feasibility(transfer, integrators[j], time_scale, high_points, low_decades, settings, gain_margin, figures[j])
+        _feasibility(transfer, integrators[j], time_scale, high_points, low_decades, settings, gain_margin, screen, figures[j])
     return figures

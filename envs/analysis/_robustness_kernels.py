@@ -162,13 +162,20 @@ def _analysis(transfer, integrators, time_scale, high_points, low_decades, setti
 def _loop_grid(transfer, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover - compiled
     """The refined grid of :func:`envs.analysis.robustness.loop_margins`: ``(omega, L(i omega), tame)``,
     ``tame`` as :func:`_high_frequency` gives it."""
-    points_per_decade, max_arg_step, max_points = settings[0], settings[1], int(settings[2])
+    omega, values, tame = _initial_grid(transfer, integrators, time_scale, high_points, low_decades, settings)
+    omega, values = _refine(transfer, omega, values, settings[1], int(settings[2]))
+    return omega, values, tame
+
+
+@jit
+def _initial_grid(transfer, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover - compiled
+    """The grid of :func:`envs.analysis.robustness.frequency_grid` before its refinement, with ``L`` on it
+    and ``tame``: every point of it stays in the refined grid, with the same value."""
     low = _low_frequency(transfer, integrators, 1e-3 / time_scale, low_decades)
     high, tame = _high_frequency(transfer, 10.0 / time_scale, high_points)
-    count = int(math.ceil(math.log10(high / low) * points_per_decade)) + 1
+    count = int(math.ceil(math.log10(high / low) * settings[0])) + 1
     omega = _logspace(math.log10(low), math.log10(high), count)
-    omega, values = _refine(transfer, omega, _values(transfer, omega), max_arg_step, max_points)
-    return omega, values, tame
+    return omega, _values(transfer, omega), tame
 
 
 @jit

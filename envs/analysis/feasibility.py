@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envs.analysis._feasibility_kernels import _batch
+from envs.analysis._feasibility_kernels import SCREENED, _batch
 from envs.analysis._robustness_kernels import HIGH_FREQUENCY_POINTS, LOW_FREQUENCY_DECADES, SETTINGS_ARRAY
 from envs.analysis.loop_analysis import _strictly_proper
 from envs.analysis.loop_transfer import loop_packed
@@ -41,9 +41,15 @@ class FeasibilityMargins:
     delay_margin: float
 
 
-def feasibility_margins(plant: Plant, controllers: Sequence[Controller], gain_margin: bool = False) -> list[FeasibilityMargins]:
+def feasibility_margins(plant: Plant, controllers: Sequence[Controller], gain_margin: bool = False,
+                        screen: float = math.inf) -> list[FeasibilityMargins | None]:
     """The figures of :class:`FeasibilityMargins` of ``L = P C`` for each controller ``C`` (one compiled
-    call for all; the gain margin only where ``gain_margin``)."""
+    call for all; the gain margin only where ``gain_margin``).
+
+    ``screen``: None instead of the figures of a loop whose ``|S|`` exceeds ``screen`` on the analysis'
+    frequency grid before its refinement, found before the rest of the analysis runs (so its ``Ms``
+    exceeds ``screen``, or it is unstable: with ``screen`` above an ``Ms`` bound, an infeasible design;
+    :func:`envs.analysis._feasibility_kernels._feasibility`)."""
     loops = [loop_packed(plant, controller) for controller in controllers]
     if not loops:
         return []
@@ -52,13 +58,15 @@ def feasibility_margins(plant: Plant, controllers: Sequence[Controller], gain_ma
     shapes = np.array([shape for _, shape in loops], dtype=np.int64)
     integrators = np.array([int(plant.integrating) + controller.integrators for controller in controllers], dtype=np.int64)
     figures = _batch(packed, offsets, shapes, integrators, float(plant.step_time_scale()), HIGH_FREQUENCY_POINTS,
-                     LOW_FREQUENCY_DECADES, SETTINGS_ARRAY, bool(gain_margin))
+                     LOW_FREQUENCY_DECADES, SETTINGS_ARRAY, bool(gain_margin), float(screen))
     least_ms = plant.dead_time > 0 or _strictly_proper(plant)  # plant_margins' lower bound on Ms
     return [_margins(row, least_ms) for row in figures]
 
 
-def _margins(row: np.ndarray, least_ms: bool) -> FeasibilityMargins:
+def _margins(row: np.ndarray, least_ms: bool) -> FeasibilityMargins | None:
     unstable, tame, ms, gain_margin, phase_margin, delay_margin = (float(v) for v in row)
+    if unstable == SCREENED:
+        return None
     if not (unstable == 0 and tame == 1.0):
         return FeasibilityMargins(False, math.nan, math.nan, math.nan, 0.0)
     if ms < 1.0 and least_ms:

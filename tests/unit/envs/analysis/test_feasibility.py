@@ -71,3 +71,17 @@ def test_one_call_equals_one_call_per_design():
     alone = [feasibility_margins(plant, [c], gain_margin=True)[0] for c in controllers]
     assert [repr(m) for m in together] == [repr(m) for m in alone]
     assert feasibility_margins(plant, []) == []
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_screened_design_is_infeasible_by_the_full_analysis(name):
+    bound, screened = 2.0, 0
+    for plant, controllers in _loops(name):
+        for controller, fast in zip(controllers, feasibility_margins(plant, controllers, screen=bound)):
+            full = plant_margins(plant, controller)
+            if fast is None:
+                screened += 1
+                assert not full.stable or full.ms > bound
+            else:
+                assert (fast.stable, fast.delay_margin) == (full.stable, full.delay_margin)
+    assert screened > 0
