@@ -4,7 +4,7 @@ The kernels are compiled on their first call and cached beside their modules (``
 the first episode of a new installation waits for the compiler (most of a minute) and later ones
 do not.  This plays one episode of every structure in every mode, with noise, a relay, a pulse and
 a PRBS, so that every kernel an episode can reach is compiled once, here, with one line saying so,
-instead of inside a user's first run.
+instead of inside a user's first run; and the batched feasibility figures of the oracle's fast search.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ def warm_up() -> float:
     import gymnasium as gym
 
     import envs  # noqa: F401  (registers the ids)
+    from envs.analysis.feasibility import feasibility_margins
     from envs.interface import tuning_env_of
 
     started = time.perf_counter()
@@ -39,6 +40,8 @@ def warm_up() -> float:
                 action[1 + step if step < len(tuning_env_of(env).experiment_names) else 0] = 1.0
             _, _, done, _, _ = env.step(action)
             step += 1
+    episode = tuning_env_of(env).episode  # the oracle's fast search's batched feasibility figures
+    feasibility_margins(episode.plant, [episode.controller], gain_margin=True, screen=2.0)
     return time.perf_counter() - started
 
 

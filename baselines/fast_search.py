@@ -6,9 +6,14 @@ the boundary of the feasible set (the ``Ms`` or delay-margin cliff), and a scori
 differently: the robustness analysis decides feasibility, the IAE simulation only ranks feasible
 designs.  :func:`fast_search` uses that, in ``log`` of the relative parameter ``x``:
 
-1. **Bracket**: the robustness analysis alone on a coarse grid of :data:`BRACKET_POINTS` points.
-   Its signed margin ``m(x)`` (the least relative margin of the enabled constraints, :func:`margin_of`;
-   ``>= 0`` exactly when the design is feasible) is continuous where the loop stays stable.
+1. **Bracket**: the robustness analysis alone on a coarse grid of :data:`BRACKET_POINTS` points, in
+   one compiled call (:func:`envs.analysis.feasibility.feasibility_margins`: only the figures the
+   constraints read, equal to the full analysis' bit for bit).  A design whose ``|S|`` exceeds the
+   ``Ms`` bound on the analysis' unrefined frequency grid is infeasible whatever the rest of the
+   analysis finds, which is then skipped (*screening*: the aggressive designs, often unstable, whose
+   refined grids are the longest).  The signed margin ``m(x)`` (the least relative margin of the
+   enabled constraints, :func:`margin_of`; ``>= 0`` exactly when the design is feasible) is
+   continuous where the loop stays stable.
 2. **Boundary**: where the least conservative feasible grid point has an infeasible aggressive
    neighbour, the root of ``m`` between them by Brent's root finder (``scipy.optimize.brentq``) to
    :data:`BOUNDARY_TOLERANCE` in ``x``, taken on its feasible side: the *feasibility boundary*, the
@@ -28,7 +33,9 @@ designs.  :func:`fast_search` uses that, in ``log`` of the relative parameter ``
 
 Where no grid point is feasible the reference search runs instead (its least-violating parameter).
 The figures at the parameter returned are those of :func:`envs.analysis.scoring.score` bit for bit
-(the same analysis and simulation, kept from the search).  Agreement with the reference and speed: docs/performance.md,
+(the same simulation, kept from the search, and the full analysis of that design).  The compiled
+feasibility figures and the screening change no decision of the search: its results, the count of
+designs analysed included, are those of the full analysis of every design.  Agreement with the reference and speed: docs/performance.md,
 "Labels"; ``tests/unit/baselines/test_fast_search.py``.
 """
 
@@ -41,9 +48,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
+from envs.analysis.feasibility import FeasibilityMargins, feasibility_margins
 from envs.analysis.loop_analysis import plant_margins
 from envs.analysis.performance import IAEBound, iae
-from envs.analysis.robustness import Margins
 from envs.analysis.scoring import (
     FEASIBLE_CAP,
     Constraints,
@@ -73,11 +80,14 @@ REFERENCE_ERROR = 1.2e-3
 """The cost error of the reference search, measured against a dense search (the reference on a
 300-point grid) on 100 training plants of each structure: at most 1.13e-3, rounded up.  The fast
 search's cost is at most the reference's plus this (docs/performance.md, "Labels")."""
+SCREEN_MARGIN = 1e-9
+"""A bracket design is screened out where its ``|S|`` exceeds the ``Ms`` bound by this much relative
+(far above rounding, so that ``Ms/bound - 1 > 0`` holds for its ``Ms``)."""
 UNSTABLE_MARGIN = -1.0
 """The signed margin of an unstable loop (negative: only its sign enters the root finding)."""
 
 
-def margin_of(margins: Margins, relative_delay_margin: float, constraints: Constraints) -> float:
+def margin_of(margins: FeasibilityMargins, relative_delay_margin: float, constraints: Constraints) -> float:
     """The least relative margin of the enabled constraints (``>= 0`` exactly when feasible;
     :data:`UNSTABLE_MARGIN` for an unstable loop); ``inf`` when no constraint is enabled."""
     if not margins.stable:
@@ -99,8 +109,10 @@ def margin_of(margins: Margins, relative_delay_margin: float, constraints: Const
 
 @dataclass
 class Scorer:
-    """Scores relative parameters of one plant and model: the robustness analysis alone
-    (:meth:`margin`), or the cost with its IAE stopped above a budget (:meth:`cost`)."""
+    """Scores relative parameters of one plant and model: the robustness figures the constraints need
+    (:meth:`margin`; :func:`envs.analysis.feasibility.feasibility_margins`, those of the full analysis
+    bit for bit, many designs in one call by :meth:`analyse`), or the cost with its IAE stopped above a
+    budget (:meth:`cost`).  The full analysis runs only for the figures of :meth:`score`."""
 
     plant: Plant
     controller_of: Callable[[float], object]
@@ -110,7 +122,9 @@ class Scorer:
     weights: CostWeights
 
     def __post_init__(self) -> None:
-        self.analysed: dict[float, tuple[object, Margins, float]] = {}
+        self.analysed: dict[float, tuple[object, FeasibilityMargins, float]] = {}
+        self.screened: set[float] = set()  # designs found infeasible by screening, not analysed
+        self.gain_margin = self.constraints.min_gain_margin is not None
         self.costs: dict[float, float] = {}
         self.performances: dict[float, tuple] = {}
         scale = self.plant.residence_time
@@ -120,12 +134,26 @@ class Scorer:
         self.load_scale = abs(self.plant.gain) * scale * (scale if self.plant.integrating else 1.0)
         self.iae_weights = (self.weights.load / self.load_scale, self.weights.setpoint / scale)
 
-    def _analysis(self, x: float) -> tuple[object, Margins, float]:
-        if x not in self.analysed:
-            controller = self.controller_of(math.exp(x))
-            margins = plant_margins(self.plant, controller)
+    def analyse(self, xs, screen: bool = False) -> None:
+        """The robustness figures at every ``log`` parameter of ``xs`` not analysed yet, in one call;
+        with ``screen``, a design whose ``Ms`` certainly exceeds the bound is only marked infeasible
+        (:meth:`feasible` knows it; :func:`~envs.analysis.feasibility.feasibility_margins`)."""
+        new = [float(x) for x in dict.fromkeys(xs) if float(x) not in self.analysed and not (screen and float(x) in self.screened)]
+        if not new:
+            return
+        bound = self.constraints.max_sensitivity
+        threshold = bound * (1 + SCREEN_MARGIN) if screen and bound is not None else math.inf
+        controllers = [self.controller_of(math.exp(x)) for x in new]
+        for x, controller, margins in zip(new, controllers, feasibility_margins(self.plant, controllers, self.gain_margin, threshold)):
+            if margins is None:
+                self.screened.add(x)
+                continue
             relative_dm = _relative_delay_margin(margins.delay_margin, self.plant, self.constraints.zero_delay)
             self.analysed[x] = (controller, margins, relative_dm)
+
+    def _analysis(self, x: float) -> tuple[object, FeasibilityMargins, float]:
+        if x not in self.analysed:
+            self.analyse([x])
         return self.analysed[x]
 
     def margin(self, x: float) -> float:
@@ -135,7 +163,7 @@ class Scorer:
 
     def feasible(self, x: float) -> bool:
         """Whether the design at ``x`` satisfies every constraint."""
-        return self.margin(x) >= 0.0
+        return float(x) not in self.screened and self.margin(x) >= 0.0
 
     def violations(self, x: float) -> dict[str, float]:
         """The violations at ``x`` (:func:`~envs.analysis.scoring.constraint_violations`)."""
@@ -169,19 +197,20 @@ class Scorer:
         """Every figure at ``x``: those of :func:`~envs.analysis.scoring.score`, from the analysis and the
         simulation already made where the cost at ``x`` is known (then not run again)."""
         x = float(x)
-        controller, margins, relative_dm = self._analysis(x)
+        controller, _, relative_dm = self._analysis(x)
         if x not in self.performances:
             return score(self.plant, controller, experiment_time=self.experiment_time,
                          experiment_deviation=self.experiment_deviation, constraints=self.constraints, weights=self.weights)
         performance, load_cost, setpoint_cost = self.performances[x]
+        margins = plant_margins(self.plant, controller)  # every figure: Score holds them all
         return Score(self.costs[x], True, {}, True, margins.ms, margins.gain_margin, margins.phase_margin_deg,
                      margins.delay_margin, relative_dm, performance.load, performance.setpoint, load_cost, setpoint_cost,
                      self.experiment_cost, margins, performance.lower_bound)
 
     @property
     def evaluations(self) -> int:
-        """Designs analysed (each analysis is one design scored, in part or whole)."""
-        return len(self.analysed)
+        """Designs analysed (each analysis is one design scored, in part or whole; a screened one too)."""
+        return len(self.screened | set(self.analysed))
 
 
 @dataclass(frozen=True)
@@ -235,10 +264,12 @@ def fast_search(scorer: Scorer, bounds: tuple[float, float], probe: float, toler
     """Steps 1-4 of the module docstring on ``bounds`` (``log`` parameter); ``probe``, ``tolerance`` and
     ``evaluations`` are the reference's binding probe and Brent's tolerance and evaluation limit."""
     points = np.linspace(bounds[0], bounds[1], BRACKET_POINTS)
+    scorer.analyse(points, screen=True)
     feasible = [scorer.feasible(x) for x in points]
     if not any(feasible):
         return FastSearch(None, None)
     first = feasible.index(True)
+    scorer.analyse(points[max(first - 1, 0) : first])  # the root finder's infeasible end needs its margin
     boundary = float(points[0]) if first == 0 else _boundary(scorer, float(points[first - 1]), float(points[first]))
     candidates = [boundary] + [float(x) for x, ok in zip(points, feasible) if ok and x > boundary]
     best, best_cost = boundary, scorer.cost(boundary)

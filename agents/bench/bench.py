@@ -371,6 +371,7 @@ ROWS = (
     ("labels_fast_vs_reference", "fast / reference"),
     ("label_reset_ms", "  the reset alone (both), ms"),
     ("oracle_fast_vs_reference", "  the oracle alone, fast / reference"),
+    ("labels_fast_vs_reference_bound", "  largest fast / reference the reset allows"),
     ("labels_rounds", "rounds (figures: medians over them)"),
     ("Training", None),
     ("ppo_samples_per_s_native1", "PPO samples/s of learn, native x1"),

@@ -24,36 +24,42 @@ inline = numba.njit(cache=True, error_model="numpy", inline="always")
 def _crossovers(transfer, omega, values, magnitudes, xtol, max_iterations):  # pragma: no cover - compiled
     """:func:`envs.analysis.robustness._crossovers`: the gain crossovers (``log |L| = 0``) and the phase
     crossovers (``Im L = 0``), each the grid points where the function is zero and the root of every
-    bracket, in increasing order (``magnitudes = |L|`` on the grid).
+    bracket, in increasing order (``magnitudes = |L|`` on the grid; :func:`_roots`)."""
+    gains = _roots(transfer, omega, values, magnitudes, 0, xtol, max_iterations)
+    return gains, _roots(transfer, omega, values, magnitudes, 1, xtol, max_iterations)
+
+
+@jit
+def _roots(transfer, omega, values, magnitudes, kind, xtol, max_iterations):  # pragma: no cover - compiled
+    """The gain crossovers (``kind = 0``) or the phase crossovers (``kind = 1``) of :func:`_crossovers`.
 
     ``log |L|`` is taken only at the ends of a bracket: elsewhere only its sign enters, which is
     that of ``|L| - 1`` (``log`` is exact at 1 and, away from 1, at least about ``1e-16`` in size,
     far above its rounding), so the tests on ``|L|`` below are those on ``log |L|`` (a product of
     two logarithms cannot underflow to zero)."""
     n = omega.size
-    roots, found = np.empty((2, n)), np.zeros(2, dtype=np.int64)
-    for kind in range(2):
-        for i in range(n):
+    roots, found = np.empty(n), 0
+    for i in range(n):
+        if kind == 0:
+            zero = magnitudes[i] == 1.0
+            change = i < n - 1 and (
+                (magnitudes[i] < 1.0 and magnitudes[i + 1] > 1.0) or (magnitudes[i] > 1.0 and magnitudes[i + 1] < 1.0)
+            )
+        else:
+            zero = values[i].imag == 0
+            change = i < n - 1 and values[i].imag * values[i + 1].imag < 0
+        if zero:
+            roots[found] = omega[i]
+            found += 1
+        elif change:
             if kind == 0:
-                zero = magnitudes[i] == 1.0
-                change = i < n - 1 and (
-                    (magnitudes[i] < 1.0 and magnitudes[i + 1] > 1.0) or (magnitudes[i] > 1.0 and magnitudes[i + 1] < 1.0)
-                )
+                fa, fb = math.log(magnitudes[i]), math.log(magnitudes[i + 1])
             else:
-                zero = values[i].imag == 0
-                change = i < n - 1 and values[i].imag * values[i + 1].imag < 0
-            if zero:
-                roots[kind, found[kind]] = omega[i]
-                found[kind] += 1
-            elif change:
-                if kind == 0:
-                    fa, fb = math.log(magnitudes[i]), math.log(magnitudes[i + 1])
-                else:
-                    fa, fb = values[i].imag, values[i + 1].imag
-                x = _chandrupatla(transfer, kind, math.log(omega[i]), math.log(omega[i + 1]), fa, fb, xtol, max_iterations)
-                roots[kind, found[kind]] = math.exp(x)
-                found[kind] += 1
-    return roots[0, : found[0]].copy(), roots[1, : found[1]].copy()
+                fa, fb = values[i].imag, values[i + 1].imag
+            x = _chandrupatla(transfer, kind, math.log(omega[i]), math.log(omega[i + 1]), fa, fb, xtol, max_iterations)
+            roots[found] = math.exp(x)
+            found += 1
+    return roots[:found].copy()
 
 
 @inline
@@ -112,37 +118,43 @@ def _argmax(samples):  # pragma: no cover - compiled
 def _peaks(transfer, omega, magnitudes, closed, points, spacing):  # pragma: no cover - compiled
     """:func:`envs.analysis.robustness._peaks`: ``(Ms, frequency, Mt, frequency)``, each grid maximum refined
     by zoomed sampling and a parabola (``magnitudes = |L|``, ``closed = |1 + L|`` on the grid: the
-    terms of :func:`_measure`)."""
-    best, at_best = np.empty(2), np.empty(2)
-    for k in range(2):
-        samples = np.empty(omega.size)
-        for i in range(omega.size):
-            samples[i] = 1 / closed[i] if k == 0 else magnitudes[i] / closed[i]
-        i = _argmax(samples)
-        best[k], at_best[k] = samples[i], omega[i]
-        low, high = math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])
-        vertex = math.nan
-        while high > low:
-            x = _linspace(low, high, points)
-            frequencies = np.empty(points)
-            for i in range(points):
-                frequencies[i] = math.exp(x[i])
-            at = _values(transfer, frequencies)
-            samples = np.empty(points)
-            for i in range(points):
-                samples[i] = _measure(at[i], k)
-            j = _argmax(samples)
-            if samples[j] > best[k]:
-                best[k], at_best[k] = samples[j], math.exp(x[j])
-            low, high = x[max(j - 1, 0)], x[min(j + 1, points - 1)]
-            if x[1] - x[0] <= spacing:
-                vertex = _vertex(x, samples, j)
-                break
-        if not math.isnan(vertex):
-            value = _measure(_values(transfer, np.array([math.exp(vertex)]))[0], k)
-            if value > best[k]:
-                best[k], at_best[k] = value, math.exp(vertex)
-    return best[0], at_best[0], best[1], at_best[1]
+    terms of :func:`_measure`; :func:`_peak`)."""
+    ms, ms_frequency = _peak(transfer, omega, magnitudes, closed, points, spacing, 0)
+    mt, mt_frequency = _peak(transfer, omega, magnitudes, closed, points, spacing, 1)
+    return ms, ms_frequency, mt, mt_frequency
+
+
+@jit
+def _peak(transfer, omega, magnitudes, closed, points, spacing, k):  # pragma: no cover - compiled
+    """One peak of :func:`_peaks`: ``Ms`` (``k = 0``) or ``Mt`` (``k = 1``) and its frequency."""
+    samples = np.empty(omega.size)
+    for i in range(omega.size):
+        samples[i] = 1 / closed[i] if k == 0 else magnitudes[i] / closed[i]
+    i = _argmax(samples)
+    best, at_best = samples[i], omega[i]
+    low, high = math.log(omega[max(i - 1, 0)]), math.log(omega[min(i + 1, omega.size - 1)])
+    vertex = math.nan
+    while high > low:
+        x = _linspace(low, high, points)
+        frequencies = np.empty(points)
+        for i in range(points):
+            frequencies[i] = math.exp(x[i])
+        at = _values(transfer, frequencies)
+        samples = np.empty(points)
+        for i in range(points):
+            samples[i] = _measure(at[i], k)
+        j = _argmax(samples)
+        if samples[j] > best:
+            best, at_best = samples[j], math.exp(x[j])
+        low, high = x[max(j - 1, 0)], x[min(j + 1, points - 1)]
+        if x[1] - x[0] <= spacing:
+            vertex = _vertex(x, samples, j)
+            break
+    if not math.isnan(vertex):
+        value = _measure(_values(transfer, np.array([math.exp(vertex)]))[0], k)
+        if value > best:
+            best, at_best = value, math.exp(vertex)
+    return best, at_best
 
 
 @inline

@@ -120,30 +120,31 @@ def packed_margins(packed: np.ndarray, shape: tuple[int, int, int, int], integra
 @jit
 def _packed_analysis(packed, numerator_rows, numerator_width, denominator_rows, denominator_width, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover
     """:func:`_analysis` of a loop given as :meth:`~envs.analysis.loop_transfer.QuasiRational.packed` gives it."""
+    transfer = _unpacked(packed, numerator_rows, numerator_width, denominator_rows, denominator_width)
+    return _analysis(transfer, integrators, time_scale, high_points, low_decades, settings)
+
+
+@jit
+def _unpacked(packed, numerator_rows, numerator_width, denominator_rows, denominator_width):  # pragma: no cover
+    """The loop of :meth:`~envs.analysis.loop_transfer.QuasiRational.packed` as :func:`_prepare` gives it."""
     size = numerator_rows * numerator_width
     numerator, numerator_delays = packed[:size].copy().reshape((numerator_rows, numerator_width)), packed[size : size + numerator_rows].copy()
     start = size + numerator_rows
     size = denominator_rows * denominator_width
     denominator = packed[start : start + size].copy().reshape((denominator_rows, denominator_width))
     denominator_delays = packed[start + size : start + size + denominator_rows].copy()
-    return _analysis(_prepare(numerator, numerator_delays, denominator, denominator_delays), integrators, time_scale, high_points, low_decades, settings)
+    return _prepare(numerator, numerator_delays, denominator, denominator_delays)
 
 
 @jit
 def _analysis(transfer, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover - compiled
     """The body of :func:`envs.analysis.robustness.loop_margins`: the arguments of ``assemble_margins``
     (``transfer`` as :func:`_prepare` gives it, ``settings`` as :data:`SETTINGS_ARRAY`)."""
-    points_per_decade, max_arg_step, root_xtol, peak_spacing = settings[0], settings[1], settings[3], settings[6]
-    max_points, max_root_iterations, peak_points = int(settings[2]), int(settings[4]), int(settings[5])
-    low = _low_frequency(transfer, integrators, 1e-3 / time_scale, low_decades)
-    high, tame = _high_frequency(transfer, 10.0 / time_scale, high_points)
-    count = int(math.ceil(math.log10(high / low) * points_per_decade)) + 1
-    omega = _logspace(math.log10(low), math.log10(high), count)
-    omega, values = _refine(transfer, omega, _values(transfer, omega), max_arg_step, max_points)
+    root_xtol, peak_spacing = settings[3], settings[6]
+    max_root_iterations, peak_points = int(settings[4]), int(settings[5])
+    omega, values, tame = _loop_grid(transfer, integrators, time_scale, high_points, low_decades, settings)
     unstable = _winding(values, integrators)
-    magnitudes, closed = np.empty(omega.size), np.empty(omega.size)  # |L| and |1 + L| on the grid, once
-    for i in range(omega.size):
-        magnitudes[i], closed[i] = _magnitude(values[i]), _magnitude(1 + values[i])
+    magnitudes, closed = _grid_magnitudes(values)
 
     gains, phase = _crossovers(transfer, omega, values, magnitudes, root_xtol, max_root_iterations)
     at_gains, at_phase = _values(transfer, gains), _values(transfer, phase)
@@ -155,6 +156,35 @@ def _analysis(transfer, integrators, time_scale, high_points, low_decades, setti
     phase, at_phase = phase[:negative], at_phase[:negative]
     peaks = _peaks(transfer, omega, magnitudes, closed, peak_points, peak_spacing)
     return unstable, tame, peaks, _gain_margin(phase, at_phase), _phase_and_delay_margins(gains, at_gains), gains, phase
+
+
+@jit
+def _loop_grid(transfer, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover - compiled
+    """The refined grid of :func:`envs.analysis.robustness.loop_margins`: ``(omega, L(i omega), tame)``,
+    ``tame`` as :func:`_high_frequency` gives it."""
+    omega, values, tame = _initial_grid(transfer, integrators, time_scale, high_points, low_decades, settings)
+    omega, values = _refine(transfer, omega, values, settings[1], int(settings[2]))
+    return omega, values, tame
+
+
+@jit
+def _initial_grid(transfer, integrators, time_scale, high_points, low_decades, settings):  # pragma: no cover - compiled
+    """The grid of :func:`envs.analysis.robustness.frequency_grid` before its refinement, with ``L`` on it
+    and ``tame``: every point of it stays in the refined grid, with the same value."""
+    low = _low_frequency(transfer, integrators, 1e-3 / time_scale, low_decades)
+    high, tame = _high_frequency(transfer, 10.0 / time_scale, high_points)
+    count = int(math.ceil(math.log10(high / low) * settings[0])) + 1
+    omega = _logspace(math.log10(low), math.log10(high), count)
+    return omega, _values(transfer, omega), tame
+
+
+@jit
+def _grid_magnitudes(values):  # pragma: no cover - compiled
+    """``|L|`` and ``|1 + L|`` on the grid, computed once."""
+    magnitudes, closed = np.empty(values.size), np.empty(values.size)
+    for i in range(values.size):
+        magnitudes[i], closed[i] = _magnitude(values[i]), _magnitude(1 + values[i])
+    return magnitudes, closed
 
 
 @jit

@@ -149,7 +149,8 @@ def test_labels_part_shape() -> None:
     from agents.bench.labels import label_figures
 
     figures = label_figures(2, 1)
-    for key in ("labels_per_s_reference", "labels_per_s_fast", "labels_fast_vs_reference", "label_reset_ms"):
+    for key in ("labels_per_s_reference", "labels_per_s_fast", "labels_fast_vs_reference", "label_reset_ms",
+                "labels_fast_vs_reference_bound"):
         assert isinstance(figures[key], float) and math.isfinite(figures[key]) and figures[key] > 0, key
     assert figures["labels_plants"] == 2 and figures["labels_rounds"] == 1
     assert len(figures["labels_fast_vs_reference_rounds"]) == 1
