@@ -8,6 +8,10 @@ validation cost), and at the end ``model.zip`` (the final agent); ``VecNormalize
 used, sit beside each model as ``<stem>.normalization.json``, and ``<stem>.manifest.json`` records
 both (:mod:`agents.training.policies` loads them as data).
 
+A config with a ``lagrangian`` key trains against a limit on the violation rate
+(:mod:`agents.training.lagrangian`; docs/lagrangian.md) and writes the multiplier's record,
+``lagrangian.json``, at the end.
+
 A config with ``algorithm: learned-rule`` (``configs/learned_rule.yaml``) is fitted by
 :mod:`agents.training.learned_rule` instead (the oracle on training plants, a regression, a safety
 margin chosen on the validation plants), into the same kind of run directory; the command chooses.
