@@ -158,7 +158,12 @@ SHARED_DOC = """
     (every figure of :class:`envs.analysis.scoring.Score`), ``plant``, ``model`` (identified), ``controller``,
     ``parameter`` (relative), ``experiment_time`` (in true ``T_ar``), ``features``; with a
     ``production`` weight also ``experiment_deviation`` (``D_exp`` in true ``T_ar``).  The wrapper
-    ``agents.evaluation.oracle_info.OracleInfo`` adds ``oracle_cost`` and ``oracle_parameter``.
+    ``agents.evaluation.oracle_info.OracleInfo`` adds ``oracle_cost`` and ``oracle_parameter``; the wrapper
+    ``envs.tuning_env.ConstraintCost`` adds ``constraint_cost`` to every step's info, the violation as a
+    constraint cost (as Safety Gym and Safety-Gymnasium expose it): 1.0 when the step ends the episode
+    with a design that violates the constraints on the true plant, or with no design (``feasible``
+    false), else 0.0 (0.0 on the agent mode's experiment steps).  Training against a limit on its mean:
+    docs/lagrangian.md.
 
 """
 

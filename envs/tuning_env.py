@@ -45,6 +45,7 @@ from envs.threads import single_threaded
 from envs.tuning_episode import NO_DESIGN_COST, TuningEpisode, scoring_of
 
 __all__ = ["DeadTimeTuningEnv", "PIDEnv", "FPPIEnv", "MSPEnv", "PIEnv", "MODES", "AMPLITUDE_RANGE", "EnvConfig"]
+__all__ += ["ConstraintCost", "constraint_cost"]
 __all__ += ["MAX_BUDGET", "NO_DESIGN_COST", "OBSERVATION_BOUND"]  # (the names this module has always offered)
 
 MAX_SAMPLING_ATTEMPTS = 10
@@ -288,3 +289,21 @@ class MSPEnv(DeadTimeTuningEnv):
 class PIEnv(DeadTimeTuningEnv):
     __doc__ = PI_DESCRIPTION + SHARED_DOC + PI_VERSION_HISTORY
     structure = "pi"
+
+
+def constraint_cost(info: dict) -> float:
+    """The step's constraint cost: 1.0 when the step ends the episode with a design that violates the
+    constraints on the true plant, or with no design (``info["feasible"]`` False), else 0.0 (a feasible
+    design, or a step that does not end the episode: its info has no ``feasible``)."""
+    return 0.0 if info.get("feasible", True) else 1.0
+
+
+class ConstraintCost(gym.Wrapper):
+    """Adds ``info["constraint_cost"]`` (:func:`constraint_cost`, 0.0 or 1.0) to every step's info, the
+    violation as a constraint signal the way the safe-RL benchmarks expose it (Ray, Achiam and Amodei
+    2019, Safety Gym; Safety-Gymnasium): reward, observation and every other key unchanged.  The
+    environment's own ``info["cost"]`` is the design's cost, the negative reward, hence the other name."""
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        observation, reward, terminated, truncated, info = self.env.step(action)
+        return observation, reward, terminated, truncated, {**info, "constraint_cost": constraint_cost(info)}

@@ -39,6 +39,7 @@ from typing import Any
 
 from agents.files.reader import load_yaml, load_yaml_file
 from agents.limits import MAX_ENVS, MAX_EVAL_EPISODES, MAX_TIMESTEPS, require_at_most
+from agents.training.dual_ascent import LagrangianSettings
 from agents.training.hyperparameters import INTEGER_KEYS
 from agents.training.learned_rule_config import LEARNED_RULE, LearnedRuleConfig, validate_learned_rule
 from agents.training.selector_config import SELECTOR, SelectorConfig, validate_selector
@@ -136,6 +137,9 @@ class TrainConfig:
         ``torch.set_num_threads`` of the training process.
     progress_bar : bool
         Show a tqdm progress bar.
+    lagrangian : mapping or None
+        Train against a limit on the violation rate (SAC, TD3): ``{risk: r, multiplier_lr, initial,
+        window}`` (:class:`agents.training.dual_ascent.LagrangianSettings`; docs/lagrangian.md).
     """
 
     algorithm: str
@@ -158,6 +162,7 @@ class TrainConfig:
     device: str = "cpu"
     torch_threads: int = 1
     progress_bar: bool = True
+    lagrangian: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.algorithm, str) or self.algorithm.upper() not in _BY_UPPER:
@@ -193,6 +198,16 @@ class TrainConfig:
             if name == "policy_kwargs" and "net_arch" in value:
                 value = {**value, "net_arch": whole_numbers(value["net_arch"])}
             object.__setattr__(self, name, frozen_mapping(value))
+        if self.lagrangian is not None:
+            LagrangianSettings.from_mapping(self.lagrangian)
+            require_field(self.algorithm in OFF_POLICY, "algorithm", f"one of {', '.join(OFF_POLICY)} with lagrangian "
+                          "(its replay buffer recombines reward and cost)", self.algorithm)
+            object.__setattr__(self, "lagrangian", frozen_mapping(dict(self.lagrangian)))
+
+    @property
+    def lagrangian_settings(self) -> LagrangianSettings | None:
+        """The ``lagrangian`` settings, or None."""
+        return None if self.lagrangian is None else LagrangianSettings.from_mapping(self.lagrangian)
 
     @property
     def off_policy(self) -> bool:
@@ -251,7 +266,7 @@ def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str], schema: t
     """Apply ``key=value`` overrides to a config mapping; unknown top-level keys (of the dataclass
     ``schema``) are errors naming them."""
     known = [f.name for f in dataclasses.fields(schema)]
-    mappings = [name for name in MAPPING_FIELDS if name in known]
+    mappings = [name for name in (*MAPPING_FIELDS, "lagrangian") if name in known]
     result = dict(data)
     for text in overrides:
         path, value = parse_override(text)

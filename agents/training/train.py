@@ -8,6 +8,10 @@ validation cost), and at the end ``model.zip`` (the final agent); ``VecNormalize
 used, sit beside each model as ``<stem>.normalization.json``, and ``<stem>.manifest.json`` records
 both (:mod:`agents.training.policies` loads them as data).
 
+A config with a ``lagrangian`` key trains against a limit on the violation rate
+(:mod:`agents.training.lagrangian`; docs/lagrangian.md) and writes the multiplier's record,
+``lagrangian.json``, at the end.
+
 A config with ``algorithm: learned-rule`` (``configs/learned_rule.yaml``) is fitted by
 :mod:`agents.training.learned_rule` instead (the oracle on training plants, a regression, a safety
 margin chosen on the validation plants), into the same kind of run directory; the command chooses.
@@ -291,6 +295,10 @@ def _session(config: TrainConfig, run_dir: Path, resume: bool, command: str | No
         run_callbacks, validator, checkpointer = refused_as("eval_family", "the validation plant set", lambda: make_callbacks(
             run_dir, config.total_timesteps, eval_env, config.n_eval_episodes, config.eval_freq,
             config.eval_family, config.checkpoint_freq, config.progress_bar, vecnormalize, history, stop, resumed))
+        if config.lagrangian is not None:
+            from agents.training.lagrangian import MultiplierCallback
+
+            run_callbacks = [*run_callbacks, MultiplierCallback(config.lagrangian_settings, run_dir)]
         _start_writing(run_dir, text, checkpoint)  # the config was accepted: now the run directory
         if state is not None:
             restore_state(state, model, vecnormalize)
@@ -407,8 +415,13 @@ def _environments(config: TrainConfig) -> tuple[Any, Any]:
 def new_model(config: TrainConfig, venv: Any, tensorboard: str | None = None) -> Any:
     """A new stable-baselines3 model of ``config`` (algorithm, policy, hyperparameters, seed) on ``venv``."""
     algorithm = algorithm_class(config.algorithm)
+    extra = {}
+    if config.lagrangian is not None:  # reward and constraint cost stored apart (agents.training.lagrangian)
+        from agents.training.lagrangian import CostReplayBuffer
+
+        extra["replay_buffer_class"] = CostReplayBuffer
     return algorithm(config.policy, venv, seed=config.seed, device=config.device, verbose=0, tensorboard_log=tensorboard,
-                     policy_kwargs=_policy_kwargs(config), **_hyperparameters(config, venv.action_space))
+                     policy_kwargs=_policy_kwargs(config), **_hyperparameters(config, venv.action_space), **extra)
 
 
 def _model(config: TrainConfig, checkpoint: Checkpoint | None, venv: Any, tensorboard: str) -> tuple[Any, Any, Any]:
