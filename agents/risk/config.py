@@ -21,14 +21,15 @@ class RiskLearnerConfig:
     structures: tuple[str, ...] = ("PID", "FPPI", "MSP", "PI")
     training_plants: int = 20000
     training_entropy: int = 3979327325554999766
-    validation_plants: int = 2000
+    validation_plants: int = 1000
     validation_entropy: int = 12003775736600515953
     noise_range: tuple[float, float] = (0.003, 0.3)
     productions: tuple[float, ...] = (0.0, 0.05)
     quantized_share: float = 0.0
     quantization_range: tuple[float, float] = (0.1, 3.0)
     seed: int = 0
-    model: str = "boosting"
+    models: tuple[str, ...] = ("boosting", "mlp")
+    bands: tuple[int, ...] = (1, 4)
     splits: tuple[float, float, float] = (0.6, 0.2, 0.2)
 
     def __post_init__(self) -> None:
@@ -37,8 +38,10 @@ class RiskLearnerConfig:
         unknown = [s for s in self.structures if s not in STRUCTURES]
         if unknown or not self.structures:
             raise ValueError(f"structures: unknown structure {unknown[0] if unknown else None!r}; valid: {', '.join(STRUCTURES)}")
-        if self.model not in MODELS:
-            raise ValueError(f"model must be one of {', '.join(MODELS)}, got {self.model!r}")
+        if not self.models or any(m not in MODELS for m in self.models):
+            raise ValueError(f"models must be a list of {', '.join(MODELS)}, got {list(self.models)}")
+        if not self.bands or any(int(b) != b or b < 1 for b in self.bands):
+            raise ValueError(f"bands must be a list of integers >= 1, got {list(self.bands)}")
         if not (0 < self.noise_range[0] < self.noise_range[1]):
             raise ValueError(f"noise_range must be two increasing positive numbers, got {list(self.noise_range)}")
         if len(self.splits) != 3 or any(s <= 0 for s in self.splits):
@@ -68,7 +71,7 @@ def load_config(path: str | Path, overrides: dict[str, Any] | None = None) -> Ri
     unknown = sorted(set(data) - names)
     if unknown:
         raise ValueError(f"{path}: unknown key {unknown[0]!r}; valid keys: {', '.join(sorted(names))}")
-    tuples = {"structures", "noise_range", "productions", "quantization_range", "splits"}
+    tuples = {"structures", "noise_range", "productions", "quantization_range", "splits", "models", "bands"}
     data = {k: tuple(v) if k in tuples and isinstance(v, list) else v for k, v in data.items()}
     try:
         return RiskLearnerConfig(**data)

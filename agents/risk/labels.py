@@ -120,11 +120,13 @@ def load_stream(folder: Path, structure: str, stream: str) -> list[dict[str, Any
 
 def records_arrays(records: list[dict[str, Any]]) -> dict[str, np.ndarray]:
     """The records as arrays: ``observation`` (n x d), ``action``, ``boundary`` (the boundary's action;
-    NaN where no design is feasible), ``noise_std``, ``production``, ``quantization``."""
+    NaN where no design is feasible), ``direction`` (+1 where a larger action is the more conservative design), ``noise_std``, ``production``,
+    ``quantization``."""
     boundary = [np.nan if r.get("boundary_action") is None else r["boundary_action"] for r in records]
     return {"observation": np.array([r["observation"] for r in records], dtype=float),
             "action": np.array([r["action"] for r in records], dtype=float),
             "boundary": np.array(boundary, dtype=float),
             "noise_std": np.array([r["noise_std"] for r in records], dtype=float),
+            "direction": np.array([r["direction"] for r in records], dtype=float),
             "production": np.array([r["production"] for r in records], dtype=float),
             "quantization": np.array([r["quantization"] for r in records], dtype=float)}
