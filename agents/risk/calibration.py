@@ -28,7 +28,7 @@ import numpy as np
 
 __all__ = ["CHUNK", "REGIMES", "frontier_choice", "play_plants", "regime_seeds", "wilson"]
 
-CHUNK = 200
+CHUNK = 100
 
 REGIMES: dict[str, dict[str, Any]] = {"default": {}, "priced-10": {"noise_std": 0.1, "weights": {"production": 0.05}}}
 """The validation regimes: the v3 environment's fixed-mode default kwargs, and 10% noise with the experiments priced."""
@@ -52,11 +52,12 @@ def _play_one(env: Any, seed: int, learner: Any, rules: list[str], knobs: tuple[
     options = None if plant is None else {"plant": plant}
     observation, _ = env.reset(seed=seed, options=options)
     unwrapped, episode = tuning_env_of(env), episode_of(env)
-    row: dict[str, Any] = {"seed": seed, "noise_feature": float(observation[learner.noise_feature]), "learner": {}, "rules": {}}
-    actions = [float(np.float32(learner.design(observation, r)[0])) for r in RISKS]  # as the step reads a float32 action
+    row: dict[str, Any] = {"seed": seed, "learner": {}, "rules": {}}
+    # the learner's actions as the step reads them (float32); none without a learner (the rules alone)
+    actions = [] if learner is None else [float(np.float32(learner.design(observation, r)[0])) for r in RISKS]
     if episode.identification is None:  # a failed identification: every design fails as the step fails it
-        info = env.step(np.array([actions[0]], dtype=np.float32))[4]
-        row["learner"] = {str(r): [float(info["cost"]), False] for r in RISKS}
+        info = env.step(np.zeros(env.action_space.shape, dtype=np.float32))[4]
+        row["learner"] = {str(r): [float(info["cost"]), False] for r in RISKS[:len(actions)]}
         row["rules"] = {member_name(rule, k): [float(info["cost"]), False] for rule in rules for k in knobs}
         return row
     for risk, action in zip(RISKS, actions):

@@ -28,7 +28,7 @@ class RiskLearnerConfig:
     quantized_share: float = 0.0
     quantization_range: tuple[float, float] = (0.1, 3.0)
     seed: int = 0
-    models: tuple[str, ...] = ("boosting", "mlp")
+    models: tuple[str, ...] = ("boosting",)
     bands: tuple[int, ...] = (1, 4)
     splits: tuple[float, float, float] = (0.6, 0.2, 0.2)
 

@@ -33,7 +33,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SCALE_FLOOR", "RiskLearner", "conformal_quantile", "fit_learner", "regression"]
+__all__ = ["SCALE_FLOOR", "RiskLearner", "conformal_quantile", "conformalized", "fit_learner", "fit_regressions", "regression",
+           "split_indices"]
 
 SCALE_FLOOR = 1e-3
 """The least local scale (in action units): a scale regression's prediction near 0 cannot make a
@@ -104,7 +105,7 @@ def regression(kind: str, seed: int, loss: str = "squared_error") -> Any:
     if kind == "boosting":
         from sklearn.ensemble import HistGradientBoostingRegressor
 
-        return HistGradientBoostingRegressor(loss=loss, max_iter=300, learning_rate=0.05, max_leaf_nodes=31,
+        return HistGradientBoostingRegressor(loss=loss, max_iter=150, learning_rate=0.1, max_leaf_nodes=31,
                                              min_samples_leaf=20, l2_regularization=1e-3, early_stopping=False,
                                              random_state=seed)
     if kind == "mlp":
@@ -124,12 +125,11 @@ def split_indices(n: int, shares: tuple[float, float, float], seed: int) -> list
     return np.split(order, cuts.astype(int))
 
 
-def fit_learner(data: dict[str, np.ndarray], kind: str, seed: int, *, shares: tuple[float, float, float] = (0.6, 0.2, 0.2),
-                bands: int = 1, noise_feature: int, low: float, high: float) -> RiskLearner:
-    """A :class:`RiskLearner` from the arrays of :func:`agents.risk.labels.records_arrays` (module docstring);
-    ``bands`` equal-count bands of the third split's noise feature."""
-    x, action, boundary = data["observation"], data["action"], data["boundary"]
-    x = np.nan_to_num(x, nan=0.0, posinf=1e6, neginf=-1e6)
+def fit_regressions(data: dict[str, np.ndarray], kind: str, seed: int,
+                    shares: tuple[float, float, float] = (0.6, 0.2, 0.2)) -> tuple[Any, Any, Any, np.ndarray, np.ndarray]:
+    """Steps 1-2 of the module docstring: ``(action model, boundary model, scale model, third split's rows,
+    their standardized residuals)`` from the arrays of :func:`agents.risk.labels.records_arrays`."""
+    x, action, boundary = _rows(data["observation"]), data["action"], data["boundary"]
     first, second, third = split_indices(len(x), shares, seed)
     feasible = first[np.isfinite(boundary[first])]
     boundary_model = regression(kind, seed).fit(x[feasible], boundary[feasible])
@@ -139,9 +139,27 @@ def fit_learner(data: dict[str, np.ndarray], kind: str, seed: int, *, shares: tu
     scale_model = regression(kind, seed + 2, loss="absolute_error").fit(x[second], residual)
     z = (np.where(np.isfinite(boundary[third]), boundary[third], np.inf) - boundary_model.predict(x[third])) \
         / np.maximum(scale_model.predict(x[third]), SCALE_FLOOR)
-    noise = x[third, noise_feature]
+    return action_model, boundary_model, scale_model, x[third], z
+
+
+def conformalized(regressions: tuple[Any, Any, Any, np.ndarray, np.ndarray], bands: int, noise_feature: int, low: float,
+                  high: float) -> RiskLearner:
+    """Step 3 of the module docstring on the regressions of :func:`fit_regressions`: the third split's
+    standardized residuals, sorted, in ``bands`` equal-count bands of its noise feature."""
+    action_model, boundary_model, scale_model, rows, z = regressions
+    noise = rows[:, noise_feature]
     edges = np.quantile(noise, np.arange(1, bands) / bands) if bands > 1 else np.array([])
     band = np.searchsorted(edges, noise, side="right")
     scores = [np.sort(z[band == b]) for b in range(bands)]
-    return RiskLearner(action_model, boundary_model, scale_model, scores, np.asarray(edges, dtype=float), noise_feature,
-                       float(low), float(high), x.shape[1])
+    return RiskLearner(action_model, boundary_model, scale_model, scores, np.asarray(edges, dtype=float), int(noise_feature),
+                       float(low), float(high), rows.shape[1])
+
+
+def _rows(observation: np.ndarray) -> np.ndarray:
+    return np.nan_to_num(np.asarray(observation, dtype=np.float64), nan=0.0, posinf=1e6, neginf=-1e6)
+
+
+def fit_learner(data: dict[str, np.ndarray], kind: str, seed: int, *, shares: tuple[float, float, float] = (0.6, 0.2, 0.2),
+                bands: int = 1, noise_feature: int, low: float, high: float) -> RiskLearner:
+    """A :class:`RiskLearner` (module docstring): :func:`fit_regressions` then :func:`conformalized`."""
+    return conformalized(fit_regressions(data, kind, seed, shares), bands, noise_feature, low, high)

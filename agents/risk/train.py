@@ -12,8 +12,7 @@ Per structure of the config:
    :data:`RISKS` and in every quarter of the validation plants' noise levels keep their place, and
    among them (or, where none does, among those of the least calibration miss) the one of least mean
    design action (the least conservative on average) is chosen;
-3. the chosen candidate, fitted again on the same plants (deterministic given the config's seed), is
-   written as ``MODELS/learned-<structure>.skops`` and its manifest ``.json``
+3. the chosen candidate (deterministic given the config's seed) is written as ``MODELS/learned-<structure>.skops`` and its manifest ``.json``
    (:mod:`agents.risk.pretrained`), with the config, the commit and the choice's table.
 
 The plants never come from a test stream: both entropies are the config's own.
@@ -80,7 +79,7 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
                        commit: str | None = None, log: Any = sys.stderr) -> Path:
     """Steps 1-3 of the module docstring for one structure; the manifest's path."""
     from agents.risk.labels import label_stream, records_arrays
-    from agents.risk.model import fit_learner
+    from agents.risk.model import conformalized, fit_regressions
     from agents.risk.pretrained import model_paths
     from agents.training.model_files import save_model_file
 
@@ -96,18 +95,18 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
     directions = {float(d) for d in streams["training"]["direction"]} - {0.0}
     if directions != {1.0}:
         raise ValueError(f"{env_id}: a larger action is not the more conservative design in every training episode")
-    candidates = {}
+    candidates, learners = {}, {}
     for kind in config.models:
+        regressions = fit_regressions(streams["training"], kind, config.seed, tuple(config.splits))
         for bands in config.bands:
-            learner = fit_learner(streams["training"], kind, config.seed, shares=tuple(config.splits), bands=int(bands),
-                                  noise_feature=noise, low=low, high=high)
-            candidates[(kind, int(bands))] = _validate(learner, streams["validation"])
-            print(f"{structure} {kind} bands={bands}: {candidates[(kind, int(bands))]}", file=log, flush=True)
+            key = (kind, int(bands))
+            learners[key] = conformalized(regressions, int(bands), noise, low, high)
+            candidates[key] = _validate(learners[key], streams["validation"])
+            print(f"{structure} {kind} bands={bands}: {candidates[key]}", file=log, flush=True)
     calibrated = [key for key, row in candidates.items() if row["calibration_miss"] <= 0.0]
     pool = calibrated or [min(candidates, key=lambda key: candidates[key]["calibration_miss"])]
     kind, bands = min(pool, key=lambda key: (candidates[key]["mean_design"], key))
-    learner = fit_learner(streams["training"], kind, config.seed, shares=tuple(config.splits), bands=bands,
-                          noise_feature=noise, low=low, high=high)
+    learner = learners[(kind, bands)]
     fitted = time.perf_counter()
     model_path, manifest_path = model_paths(structure, models)
     models.mkdir(parents=True, exist_ok=True)
