@@ -12,11 +12,14 @@ disjoint splits of the training plants:
 1. ``f_b``, a regression of the boundary's action on ``x``, and ``f_a``, one of the oracle's action
    (the design of least predicted cost), fitted on the first split;
 2. ``s``, a regression of the absolute residual ``|b - f_b(x)|`` on ``x`` (the local scale), on the second;
-3. the standardized residuals ``z = (b - f_b(x)) / s(x)`` of the third split, sorted: a plant with no
-   feasible design has ``z = inf`` (every design violates).  ``q_{1-r}`` is the
-   ``ceil((n + 1)(1 - r))``-th smallest of its ``n`` values (``inf`` beyond the last: the most
-   conservative design), so that on a new plant of the training distribution
-   ``P(b > f_b(x) + s(x) q_{1-r}) <= r`` (the conformal guarantee, marginal over the plants).
+3. the scores of the third split, sorted: the standardized residual ``z = (b - f_b(x)) / s(x)``, but
+   ``-inf`` where ``f_a(x) >= b`` (the design ``max(f_a, .)`` is then feasible whatever the quantile)
+   and ``+inf`` where the plant has no feasible design (every design violates).  A design violates
+   exactly when ``f_a(x) < b`` and ``z > q``, that is when the score exceeds ``q``.  ``q_{1-r}`` is the
+   ``ceil((n + 1)(1 - r))``-th smallest of the ``n`` scores (``inf`` beyond the last: the most
+   conservative design), so that on a new plant of the training distribution the design
+   ``a(x, r)`` violates with probability at most ``r`` (the conformal guarantee, marginal over the
+   plants), and not far below it: the maximum with ``f_a`` is part of the calibrated score.
 
 With ``bands`` the third split's residuals are kept per band of the observation's noise feature
 (``log_noise_ratio``), and a plant's quantile is its band's (Mondrian conformal prediction, Vovk,
@@ -137,8 +140,10 @@ def fit_regressions(data: dict[str, np.ndarray], kind: str, seed: int,
     second = second[np.isfinite(boundary[second])]
     residual = np.abs(boundary[second] - boundary_model.predict(x[second]))
     scale_model = regression(kind, seed + 2, loss="absolute_error").fit(x[second], residual)
-    z = (np.where(np.isfinite(boundary[third]), boundary[third], np.inf) - boundary_model.predict(x[third])) \
-        / np.maximum(scale_model.predict(x[third]), SCALE_FLOOR)
+    b = np.where(np.isfinite(boundary[third]), boundary[third], np.inf)
+    z = (b - boundary_model.predict(x[third])) / np.maximum(scale_model.predict(x[third]), SCALE_FLOOR)
+    # where the predicted optimum is already at least the boundary, the design max(f_a, ...) is feasible for every q
+    z = np.where(action_model.predict(x[third]) >= b, -np.inf, z)
     return action_model, boundary_model, scale_model, x[third], z
 
 
