@@ -74,9 +74,11 @@ def _play_one(env: Any, seed: int, learner: Any, rules: list[str], knobs: tuple[
 
 def play_plants(folder: Path, env_id: str, env_kwargs: dict[str, Any], structure: str, stream: str, seeds: list[int],
                 learner: Any, rules: list[str] = (), knobs: tuple[float, ...] = (0.0,), plants: list | None = None,
-                log: Any = sys.stderr) -> list[dict[str, Any]]:
+                log: Any = sys.stderr, part: tuple[int, int] = (0, 1), cached: bool = False) -> list[dict[str, Any]]:
     """Per plant of ``seeds`` (and ``plants``, else the environment's draws), the rows of the module docstring,
-    from the cache ``folder/<structure>/<stream>-<first>.json`` where there."""
+    from the cache ``folder/<structure>/<stream>-<first>.json`` where there; ``part = (i, k)`` plays only the
+    chunks ``i, i + k, ...`` (``k`` processes share the work); ``cached`` plays nothing and returns the rows
+    of the chunks cached."""
     from agents.environments import make_env
     from agents.files.reader import read_json
     from agents.files.writer import write_json
@@ -87,10 +89,14 @@ def play_plants(folder: Path, env_id: str, env_kwargs: dict[str, Any], structure
         path = folder / structure / f"{stream}-{first:06d}.json"
         chunk_seeds = seeds[first:first + CHUNK]
         if path.is_file():
-            cached = read_json(path, list)
-            if [r["seed"] for r in cached] == chunk_seeds:
-                rows += cached
+            found = read_json(path, list)
+            if [r["seed"] for r in found] == chunk_seeds:
+                rows += found
                 continue
+        if cached:
+            continue
+        if (first // CHUNK) % part[1] != part[0]:
+            continue
         env = env or make_env(env_id, env_kwargs)
         chunk = [_play_one(env, seed, learner, list(rules), tuple(knobs), None if plants is None else plants[first + i])
                  for i, seed in enumerate(chunk_seeds)]

@@ -78,8 +78,10 @@ def _band_lines(summary: dict[str, Any]) -> list[str]:
 
 def _comparison(rows: list[dict[str, Any]], rule_rows: list[dict[str, Any]], families: list[str]) -> dict[str, Any]:
     """Per risk: the learner's mean cost and risk on the plants the rules were played on, every family's choice."""
+    by_seed = {row["seed"]: row for row in rows}
+    rule_rows = [row for row in rule_rows if row["seed"] in by_seed]  # the plants both were played on
+    own = [by_seed[row["seed"]] for row in rule_rows]
     n = len(rule_rows)
-    own = rows[:n]
     found = {}
     for risk in RISKS:
         cost = float(np.mean([row["learner"][str(risk)][0] for row in own]))
@@ -119,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plants", type=int, default=2000)
     parser.add_argument("--out", default="results/risk_learner")
     parser.add_argument("--models", default=None, help="the learners' folder (default: the shipped ones)")
+    parser.add_argument("--cached", action="store_true", help="play nothing: the tables of the plants played so far")
     args = parser.parse_args(argv)
     config = load_config(args.config)
     summary: dict[str, Any] = {}
@@ -130,7 +133,10 @@ def main(argv: list[str] | None = None) -> int:
         for regime, kwargs in REGIMES.items():
             seeds = regime_seeds(config.validation_entropy, structure, regime, args.plants)
             stream = f"{regime}-{manifest['sha256'][:12]}"
-            rows = play_plants(EVAL, config.env_id(structure), {**config.env_kwargs, **kwargs}, structure, stream, seeds, learner)
+            rows = play_plants(EVAL, config.env_id(structure), {**config.env_kwargs, **kwargs}, structure, stream, seeds, learner,
+                               cached=args.cached)
+            if not rows:
+                continue
             entry["regimes"][regime] = {}
             for risk in RISKS:
                 k, n = _realized(rows, risk)
@@ -143,9 +149,10 @@ def main(argv: list[str] | None = None) -> int:
             if rule_rows:
                 families = applicable_rules(structure.lower())
                 comparisons[(structure, regime)] = _comparison(rows, rule_rows, families)
-        band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12])
+        band_path = EVAL / structure / f"bands-{manifest['sha256'][:12]}.json"
+        band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12]) if band_path.is_file() or not args.cached else []
         noise = np.array([row["noise_std"] for row in band_rows])
-        for low, high in zip(BANDS[:-1], BANDS[1:]):
+        for low, high in zip(BANDS[:-1], BANDS[1:]) if band_rows else ():
             inside = [row for row, v in zip(band_rows, noise) if low <= v < high or (high == BANDS[-1] and v == high)]
             entry["bands"][f"[{low:g}, {high:g})"] = {"plants": len(inside),
                                                       **{str(r): _realized(inside, r)[0] / max(len(inside), 1) for r in RISKS}}
