@@ -68,3 +68,20 @@ def test_a_bad_name_is_one_line(name, structure, words):
     with pytest.raises(ValueError) as raised:
         parse_name(name, structure)
     assert words in str(raised.value) and "\n" not in str(raised.value)
+
+
+def test_the_evaluation_parses_a_pretrained_name_and_refuses_a_bad_one():
+    from agents.evaluation.policies import parse_policies
+
+    specs = parse_policies("learned-pid@0.01,simc-pi", "pid")
+    assert [(s.name, s.kind) for s in specs] == [("learned-pid@0.01", "learned-rule"), ("simc-pi", "rule")]
+    with pytest.raises(ValueError, match="unknown structure 'pdi'"):
+        parse_policies("learned-pdi@0.01", "pid")
+
+
+def test_the_command_line_says_a_bad_risk_in_one_line(capsys):
+    from agents.cli import main
+
+    status = main(["evaluate", "--env", "DeadTime/PID-v3", "--policies", "learned-pid@0.9", "--n", "1"])
+    error = capsys.readouterr().err.strip()
+    assert status == 2 and "(0, 0.5)" in error and "\n" not in error and "Traceback" not in error
