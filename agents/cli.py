@@ -83,6 +83,8 @@ COMMANDS: dict[str, Command] = {
         "Rewrite a learned rule, a selector or an agent saved with pickles (older formats) into files that load "
         "without running code: a skops file, observation statistics as JSON, a manifest. It unpickles the old "
         "files, so it needs --trust."),
+    "pretrain": _described("agents.commands.pretrain", "fit the shipped risk-conditioned learners (learned-pid@0.01, ...) "
+                           "again from configs/risk_learner.yaml"),
     "process": Command(
         "agents.commands.process", "the procedure, the rules, the oracle and agents on a real process (the TCLab)",
         "Identify a sampled process (the TCLab emulator, or module:factory for your own) around its operating point, "

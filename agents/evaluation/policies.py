@@ -25,6 +25,9 @@ A policy is one of
   ``agents.training.selector_policy.load_selector``.  Per plant it chooses a candidate from the
   observation and plays it (:func:`agents.evaluation.run.selector_result`); it has the role
   ``selector``, and the results give the share of plants given to each candidate;
+* ``learned-<structure>@<risk>``: a shipped risk-conditioned learner of the structure (``pid``,
+  ``fppi``, ``msp``, ``pi``) at the risk ``r`` in (0, 0.5), e.g. ``learned-pid@0.01``
+  (:mod:`agents.risk.pretrained`); it plays like a learned rule, in the fixed mode of its v3 environment;
 * a procedure of :mod:`baselines.procedures`: ``plan-A1-A2`` (the fixed procedure's two experiments at
   amplitudes ``A1`` and ``A2`` for every plant, then the structure's base rule; ``plan-1-1`` is the
   fixed procedure), ``plan-best`` (the plan of the least mean cost on the validation plants in the
@@ -186,6 +189,7 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
         name).  Agent paths are checked
         when loaded (:func:`load_agent`).
     """
+    from agents.risk.pretrained import is_pretrained_name, parse_name
     from baselines.procedures import is_procedure, procedure
     from baselines.rules.registry import RULES, get_rule
 
@@ -198,6 +202,9 @@ def parse_policies(text: str, structure: str) -> list[PolicySpec]:
             specs += [PolicySpec(name, "rule") for name in applicable_rules(structure)]
         elif item in ("oracle", "oracle-full"):
             specs.append(PolicySpec(item, item))
+        elif is_pretrained_name(item):  # a shipped learner at a risk, learned-pid@0.01 (agents.risk.pretrained)
+            parse_name(item)  # raises: unknown structure, a risk outside (0, 0.5)
+            specs.append(PolicySpec(item, "learned-rule", item))
         elif item in RULES or ("@" in item and get_rule(item)):  # a rule, or a member RULE@S of its family
             specs.append(PolicySpec(item, "rule"))
         elif is_procedure(item):
@@ -250,6 +257,11 @@ def load_agent(spec: PolicySpec) -> tuple[str, Any]:
         from baselines.procedures import procedure
 
         return spec.name, procedure(spec.name)
+    if spec.kind == "learned-rule" and spec.path == spec.name:  # a shipped learner by name (parse_policies)
+        from agents.risk.pretrained import is_pretrained_name, load_pretrained
+
+        if is_pretrained_name(spec.name):
+            return spec.name, load_pretrained(spec.name)
     if spec.kind == "learned-rule":
         from agents.training.learned_rule_policy import load_learned_rule
 

@@ -43,6 +43,7 @@ TRUSTED: dict[str, tuple[str, ...]] = {
     "learned rule": ("baselines.learned_rule.LearnedRule", "baselines.learned_rule.Spread", _TREES),
     "selector": ("agents.training.selector_policy.Selector", "baselines.learned_rule.LearnedRule",
                  "baselines.learned_rule.Spread", _TREES),
+    "risk learner": ("agents.risk.model.RiskLearner", _TREES),
 }
 """Per kind of model, the types beyond skops's own trusted ones that its file may name."""
 

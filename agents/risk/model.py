@@ -1,0 +1,170 @@
+"""The risk-conditioned design: ``a(x, r) = max(f_a(x), f_b(x) + s(x) q_{1-r})``, clipped to the action's range.
+
+Per plant the oracle's fast search gives two labels (:mod:`agents.risk.labels`): the oracle's action
+and the feasibility boundary's, the least conservative feasible action (in every structure a larger
+action is the more conservative design: a larger relative parameter, ``parameter_from_action``).  A
+design violates on a plant exactly when it is bolder than the boundary, so a design whose share of
+violating plants is at most ``r`` is an upper ``1 - r`` quantile of the boundary given the
+observation ``x``.  It is found by normalized split-conformal prediction (Papadopoulos, Proedrou,
+Vovk and Gammerman 2002; Lei, G'Sell, Rinaldo, Tibshirani and Wasserman 2018, section 5.2), on three
+disjoint splits of the training plants:
+
+1. ``f_b``, a regression of the boundary's action on ``x``, and ``f_a``, one of the oracle's action
+   (the design of least predicted cost), fitted on the first split;
+2. ``s``, a regression of the absolute residual ``|b - f_b(x)|`` on ``x`` (the local scale), on the second;
+3. the scores of the third split, sorted: the standardized residual ``z = (b - f_b(x)) / s(x)``, but
+   ``-inf`` where ``f_a(x) >= b`` (the design ``max(f_a, .)`` is then feasible whatever the quantile)
+   and ``+inf`` where the plant has no feasible design (every design violates).  A design violates
+   exactly when ``f_a(x) < b`` and ``z > q``, that is when the score exceeds ``q``.  ``q_{1-r}`` is the
+   ``ceil((n + 1)(1 - r))``-th smallest of the ``n`` scores (``inf`` beyond the last: the most
+   conservative design), so that on a new plant of the training distribution the design
+   ``a(x, r)`` violates with probability at most ``r`` (the conformal guarantee, marginal over the
+   plants), and not far below it: the maximum with ``f_a`` is part of the calibrated score.
+
+With ``bands`` the third split's residuals are kept per band of the observation's noise feature
+(``log_noise_ratio``), and a plant's quantile is its band's (Mondrian conformal prediction, Vovk,
+Gammerman and Shafer 2005, ch. 4: the guarantee then holds within each band).  The design never
+goes bolder than ``f_a(x)``, the predicted optimum: the oracle's action is feasible, so it lies on
+the boundary or beyond it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["SCALE_FLOOR", "RiskLearner", "conformal_quantile", "conformalized", "fit_learner", "fit_regressions", "regression",
+           "split_indices"]
+
+SCALE_FLOOR = 1e-3
+"""The least local scale (in action units): a scale regression's prediction near 0 cannot make a
+standardized residual explode."""
+
+
+def conformal_quantile(scores: np.ndarray, risk: float) -> float:
+    """The ``ceil((n + 1)(1 - risk))``-th smallest of the sorted ``scores`` (``inf`` beyond the last)."""
+    n = len(scores)
+    rank = math.ceil((n + 1) * (1.0 - risk))
+    return float(scores[rank - 1]) if 1 <= rank <= n else (math.inf if rank > n else -math.inf)
+
+
+@dataclass
+class RiskLearner:
+    """A fitted risk-conditioned learner of one structure (module docstring).
+
+    Attributes
+    ----------
+    action_model, boundary_model, scale_model : regressions with ``predict(rows)``
+    scores : list of numpy arrays
+        Per band, the third split's standardized residuals, sorted (``inf`` for no feasible design).
+    band_edges : numpy array
+        The inner edges of the bands in the noise feature (empty: one band).
+    noise_feature : int
+        The observation's index of the noise feature.
+    low, high : float
+        The action's range.
+    observation_size : int
+    """
+
+    action_model: Any
+    boundary_model: Any
+    scale_model: Any
+    scores: list = field(repr=False)
+    band_edges: np.ndarray
+    noise_feature: int
+    low: float
+    high: float
+    observation_size: int
+
+    def _rows(self, observation: Any) -> np.ndarray:
+        rows = np.asarray(observation, dtype=np.float64).reshape(-1, self.observation_size)
+        return np.nan_to_num(rows, nan=0.0, posinf=1e6, neginf=-1e6)
+
+    def bands(self, rows: np.ndarray) -> np.ndarray:
+        return np.searchsorted(self.band_edges, rows[:, self.noise_feature], side="right")
+
+    def quantiles(self, rows: np.ndarray, risk: float) -> np.ndarray:
+        """Each row's ``q_{1-risk}`` (its band's)."""
+        per_band = np.array([conformal_quantile(scores, risk) for scores in self.scores])
+        return per_band[self.bands(rows)]
+
+    def design(self, observation: Any, risk: float) -> np.ndarray:
+        """The design actions (float64, one per row of ``observation``) at risk ``risk``."""
+        rows = self._rows(observation)
+        bound = self.boundary_model.predict(rows) + self.scale(rows) * self.quantiles(rows, risk)
+        action = np.maximum(self.action_model.predict(rows), np.nan_to_num(bound, posinf=self.high, neginf=self.low))
+        return np.clip(action, self.low, self.high)
+
+    def scale(self, rows: np.ndarray) -> np.ndarray:
+        return np.maximum(self.scale_model.predict(rows), SCALE_FLOOR)
+
+
+def regression(kind: str, seed: int, loss: str = "squared_error") -> Any:
+    """An unfitted regression of ``kind``: ``boosting`` (histogram gradient boosting) or ``mlp`` (a small
+    network on standardized inputs; its loss is the squared error whatever ``loss``)."""
+    if kind == "boosting":
+        from sklearn.ensemble import HistGradientBoostingRegressor
+
+        return HistGradientBoostingRegressor(loss=loss, max_iter=150, learning_rate=0.1, max_leaf_nodes=31,
+                                             min_samples_leaf=20, l2_regularization=1e-3, early_stopping=False,
+                                             random_state=seed)
+    if kind == "mlp":
+        from sklearn.neural_network import MLPRegressor
+        from sklearn.pipeline import make_pipeline
+        from sklearn.preprocessing import StandardScaler
+
+        return make_pipeline(StandardScaler(), MLPRegressor(hidden_layer_sizes=(64, 64), alpha=1e-4, max_iter=300,
+                                                            early_stopping=True, random_state=seed))
+    raise ValueError(f"model must be boosting or mlp, got {kind!r}")
+
+
+def split_indices(n: int, shares: tuple[float, float, float], seed: int) -> list[np.ndarray]:
+    """Three disjoint random index sets of ``range(n)`` in the proportions ``shares``."""
+    order = np.random.default_rng(seed).permutation(n)
+    cuts = np.cumsum(np.asarray(shares, dtype=float) / sum(shares))[:2] * n
+    return np.split(order, cuts.astype(int))
+
+
+def fit_regressions(data: dict[str, np.ndarray], kind: str, seed: int,
+                    shares: tuple[float, float, float] = (0.6, 0.2, 0.2)) -> tuple[Any, Any, Any, np.ndarray, np.ndarray]:
+    """Steps 1-2 of the module docstring: ``(action model, boundary model, scale model, third split's rows,
+    their standardized residuals)`` from the arrays of :func:`agents.risk.labels.records_arrays`."""
+    x, action, boundary = _rows(data["observation"]), data["action"], data["boundary"]
+    first, second, third = split_indices(len(x), shares, seed)
+    feasible = first[np.isfinite(boundary[first])]
+    boundary_model = regression(kind, seed).fit(x[feasible], boundary[feasible])
+    action_model = regression(kind, seed + 1).fit(x[first], action[first])
+    second = second[np.isfinite(boundary[second])]
+    residual = np.abs(boundary[second] - boundary_model.predict(x[second]))
+    scale_model = regression(kind, seed + 2, loss="absolute_error").fit(x[second], residual)
+    b = np.where(np.isfinite(boundary[third]), boundary[third], np.inf)
+    z = (b - boundary_model.predict(x[third])) / np.maximum(scale_model.predict(x[third]), SCALE_FLOOR)
+    # where the predicted optimum is already at least the boundary, the design max(f_a, ...) is feasible for every q
+    z = np.where(action_model.predict(x[third]) >= b, -np.inf, z)
+    return action_model, boundary_model, scale_model, x[third], z
+
+
+def conformalized(regressions: tuple[Any, Any, Any, np.ndarray, np.ndarray], bands: int, noise_feature: int, low: float,
+                  high: float) -> RiskLearner:
+    """Step 3 of the module docstring on the regressions of :func:`fit_regressions`: the third split's
+    standardized residuals, sorted, in ``bands`` equal-count bands of its noise feature."""
+    action_model, boundary_model, scale_model, rows, z = regressions
+    noise = rows[:, noise_feature]
+    edges = np.quantile(noise, np.arange(1, bands) / bands) if bands > 1 else np.array([])
+    band = np.searchsorted(edges, noise, side="right")
+    scores = [np.sort(z[band == b]) for b in range(bands)]
+    return RiskLearner(action_model, boundary_model, scale_model, scores, np.asarray(edges, dtype=float), int(noise_feature),
+                       float(low), float(high), rows.shape[1])
+
+
+def _rows(observation: np.ndarray) -> np.ndarray:
+    return np.nan_to_num(np.asarray(observation, dtype=np.float64), nan=0.0, posinf=1e6, neginf=-1e6)
+
+
+def fit_learner(data: dict[str, np.ndarray], kind: str, seed: int, *, shares: tuple[float, float, float] = (0.6, 0.2, 0.2),
+                bands: int = 1, noise_feature: int, low: float, high: float) -> RiskLearner:
+    """A :class:`RiskLearner` (module docstring): :func:`fit_regressions` then :func:`conformalized`."""
+    return conformalized(fit_regressions(data, kind, seed, shares), bands, noise_feature, low, high)

@@ -1,0 +1,130 @@
+"""``deadtime pretrain``: label, choose, fit and write the risk-conditioned learners of ``configs/risk_learner.yaml``.
+
+Per structure of the config:
+
+1. the training and validation plants of the config's two streams, labelled by the oracle's fast
+   search and cached in ``LABELS/<STRUCTURE>/`` (:mod:`agents.risk.labels`; an interrupted run
+   continues from the files written);
+2. every candidate of ``models`` x ``bands`` fitted on the training plants
+   (:func:`agents.risk.model.fit_learner`) and played on the validation plants, where a design
+   violates when it is bolder than the plant's feasibility boundary (or the plant has no feasible
+   design): the candidates whose violation share is within ``[0.5 r, 1.5 r]`` at every risk of
+   :data:`RISKS` and in every quarter of the validation plants' noise levels keep their place, and
+   among them (or, where none does, among those of the least calibration miss) the one of least mean
+   design action (the least conservative on average) is chosen;
+3. the chosen candidate (deterministic given the config's seed) is written as ``MODELS/learned-<structure>.skops`` and its manifest ``.json``
+   (:mod:`agents.risk.pretrained`), with the config, the commit and the choice's table.
+
+The plants never come from a test stream: both entropies are the config's own.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.risk.config import RiskLearnerConfig
+
+__all__ = ["NOISE_FEATURE", "RISKS", "label_violations", "pretrain", "pretrain_structure"]
+
+RISKS = (0.005, 0.01, 0.02, 0.05)
+"""The declared risk levels the choice checks (those of :data:`agents.frontier.frontier.RISK_LEVELS`)."""
+
+NOISE_FEATURE = "log_noise_ratio"
+
+
+def label_violations(learner: Any, data: dict[str, np.ndarray], risk: float) -> np.ndarray:
+    """Per plant, whether the learner's design at ``risk`` is bolder than the labelled feasibility boundary
+    (always where no design is feasible)."""
+    boundary = np.where(np.isfinite(data["boundary"]), data["boundary"], np.inf)
+    return learner.design(data["observation"], risk) < boundary
+
+
+def _quarters(noise: np.ndarray) -> np.ndarray:
+    return np.searchsorted(np.quantile(noise, [0.25, 0.5, 0.75]), noise, side="right")
+
+
+def _validate(learner: Any, data: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Violation shares per risk (all plants and per quarter of noise), the worst calibration ratio's miss,
+    and the mean design action."""
+    quarter = _quarters(data["noise_std"])
+    rates, miss, designs = {}, 0.0, []
+    for risk in RISKS:
+        violates = label_violations(learner, data, risk)
+        shares = [float(violates.mean())] + [float(violates[quarter == q].mean()) for q in range(4)]
+        rates[str(risk)] = [round(s, 5) for s in shares]
+        miss = max(miss, *(max(s / risk - 1.5, 0.5 - s / risk) for s in shares))
+        designs.append(float(learner.design(data["observation"], risk).mean()))
+    return {"violation_shares": rates, "calibration_miss": round(miss, 4), "mean_design": round(float(np.mean(designs)), 5)}
+
+
+def _noise_index(env_id: str, env_kwargs: dict[str, Any]) -> tuple[int, float, float]:
+    from agents.environments import make_env
+    from envs.interface import tuning_env_of
+
+    env = make_env(env_id, env_kwargs)
+    try:
+        env.reset(seed=0)
+        names = tuning_env_of(env).feature_names
+        return names.index(NOISE_FEATURE), float(env.action_space.low[0]), float(env.action_space.high[0])
+    finally:
+        env.close()
+
+
+def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, models: Path, *,
+                       commit: str | None = None, log: Any = sys.stderr) -> Path:
+    """Steps 1-3 of the module docstring for one structure; the manifest's path."""
+    from agents.risk.labels import label_stream, records_arrays
+    from agents.risk.model import conformalized, fit_regressions
+    from agents.risk.pretrained import model_paths
+    from agents.training.model_files import save_model_file
+
+    env_id = config.env_id(structure)
+    started = time.perf_counter()
+    streams = {}
+    for stream, entropy, count in (("training", config.training_entropy, config.training_plants),
+                                   ("validation", config.validation_entropy, config.validation_plants)):
+        streams[stream] = records_arrays(label_stream(labels, env_id, structure, stream, entropy, count,
+                                                      base_kwargs=config.env_kwargs, draw_kwargs=config.draw_kwargs(), log=log))
+    labelled = time.perf_counter()
+    noise, low, high = _noise_index(env_id, config.env_kwargs)
+    directions = {float(d) for d in streams["training"]["direction"]} - {0.0}
+    if directions != {1.0}:
+        raise ValueError(f"{env_id}: a larger action is not the more conservative design in every training episode")
+    candidates, learners = {}, {}
+    for kind in config.models:
+        regressions = fit_regressions(streams["training"], kind, config.seed, tuple(config.splits))
+        for bands in config.bands:
+            key = (kind, int(bands))
+            learners[key] = conformalized(regressions, int(bands), noise, low, high)
+            candidates[key] = _validate(learners[key], streams["validation"])
+            print(f"{structure} {kind} bands={bands}: {candidates[key]}", file=log, flush=True)
+    calibrated = [key for key, row in candidates.items() if row["calibration_miss"] <= 0.0]
+    pool = calibrated or [min(candidates, key=lambda key: candidates[key]["calibration_miss"])]
+    kind, bands = min(pool, key=lambda key: (candidates[key]["mean_design"], key))
+    learner = learners[(kind, bands)]
+    fitted = time.perf_counter()
+    model_path, manifest_path = model_paths(structure, models)
+    models.mkdir(parents=True, exist_ok=True)
+    save_model_file(model_path, manifest_path, learner, {
+        "kind": "risk learner", "structure": structure, "env_id": env_id, "env_kwargs": dict(config.env_kwargs),
+        "model": kind, "bands": bands, "noise_feature": NOISE_FEATURE, "directions": sorted(directions),
+        "config": config.to_dict(), "commit": commit,
+        "choice": [{"model": k, "bands": b, **row} for (k, b), row in candidates.items()],
+        "chosen": {"model": kind, "bands": bands},
+        "seconds": {"labels": round(labelled - started, 1), "fit_and_choice": round(fitted - labelled, 1)},
+    })
+    print(f"{structure}: {kind}, {bands} band(s) -> {model_path} ({model_path.stat().st_size} bytes)", file=log, flush=True)
+    return manifest_path
+
+
+def pretrain(config: RiskLearnerConfig, labels: Path, models: Path, structures: tuple[str, ...] | None = None) -> list[Path]:
+    """:func:`pretrain_structure` for each structure of ``structures`` (default the config's); the manifests' paths."""
+    from agents.runtime import git_commit
+
+    commit = git_commit()
+    return [pretrain_structure(config, structure, labels, models, commit=commit) for structure in structures or config.structures]
