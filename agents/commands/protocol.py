@@ -57,6 +57,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--address", help="run the tasks on the Ray cluster at this address (HOST:PORT, or auto) instead, as "
                                        "deadtime sweep does; every node needs this checkout at the same path and --out "
                                        "(and --fits) on a file system they all see")
+    run.add_argument("--uncommitted-code", action="store_true",
+                     help="run from a tree with changes not committed, or resume from another code than the run's "
+                          "recorded hash, and mark protocol.json so (default: refused)")
     every = actions.add_parser("every-rule", help="every declared rule on the test plants of the regimes done, beside the "
                                                    "primaries (descriptive, outside the Holm family)")
     every.add_argument("protocol")
@@ -131,7 +134,8 @@ def _run(args: argparse.Namespace, protocol: Any, out: Path) -> int:
     try:
         done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only,
                             fits=Path(args.fits) if args.fits else None, workers=args.workers,
-                            address=args.address or os.environ.get("RAY_ADDRESS"), chunk=args.chunk_plants)
+                            address=args.address or os.environ.get("RAY_ADDRESS"), chunk=args.chunk_plants,
+                            uncommitted=True if args.uncommitted_code else None)
     except BaseException as error:  # noqa: BLE001  (an interruption, maybe wrapped by numba or torch, is said here)
         if not interrupted(error):
             raise
@@ -153,4 +157,5 @@ def _resume_command(args: argparse.Namespace) -> str:
     words += ["--workers", str(args.workers)] if args.workers != 1 else []
     words += ["--chunk-plants", str(args.chunk_plants)] if args.chunk_plants != CHUNK_PLANTS else []
     words += ["--address", args.address] if args.address else []
+    words += ["--uncommitted-code"] if args.uncommitted_code else []
     return shlex.join([*words, "--resume"])

@@ -37,6 +37,7 @@ import dataclasses
 import gzip
 import hashlib
 import io
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -80,16 +81,24 @@ def _config_digests(protocol: Protocol) -> dict[str, str]:
     return {path: hashlib.sha256(Path(path).read_bytes()).hexdigest() for path in configs}
 
 
-def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
+def start(protocol: Protocol, out: Path, resume: bool, uncommitted: bool | None = None) -> dict[str, Any]:
     """Check that ``protocol`` may run into ``out`` and record it there (``protocol.json``).
+
+    ``uncommitted`` (default: the environment variable ``DEADTIME_UNCOMMITTED_CODE`` set to 1) lets a run
+    start from a tree with changes not committed, or resume from another code than the recorded one,
+    and marks its ``protocol.json`` so (:mod:`agents.protocol.code`).
 
     Raises
     ------
     ProtocolRefused
         One line: the test seed is not registered to this protocol, ``out`` holds another protocol's
         run, or holds a run and ``resume`` is False, or a training config it names changed since the
-        run started.
+        run started, or the code is not the recorded one (:func:`agents.protocol.code.check_code`).
     """
+    from agents.protocol.code import CodeRefused, check_code
+
+    if uncommitted is None:
+        uncommitted = os.environ.get("DEADTIME_UNCOMMITTED_CODE") == "1"
     registry = Path(protocol.path).with_name("test_seeds.json")
     try:
         check_test_seed(protocol.test.entropy, protocol.sha256, registry)
@@ -108,12 +117,25 @@ def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
         if changed:
             raise ProtocolRefused(f"{changed[0]} changed since the run in {out} started: its learners would not be the "
                                   "protocol's; restore it (the run's commit is in protocol.json)")
+        try:
+            code = check_code(record.get("code"), uncommitted)
+        except CodeRefused as error:
+            raise ProtocolRefused(str(error)) from None
+        if code != record.get("code"):
+            from agents.files.writer import write_json
+
+            record = {**record, "code": code}
+            write_json(record_path, record)
         return record
     from agents.files.writer import write_json
 
+    try:
+        code = check_code(None, uncommitted)
+    except CodeRefused as error:
+        raise ProtocolRefused(str(error)) from None
     out.mkdir(parents=True, exist_ok=True)
-    record = {"protocol": protocol.path, "protocol_sha256": protocol.sha256, "commit": _commit(),
-              "test_entropy": protocol.test.entropy, "configs_sha256": _config_digests(protocol)}
+    record = {"protocol": protocol.path, "protocol_sha256": protocol.sha256, "commit": code["commit"] + ("" if code["clean"] else "-dirty"),
+              "code": code, "test_entropy": protocol.test.entropy, "configs_sha256": _config_digests(protocol)}
     write_json(record_path, record)
     return record
 
@@ -335,7 +357,7 @@ def _unique(fits: list[Fit]) -> list[Fit]:
 
 def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes: list[str] | None = None,
                  validation_only: bool = False, fits: Path | None = None, workers: int = 1, address: str | None = None,
-                 chunk: int = CHUNK_PLANTS) -> list[str]:
+                 chunk: int = CHUNK_PLANTS, uncommitted: bool | None = None) -> list[str]:
     """Run the protocol's regimes (all, or those named) into ``out``; returns the names of the regimes done.
 
     ``validation_only`` stops each regime after its choices (``selection.json``), before its test stream;
@@ -354,7 +376,7 @@ def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes
 
     chosen = [protocol.regime(name) for name in regimes] if regimes else list(protocol.regimes)
     with folder_lock(out, "protocol run"):
-        start(protocol, out, resume)
+        start(protocol, out, resume, uncommitted)
         work = out / "work"
         fits = fits or work / "runs"
         pending = [regime for regime in chosen if not (out / regime.name / SUMMARY).exists()]

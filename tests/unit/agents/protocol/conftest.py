@@ -59,6 +59,15 @@ def write_tiny_protocol(folder: Path) -> Path:
     return path
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _uncommitted_code_allowed() -> None:
+    """The protocol runs of these tests run from the tree under test, committed or not (their protocol.json
+    marked so where it is not); tests/unit/agents/protocol/test_code.py checks the refusal itself."""
+    import os
+
+    os.environ["DEADTIME_UNCOMMITTED_CODE"] = "1"
+
+
 @pytest.fixture
 def tiny_protocol() -> Callable[[Path], Path]:
     """:func:`write_tiny_protocol`."""
