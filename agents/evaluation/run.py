@@ -39,7 +39,7 @@ from agents.evaluation.result import FAILURE_COST, PolicyResult
 from agents.interruptions import GRACE_S, ignore_interrupts_in_worker
 from envs.interface import episode_of
 
-__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "agent_action", "evaluate_plant", "plant_key", "rule_result", "selector_result"]
+__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "agent_action", "agent_result", "evaluate_plant", "plant_key", "rule_result", "selector_result"]
 
 
 CACHE_VERSION = 3
@@ -139,7 +139,7 @@ def agent_action(env: Any, policy: Any, observation: np.ndarray) -> Any:
     return np.asarray(action, dtype=np.float32).reshape(env.action_space.shape)
 
 
-def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
+def agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
     observation, info = env.reset(seed=seed, options={"plant": plant})
     for _ in range(10_000):
         observation, _, terminated, truncated, info = env.step(agent_action(env, policy, observation))
@@ -236,7 +236,7 @@ def evaluate_plant(
     for name, (policy, agent_env, identity) in agents.items():
         result = None if identity is None else cache.get(key, identity)
         if result is None:
-            play = selector_result if hasattr(policy, "rule_of") else _agent_result
+            play = selector_result if hasattr(policy, "rule_of") else agent_result
             result = play(agent_env, policy, seed, plant)
             if identity is not None:
                 cache.put(key, identity, result)
