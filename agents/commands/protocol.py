@@ -109,6 +109,16 @@ def run(args: argparse.Namespace) -> int:
     out = require_directory(args.out)
     if args.action == "run":
         return _run(args, protocol, out)
+    if args.action == "every-rule" and protocol.frontier is not None:
+        raise ValueError(f"{protocol.path} is a frontier protocol: every rule family is on its validation frontiers "
+                         "(protocol_results.json), every-rule is for the protocols without a frontier")
+    if args.action == "report" and protocol.frontier is not None:
+        from agents.protocol.frontier_run import frontier_results
+
+        results = frontier_results(protocol, out)
+        print(f"{len(results['regimes'])} regime(s), {results['comparisons_in_holm_family']} comparisons in the Holm "
+              f"family; wrote {out / 'protocol_results.json'}", file=sys.stderr)
+        return 0
     if args.action == "every-rule":
         from agents.protocol.every_rule import write_every_rule
 

@@ -39,7 +39,7 @@ from agents.evaluation.result import FAILURE_COST, PolicyResult
 from agents.interruptions import GRACE_S, ignore_interrupts_in_worker
 from envs.interface import episode_of
 
-__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "agent_action", "agent_result", "evaluate_plant", "plant_key", "rule_result", "selector_result"]
+__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "agent_action", "agent_result", "evaluate_plant", "oracle_result", "plant_key", "rule_result", "selector_result"]
 
 
 CACHE_VERSION = 3
@@ -92,7 +92,7 @@ def rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
     return PolicyResult(float(score.cost), bool(score.feasible), False, experiment_time, controller.to_dict(), _finite(parameter))
 
 
-def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[PolicyResult, float]:
+def oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[PolicyResult, float]:
     """The oracle's result and ``|its own cost - the environment's cost|`` of its optimum."""
     from baselines.oracle import exact_models, full_information_oracle, oracle
     from envs.structures import STRUCTURES, design
@@ -228,7 +228,7 @@ def evaluate_plant(
             if not identified:
                 results[name] = PolicyResult.failed(ValueError("the identification procedure identified no usable model"), experiment_time)
             elif name in ("oracle", "oracle-full"):
-                results[name], off = _oracle_result(env, name == "oracle-full", experiment_time)
+                results[name], off = oracle_result(env, name == "oracle-full", experiment_time)
                 mismatch = max(mismatch, off) if name == "oracle" else mismatch
             else:
                 results[name] = rule_result(env, name, experiment_time)

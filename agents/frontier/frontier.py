@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DEFAULT_KNOBS", "RISK_LEVELS", "Family", "frontier", "frontier_table"]
+__all__ = ["DEFAULT_KNOBS", "RISK_LEVELS", "Family", "choose_knob", "frontier", "frontier_table"]
 
 RISK_LEVELS: tuple[float, ...] = (0.005, 0.01, 0.02, 0.05)
 """The declared risk levels: shares of validation plants on which one trained model's design violates."""
@@ -154,7 +154,7 @@ def frontier_table(families: Sequence[Family], knobs: Sequence[float], results: 
             rows.append({"family": family.name, "kind": family.kind, "knob": knob, "mean_cost": float(cost.mean()),
                          "risk": float(violated.mean(axis=1).mean()), "risk_union": float(violated.any(axis=0).mean()),
                          "seeds": int(cost.shape[0]), "plants": int(cost.shape[1])})
-    chosen = {f.name: {_level(r): _choose([row for row in rows if row["family"] == f.name], r) for r in RISK_LEVELS}
+    chosen = {f.name: {_level(r): choose_knob([row for row in rows if row["family"] == f.name], r) for r in RISK_LEVELS}
               for f in families}
     best = {_level(r): {group: _best(families, rows, chosen, r, group) for group in ("rule", "learned")} for r in RISK_LEVELS}
     for level in best.values():
@@ -190,7 +190,7 @@ def _level(r: float) -> str:
     return f"{100 * r:g}%"
 
 
-def _choose(rows: list[dict[str, Any]], r: float) -> float | None:
+def choose_knob(rows: list[dict[str, Any]], r: float) -> float | None:
     """The knob of least mean cost among ``rows`` of risk at most ``r`` (ties: the more conservative), or None."""
     allowed = [row for row in rows if row["risk"] <= r + 1e-12]
     if not allowed:

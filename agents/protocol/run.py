@@ -1,5 +1,8 @@
 """``deadtime protocol run``: a protocol's regimes, each trained, chosen on validation and tested once.
 
+A frontier protocol (a ``frontier`` section: every policy a family by its risk knob) runs by
+:mod:`agents.protocol.frontier_run` instead, through the same start, lock, workers and resumption.
+
 For each regime, in the protocol's order (or the ones named), until its ``summary.json`` exists:
 
 1. every candidate learner is trained with every seed of the protocol (:mod:`agents.protocol.training`,
@@ -52,7 +55,7 @@ from agents.protocol.statistics import paired_difference, plant_means, plant_vio
 from agents.protocol.streams import check_test_seed, plant_stream
 from agents.protocol.tasks import CHUNK_PLANTS, Chunk, Fit, chunks, merge_chunks
 
-__all__ = ["PER_PLANT", "SUMMARY", "ProtocolRefused", "read_per_plant", "run_protocol", "start"]
+__all__ = ["PER_PLANT", "SUMMARY", "ProtocolRefused", "read_per_plant", "run_protocol", "start", "structure_and_family"]
 
 PER_PLANT = "test_per_plant.csv.gz"
 SUMMARY = "summary.json"
@@ -188,7 +191,7 @@ def matrices(rows: list[dict[str, Any]], subset: str) -> tuple[list[str], dict[s
 
 
 # ------------------------------------------------------------------------------------ one regime
-def _structure_and_family(regime: Regime) -> tuple[str, str]:
+def structure_and_family(regime: Regime) -> tuple[str, str]:
     """The name of the regime's structure and its plant family (from one environment, made and closed)."""
     from agents.environments import make_env
     from envs.interface import tuning_env_of
@@ -257,7 +260,7 @@ def _validation(protocol: Protocol, work: Path, regime: Regime, fits: Path, size
     """Step 2's tasks: the declared rules, plans, procedure and every candidate's seeds on the validation stream."""
     labels = [(mode, learner.label) for mode in PRIMARIES for learner in regime.candidates(mode)]
     learners, names, needed = _learner_policies(protocol, fits, regime, labels)
-    structure, family = _structure_and_family(regime)
+    structure, family = structure_and_family(regime)
     plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
     policies = [*_baselines(protocol), *_base_rule(protocol, structure).values(), *learners]
     directory = work / regime.name / "validation"
@@ -270,7 +273,7 @@ def select(protocol: Protocol, out: Path, regime: Regime, stage: _Stage) -> dict
     ``selection.json``."""
     from agents.files.writer import write_json
 
-    structure, family = _structure_and_family(regime)
+    structure, family = structure_and_family(regime)
     merge_chunks(stage.chunks, stage.directory / "per_plant.csv")
     _, table = matrices(read_per_plant(stage.directory / "per_plant.csv", stage.names), "test")
     mean_of = {name: plant_means(table[name][0]) for name in table}
@@ -379,6 +382,11 @@ def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes
         start(protocol, out, resume, uncommitted)
         work = out / "work"
         fits = fits or work / "runs"
+        if protocol.frontier is not None:
+            from agents.protocol.frontier_run import run_frontier
+
+            run_frontier(protocol, out, chosen, fits, lambda: pool(workers, address), validation_only, chunk)
+            return [regime.name for regime in chosen]
         pending = [regime for regime in chosen if not (out / regime.name / SUMMARY).exists()]
         if not pending:
             return [regime.name for regime in chosen]
