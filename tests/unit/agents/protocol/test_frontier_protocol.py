@@ -158,3 +158,24 @@ def test_the_tiny_frontier_protocol_interrupted_resumes_to_the_serial_tables(tin
                            text=True, timeout=1800)
     assert again.returncode == 0, again.stderr[-3000:]
     _assert_same_run(serial, out)
+
+
+def test_the_v5_draft_loads_on_fresh_streams_and_is_not_registered():
+    """Eight regimes, ten seeds, the declared risk levels; its entropies and episode seeds used by no other protocol;
+    its test seed not in the registry (a draft).  It names configs/v5/*.yaml, the stable-baselines3 candidates."""
+    import re
+
+    from agents.protocol.streams import read_registry
+
+    path = Path("configs/protocols/v5.yaml")
+    if not Path("configs/v5/sac.yaml").is_file():
+        pytest.skip("configs/v5/ (the stable-baselines3 candidates' configs) is not in this tree")
+    protocol = load_protocol(path)
+    assert len(protocol.regimes) == 8 and len(protocol.seeds) == 10
+    assert protocol.frontier.risk_levels == (0.005, 0.01, 0.02, 0.05) and 0.0 in protocol.frontier.knobs
+    assert all({"sac", "ppo", "td3", "learned-rule", "selector"} <= {l.label for l in r.learners()} for r in protocol.regimes)
+    assert protocol.test.entropy not in [entry["entropy"] for entry in read_registry()]
+    others = "".join(p.read_text() for p in Path("configs/protocols").glob("v[1-4].yaml"))
+    entropies = {int(e) for e in re.findall(r"entropy: (\d+)", others)}
+    assert not {protocol.validation.entropy, protocol.test.entropy} & entropies
+    assert {protocol.validation.episode_seed, protocol.test.episode_seed}.isdisjoint({50000000, 60000000})
