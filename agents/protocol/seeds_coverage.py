@@ -58,15 +58,16 @@ def populations(path: Path) -> list[dict[str, Any]]:
     return found
 
 
-def coverage_of(d: np.ndarray, replicates: int, level: float, rng: np.random.Generator) -> tuple[float, float]:
-    """The share of ``replicates`` crossed intervals (seeds and plants of ``d`` resampled) holding ``d``'s mean, and
-    their mean width."""
+def coverage_of(d: np.ndarray, replicates: int, level: float, rng: np.random.Generator,
+                seeds: int | None = None) -> tuple[float, float]:
+    """The share of ``replicates`` crossed intervals (seeds and plants of ``d`` resampled; ``seeds`` of them, default
+    ``d``'s own count) holding ``d``'s mean, and their mean width."""
     from agents.frontier.statistics import crossed_interval
 
     k, n = d.shape
     truth, hits, widths = float(d.mean()), 0, []
     for _ in range(replicates):
-        sample = d[rng.integers(0, k, size=k)][:, rng.integers(0, n, size=n)]
+        sample = d[rng.integers(0, k, size=seeds or k)][:, rng.integers(0, n, size=n)]
         if np.ptp(sample) == 0.0:
             hits += bool(sample[0, 0] == truth)
             widths.append(0.0)
@@ -77,8 +78,11 @@ def coverage_of(d: np.ndarray, replicates: int, level: float, rng: np.random.Gen
     return hits / replicates, float(np.mean(widths))
 
 
-def seeds_coverage(tables: list[Path], replicates: int = 1000, level: float = 0.95, seed: int = 0) -> dict[str, Any]:
-    """The coverage on every population of ``tables`` (module docstring), smallest first named."""
+def seeds_coverage(tables: list[Path], replicates: int = 1000, level: float = 0.95, seed: int = 0,
+                   seeds: int | None = None) -> dict[str, Any]:
+    """The coverage on every population of ``tables`` (module docstring); ``seeds`` resampled per replicate (default:
+    the table's own count; more: the coverage a protocol of that many seeds would have, the spread between seeds
+    being the committed seeds')."""
     if not tables:
         raise ValueError("give at least one per-seed table (e.g. results/protocol_v3/*/test_per_plant.csv.gz)")
     for path in tables:
@@ -86,13 +90,15 @@ def seeds_coverage(tables: list[Path], replicates: int = 1000, level: float = 0.
             raise ValueError(f"{path}: no such table")
     if isinstance(replicates, bool) or not isinstance(replicates, int) or replicates < 1:
         raise ValueError(f"replicates must be an integer >= 1, got {replicates!r}")
+    if seeds is not None and (isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 2):
+        raise ValueError(f"seeds must be an integer >= 2, got {seeds!r}")
     rng = np.random.default_rng(seed)
     rows = []
     for path in tables:
         for population in populations(Path(path)):
             d = population.pop("differences")
-            covered, width = coverage_of(d, replicates, level, rng)
-            rows.append({**population, "seeds": int(d.shape[0]), "plants": int(d.shape[1]), "mean": float(d.mean()),
+            covered, width = coverage_of(d, replicates, level, rng, seeds)
+            rows.append({**population, "seeds": int(d.shape[0]), "seeds_resampled": int(seeds or d.shape[0]), "plants": int(d.shape[1]), "mean": float(d.mean()),
                          "coverage": covered, "mean_width": width})
     covered = [row["coverage"] for row in rows]
     return {"method": "crossed random effects (t, Satterthwaite): seeds and plants random", "level": level,
@@ -108,10 +114,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("tables", nargs="+", type=Path)
     parser.add_argument("--replicates", type=int, default=1000)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seeds", type=int, help="seeds drawn per replicate (default: the table's own count)")
     parser.add_argument("--out", type=Path)
     args = parser.parse_args(argv)
     try:
-        result = seeds_coverage(sorted(args.tables), args.replicates, 0.95, args.seed)
+        result = seeds_coverage(sorted(args.tables), args.replicates, 0.95, args.seed, args.seeds)
     except ValueError as error:
         parser.exit(2, f"{parser.prog}: {error}\n")
     text = json.dumps(result, indent=1) + "\n"
