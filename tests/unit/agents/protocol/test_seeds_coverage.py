@@ -54,3 +54,10 @@ def test_the_command_writes_its_json_and_refuses_a_missing_table_in_one_line(tmp
     with pytest.raises(SystemExit) as exited:
         main([str(tmp_path / "missing.csv.gz")])
     assert exited.value.code == 2 and capsys.readouterr().err.count("\n") == 1
+
+
+def test_the_committed_seeds_random_coverage_is_the_one_docs_protocol_quotes():
+    committed = json.loads(Path("results/protocol_coverage/seeds_random.json").read_text())
+    docs = Path("docs/protocol.md").read_text()
+    assert committed["populations_checked"] == 47 and committed["replicates"] == 1000
+    assert f"is {committed['median_coverage']:.3g} and the smallest {committed['smallest_coverage']:.3g}" in docs
