@@ -66,3 +66,29 @@ def test_outside_a_git_checkout_the_code_is_not_clean(tmp_path: Path) -> None:
     assert code_state(tmp_path) == {"commit": "unknown", "sha256": "unknown", "clean": False}
     with pytest.raises(CodeRefused):
         check_code(None, False, tmp_path)
+
+
+def test_a_protocol_run_records_the_code_and_refuses_other_code_unless_marked(tmp_path, tiny_protocol, monkeypatch):
+    """``start`` with the code's state given: a tree not clean refused, then marked; a resumed run on another hash
+    refused, then recorded among the hashes it was continued with."""
+    import json
+
+    import agents.protocol.code as code
+    from agents.protocol.config import load_protocol
+    from agents.protocol.run import ProtocolRefused, start
+
+    protocol = load_protocol(tiny_protocol(tmp_path))
+    out = tmp_path / "out"
+    monkeypatch.setattr(code, "code_state", lambda root=None: {"commit": "c1", "sha256": "h1", "clean": False})
+    with pytest.raises(ProtocolRefused, match="differs from its commit c1") as refused:
+        start(protocol, out, resume=False, uncommitted=False)
+    assert "\n" not in str(refused.value) and not out.exists()
+    start(protocol, out, resume=False, uncommitted=True)
+    record = json.loads((out / "protocol.json").read_text())
+    assert record["code"]["sha256"] == "h1" and record["code"]["marked"] and record["commit"] == "c1-dirty"
+    monkeypatch.setattr(code, "code_state", lambda root=None: {"commit": "c2", "sha256": "h2", "clean": True})
+    with pytest.raises(ProtocolRefused, match="is not the run's recorded h1"):
+        start(protocol, out, resume=True, uncommitted=False)
+    start(protocol, out, resume=True, uncommitted=True)
+    record = json.loads((out / "protocol.json").read_text())
+    assert record["code"]["sha256"] == "h1" and record["code"]["continued_with"][0]["sha256"] == "h2"
