@@ -9,11 +9,14 @@
     deadtime protocol every-rule configs/protocols/v4.yaml --out results/protocol_v4   # each rule on the test plants
     deadtime protocol coverage --n 4000 --out results/protocol_coverage/coverage.json
 
-``run`` trains, chooses on validation and tests (:mod:`agents.protocol.run`), its fits and evaluations
+``run`` trains, chooses on validation and tests (:mod:`agents.protocol.run`; a frontier protocol's
+families by :mod:`agents.protocol.frontier_run`), from a tree whose code is the commit's (or, with
+``--uncommitted-code``, marked so; :mod:`agents.protocol.code`), its fits and evaluations
 as tasks in this process, on N local Ray workers or on a Ray cluster (:mod:`agents.protocol.workers`);
 it holds a lock on ``--out`` while it runs, and Ctrl-C or SIGTERM ends it (status 130 or 143) with the
 command that resumes; each finished regime's folder can be committed.  ``report`` writes
-``protocol_results.json``, ``results.md`` and ``forest.png`` (:mod:`agents.protocol.report`).
+``protocol_results.json``, ``results.md`` and ``forest.png`` (:mod:`agents.protocol.report`; a frontier
+protocol's ``protocol_results.json`` only).
 """
 
 from __future__ import annotations

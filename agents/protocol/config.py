@@ -25,6 +25,20 @@ A protocol declares, before any of its test plants is evaluated, everything its 
         plan: [...]                     # candidates of the plan-mode primary (may be empty)
         seq: [...]                      # candidates of the sequential primary (may be empty)
 
+A frontier protocol (:mod:`agents.protocol.frontier_run`) has a ``frontier`` section instead of
+``selection`` and ``comparisons``: every rule and every candidate learner is a family by its risk knob,
+and its comparisons are fixed by the section::
+
+    frontier:
+      knobs: [-1, -0.5, -0.25, 0, 0.25, 0.5, 1, 1.5, 2]   # increasing, 0 (the shipped policy) among them
+      risk_levels: [0.005, 0.01, 0.02, 0.05]
+      rules: [all-rules]              # the rule families (a regime's own ``rules:`` list replaces it there)
+      min_seeds: 10                   # seeds.count at least this
+    regimes:
+      - {name: ..., env: ..., env_kwargs: ..., rules: [...], fixed: [...], plan: [...]}   # every candidate a family
+
+A learner's label there names neither a rule nor holds ``@`` (``FAMILY@S`` names a family's member).
+
 Streams of plants (:mod:`agents.protocol.streams`): the validation and test plants of each structure
 come from ``numpy.random.SeedSequence(entropy, spawn_key=(family,))``; the training plants are the
 learners' own (their configs' seeds, :mod:`agents.training.learned_rule`).  The test entropy must be
