@@ -180,3 +180,30 @@ def test_the_v5_draft_loads_on_fresh_streams_and_is_not_registered():
     entropies = {int(e) for e in re.findall(r"entropy: (\d+)", others)}
     assert not {protocol.validation.entropy, protocol.test.entropy} & entropies
     assert {protocol.validation.episode_seed, protocol.test.episode_seed}.isdisjoint({50000000, 60000000})
+
+
+def test_the_regime_summary_risks_and_gap_closed_recompute_independently():
+    """Risk per seed averaged, pooled Clopper-Pearson from scipy's binomial test, gap closed from the means."""
+    from scipy import stats
+
+    from agents.protocol.frontier_run import regime_summary
+
+    rng = np.random.default_rng(1)
+    learner = (rng.gamma(3.0, 1.0, size=(4, 50)), rng.random((4, 50)) < 0.1)
+    rule = (rng.gamma(4.0, 1.0, size=(1, 50)), rng.random((1, 50)) < 0.2)
+    oracle = (np.full((1, 50), 0.5), np.zeros((1, 50), dtype=bool))
+    point = {"family": "l", "knob": 0.5, "kind": "learned", "mean_cost": 0.0, "risk": 0.0}
+    second = {**point, "family": "r", "knob": 0.0, "kind": "rule"}
+    selection = {"regime": "x", "env": "e", "env_kwargs": {}, "best": {"1%": {"learned": point, "rule": second}},
+                 "shipped_rule": second, "learned_at_shipped_rule_risk": None}
+    found = regime_summary(selection, {"l@0.5": learner, "r@0.0": rule, "oracle": oracle})
+    risk = found["policies"]["l@0.5"]
+    assert risk["risk"] == pytest.approx(np.mean([row.mean() for row in learner[1]]))
+    pooled = stats.binomtest(int(learner[1].sum()), learner[1].size).proportion_ci(0.95, method="exact")
+    assert risk["risk_interval"] == pytest.approx([pooled.low, pooled.high])
+    [comparison] = found["comparisons"]
+    gap = (rule[0].mean() - learner[0].mean()) / (rule[0].mean() - 0.5)
+    assert comparison["gap_closed"]["estimate"] == pytest.approx(gap)
+    low, high = comparison["gap_closed"]["interval"]
+    assert low < gap < high
+    assert comparison["difference"]["estimate"] == pytest.approx(learner[0].mean() - rule[0].mean())
