@@ -113,8 +113,12 @@ def _assert_same_run(expected: Path, found: Path) -> None:
 
 @pytest.mark.slow
 def test_the_tiny_frontier_protocol_writes_its_results_with_holm_once_per_pair(tiny_frontier_run):
-    _, out = tiny_frontier_run
+    """The results recomputed by the report from the committed files are the run's; each pair once under Holm."""
+    from agents.protocol.frontier_run import frontier_results
+
+    path, out = tiny_frontier_run
     results = json.loads((out / "protocol_results.json").read_text())
+    assert json.loads(json.dumps(frontier_results(load_protocol(path), out))) == results
     assert results["interval_method"].startswith("crossed random effects") and results["code"]["sha256"]
     holm = [c for regime in results["regimes"].values() for c in regime["matched"] if "holm_p_value" in c]
     assert len(holm) == results["comparisons_in_holm_family"]
