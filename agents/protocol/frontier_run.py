@@ -15,7 +15,8 @@ For each regime, until its ``summary.json`` exists:
    family at ``r`` (least mean cost); the best rule as shipped (least mean cost at ``s = 0``) and the
    best learned family at that rule's risk;
 4. only then the chosen (family, knob) policies and the oracle are scored on the test stream, into
-   ``OUT/REGIME/test_per_plant.csv.gz`` (columns ``policy, seed, plant, cost, feasible``), and
+   ``OUT/REGIME/test_per_plant.csv.gz`` (one row per plant, a cost and a feasibility column per policy and
+   seed: :func:`write_table`), and
    ``OUT/REGIME/summary.json`` is written.
 
 ``OUT/protocol_results.json`` (:func:`frontier_results`, also ``deadtime protocol report``) is made
@@ -54,7 +55,6 @@ SELECTION = "selection.json"
 SUMMARY = "summary.json"
 RESULTS = "protocol_results.json"
 ORACLE = "oracle"
-_HEADER = ("policy", "seed", "plant", "cost", "feasible")
 
 
 @dataclass(frozen=True)
@@ -112,28 +112,46 @@ def member_tasks(regime: Regime, stage: str, pairs: list[tuple[FamilySpec, float
     return tasks
 
 
+def _column(label: str, seed: str) -> str:
+    return f"{label}#{seed}" if seed else label
+
+
 def write_table(tasks: list[Member], path: Path) -> None:
-    """The per-plant per-seed table of ``tasks``' outputs, in the tasks' order (gzip CSV, reproducible bytes)."""
+    """The per-plant per-seed table of ``tasks``' outputs (gzip CSV, reproducible bytes): one row per plant in the
+    stream's order; a column ``cost:POLICY`` and ``feasible:POLICY`` (1 or 0) per policy and seed, in the tasks'
+    order, ``POLICY`` being ``FAMILY@S#SEED`` for a learned family, ``FAMILY@S`` for a rule, ``oracle``."""
     from agents.files.writer import atomic_write, csv_text
 
-    rows: list[list[str]] = [list(_HEADER)]
+    columns: dict[str, dict[int, tuple[str, str]]] = {}
     for task in tasks:
         label = ORACLE if task.kind == ORACLE else member_label(task.family, task.knob)
+        found = columns.setdefault(_column(label, task.seed), {})
         for row in read_csv(Path(task.directory) / "per_plant.csv", ("index", "cost", "feasible")):
-            rows.append([label, task.seed, row["index"], f"{float(row['cost']):.7g}", "1" if row["feasible"] == "True" else "0"])
+            found[int(row["index"])] = (f"{float(row['cost']):.7g}", "1" if row["feasible"] == "True" else "0")
+    plants = sorted(next(iter(columns.values())))
+    rows = [["plant", *(f"cost:{name}" for name in columns), *(f"feasible:{name}" for name in columns)]]
+    for plant in plants:
+        rows.append([str(plant), *(found[plant][0] for found in columns.values()), *(found[plant][1] for found in columns.values())])
     data = gzip.compress(csv_text(rows).encode(), compresslevel=9, mtime=0)
     atomic_write(path, lambda handle: handle.write(data))
 
 
 def read_table(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per policy ``FAMILY@S`` (or ``oracle``) its ``(seeds, plants)`` costs and violations (seeds in the table's order)."""
-    grouped: dict[str, dict[str, tuple[list[float], list[bool]]]] = {}
-    for row in read_csv(path, _HEADER):
-        costs, violated = grouped.setdefault(row["policy"], {}).setdefault(row["seed"], ([], []))
-        costs.append(float(row["cost"]))
-        violated.append(row["feasible"] != "1")
-    return {policy: (np.array([c for c, _ in seeds.values()]), np.array([v for _, v in seeds.values()]))
-            for policy, seeds in grouped.items()}
+    import csv
+    import io
+
+    with gzip.open(path, "rt", newline="") as handle:
+        reader = csv.reader(io.StringIO(handle.read()))
+        header = next(reader)
+        values = np.array(list(reader), dtype=object)
+    grouped: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+    for i, name in enumerate(header):
+        if name.startswith("cost:"):
+            column = name.removeprefix("cost:")
+            violated = values[:, header.index(f"feasible:{column}")] != "1"
+            grouped.setdefault(column.rpartition("#")[0] or column, []).append((values[:, i].astype(float), violated))
+    return {policy: (np.array([c for c, _ in seeds]), np.array([v for _, v in seeds])) for policy, seeds in grouped.items()}
 
 
 # ------------------------------------------------------------------------------------ the choices

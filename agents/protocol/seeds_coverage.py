@@ -38,9 +38,30 @@ def _rows(path: Path) -> dict[str, dict[str, dict[str, float]]]:
     return found
 
 
+def _frontier_rows(path: Path) -> dict[str, dict[str, dict[str, float]]] | None:
+    """:func:`_rows` of a frontier protocol's table (one row per plant, ``cost:POLICY#SEED`` columns), None for another."""
+    import csv
+    import gzip
+
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rt", newline="") as handle:
+        reader = csv.reader(handle)
+        header = next(reader)
+        if header[:1] != ["plant"]:
+            return None
+        found: dict[str, dict[str, dict[str, float]]] = {}
+        for row in reader:
+            for name, value in zip(header, row):
+                if name.startswith("cost:"):
+                    policy, _, seed = name.removeprefix("cost:").partition("#")
+                    found.setdefault(policy, {}).setdefault(seed, {})[row[0]] = float(value)
+    return found
+
+
 def populations(path: Path) -> list[dict[str, Any]]:
     """The (learner, rule) populations of one table (module docstring): ``D`` and its names."""
-    table = _rows(path)
+    table = _frontier_rows(path)
+    table = _rows(path) if table is None else table
     summary = path.with_name("summary.json")
     if summary.exists() and "best-rule" in read_json(summary, dict).get("chosen", {}):
         rules = [read_json(summary, dict)["chosen"]["best-rule"]]

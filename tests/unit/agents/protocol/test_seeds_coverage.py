@@ -19,14 +19,18 @@ def _table(path: Path, seeds: int = 10, plants: int = 300, seed: int = 0) -> np.
     rng = np.random.default_rng(seed)
     rule = rng.gamma(4.0, 1.0, size=plants)
     d = simulate_crossed(rng, seeds, plants, 0.2, 0.3, 1.0, 0.5)
-    lines = ["policy,seed,plant,cost,feasible"]
-    lines += [f"rule@0.0,,{j},{float(rule[j])!r},1" for j in range(plants)] + [f"oracle,,{j},0.5,1" for j in range(plants)]
-    lines += [f"learner@0.5,{i},{j},{float(rule[j] + d[i, j])!r},1" for i in range(seeds) for j in range(plants)]
+    learners = [f"learner@0.5#{i}" for i in range(seeds)]
+    names = ["rule@0.0", *learners, "oracle"]
+    lines = [",".join(["plant", *(f"cost:{n}" for n in names), *(f"feasible:{n}" for n in names)])]
+    lines += [",".join([str(j), repr(float(rule[j])), *(repr(float(rule[j] + d[i, j])) for i in range(seeds)), "0.5",
+                        *("1" for _ in names)]) for j in range(plants)]
     path.write_bytes(gzip.compress(("\n".join(lines) + "\n").encode()))
     return d
 
 
 def test_the_population_is_the_learner_minus_rule_matrix_of_the_table(tmp_path):
+    """In a frontier protocol's table (a column per policy and seed); an earlier protocol's is read by the committed
+    check (test below)."""
     d = _table(tmp_path / "t.csv.gz")
     [found] = populations(tmp_path / "t.csv.gz")
     assert (found["learner"], found["rule"]) == ("learner@0.5", "rule@0.0")
@@ -61,3 +65,9 @@ def test_the_committed_seeds_random_coverage_is_the_one_docs_protocol_quotes():
     docs = Path("docs/protocol.md").read_text()
     assert committed["populations_checked"] == 47 and committed["replicates"] == 1000
     assert f"is {committed['median_coverage']:.3g} and the smallest {committed['smallest_coverage']:.3g}" in docs
+
+
+def test_an_earlier_protocols_table_gives_its_learner_against_its_chosen_best_rule():
+    found = populations(Path("results/protocol_v3/pid-fixed-default/test_per_plant.csv.gz"))
+    assert [(p["learner"], p["rule"], p["differences"].shape) for p in found] == [
+        ("learned-fixed-cert-3000", "amigo-pid", (10, 4000))]
