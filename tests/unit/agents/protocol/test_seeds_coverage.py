@@ -71,3 +71,10 @@ def test_an_earlier_protocols_table_gives_its_learner_against_its_chosen_best_ru
     found = populations(Path("results/protocol_v3/pid-fixed-default/test_per_plant.csv.gz"))
     assert [(p["learner"], p["rule"], p["differences"].shape) for p in found] == [
         ("learned-fixed-cert-3000", "amigo-pid", (10, 4000))]
+
+
+def test_the_committed_coverage_with_twenty_seeds_is_the_one_docs_protocol_quotes():
+    committed = json.loads(Path("results/protocol_coverage/seeds_random_20_seeds.json").read_text())
+    assert committed["populations"][0]["seeds_resampled"] == 20
+    assert (f"the smallest is {committed['smallest_coverage']:.3g} (median {committed['median_coverage']:.3g})"
+            in Path("docs/protocol.md").read_text())
