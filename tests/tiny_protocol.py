@@ -49,6 +49,30 @@ REGIME = """  - name: {name}
 WIDE = """      - {{label: tiny-fixed-wide, config: {rule}, overrides: ["margins=[0.5]"]}}
 """
 
+FRONTIER = """name: tiny-frontier
+seeds: {{first: 0, count: 2}}
+alpha: 0.05
+streams:
+  validation: {{entropy: 21, plants: 4, episode_seed: 70000000}}
+  test: {{entropy: 22, plants: 5, episode_seed: 80000000}}
+frontier:
+  knobs: [-0.5, 0, 0.5]
+  risk_levels: [0.005, 0.01, 0.02, 0.05, 0.5]
+  rules: [simc-pi, gorez-klan-mu-2]
+  min_seeds: 2
+regimes:
+  - name: pid-quiet
+    env: DeadTime/PID-v3
+    env_kwargs: {{noise_std: 0.01}}
+    fixed: [{{label: tiny-fixed, config: {rule}}}]
+  - name: pid-noisy
+    env: DeadTime/PID-v3
+    env_kwargs: {{noise_std: 0.05}}
+    rules: [amigo-pid]
+    fixed: [{{label: tiny-fixed, config: {rule}}}]
+"""
+
+
 COMPARISONS = "[[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure], [plan, best-plan]]"
 
 
@@ -82,4 +106,15 @@ def write_tiny_protocol(folder: Path, *, regimes: dict[str, float] | None = None
     if register:
         protocol = load_protocol(path)
         register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
+    return path
+
+
+def write_tiny_frontier_protocol(folder: Path) -> Path:
+    """The tiny frontier protocol (two PID regimes, two seeds, a few plants, three knobs, its learned rule fitted on
+    20 training plants) written to ``folder/protocols/tiny-frontier.yaml`` and registered: its path."""
+    path = folder / "protocols" / "tiny-frontier.yaml"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(FRONTIER.format(rule=write_rule(folder, 20)))
+    protocol = load_protocol(path)
+    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
     return path

@@ -9,11 +9,14 @@
     deadtime protocol every-rule configs/protocols/v4.yaml --out results/protocol_v4   # each rule on the test plants
     deadtime protocol coverage --n 4000 --out results/protocol_coverage/coverage.json
 
-``run`` trains, chooses on validation and tests (:mod:`agents.protocol.run`), its fits and evaluations
+``run`` trains, chooses on validation and tests (:mod:`agents.protocol.run`; a frontier protocol's
+families by :mod:`agents.protocol.frontier_run`), from a tree whose code is the commit's (or, with
+``--uncommitted-code``, marked so; :mod:`agents.protocol.code`), its fits and evaluations
 as tasks in this process, on N local Ray workers or on a Ray cluster (:mod:`agents.protocol.workers`);
 it holds a lock on ``--out`` while it runs, and Ctrl-C or SIGTERM ends it (status 130 or 143) with the
 command that resumes; each finished regime's folder can be committed.  ``report`` writes
-``protocol_results.json``, ``results.md`` and ``forest.png`` (:mod:`agents.protocol.report`).
+``protocol_results.json``, ``results.md`` and ``forest.png`` (:mod:`agents.protocol.report`; a frontier
+protocol's ``protocol_results.json`` only).
 """
 
 from __future__ import annotations
@@ -57,6 +60,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--address", help="run the tasks on the Ray cluster at this address (HOST:PORT, or auto) instead, as "
                                        "deadtime sweep does; every node needs this checkout at the same path and --out "
                                        "(and --fits) on a file system they all see")
+    run.add_argument("--uncommitted-code", action="store_true",
+                     help="run from a tree with changes not committed, or resume from another code than the run's "
+                          "recorded hash, and mark protocol.json so (default: refused)")
     every = actions.add_parser("every-rule", help="every declared rule on the test plants of the regimes done, beside the "
                                                    "primaries (descriptive, outside the Holm family)")
     every.add_argument("protocol")
@@ -106,6 +112,16 @@ def run(args: argparse.Namespace) -> int:
     out = require_directory(args.out)
     if args.action == "run":
         return _run(args, protocol, out)
+    if args.action == "every-rule" and protocol.frontier is not None:
+        raise ValueError(f"{protocol.path} is a frontier protocol: every rule family is on its validation frontiers "
+                         "(protocol_results.json), every-rule is for the protocols without a frontier")
+    if args.action == "report" and protocol.frontier is not None:
+        from agents.protocol.frontier_run import frontier_results
+
+        results = frontier_results(protocol, out)
+        print(f"{len(results['regimes'])} regime(s), {results['comparisons_in_holm_family']} comparisons in the Holm "
+              f"family; wrote {out / 'protocol_results.json'}", file=sys.stderr)
+        return 0
     if args.action == "every-rule":
         from agents.protocol.every_rule import write_every_rule
 
@@ -131,7 +147,8 @@ def _run(args: argparse.Namespace, protocol: Any, out: Path) -> int:
     try:
         done = run_protocol(protocol, out, resume=args.resume, regimes=args.regime, validation_only=args.validation_only,
                             fits=Path(args.fits) if args.fits else None, workers=args.workers,
-                            address=args.address or os.environ.get("RAY_ADDRESS"), chunk=args.chunk_plants)
+                            address=args.address or os.environ.get("RAY_ADDRESS"), chunk=args.chunk_plants,
+                            uncommitted=True if args.uncommitted_code else None)
     except BaseException as error:  # noqa: BLE001  (an interruption, maybe wrapped by numba or torch, is said here)
         if not interrupted(error):
             raise
@@ -153,4 +170,5 @@ def _resume_command(args: argparse.Namespace) -> str:
     words += ["--workers", str(args.workers)] if args.workers != 1 else []
     words += ["--chunk-plants", str(args.chunk_plants)] if args.chunk_plants != CHUNK_PLANTS else []
     words += ["--address", args.address] if args.address else []
+    words += ["--uncommitted-code"] if args.uncommitted_code else []
     return shlex.join([*words, "--resume"])

@@ -47,7 +47,7 @@ from agents.limits import MAX_RESAMPLES, MAX_TEST_PLANTS, MAX_WORKERS, require_a
 from envs.interface import tuning_env_of
 from envs.structures import STRUCTURES
 
-__all__ = ["evaluate"]
+__all__ = ["check_trained_on", "env_regime", "evaluate", "first_episode", "identity", "played_env", "score_plants"]
 
 
 # --------------------------------------------------------------------------- setup
@@ -111,32 +111,32 @@ def _agents(specs: list, python: dict[str, Any], env_id: str, scoring: dict[str,
         name, policy = load_agent(spec)
         if name in taken or name in agents:
             raise ValueError(f"policy name {name!r} of agent {spec.path!r} is taken; name it with NAME=PATH")
-        _check_trained_on(policy, env_id, f"agent {spec.path!r}")
+        check_trained_on(policy, env_id, f"agent {spec.path!r}")
         kwargs = {**dict(getattr(policy, "env_kwargs", None) or {}), **scoring}
         if spec.kind == "procedure" and spec.name == "plan-best":
             from agents.evaluation.plan_search import best_plan
 
             policy, _ = best_plan(env_id, kwargs)
-        agents[name] = (policy, _played_env(policy, env_id, kwargs), _identity(spec, policy, kwargs))
+        agents[name] = (policy, played_env(policy, env_id, kwargs), identity(spec, policy, kwargs))
         roles[name] = ROLES[spec.kind]
     for name, policy in python.items():
         if name in taken or name in agents:
             raise ValueError(f"policy name {name!r} is taken (a rule, an oracle or another policy); give it another name")
-        _check_trained_on(policy, env_id, f"policy {name!r}")
+        check_trained_on(policy, env_id, f"policy {name!r}")
         kwargs = {**dict(getattr(policy, "env_kwargs", None) or {}), **scoring}
-        agents[name] = (policy, _played_env(policy, env_id, kwargs), None)
+        agents[name] = (policy, played_env(policy, env_id, kwargs), None)
         roles[name] = ROLES["agent"]
     return agents, roles
 
 
-def _check_trained_on(policy: Any, env_id: str, what: str) -> None:
+def check_trained_on(policy: Any, env_id: str, what: str) -> None:
     """Refuse a policy that says it was trained on another environment (its ``env_id``)."""
     trained_on = getattr(policy, "env_id", None)
     if isinstance(trained_on, str) and trained_on != env_id:
         raise ValueError(f"{what} was trained on {trained_on}, not {env_id}")
 
 
-def _identity(spec: Any, policy: Any, kwargs: dict[str, Any]) -> str:
+def identity(spec: Any, policy: Any, kwargs: dict[str, Any]) -> str:
     """The cache identity of a loaded policy: its file (and modification time) or procedure, and its regime."""
     import os
 
@@ -146,7 +146,7 @@ def _identity(spec: Any, policy: Any, kwargs: dict[str, Any]) -> str:
     return f"agent|{source}|{stamp}|{json.dumps(kwargs, sort_keys=True, default=str)}"
 
 
-def _played_env(policy: Any, env_id: str, kwargs: dict[str, Any]) -> Any:
+def played_env(policy: Any, env_id: str, kwargs: dict[str, Any]) -> Any:
     """The environment a policy plays, bound to the policy if it reads the observation by feature names."""
     env = make_env(env_id, kwargs)
     if hasattr(policy, "bind"):  # a procedure that reads the observation by its feature names
@@ -155,7 +155,7 @@ def _played_env(policy: Any, env_id: str, kwargs: dict[str, Any]) -> Any:
     return env
 
 
-def _regime(env_kwargs: Any) -> dict[str, Any]:
+def env_regime(env_kwargs: Any) -> dict[str, Any]:
     """The ``--env-kwargs`` of an evaluation, checked: a mapping of environment arguments without
     ``experiments`` (each policy plays its own mode); the environment checks the values."""
     if env_kwargs is None:
@@ -167,7 +167,7 @@ def _regime(env_kwargs: Any) -> dict[str, Any]:
     return dict(env_kwargs)
 
 
-def _first_episode(env: Any, plant: Any, seed: int) -> None:
+def first_episode(env: Any, plant: Any, seed: int) -> None:
     """Reset ``env`` on the first plant with its seed, before anything is written: an argument of the
     regime that only an episode reads, and cannot take, is refused with no output folder left."""
     try:
@@ -293,7 +293,7 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
     from agents.evaluation.policies import PLAYED, own_rules, parse_policies
 
     started = time.perf_counter()
-    regime = _regime(env_kwargs)
+    regime = env_regime(env_kwargs)
     env_kwargs = {**regime, **({} if family is None else {"family": family})}
     env = make_env(env_id, {"experiments": "fixed", **env_kwargs})
     unwrapped = tuning_env_of(env)
@@ -310,7 +310,7 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
     given = None if plants is None else _given_plants(plants, structure)
     count = f"{n} test plants" if given is None else f"{len(given)} given plants"
     plants = _plants(family, structure, n, benchmark, given)
-    _first_episode(env, plants[0][2], _episode_seeds(plants, seed)[0])
+    first_episode(env, plants[0][2], _episode_seeds(plants, seed)[0])
     into = "" if out is None else f" into {out}"
     print(f"evaluate {env_id}: {count}{' and the benchmark batch' if benchmark else ''}{into}", file=sys.stderr, flush=True)
 
@@ -318,7 +318,7 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
         out.mkdir(parents=True, exist_ok=True)
     full = any(s.kind == "oracle-full" for s in specs)
     cache = None if out is None else out / "cache.jsonl"
-    results, per_plant, mismatch = _score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, cache, full, workers,
+    results, per_plant, mismatch = score_plants(env, env_id, env_kwargs, regime, plants, seed, rules, agents, cache, full, workers,
                                                  warn)
     means = {name: float(np.mean([found[name].cost for found in results])) for name in own}
     best_rule = min(own, key=lambda name: (means[name], name))
@@ -353,7 +353,7 @@ def _evaluate(env_id: str, text: str | None, python: dict[str, Any], n: int, see
     return result
 
 
-def _score_plants(
+def score_plants(
     env: Any,
     env_id: str,
     env_kwargs: dict[str, Any],

@@ -39,7 +39,7 @@ from agents.evaluation.result import FAILURE_COST, PolicyResult
 from agents.interruptions import GRACE_S, ignore_interrupts_in_worker
 from envs.interface import episode_of
 
-__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "agent_action", "evaluate_plant", "plant_key", "rule_result", "selector_result"]
+__all__ = ["FAILURE_COST", "Cache", "PolicyResult", "agent_action", "agent_result", "evaluate_plant", "oracle_result", "plant_key", "rule_result", "selector_result"]
 
 
 CACHE_VERSION = 3
@@ -92,7 +92,7 @@ def rule_result(env: Any, name: str, experiment_time: float) -> PolicyResult:
     return PolicyResult(float(score.cost), bool(score.feasible), False, experiment_time, controller.to_dict(), _finite(parameter))
 
 
-def _oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[PolicyResult, float]:
+def oracle_result(env: Any, full: bool, experiment_time: float) -> tuple[PolicyResult, float]:
     """The oracle's result and ``|its own cost - the environment's cost|`` of its optimum."""
     from baselines.oracle import exact_models, full_information_oracle, oracle
     from envs.structures import STRUCTURES, design
@@ -139,7 +139,7 @@ def agent_action(env: Any, policy: Any, observation: np.ndarray) -> Any:
     return np.asarray(action, dtype=np.float32).reshape(env.action_space.shape)
 
 
-def _agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
+def agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
     observation, info = env.reset(seed=seed, options={"plant": plant})
     for _ in range(10_000):
         observation, _, terminated, truncated, info = env.step(agent_action(env, policy, observation))
@@ -228,7 +228,7 @@ def evaluate_plant(
             if not identified:
                 results[name] = PolicyResult.failed(ValueError("the identification procedure identified no usable model"), experiment_time)
             elif name in ("oracle", "oracle-full"):
-                results[name], off = _oracle_result(env, name == "oracle-full", experiment_time)
+                results[name], off = oracle_result(env, name == "oracle-full", experiment_time)
                 mismatch = max(mismatch, off) if name == "oracle" else mismatch
             else:
                 results[name] = rule_result(env, name, experiment_time)
@@ -236,7 +236,7 @@ def evaluate_plant(
     for name, (policy, agent_env, identity) in agents.items():
         result = None if identity is None else cache.get(key, identity)
         if result is None:
-            play = selector_result if hasattr(policy, "rule_of") else _agent_result
+            play = selector_result if hasattr(policy, "rule_of") else agent_result
             result = play(agent_env, policy, seed, plant)
             if identity is not None:
                 cache.put(key, identity, result)

@@ -2,7 +2,7 @@
 
 Every (family, knob, seed) is one policy of :mod:`agents.evaluation`, scored on the same validation
 plants with the same episode seeds (``seed + i`` for plant ``i``) by the evaluation's own per-plant
-scoring and cache (:func:`agents.evaluation.evaluate._score_plants`), so that every comparison is
+scoring and cache (:func:`agents.evaluation.evaluate.score_plants`), so that every comparison is
 paired.  A rule family's members are the rules ``RULE@S`` (:mod:`baselines.rules.family`); a learned
 family's are its seeds' policies at the knob (:mod:`agents.frontier.families`).
 
@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DEFAULT_KNOBS", "RISK_LEVELS", "Family", "frontier", "frontier_table"]
+__all__ = ["DEFAULT_KNOBS", "RISK_LEVELS", "Family", "choose_knob", "frontier", "frontier_table"]
 
 RISK_LEVELS: tuple[float, ...] = (0.005, 0.01, 0.02, 0.05)
 """The declared risk levels: shares of validation plants on which one trained model's design violates."""
@@ -76,7 +76,7 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
     """
     from agents.environments import make_env
     from envs.interface import tuning_env_of
-    from agents.evaluation.evaluate import _check_trained_on, _first_episode, _played_env, _regime, _score_plants
+    from agents.evaluation.evaluate import check_trained_on, env_regime, first_episode, played_env, score_plants
     from baselines.rules.family import member_name
 
     from agents.limits import MAX_TEST_PLANTS
@@ -89,7 +89,7 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
     names = [f.name for f in families]
     if len(set(names)) != len(names):
         raise ValueError(f"two families are named {next(x for x in names if names.count(x) > 1)!r}; name them with NAME=...")
-    regime = _regime(env_kwargs)
+    regime = env_regime(env_kwargs)
     env = make_env(env_id, {"experiments": "fixed", **regime})
     unwrapped = tuning_env_of(env)
     plants = _validation_plants(unwrapped.family, n)
@@ -105,15 +105,15 @@ def frontier(env_id: str, families: Sequence[Family], knobs: Sequence[float] = D
                 continue
             keys[family.name, knob] = []
             for index, (policy, identity) in enumerate(zip(family.members, family.identities)):
-                _check_trained_on(policy, env_id, f"policy {family.name!r}")
-                agents.update(_member(family, index, policy, identity, knob, env_id, scoring, keys, _played_env))
+                check_trained_on(policy, env_id, f"policy {family.name!r}")
+                agents.update(_member(family, index, policy, identity, knob, env_id, scoring, keys, played_env))
     print(f"frontier {env_id}: {len(families)} families x {len(knobs)} knobs on {n} validation plants", file=sys.stderr, flush=True)
-    _first_episode(env, plants[0][2], seed)  # a regime argument only an episode reads is refused before anything is written
+    first_episode(env, plants[0][2], seed)  # a regime argument only an episode reads is refused before anything is written
     cache = None
     if out is not None:  # created once every input is checked
         out.mkdir(parents=True, exist_ok=True)
         cache = out / "cache.jsonl"
-    results, _, _ = _score_plants(env, env_id, regime, regime, plants, seed, rules, agents, cache, False, workers,
+    results, _, _ = score_plants(env, env_id, regime, regime, plants, seed, rules, agents, cache, False, workers,
                                   warn or (lambda line: print(line, file=sys.stderr)))
     return frontier_table(families, knobs, results, keys, {"env_id": env_id, "n": n, "seed": seed, "env_kwargs": regime})
 
@@ -154,7 +154,7 @@ def frontier_table(families: Sequence[Family], knobs: Sequence[float], results: 
             rows.append({"family": family.name, "kind": family.kind, "knob": knob, "mean_cost": float(cost.mean()),
                          "risk": float(violated.mean(axis=1).mean()), "risk_union": float(violated.any(axis=0).mean()),
                          "seeds": int(cost.shape[0]), "plants": int(cost.shape[1])})
-    chosen = {f.name: {_level(r): _choose([row for row in rows if row["family"] == f.name], r) for r in RISK_LEVELS}
+    chosen = {f.name: {_level(r): choose_knob([row for row in rows if row["family"] == f.name], r) for r in RISK_LEVELS}
               for f in families}
     best = {_level(r): {group: _best(families, rows, chosen, r, group) for group in ("rule", "learned")} for r in RISK_LEVELS}
     for level in best.values():
@@ -190,7 +190,7 @@ def _level(r: float) -> str:
     return f"{100 * r:g}%"
 
 
-def _choose(rows: list[dict[str, Any]], r: float) -> float | None:
+def choose_knob(rows: list[dict[str, Any]], r: float) -> float | None:
     """The knob of least mean cost among ``rows`` of risk at most ``r`` (ties: the more conservative), or None."""
     allowed = [row for row in rows if row["risk"] <= r + 1e-12]
     if not allowed:

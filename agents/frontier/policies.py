@@ -73,7 +73,7 @@ def _callable(target: str) -> Any:
 
 def _loaded(name: str, pattern: str) -> Family:
     """One family of the trained models ``pattern`` matches (one per seed), all of one kind."""
-    from agents.evaluation.evaluate import _identity
+    from agents.evaluation.evaluate import identity
     from agents.evaluation.policies import PolicySpec, load_agent
     from agents.training.learned_rule_policy import is_learned_rule
     from agents.training.selector_policy import is_selector
@@ -88,7 +88,7 @@ def _loaded(name: str, pattern: str) -> Family:
         own, policy = load_agent(spec)
         name = name or own
         members.append(policy)
-        identities.append(_identity(spec, policy, dict(getattr(policy, "env_kwargs", None) or {})))
+        identities.append(identity(spec, policy, dict(getattr(policy, "env_kwargs", None) or {})))
         kinds.add(kind)
     if len(kinds) > 1:
         raise ValueError(f"--policies: {pattern!r} matches models of different kinds ({', '.join(sorted(kinds))})")

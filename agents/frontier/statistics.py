@@ -32,7 +32,7 @@ import numpy as np
 from scipy import stats
 
 __all__ = ["COVERAGE_SETTINGS", "CrossedInterval", "Coverage", "METHODS", "coverage", "coverage_table", "crossed_bootstrap", "crossed_interval",
-           "crossed_variance", "simulate_crossed", "variance_components"]
+           "crossed_p_value", "crossed_variance", "simulate_crossed", "variance_components"]
 
 
 @dataclass(frozen=True)
@@ -89,14 +89,8 @@ def variance_components(differences: np.ndarray) -> tuple[float, float, float]:
     return max((ms_seed - ms_residual) / n, 0.0), max((ms_plant - ms_residual) / k, 0.0), float(ms_residual)
 
 
-def crossed_variance(differences: np.ndarray, level: float = 0.95) -> CrossedInterval:
-    """The crossed random-effects interval: mean +- t * SE.
-
-    ``SE^2 = (MS_seed + MS_plant - MS_residual)/(k n)``, the unbiased estimate of
-    ``var_seed/k + var_plant/n + var_residual/(k n)`` from the ANOVA mean squares; the t quantile has
-    Satterthwaite's degrees of freedom for that combination (Satterthwaite 1946, Biometrics Bull. 2:110-114).
-    """
-    d = _matrix(differences)
+def _crossed_moments(d: np.ndarray) -> tuple[float, float, float]:
+    """``(mean, SE, Satterthwaite degrees of freedom)`` of the matrix's mean under the crossed model."""
     k, n = d.shape
     var_seed, var_plant, var_residual = variance_components(d)
     ms = np.array([n * var_seed + var_residual, k * var_plant + var_residual, var_residual])
@@ -105,10 +99,28 @@ def crossed_variance(differences: np.ndarray, level: float = 0.95) -> CrossedInt
     total = max(float(np.sum(signs * ms)), float(var_residual))  # at least the residual term's share
     terms = signs * ms
     dof = total**2 / max(float(np.sum(terms**2 / df)), 1e-300)
-    se = np.sqrt(total / (k * n))
-    half = stats.t.ppf(0.5 + level / 2.0, max(dof, 1.0)) * se
-    mean = float(d.mean())
-    return CrossedInterval(mean, mean - half, mean + half, float(se), "crossed random effects (t, Satterthwaite)")
+    return float(d.mean()), float(np.sqrt(total / (k * n))), max(float(dof), 1.0)
+
+
+def crossed_variance(differences: np.ndarray, level: float = 0.95) -> CrossedInterval:
+    """The crossed random-effects interval: mean +- t * SE.
+
+    ``SE^2 = (MS_seed + MS_plant - MS_residual)/(k n)``, the unbiased estimate of
+    ``var_seed/k + var_plant/n + var_residual/(k n)`` from the ANOVA mean squares; the t quantile has
+    Satterthwaite's degrees of freedom for that combination (Satterthwaite 1946, Biometrics Bull. 2:110-114).
+    """
+    mean, se, dof = _crossed_moments(_matrix(differences))
+    half = stats.t.ppf(0.5 + level / 2.0, dof) * se
+    return CrossedInterval(mean, mean - half, mean + half, se, "crossed random effects (t, Satterthwaite)")
+
+
+def crossed_p_value(differences: np.ndarray) -> float:
+    """The two-sided p-value of a zero mean by :func:`crossed_variance`'s t (the interval at level ``1 - alpha``
+    excludes 0 exactly when this is below ``alpha``)."""
+    mean, se, dof = _crossed_moments(_matrix(differences))
+    if se == 0.0:
+        return 1.0 if mean == 0.0 else 0.0
+    return float(2.0 * stats.t.sf(abs(mean) / se, dof))
 
 
 METHODS: dict[str, Callable[..., CrossedInterval]] = {"variance": crossed_variance, "bootstrap": crossed_bootstrap}

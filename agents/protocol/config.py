@@ -25,6 +25,20 @@ A protocol declares, before any of its test plants is evaluated, everything its 
         plan: [...]                     # candidates of the plan-mode primary (may be empty)
         seq: [...]                      # candidates of the sequential primary (may be empty)
 
+A frontier protocol (:mod:`agents.protocol.frontier_run`) has a ``frontier`` section instead of
+``selection`` and ``comparisons``: every rule and every candidate learner is a family by its risk knob,
+and its comparisons are fixed by the section::
+
+    frontier:
+      knobs: [-1, -0.5, -0.25, 0, 0.25, 0.5, 1, 1.5, 2]   # increasing, 0 (the shipped policy) among them
+      risk_levels: [0.005, 0.01, 0.02, 0.05]
+      rules: [all-rules]              # the rule families (a regime's own ``rules:`` list replaces it there)
+      min_seeds: 10                   # seeds.count at least this
+    regimes:
+      - {name: ..., env: ..., env_kwargs: ..., rules: [...], fixed: [...], plan: [...]}   # every candidate a family
+
+A learner's label there names neither a rule nor holds ``@`` (``FAMILY@S`` names a family's member).
+
 Streams of plants (:mod:`agents.protocol.streams`): the validation and test plants of each structure
 come from ``numpy.random.SeedSequence(entropy, spawn_key=(family,))``; the training plants are the
 learners' own (their configs' seeds, :mod:`agents.training.learned_rule`).  The test entropy must be
@@ -55,7 +69,7 @@ from agents.training.schema import integer_field as _integer, mapping_field as _
 if TYPE_CHECKING:
     from agents.sweeps.config import Trial
 
-__all__ = ["COMPARISON_SIDES", "PRIMARIES", "Learner", "Protocol", "Regime", "Selection", "Stream", "comparison_problem",
+__all__ = ["COMPARISON_SIDES", "PRIMARIES", "Frontier", "Learner", "Protocol", "Regime", "Selection", "Stream", "comparison_problem",
            "load_protocol", "trial"]
 
 PRIMARIES: tuple[str, ...] = ("fixed", "plan", "seq")
@@ -91,6 +105,11 @@ class Regime:
     fixed: tuple[Learner, ...]
     plan: tuple[Learner, ...] = ()
     seq: tuple[Learner, ...] = ()
+    rules: tuple[str, ...] = ()
+
+    def learners(self) -> tuple[Learner, ...]:
+        """Every candidate of every primary, in order (a frontier protocol's learned families)."""
+        return (*self.fixed, *self.plan, *self.seq)
 
     def candidates(self, mode: str) -> tuple[Learner, ...]:
         return {"fixed": self.fixed, "plan": self.plan, "seq": self.seq}[mode]
@@ -117,6 +136,16 @@ class Selection:
 
 
 @dataclass(frozen=True)
+class Frontier:
+    """A frontier protocol's declaration (module docstring): the knob grid, the risk levels and the rule families."""
+
+    knobs: tuple[float, ...]
+    risk_levels: tuple[float, ...] = (0.005, 0.01, 0.02, 0.05)
+    rules: tuple[str, ...] = ("all-rules",)
+    min_seeds: int = 10
+
+
+@dataclass(frozen=True)
 class Protocol:
     """A protocol file, read and checked (module docstring)."""
 
@@ -130,6 +159,7 @@ class Protocol:
     selection: Selection
     comparisons: tuple[tuple[str, str], ...]
     regimes: tuple[Regime, ...] = field(default_factory=tuple)
+    frontier: Frontier | None = None
 
     def regime(self, name: str) -> Regime:
         for regime in self.regimes:
@@ -222,8 +252,8 @@ def _learner(value: Any, where: str) -> Learner:
     return Learner(label, config, _strings(value.get("overrides"), f"{where}.overrides", allow_empty=True), origin)
 
 
-def _regime(value: Any, where: str) -> Regime:
-    value = _mapping(value, where, ("name", "env", "env_kwargs", *PRIMARIES), ("name", "env"))
+def _regime(value: Any, where: str, frontier: bool = False) -> Regime:
+    value = _mapping(value, where, ("name", "env", "env_kwargs", *PRIMARIES, *(("rules",) if frontier else ())), ("name", "env"))
     name, env = plain_name(value["name"], f"{where}.name"), value["env"]
     if not isinstance(env, str) or not env.startswith("DeadTime/"):
         raise ValueError(f"{where}.env must be a DeadTime environment id, got {env!r}")
@@ -245,7 +275,35 @@ def _regime(value: Any, where: str) -> Regime:
     shared = sorted({label for label in labels if labels.count(label) > 1})
     if shared:
         raise ValueError(f"{where}: the label {shared[0]!r} names candidates of two primaries; give them distinct labels")
-    return Regime(name, env, dict(env_kwargs), learners["fixed"], learners["plan"], learners["seq"])
+    rules = _strings(value.get("rules"), f"{where}.rules", allow_empty=True)
+    for i, rule in enumerate(rules):
+        _rule(rule, f"{where}.rules[{i}]")
+    return Regime(name, env, dict(env_kwargs), learners["fixed"], learners["plan"], learners["seq"], rules)
+
+
+def _frontier(value: Any) -> Frontier:
+    """The ``frontier`` section: ``knobs`` (finite, ``|s|`` at most the rules' limit, 0 among them), ``risk_levels``
+    (increasing, in (0, 1)), ``rules`` (rule names or ``all-rules``), ``min_seeds`` (the least seeds a learner takes)."""
+    from baselines.rules.family import KNOB_LIMIT
+
+    value = _mapping(value, "frontier", ("knobs", "risk_levels", "rules", "min_seeds"), ("knobs", "risk_levels"))
+    knobs = value["knobs"]
+    if (not isinstance(knobs, list) or not knobs or
+            not all(not isinstance(k, bool) and isinstance(k, (int, float)) and abs(k) <= KNOB_LIMIT for k in knobs)):
+        raise ValueError(f"frontier.knobs must be a list of numbers from -{KNOB_LIMIT:g} to {KNOB_LIMIT:g}, got {knobs!r}")
+    if sorted(set(knobs)) != knobs or 0 not in knobs:
+        raise ValueError(f"frontier.knobs must be increasing, without repeats, and hold 0 (the shipped policy), got {knobs!r}")
+    levels = value["risk_levels"]
+    if not isinstance(levels, list) or not levels:
+        raise ValueError(f"frontier.risk_levels must be a non-empty list, got {levels!r}")
+    levels = [_fraction(level, f"frontier.risk_levels[{i}]") for i, level in enumerate(levels)]
+    if sorted(set(levels)) != levels:
+        raise ValueError(f"frontier.risk_levels must be increasing, without repeats, got {levels!r}")
+    rules = _strings(value.get("rules", ["all-rules"]), "frontier.rules")
+    for i, name in enumerate(rules):
+        _rule(name, f"frontier.rules[{i}]")
+    min_seeds = _integer(value.get("min_seeds", Frontier.min_seeds), "frontier.min_seeds", 2)
+    return Frontier(tuple(float(k) for k in knobs), tuple(levels), rules, min_seeds)
 
 
 def _comparisons(value: Any) -> tuple[tuple[str, str], ...]:
@@ -295,9 +353,22 @@ def load_protocol(path: str | Path) -> Protocol:
     if not path.is_file():
         raise ValueError(f"protocol {path}: no such file")
     sha256 = hashlib.sha256(path.read_bytes()).hexdigest()
-    data = _mapping(load_yaml_file(path) or {}, str(path),
+    data = load_yaml_file(path) or {}
+    if isinstance(data, Mapping) and "frontier" in data:
+        return _load_frontier(path, sha256, data)
+    data = _mapping(data, str(path),
                     ("name", "seeds", "alpha", "streams", "selection", "comparisons", "regimes"),
                     ("name", "seeds", "alpha", "streams", "selection", "comparisons", "regimes"))
+    name, validation, test, regimes = _common(path, data, frontier=False)
+    protocol = Protocol(name, str(path), sha256, _seeds(data["seeds"]), _fraction(data["alpha"], "alpha"), validation, test,
+                        _selection(data["selection"]), _comparisons(data["comparisons"]), regimes)
+    _check_comparisons(protocol)
+    _check_learners(protocol)
+    return protocol
+
+
+def _common(path: Path, data: Mapping[str, Any], frontier: bool) -> tuple[str, Stream, Stream, tuple[Regime, ...]]:
+    """The name, the two streams and the regimes, checked."""
     name = plain_name(data["name"], f"{path}: name")
     streams = _mapping(data["streams"], "streams", ("validation", "test"), ("validation", "test"))
     validation, test = _stream(streams["validation"], "streams.validation"), _stream(streams["test"], "streams.test")
@@ -305,13 +376,29 @@ def load_protocol(path: str | Path) -> Protocol:
         raise ValueError(f"{path}: streams.validation and streams.test must have different entropies, both are {test.entropy}")
     if not isinstance(data["regimes"], list) or not data["regimes"]:
         raise ValueError(f"{path}: regimes must be a non-empty list")
-    regimes = tuple(_regime(item, f"regimes[{i}]") for i, item in enumerate(data["regimes"]))
+    regimes = tuple(_regime(item, f"regimes[{i}]", frontier) for i, item in enumerate(data["regimes"]))
     names = [regime.name for regime in regimes]
     if len(set(names)) != len(names):
         raise ValueError(f"{path}: two regimes have one name: {sorted(n for n in set(names) if names.count(n) > 1)[0]!r}")
-    protocol = Protocol(name, str(path), sha256, _seeds(data["seeds"]), _fraction(data["alpha"], "alpha"), validation, test,
-                        _selection(data["selection"]), _comparisons(data["comparisons"]), regimes)
-    _check_comparisons(protocol)
+    return name, validation, test, regimes
+
+
+def _load_frontier(path: Path, sha256: str, data: Mapping[str, Any]) -> Protocol:
+    """A frontier protocol (module docstring): no ``selection`` nor ``comparisons``, a ``frontier`` section."""
+    data = _mapping(data, str(path), ("name", "seeds", "alpha", "streams", "frontier", "regimes"),
+                    ("name", "seeds", "alpha", "streams", "frontier", "regimes"))
+    name, validation, test, regimes = _common(path, data, frontier=True)
+    frontier = _frontier(data["frontier"])
+    seeds = _seeds(data["seeds"])
+    if len(seeds) < frontier.min_seeds:
+        raise ValueError(f"{path}: seeds.count is {len(seeds)}, frontier.min_seeds asks for {frontier.min_seeds} at least")
+    for regime in regimes:
+        labels = [learner.label for learner in regime.learners()]
+        rules = regime.rules or frontier.rules
+        if set(labels) & set(rules) or any("@" in label for label in labels):
+            raise ValueError(f"{path}, regime {regime.name}: a learner's label must not name a rule nor hold '@', got {labels}")
+    protocol = Protocol(name, str(path), sha256, seeds, _fraction(data["alpha"], "alpha"), validation, test,
+                        Selection(rules=frontier.rules), (), regimes, frontier)
     _check_learners(protocol)
     return protocol
 

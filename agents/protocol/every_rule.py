@@ -27,7 +27,7 @@ import numpy as np
 from agents.files.reader import read_json
 from agents.protocol.config import PRIMARIES, Protocol, Regime
 from agents.protocol.report import check_run, chosen_policies, read_table
-from agents.protocol.run import PER_PLANT, SUMMARY, _evaluate, _rule_names, _structure_and_family, matrices, read_per_plant
+from agents.protocol.run import PER_PLANT, SUMMARY, _evaluate, _rule_names, structure_and_family, matrices, read_per_plant
 from agents.protocol.statistics import paired_difference, plant_means, plant_violations
 from agents.protocol.streams import plant_stream
 
@@ -54,7 +54,7 @@ def every_rule(protocol: Protocol, out: Path, regime: Regime) -> dict[str, Any]:
     selection, chosen = chosen_policies(folder, regime, table)
     if not isinstance(selection.get("family"), str):
         raise ValueError(f"{folder / 'selection.json'}: family must be a plant family's name, got {selection.get('family')!r}")
-    structure, _ = _structure_and_family(regime)
+    structure, _ = structure_and_family(regime)
     rules = _rule_names(protocol, structure)
     plants = plant_stream(selection["family"], protocol.test.entropy, protocol.test.plants)
     directory = out / "work" / regime.name / "test-rules"

@@ -1,5 +1,8 @@
 """``deadtime protocol run``: a protocol's regimes, each trained, chosen on validation and tested once.
 
+A frontier protocol (a ``frontier`` section: every policy a family by its risk knob) runs by
+:mod:`agents.protocol.frontier_run` instead, through the same start, lock, workers and resumption.
+
 For each regime, in the protocol's order (or the ones named), until its ``summary.json`` exists:
 
 1. every candidate learner is trained with every seed of the protocol (:mod:`agents.protocol.training`,
@@ -37,6 +40,7 @@ import dataclasses
 import gzip
 import hashlib
 import io
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -51,7 +55,7 @@ from agents.protocol.statistics import paired_difference, plant_means, plant_vio
 from agents.protocol.streams import check_test_seed, plant_stream
 from agents.protocol.tasks import CHUNK_PLANTS, Chunk, Fit, chunks, merge_chunks
 
-__all__ = ["PER_PLANT", "SUMMARY", "ProtocolRefused", "read_per_plant", "run_protocol", "start"]
+__all__ = ["PER_PLANT", "SUMMARY", "ProtocolRefused", "read_per_plant", "run_protocol", "start", "structure_and_family"]
 
 PER_PLANT = "test_per_plant.csv.gz"
 SUMMARY = "summary.json"
@@ -80,16 +84,24 @@ def _config_digests(protocol: Protocol) -> dict[str, str]:
     return {path: hashlib.sha256(Path(path).read_bytes()).hexdigest() for path in configs}
 
 
-def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
+def start(protocol: Protocol, out: Path, resume: bool, uncommitted: bool | None = None) -> dict[str, Any]:
     """Check that ``protocol`` may run into ``out`` and record it there (``protocol.json``).
+
+    ``uncommitted`` (default: the environment variable ``DEADTIME_UNCOMMITTED_CODE`` set to 1) lets a run
+    start from a tree with changes not committed, or resume from another code than the recorded one,
+    and marks its ``protocol.json`` so (:mod:`agents.protocol.code`).
 
     Raises
     ------
     ProtocolRefused
         One line: the test seed is not registered to this protocol, ``out`` holds another protocol's
         run, or holds a run and ``resume`` is False, or a training config it names changed since the
-        run started.
+        run started, or the code is not the recorded one (:func:`agents.protocol.code.check_code`).
     """
+    from agents.protocol.code import CodeRefused, check_code
+
+    if uncommitted is None:
+        uncommitted = os.environ.get("DEADTIME_UNCOMMITTED_CODE") == "1"
     registry = Path(protocol.path).with_name("test_seeds.json")
     try:
         check_test_seed(protocol.test.entropy, protocol.sha256, registry)
@@ -108,12 +120,25 @@ def start(protocol: Protocol, out: Path, resume: bool) -> dict[str, Any]:
         if changed:
             raise ProtocolRefused(f"{changed[0]} changed since the run in {out} started: its learners would not be the "
                                   "protocol's; restore it (the run's commit is in protocol.json)")
+        try:
+            code = check_code(record.get("code"), uncommitted)
+        except CodeRefused as error:
+            raise ProtocolRefused(str(error)) from None
+        if code != record.get("code"):
+            from agents.files.writer import write_json
+
+            record = {**record, "code": code}
+            write_json(record_path, record)
         return record
     from agents.files.writer import write_json
 
+    try:
+        code = check_code(None, uncommitted)
+    except CodeRefused as error:
+        raise ProtocolRefused(str(error)) from None
     out.mkdir(parents=True, exist_ok=True)
-    record = {"protocol": protocol.path, "protocol_sha256": protocol.sha256, "commit": _commit(),
-              "test_entropy": protocol.test.entropy, "configs_sha256": _config_digests(protocol)}
+    record = {"protocol": protocol.path, "protocol_sha256": protocol.sha256, "commit": code["commit"] + ("" if code["clean"] else "-dirty"),
+              "code": code, "test_entropy": protocol.test.entropy, "configs_sha256": _config_digests(protocol)}
     write_json(record_path, record)
     return record
 
@@ -166,7 +191,7 @@ def matrices(rows: list[dict[str, Any]], subset: str) -> tuple[list[str], dict[s
 
 
 # ------------------------------------------------------------------------------------ one regime
-def _structure_and_family(regime: Regime) -> tuple[str, str]:
+def structure_and_family(regime: Regime) -> tuple[str, str]:
     """The name of the regime's structure and its plant family (from one environment, made and closed)."""
     from agents.environments import make_env
     from envs.interface import tuning_env_of
@@ -235,7 +260,7 @@ def _validation(protocol: Protocol, work: Path, regime: Regime, fits: Path, size
     """Step 2's tasks: the declared rules, plans, procedure and every candidate's seeds on the validation stream."""
     labels = [(mode, learner.label) for mode in PRIMARIES for learner in regime.candidates(mode)]
     learners, names, needed = _learner_policies(protocol, fits, regime, labels)
-    structure, family = _structure_and_family(regime)
+    structure, family = structure_and_family(regime)
     plants = plant_stream(family, protocol.validation.entropy, protocol.validation.plants)
     policies = [*_baselines(protocol), *_base_rule(protocol, structure).values(), *learners]
     directory = work / regime.name / "validation"
@@ -248,7 +273,7 @@ def select(protocol: Protocol, out: Path, regime: Regime, stage: _Stage) -> dict
     ``selection.json``."""
     from agents.files.writer import write_json
 
-    structure, family = _structure_and_family(regime)
+    structure, family = structure_and_family(regime)
     merge_chunks(stage.chunks, stage.directory / "per_plant.csv")
     _, table = matrices(read_per_plant(stage.directory / "per_plant.csv", stage.names), "test")
     mean_of = {name: plant_means(table[name][0]) for name in table}
@@ -335,7 +360,7 @@ def _unique(fits: list[Fit]) -> list[Fit]:
 
 def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes: list[str] | None = None,
                  validation_only: bool = False, fits: Path | None = None, workers: int = 1, address: str | None = None,
-                 chunk: int = CHUNK_PLANTS) -> list[str]:
+                 chunk: int = CHUNK_PLANTS, uncommitted: bool | None = None) -> list[str]:
     """Run the protocol's regimes (all, or those named) into ``out``; returns the names of the regimes done.
 
     ``validation_only`` stops each regime after its choices (``selection.json``), before its test stream;
@@ -354,9 +379,14 @@ def run_protocol(protocol: Protocol, out: Path, *, resume: bool = False, regimes
 
     chosen = [protocol.regime(name) for name in regimes] if regimes else list(protocol.regimes)
     with folder_lock(out, "protocol run"):
-        start(protocol, out, resume)
+        start(protocol, out, resume, uncommitted)
         work = out / "work"
         fits = fits or work / "runs"
+        if protocol.frontier is not None:
+            from agents.protocol.frontier_run import run_frontier
+
+            run_frontier(protocol, out, chosen, fits, lambda: pool(workers, address), validation_only, chunk)
+            return [regime.name for regime in chosen]
         pending = [regime for regime in chosen if not (out / regime.name / SUMMARY).exists()]
         if not pending:
             return [regime.name for regime in chosen]

@@ -57,3 +57,14 @@ def test_bad_input_is_one_clear_error():
         crossed_interval(np.array([[0.0, np.nan], [1.0, 2.0]]))
     with pytest.raises(ValueError, match="unknown interval method"):
         crossed_interval(np.zeros((2, 2)), method="jackknife")
+
+
+def test_the_crossed_p_value_is_the_level_at_which_the_crossed_interval_touches_zero():
+    """Cross-check of the p-value against the interval: at level ``1 - p`` one end of the interval is 0."""
+    from agents.frontier.statistics import crossed_p_value, crossed_variance, simulate_crossed
+
+    d = simulate_crossed(np.random.default_rng(3), 10, 200, 0.15, 0.3, 1.0, 0.5)
+    p = crossed_p_value(d)
+    assert 0 < p < 1
+    held = crossed_variance(d, level=1.0 - p)
+    assert min(abs(held.low), abs(held.high)) == pytest.approx(0.0, abs=1e-9)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -16,6 +16,21 @@ def write_two_regimes(folder: Path) -> Path:
     5 test plants, written into ``folder`` and registered.  Its path."""
     return write_tiny_protocol(folder, regimes={"pid-quiet": 0.01, "pid-noisy": 0.05}, plants=(20, 4, 5),
                                comparisons="[[fixed, best-rule], [plan, best-rule], [plan, fixed-procedure]]", register=True)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _uncommitted_code_allowed() -> Iterator[None]:
+    """The protocol runs of these tests run from the tree under test, committed or not (their protocol.json
+    marked so where it is not); tests/unit/agents/protocol/test_code.py checks the refusal itself."""
+    import os
+
+    before = os.environ.get("DEADTIME_UNCOMMITTED_CODE")
+    os.environ["DEADTIME_UNCOMMITTED_CODE"] = "1"
+    yield
+    if before is None:
+        os.environ.pop("DEADTIME_UNCOMMITTED_CODE")
+    else:
+        os.environ["DEADTIME_UNCOMMITTED_CODE"] = before
 
 
 @pytest.fixture
