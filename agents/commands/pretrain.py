@@ -4,11 +4,14 @@ Usage::
 
     deadtime pretrain [--config configs/risk_learner.yaml] [--structures PID,FPPI] [--labels DIR] [--models DIR]
                       [key=value ...]
+    deadtime pretrain --report [--structures PID,FPPI] [--plants 2000] [--out results/risk_learner] [--cached]
 
 Labels the config's training and validation plants (cached in ``--labels``, default
 ``runs/risk_learner/labels``; an interrupted run continues from the files written), chooses and fits
 each structure's learner and writes ``learned-<structure>.skops`` and its manifest to ``--models``
-(default the package's ``agents/pretrained``, the shipped files): :mod:`agents.risk.train`.
+(default the package's ``agents/pretrained``, the shipped files): :mod:`agents.risk.train`.  With
+``--report`` it fits nothing: it plays the learners on validation plants and writes the calibration
+and the comparison with the rule families (:mod:`agents.risk.report`).
 """
 
 from __future__ import annotations
@@ -25,6 +28,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--structures", default=None, help="comma-separated structures (default: the config's)")
     parser.add_argument("--labels", default="runs/risk_learner/labels", help="the folder of the cached labels")
     parser.add_argument("--models", default=None, help="where the model files go (default: the package's agents/pretrained)")
+    parser.add_argument("--report", action="store_true", help="fit nothing: play the learners on validation plants and "
+                                                                  "write the calibration tables to --out")
+    parser.add_argument("--plants", type=int, default=2000, help="validation plants per structure and regime of --report")
+    parser.add_argument("--out", default="results/risk_learner", help="the folder of --report's tables")
+    parser.add_argument("--cached", action="store_true", help="--report plays nothing: the tables of the plants played so far")
     parser.add_argument("overrides", nargs="*", metavar="key=value", help="config values, as YAML (training_plants=2000)")
 
 
@@ -35,16 +43,23 @@ def run(args: argparse.Namespace) -> int:
     from agents.risk.pretrained import PRETRAINED_DIR
     from agents.risk.train import pretrain
 
+    models = Path(args.models) if args.models else None
     overrides = {}
     for item in args.overrides:
         key, equals, value = item.partition("=")
         if not equals or not key:
             raise ValueError(f"override {item!r} is not key=value")
         overrides[key] = load_yaml(value, key)
+    if args.report:
+        from agents.risk.report import write_report
+
+        chosen = (args.structures or "PID,FPPI,MSP,PI").upper().split(",")
+        print(f"wrote {write_report(args.config, [s.strip() for s in chosen], args.plants, Path(args.out), models, args.cached)}")
+        return 0
     config = load_config(args.config, overrides)
     structures = None if args.structures is None else tuple(s.strip().upper() for s in args.structures.split(","))
     if structures is not None:
         config = load_config(args.config, {**overrides, "structures": list(structures)})
-    for path in pretrain(config, Path(args.labels), Path(args.models) if args.models else PRETRAINED_DIR, structures):
+    for path in pretrain(config, Path(args.labels), models or PRETRAINED_DIR, structures):
         print(path)
     return 0

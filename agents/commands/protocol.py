@@ -8,6 +8,8 @@
     deadtime protocol report configs/protocols/v1.yaml --out results/protocol_v1
     deadtime protocol every-rule configs/protocols/v4.yaml --out results/protocol_v4   # each rule on the test plants
     deadtime protocol coverage --n 4000 --out results/protocol_coverage/coverage.json
+    deadtime protocol seeds-coverage results/protocol_v*/*/test_per_plant.csv.gz --seeds 20 --out FILE
+    deadtime protocol frontier-cost DeadTime/PID-v3 [--plants N] [--fit RUN_DIR]   # one frontier task's CPU time
 
 ``run`` trains, chooses on validation and tests (:mod:`agents.protocol.run`; a frontier protocol's
 families by :mod:`agents.protocol.frontier_run`), from a tree whose code is the commit's (or, with
@@ -79,25 +81,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     coverage.add_argument("--comparisons", type=int, default=51,
                           help="Holm's family size m: the coverage is also checked at level 1 - 0.05/m (default 51, v1's)")
     coverage.add_argument("--out", help="write the JSON here (default: print it)")
+    seeds = actions.add_parser("seeds-coverage", help="the coverage of the seeds-random interval on committed per-seed tables")
+    seeds.add_argument("tables", nargs="+", help="per-plant tables (test_per_plant.csv.gz) of learners with several seeds")
+    seeds.add_argument("--replicates", type=int, default=1000, help="replicates per population (default 1000)")
+    seeds.add_argument("--seed", type=int, default=0)
+    seeds.add_argument("--seeds", type=int, help="seeds drawn per replicate (default: the table's own count)")
+    seeds.add_argument("--out", help="write the JSON here (default: print it)")
+    cost = actions.add_parser("frontier-cost", help="the CPU time of one frontier evaluation per plant, and its "
+                                                    "identification's share")
+    cost.add_argument("env", help="the environment id, e.g. DeadTime/PID-v3")
+    cost.add_argument("--plants", type=int, default=20, help="plants timed (default 20)")
+    cost.add_argument("--env-kwargs", default="{}", help="environment options as JSON")
+    cost.add_argument("--fit", help="a learned policy's run directory (its episode timed at knob 0.5)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deadtime protocol ACTION``; bad input is a ValueError (one line, exit status 2)."""
     from agents.protocol.config import load_protocol
 
-    if args.action == "coverage":
-        from agents.protocol.coverage import coverage, levels
+    if args.action in ("coverage", "seeds-coverage"):
+        return _coverage(args)
+    if args.action == "frontier-cost":
+        from agents.commands.arguments import load_json_argument
+        from agents.protocol.frontier_cost import measure
 
-        result = coverage(Path(args.sweeps), args.n, args.replicates, levels(args.comparisons), args.seed)
-        text = json.dumps(result, indent=1)
-        if args.out:
-            from agents.files.writer import write_text
-
-            write_text(args.out, text + "\n")
-            print(f"smallest coverage {result['smallest_coverage']} over {len(result['populations'])} populations; "
-                  f"wrote {args.out}", file=sys.stderr)
-        else:
-            print(text)
+        if args.plants < 1:
+            raise ValueError(f"--plants must be at least 1, got {args.plants}")
+        print(json.dumps(measure(args.env, args.plants, load_json_argument(args.env_kwargs, "--env-kwargs"), args.fit), indent=1))
         return 0
     if args.action != "register":
         require_directory(args.out)  # before the protocol is read: the empty string would be the working directory
@@ -133,6 +143,29 @@ def run(args: argparse.Namespace) -> int:
     results = write_report(protocol, out)
     print(f"{results['comparisons_done']} of {results['comparisons_declared']} comparisons; wrote "
           f"{out / 'protocol_results.json'}, results.md, forest.png", file=sys.stderr)
+    return 0
+
+
+def _coverage(args: argparse.Namespace) -> int:
+    """``deadtime protocol coverage`` (the plants-random interval on the committed sweeps) or ``seeds-coverage``
+    (the seeds-random one on committed per-seed tables): the JSON printed or written to ``--out``."""
+    if args.action == "coverage":
+        from agents.protocol.coverage import coverage, levels
+
+        result = coverage(Path(args.sweeps), args.n, args.replicates, levels(args.comparisons), args.seed)
+    else:
+        from agents.protocol.seeds_coverage import seeds_coverage
+
+        result = seeds_coverage(sorted(Path(table) for table in args.tables), args.replicates, 0.95, args.seed, args.seeds)
+    text = json.dumps(result, indent=1)
+    if args.out:
+        from agents.files.writer import write_text
+
+        write_text(args.out, text + "\n")
+        print(f"smallest coverage {result['smallest_coverage']} over {len(result['populations'])} populations; "
+              f"wrote {args.out}", file=sys.stderr)
+    else:
+        print(text)
     return 0
 
 

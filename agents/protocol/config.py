@@ -70,7 +70,7 @@ if TYPE_CHECKING:
     from agents.sweeps.config import Trial
 
 __all__ = ["COMPARISON_SIDES", "PRIMARIES", "Frontier", "Learner", "Protocol", "Regime", "Selection", "Stream", "comparison_problem",
-           "load_protocol", "trial"]
+           "load_protocol", "structure_and_family", "trial"]
 
 PRIMARIES: tuple[str, ...] = ("fixed", "plan", "seq")
 """The primaries a regime may have: the fixed mode's learned design, the plan mode's (experiments
@@ -421,3 +421,14 @@ def trial(regime: Regime, learner: Learner, seed: int) -> Trial:
     from agents.sweeps.config import Trial
 
     return Trial(learner.label, regime.env, seed, learner.config, learner.overrides, dict(regime.env_kwargs))
+
+
+def structure_and_family(regime: Regime) -> tuple[str, str]:
+    """The name of the regime's structure and its plant family (from one environment, made and closed)."""
+    from agents.environments import make_env
+    from envs.interface import tuning_env_of
+
+    env = make_env(regime.env, {"experiments": "fixed", **regime.env_kwargs})
+    found = tuning_env_of(env).structure, tuning_env_of(env).family
+    env.close()
+    return found

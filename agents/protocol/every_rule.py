@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from agents.files.reader import read_json
-from agents.protocol.config import PRIMARIES, Protocol, Regime
+from agents.protocol.config import PRIMARIES, Protocol, Regime, structure_and_family
 from agents.protocol.report import check_run, chosen_policies, read_table
-from agents.protocol.run import PER_PLANT, SUMMARY, _evaluate, _rule_names, structure_and_family, matrices, read_per_plant
+from agents.protocol.run import PER_PLANT, SUMMARY, _evaluate, _rule_names, matrices, read_per_plant
 from agents.protocol.statistics import paired_difference, plant_means, plant_violations
 from agents.protocol.streams import plant_stream
 

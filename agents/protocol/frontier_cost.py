@@ -1,5 +1,5 @@
 """The cost of one frontier evaluation (one family at one knob, one seed, one plant), and the share of it
-spent identifying the plant: ``python -m agents.protocol.frontier_cost ENV [--plants N] [--fit RUN_DIR]``.
+spent identifying the plant: ``deadtime protocol frontier-cost ENV [--plants N] [--fit RUN_DIR]``.
 
 Per plant of the fixed validation set, with its episode seed: the fixed mode's episode reset (the
 identification experiments and the fit of the models, which do not depend on the policy), a rule's
@@ -11,8 +11,6 @@ is what a shared identification per plant would save.
 
 from __future__ import annotations
 
-import argparse
-import json
 import time
 from typing import Any
 
@@ -61,18 +59,3 @@ def measure(env_id: str, plants: int = 20, env_kwargs: dict[str, Any] | None = N
     if player is not None:
         result["identification_share_of_learned_evaluation"] = per_plant["reset"] / per_plant["learned_episode"]
     return result
-
-
-def main() -> int:
-    parser = argparse.ArgumentParser(prog="python -m agents.protocol.frontier_cost", description=__doc__.splitlines()[0])
-    parser.add_argument("env")
-    parser.add_argument("--plants", type=int, default=20)
-    parser.add_argument("--env-kwargs", type=json.loads, default={})
-    parser.add_argument("--fit", help="a learned policy's run directory (its episode timed at knob 0.5)")
-    args = parser.parse_args()
-    print(json.dumps(measure(args.env, args.plants, args.env_kwargs, args.fit), indent=1))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from agents.files.reader import read_csv, read_json
-from agents.protocol.config import Protocol, Regime
+from agents.protocol.config import Protocol, Regime, structure_and_family
 from agents.protocol.members import Member, member_label
 from agents.protocol.tasks import Fit
 
@@ -78,7 +78,6 @@ def _level(r: float) -> str:
 def families(protocol: Protocol, regime: Regime, fits: Path) -> list[FamilySpec]:
     """The regime's rule families (its ``rules``, else the protocol's, expanded) then its learned families."""
     from agents.evaluation.policies import parse_policies
-    from agents.protocol.run import structure_and_family
 
     structure, _ = structure_and_family(regime)
     names = regime.rules or protocol.frontier.rules
@@ -228,7 +227,6 @@ def _pairs(selection: dict[str, Any], specs: list[FamilySpec]) -> list[tuple[Fam
 
 # ------------------------------------------------------------------------------------ the run
 def _stream(protocol: Protocol, regime: Regime, stage: str) -> tuple[list[Any], int]:
-    from agents.protocol.run import structure_and_family
     from agents.protocol.streams import plant_stream
 
     stream = protocol.validation if stage == "validation" else protocol.test
@@ -249,7 +247,6 @@ def _test(protocol: Protocol, work: Path, regime: Regime, specs: list[FamilySpec
 
 def _select(protocol: Protocol, out: Path, regime: Regime, specs: list[FamilySpec], tasks: list[Member]) -> dict[str, Any]:
     from agents.files.writer import write_json
-    from agents.protocol.run import structure_and_family
 
     path = out / "work" / regime.name / VALIDATION_TABLE
     write_table(tasks, path)

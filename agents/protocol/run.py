@@ -49,13 +49,13 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from agents.files.reader import read_csv, read_json
-from agents.protocol.config import PRIMARIES, Protocol, Regime
+from agents.protocol.config import PRIMARIES, Protocol, Regime, structure_and_family
 from agents.protocol.selection import choose_primary, least_mean
 from agents.protocol.statistics import paired_difference, plant_means, plant_violations
 from agents.protocol.streams import check_test_seed, plant_stream
 from agents.protocol.tasks import CHUNK_PLANTS, Chunk, Fit, chunks, merge_chunks
 
-__all__ = ["PER_PLANT", "SUMMARY", "ProtocolRefused", "read_per_plant", "run_protocol", "start", "structure_and_family"]
+__all__ = ["PER_PLANT", "SUMMARY", "ProtocolRefused", "read_per_plant", "run_protocol", "start"]
 
 PER_PLANT = "test_per_plant.csv.gz"
 SUMMARY = "summary.json"
@@ -191,17 +191,6 @@ def matrices(rows: list[dict[str, Any]], subset: str) -> tuple[list[str], dict[s
 
 
 # ------------------------------------------------------------------------------------ one regime
-def structure_and_family(regime: Regime) -> tuple[str, str]:
-    """The name of the regime's structure and its plant family (from one environment, made and closed)."""
-    from agents.environments import make_env
-    from envs.interface import tuning_env_of
-
-    env = make_env(regime.env, {"experiments": "fixed", **regime.env_kwargs})
-    found = tuning_env_of(env).structure, tuning_env_of(env).family
-    env.close()
-    return found
-
-
 def _evaluate(regime: Regime, policies: list[str], plants: list[Any], episode_seed: int, directory: Path,
               benchmark: bool) -> None:
     from agents.evaluation.evaluate import evaluate

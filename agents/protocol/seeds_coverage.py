@@ -12,13 +12,11 @@ the share of replicates whose interval holds the population's mean, with its Mon
 bootstrap population has only the ``k`` seeds trained: the check is of the interval where the spread
 between seeds is that of the committed seeds.
 
-``python -m agents.protocol.seeds_coverage TABLE... --out FILE`` (docs/protocol.md).
+``deadtime protocol seeds-coverage TABLE... --out FILE`` (docs/protocol.md).
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 from pathlib import Path
 from typing import Any
 
@@ -128,29 +126,3 @@ def seeds_coverage(tables: list[Path], replicates: int = 1000, level: float = 0.
             "monte_carlo_standard_error_at_nominal": float(np.sqrt(level * (1 - level) / replicates)),
             "populations_checked": len(rows), "smallest_coverage": min(covered) if rows else None,
             "median_coverage": float(np.median(covered)) if rows else None, "populations": rows}
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m agents.protocol.seeds_coverage", description=__doc__.splitlines()[0])
-    parser.add_argument("tables", nargs="+", type=Path)
-    parser.add_argument("--replicates", type=int, default=1000)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--seeds", type=int, help="seeds drawn per replicate (default: the table's own count)")
-    parser.add_argument("--out", type=Path)
-    args = parser.parse_args(argv)
-    try:
-        result = seeds_coverage(sorted(args.tables), args.replicates, 0.95, args.seed, args.seeds)
-    except ValueError as error:
-        parser.exit(2, f"{parser.prog}: {error}\n")
-    text = json.dumps(result, indent=1) + "\n"
-    if args.out:
-        from agents.files.writer import write_text
-
-        write_text(args.out, text)
-    else:
-        print(text, end="")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

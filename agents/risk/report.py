@@ -1,6 +1,6 @@
 """The tables of ``results/risk_learner/``: calibration (requested against realized risk) and cost beside the rule families.
 
-``python -m agents.risk.report [--structures PID,...] [--plants 2000] [--rule-plants 300]`` plays the
+``deadtime pretrain --report [--structures PID,...] [--plants 2000] [--cached]`` plays the
 shipped learners on their validation plants (:mod:`agents.risk.calibration`, cached in
 ``runs/risk_learner/eval``) and writes ``results/risk_learner/calibration.md``, ``comparison.md`` and
 ``summary.json``.  The rule families' rows are read from the cache where a run of the rules has
@@ -9,7 +9,6 @@ written them (``rules-<regime>`` streams of the same plants: the first ``--rule-
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 from typing import Any
@@ -19,7 +18,7 @@ import numpy as np
 from agents.risk.calibration import REGIMES, frontier_choice, play_plants, regime_seeds, wilson
 from agents.risk.train import RISKS
 
-__all__ = ["BANDS", "KNOBS", "main"]
+__all__ = ["BANDS", "KNOBS", "write_report"]
 
 BANDS = (0.003, 0.01, 0.03, 0.1, 0.3)
 """The edges of the noise bands (``noise_std``) of the reliability table across regimes."""
@@ -110,31 +109,26 @@ def _comparison_lines(comparisons: dict[str, Any]) -> list[str]:
     return lines
 
 
-def main(argv: list[str] | None = None) -> int:
+def write_report(config_path: str, structures: list[str], plants: int, out: Path, models: Path | None = None,
+                 cached: bool = False) -> Path:
+    """Play the learners of ``models`` (default: the shipped ones) on ``plants`` validation plants per structure and
+    regime (only the plants played so far where ``cached``) and write the tables to ``out``: its path."""
     from agents.evaluation.policies import applicable_rules
     from agents.risk.config import load_config
     from agents.risk.pretrained import PRETRAINED_DIR, load_learner
 
-    parser = argparse.ArgumentParser(prog="python -m agents.risk.report")
-    parser.add_argument("--config", default="configs/risk_learner.yaml")
-    parser.add_argument("--structures", default="PID,FPPI,MSP,PI")
-    parser.add_argument("--plants", type=int, default=2000)
-    parser.add_argument("--out", default="results/risk_learner")
-    parser.add_argument("--models", default=None, help="the learners' folder (default: the shipped ones)")
-    parser.add_argument("--cached", action="store_true", help="play nothing: the tables of the plants played so far")
-    args = parser.parse_args(argv)
-    config = load_config(args.config)
+    config = load_config(config_path)
     summary: dict[str, Any] = {}
     comparisons: dict[tuple[str, str], Any] = {}
-    for structure in args.structures.split(","):
-        learner, manifest, _ = load_learner(structure, Path(args.models) if args.models else PRETRAINED_DIR)
+    for structure in structures:
+        learner, manifest, _ = load_learner(structure, models or PRETRAINED_DIR)
         entry = {"model": manifest["model"], "bands": manifest["bands"], "sha256": manifest["sha256"],
                  "training_plants": manifest["config"]["training_plants"], "regimes": {}, "bands": {}}
         for regime, kwargs in REGIMES.items():
-            seeds = regime_seeds(config.validation_entropy, structure, regime, args.plants)
+            seeds = regime_seeds(config.validation_entropy, structure, regime, plants)
             stream = f"{regime}-{manifest['sha256'][:12]}"
             rows = play_plants(EVAL, config.env_id(structure), {**config.env_kwargs, **kwargs}, structure, stream, seeds, learner,
-                               cached=args.cached)
+                               cached=cached)
             if not rows:
                 continue
             entry["regimes"][regime] = {}
@@ -150,33 +144,27 @@ def main(argv: list[str] | None = None) -> int:
                 families = applicable_rules(structure.lower())
                 comparisons[(structure, regime)] = _comparison(rows, rule_rows, families)
         band_path = EVAL / structure / f"bands-{manifest['sha256'][:12]}.json"
-        band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12]) if band_path.is_file() or not args.cached else []
+        band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12]) if band_path.is_file() or not cached else []
         noise = np.array([row["noise_std"] for row in band_rows])
         for low, high in zip(BANDS[:-1], BANDS[1:]) if band_rows else ():
             inside = [row for row, v in zip(band_rows, noise) if low <= v < high or (high == BANDS[-1] and v == high)]
             entry["bands"][f"[{low:g}, {high:g})"] = {"plants": len(inside),
                                                       **{str(r): _realized(inside, r)[0] / max(len(inside), 1) for r in RISKS}}
         summary[structure] = entry
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").write_text(json.dumps({"calibration": summary, "comparison": {
         f"{s} {r}": v for (s, r), v in comparisons.items()}}, indent=1) + "\n")
     text = ["# The risk-conditioned learners: requested against realized risk", "",
-            "Written by `python -m agents.risk.report` (docs/risk_learner.md).  Validation plants of the config's own",
+            "Written by `deadtime pretrain --report` (docs/risk_learner.md).  Validation plants of the config's own",
             "stream; a design violates when its loop on the true plant breaks a constraint or there is no design.", "",
             "## Per regime", "", *_calibration_lines(summary), "",
             "## Per noise band (the validation stream across regimes, each plant in its own regime)", "", *_band_lines(summary), ""]
     (out / "calibration.md").write_text("\n".join(text))
     if comparisons:
         text = ["# The learners beside every rule family at matched risk", "",
-                "Written by `python -m agents.risk.report`.  The same validation plants (the first of the calibration plants),",
+                "Written by `deadtime pretrain --report`.  The same validation plants (the first of the calibration plants),",
                 f"each rule family `RULE@S` over the knob grid {list(KNOBS)}, its knob of least mean cost among those whose share",
                 "of violating plants is at most r (docs/frontier.md); the learner at r.  Paired: every design on the same identification.", "",
                 *_comparison_lines(comparisons), ""]
         (out / "comparison.md").write_text("\n".join(text))
-    print(f"wrote {out}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+    return out

@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from agents.frontier.statistics import simulate_crossed
-from agents.protocol.seeds_coverage import main, populations, seeds_coverage
+from in_process import error_line, run_deadtime
+
+from agents.protocol.seeds_coverage import populations, seeds_coverage
 
 
 def _table(path: Path, seeds: int = 10, plants: int = 300, seed: int = 0) -> np.ndarray:
@@ -50,14 +52,14 @@ def test_on_the_crossed_model_the_coverage_is_near_nominal_as_the_simulation_of_
     assert abs(model.covered - 0.95) <= error
 
 
-def test_the_command_writes_its_json_and_refuses_a_missing_table_in_one_line(tmp_path, capsys):
+def test_the_command_writes_its_json_and_refuses_a_missing_table_in_one_line(tmp_path):
     _table(tmp_path / "t.csv.gz", plants=50)
-    assert main([str(tmp_path / "t.csv.gz"), "--replicates", "20", "--seeds", "20", "--out", str(tmp_path / "c.json")]) == 0
+    status, _, _ = run_deadtime("protocol", "seeds-coverage", str(tmp_path / "t.csv.gz"), "--replicates", "20", "--seeds", "20",
+                                "--out", str(tmp_path / "c.json"))
+    assert status == 0
     written = json.loads((tmp_path / "c.json").read_text())
     assert written["populations"][0]["seeds_resampled"] == 20 and written["method"].startswith("crossed random effects")
-    with pytest.raises(SystemExit) as exited:
-        main([str(tmp_path / "missing.csv.gz")])
-    assert exited.value.code == 2 and capsys.readouterr().err.count("\n") == 1
+    assert "missing.csv.gz" in error_line("protocol", "seeds-coverage", str(tmp_path / "missing.csv.gz"))
 
 
 def test_the_committed_seeds_random_coverage_is_the_one_docs_protocol_quotes():
