@@ -87,7 +87,8 @@ def _selector_choices(parser: argparse.ArgumentParser) -> Callable[[argparse.Nam
 
 def _transfer(parser: argparse.ArgumentParser) -> Callable[[argparse.Namespace], str | None]:
     parser.add_argument("groups", nargs="+", metavar="GROUP=RUN_DIR,...",
-                        help="a learner's runs, one per training seed, under a name")
+                        help="a learner's runs, one per training seed, under a name; or a shipped learner at a risk "
+                             "(NAME=learned-pid@0.01)")
     parser.add_argument("--seeds", type=int, default=3, help="emulator seeds per condition (default 3, at least 2)")
     parser.add_argument("--out", type=Path, help="write DIR/transfer.md, transfer.json and transfer.png")
 

@@ -1,9 +1,10 @@
 """Learners tuned in simulation, played on the TCLab emulator under several conditions, against every rule.
 
-    deadtime study transfer GROUP=RUN_DIR,RUN_DIR,... [GROUP=...] [--seeds 3] [--out DIR]
+    deadtime study transfer GROUP=RUN_DIR,RUN_DIR,... [GROUP=learned-pid@0.01 ...] [--seeds 3] [--out DIR]
 
 Each ``GROUP`` is a learner with one run per training seed (an agent, a learned design or a selector) (a protocol's primary, trained in simulation
-only: ``OUT/work/runs/LABEL-ENV-HASH/s*`` of ``deadtime protocol run``).  For each condition of
+only: ``OUT/work/runs/LABEL-ENV-HASH/s*`` of ``deadtime protocol run``), or a shipped learner at a risk by its
+name (:mod:`agents.risk.pretrained`).  For each condition of
 :data:`envs.process.tclab_conditions.CONDITIONS` and each emulator seed ``0 .. seeds-1``, the fixed
 procedure runs once on the emulator (:func:`envs.process.procedure.identify_process`); every rule for
 self-regulating plants, both process oracles and every run of every group design their controllers
@@ -52,6 +53,7 @@ def _one_run(condition: Any, seed: int, groups: dict[str, list[str]]) -> list[di
     """Every policy's row on one emulator run under ``condition``."""
     from agents.evaluation.policies import parse_policies
     from agents.evaluation.process_policies import evaluate_policies
+    from agents.risk.pretrained import is_pretrained_name
     from envs.process.performance import RunProtocol
     from envs.process.procedure import identify_process
     from envs.process.tclab_conditions import emulator_factory
@@ -65,12 +67,14 @@ def _one_run(condition: Any, seed: int, groups: dict[str, list[str]]) -> list[di
         return [{"condition": condition.name, "seed": seed, "policy": "identification", "run": "identification",
                  "role": "procedure", "cost": None, "feasible": False, "predicted": None, "note": str(error)}]
     protocol = RunProtocol.from_identification(found, process.load_step, seed=seed)
-    learners = ",".join(f"{group}#{k}={run}" for group, runs in groups.items() for k, run in enumerate(runs))
+    shipped = {runs[0]: group for group, runs in groups.items() if len(runs) == 1 and is_pretrained_name(runs[0])}
+    learners = ",".join([*shipped] + [f"{group}#{k}={run}" for group, runs in groups.items() if runs[0] not in shipped
+                                      for k, run in enumerate(runs)])
     specs = parse_policies(",".join(filter(None, ["all-rules,oracle", learners])), "fppi")  # every rule for self-regulating plants
     rows = []
     for result in evaluate_policies(process, found, protocol, specs, fppi_oracle=True):
         score = result.score
-        group = result.name.split("#")[0] if "#" in result.name else None
+        group = shipped.get(result.name) or (result.name.split("#")[0] if "#" in result.name else None)
         rows.append({"condition": condition.name, "seed": seed, "policy": group or result.name, "run": result.name,
                      "role": result.role, "cost": None if score is None else float(score.cost),
                      "feasible": bool(score is not None and score.feasible),

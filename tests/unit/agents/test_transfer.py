@@ -42,3 +42,17 @@ def test_the_study_runs_a_condition_with_a_rule_only_group(tmp_path):
     table = transfer({}, 2, tmp_path, conditions=chosen)
     assert table.count("\n| no quantization |") == 1 and (tmp_path / "transfer.png").is_file()
     assert table.splitlines()[1] == "|---|---|---|---|"  # condition, best rule, the two oracles
+
+
+@pytest.mark.slow
+def test_a_shipped_learner_is_a_group_by_its_name_and_reads_the_nominal_emulator_in_distribution(tmp_path):
+    from envs.process.tclab_conditions import CONDITIONS
+
+    transfer({"learned-fppi@0.01": ["learned-fppi@0.01"]}, 2, tmp_path, conditions=CONDITIONS[:1])
+    import gzip
+    import json
+
+    summary = json.loads(gzip.decompress((tmp_path / "transfer.json.gz").read_bytes()))["summary"]
+    (entry,) = [e for e in summary if e["policy"] == "learned-fppi@0.01"]
+    assert entry["role"] == "learner" and entry["designs"] == 2 and entry["rank"] <= entry["ranked"]
+    assert entry["out_of_distribution"] == 0
