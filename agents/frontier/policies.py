@@ -1,6 +1,8 @@
 """The families of ``deadtime frontier --policies``: a comma-separated list, each item one of
 
 * a rule name of :data:`baselines.rules.registry.RULES` (its family: :mod:`baselines.rules.family`);
+* ``learned-<structure>@<risk>`` or ``NAME=learned-pid@0.01``: a shipped risk-conditioned learner at a risk
+  (:mod:`agents.risk.pretrained`), its knob moving its design as a learned rule's;
 * ``module:function`` or ``NAME=module:function``: a Python callable ``observation -> action``, imported
   from the working directory or ``sys.path`` (it runs the module's code: name only your own);
 * ``PATH`` or ``NAME=PATH``: a stable-baselines3 agent, a learned rule or a selector, as ``deadtime
@@ -42,11 +44,14 @@ def parse_families(text: str) -> list[Family]:
 
 
 def _family(item: str) -> Family:
+    from agents.risk.pretrained import is_pretrained_name
     from baselines.rules.registry import RULES, get_rule
 
     name, _, target = item.rpartition("=")
     if target in RULES:
         return Family(name or target, RULE, (target,))
+    if is_pretrained_name(target):
+        return _pretrained(name, target)
     if _CALLABLE.fullmatch(target) and not os.path.exists(target):
         return Family(name or target.rpartition(":")[2], "callable", (_callable(target),), (None,))
     if "=" in item or os.sep in target or glob.has_magic(target) or os.path.exists(target):
@@ -69,6 +74,16 @@ def _callable(target: str) -> Any:
     if not callable(function):
         raise ValueError(f"--policies: module {module_name!r} has no function {function_name!r}")
     return CallablePolicy(function_name, function)
+
+
+def _pretrained(name: str, target: str) -> Family:
+    """The family of one shipped learner at a risk (one member: it is not trained per seed)."""
+    from agents.evaluation.evaluate import identity
+    from agents.evaluation.policies import PolicySpec, load_agent
+
+    spec = PolicySpec(target, "learned-rule", target)
+    _, policy = load_agent(spec)
+    return Family(name or target, "learned rule", (policy,), (identity(spec, policy, dict(policy.env_kwargs)),))
 
 
 def _loaded(name: str, pattern: str) -> Family:

@@ -48,3 +48,16 @@ def test_frontier_of_a_stable_baselines3_agent_of_two_seeds(tmp_path: Path) -> N
     rows = json.loads((out / "frontier.json").read_text())["rows"]
     assert [(row["knob"], row["seeds"], row["kind"]) for row in rows] == [(-1.0, 2, "agent"), (0.0, 2, "agent"), (1.0, 2, "agent")]
     assert all(row["risk"] <= row["risk_union"] for row in rows)
+
+
+def test_a_shipped_learner_is_a_family_by_its_name_and_a_smaller_risk_is_never_bolder(tmp_path: Path) -> None:
+    from agents.frontier.frontier import frontier
+    from agents.frontier.policies import parse_families
+
+    families = parse_families("learned-pid@0.01,bold=learned-pid@0.2")
+    assert [(f.name, f.kind, len(f.members)) for f in families] == [("learned-pid@0.01", "learned rule", 1), ("bold", "learned rule", 1)]
+    result = frontier("DeadTime/PID-v3", families, (0.0, 1.0), n=3, seed=0, out=tmp_path)
+    rows = {(row["family"], row["knob"]): row for row in result["rows"]}
+    assert rows[("learned-pid@0.01", 0.0)]["risk"] <= rows[("bold", 0.0)]["risk"]
+    with pytest.raises(ValueError, match=r"in \(0, 0.5\)"):
+        parse_families("learned-pid@0.7")
