@@ -58,8 +58,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     config = load_config(args.config, overrides)
     structures = None if args.structures is None else tuple(s.strip().upper() for s in args.structures.split(","))
-    if structures is not None:
-        config = load_config(args.config, {**overrides, "structures": list(structures)})
+    unknown = sorted(set(structures or ()) - set(config.structures))
+    if unknown:
+        raise ValueError(f"--structures: {', '.join(unknown)} not among the config's {', '.join(config.structures)}")
     for path in pretrain(config, Path(args.labels), models or PRETRAINED_DIR, structures):
         print(path)
     return 0

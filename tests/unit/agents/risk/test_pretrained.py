@@ -51,13 +51,16 @@ def test_a_changed_model_file_is_refused(tmp_path):
         load_learner("PID", tmp_path)
 
 
-def test_the_manifests_name_the_config_and_the_choice():
+def test_the_manifests_name_the_committed_config_and_the_choice():
+    import json
+
     from agents.risk.config import load_config
 
     config = load_config("configs/risk_learner.yaml")
     for structure in STRUCTURES:
         learner, record, _ = load_learner(structure)
-        assert record["structure"] == structure and record["config"]["training_entropy"] == config.training_entropy
+        assert record["structure"] == structure and record["config"] == json.loads(json.dumps(config.to_dict()))
+        assert record["config"]["training_plants"] >= 20000 and record["config"]["quantized_share"] > 0
         assert record["chosen"] == {"model": record["model"], "bands": record["bands"]} and record["commit"]
         space = gym.make(record["env_id"]).observation_space
         assert learner.observation_size == space.shape[0]
