@@ -26,7 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--env", required=True, help="environment id, e.g. DeadTime/PID-v3")
     parser.add_argument(
         "--policies", required=True,
-        help="comma-separated: rule names, module:function or NAME=module:function (a Python callable observation -> "
+        help="comma-separated: rule names or all-rules (the structure's), learned-pid@0.01 (a shipped learner at a risk), "
+             "module:function or NAME=module:function (a Python callable observation -> "
              "action), agent, learned-rule or selector paths or NAME=PATH, PATH a glob whose matches are one family's "
              "seeds (loading an agent runs pickled code from its folder: load only agents you trust)",
     )  # fmt: skip
@@ -67,13 +68,16 @@ def run(args: argparse.Namespace) -> int:
     from agents.frontier.frontier import frontier
     from agents.frontier.policies import parse_families
     from agents.frontier.report import frontier_markdown, write_frontier
+    from envs.interface import tuning_env_of
 
     out = require_directory(args.out)
     _check_sizes(args)
     knobs = _knobs(args.knobs)
     regime = None if args.env_kwargs is None else load_json_argument(args.env_kwargs, "--env-kwargs")
-    make_env(args.env)  # an unknown id is named before any policy is loaded
-    families = parse_families(args.policies)
+    env = make_env(args.env)  # an unknown id is named before any policy is loaded
+    structure = tuning_env_of(env).structure.lower()
+    env.close()
+    families = parse_families(args.policies, structure)
     result = frontier(args.env, families, knobs, n=args.n, seed=args.seed, env_kwargs=regime, workers=args.workers, out=out)
     write_frontier(out, result, plots=not args.no_plots)
     if args.json:

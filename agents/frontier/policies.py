@@ -1,6 +1,7 @@
 """The families of ``deadtime frontier --policies``: a comma-separated list, each item one of
 
-* a rule name of :data:`baselines.rules.registry.RULES` (its family: :mod:`baselines.rules.family`);
+* a rule name of :data:`baselines.rules.registry.RULES` (its family: :mod:`baselines.rules.family`), or
+  ``all-rules``: every rule of the environment's structure (:func:`agents.evaluation.policies.applicable_rules`);
 * ``learned-<structure>@<risk>`` or ``NAME=learned-pid@0.01``: a shipped risk-conditioned learner at a risk
   (:mod:`agents.risk.pretrained`), its knob moving its design as a learned rule's;
 * ``module:function`` or ``NAME=module:function``: a Python callable ``observation -> action``, imported
@@ -28,7 +29,7 @@ _CALLABLE = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*")
 _KINDS = {"agent": "agent", "learned-rule": "learned rule", "selector": "selector"}
 
 
-def parse_families(text: str) -> list[Family]:
+def parse_families(text: str, structure: str | None = None) -> list[Family]:
     """The families of ``--policies`` (module docstring), in order.
 
     Raises
@@ -40,6 +41,13 @@ def parse_families(text: str) -> list[Family]:
     items = [item.strip() for item in str(text).split(",")]
     if not str(text).strip() or any(not item for item in items):
         raise ValueError(f"--policies must be a comma-separated list of policies, got {text!r}")
+    if "all-rules" in items:
+        from agents.evaluation.policies import applicable_rules
+
+        if structure is None:
+            raise ValueError("--policies: all-rules needs the environment's structure")
+        at = items.index("all-rules")
+        items[at:at + 1] = [rule for rule in applicable_rules(structure) if rule not in items]
     return [_family(item) for item in items]
 
 

@@ -61,3 +61,13 @@ def test_a_shipped_learner_is_a_family_by_its_name_and_a_smaller_risk_is_never_b
     assert rows[("learned-pid@0.01", 0.0)]["risk"] <= rows[("bold", 0.0)]["risk"]
     with pytest.raises(ValueError, match=r"in \(0, 0.5\)"):
         parse_families("learned-pid@0.7")
+
+
+def test_all_rules_are_the_structures_rules_once_each() -> None:
+    from agents.evaluation.policies import applicable_rules
+    from agents.frontier.policies import parse_families
+
+    names = [family.name for family in parse_families("amigo-pid,all-rules", "pid")]
+    assert sorted(names) == sorted(applicable_rules("pid")) and names[0] == "amigo-pid"
+    with pytest.raises(ValueError, match="all-rules needs the environment's structure"):
+        parse_families("all-rules")
