@@ -4,14 +4,15 @@ Usage::
 
     deadtime pretrain [--config configs/risk_learner.yaml] [--structures PID,FPPI] [--labels DIR] [--models DIR]
                       [key=value ...]
-    deadtime pretrain --report [--structures PID,FPPI] [--plants 2000] [--out results/risk_learner] [--cached]
+    deadtime pretrain --report [--structures PID,FPPI] [--plants 2000] [--out results/exploratory/risk_learner] [--cached]
+    deadtime pretrain --report --frontiers runs/frontier [--out results/exploratory/risk_learner]
 
 Labels the config's training and validation plants (cached in ``--labels``, default
 ``runs/risk_learner/labels``; an interrupted run continues from the files written), chooses and fits
 each structure's learner and writes ``learned-<structure>.skops`` and its manifest to ``--models``
 (default the package's ``agents/pretrained``, the shipped files): :mod:`agents.risk.train`.  With
 ``--report`` it fits nothing: it plays the learners on validation plants and writes the calibration
-and the comparison with the rule families (:mod:`agents.risk.report`).
+tables (:mod:`agents.risk.report`).
 """
 
 from __future__ import annotations
@@ -31,7 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report", action="store_true", help="fit nothing: play the learners on validation plants and "
                                                                   "write the calibration tables to --out")
     parser.add_argument("--plants", type=int, default=2000, help="validation plants per structure and regime of --report")
-    parser.add_argument("--out", default="results/risk_learner", help="the folder of --report's tables")
+    parser.add_argument("--out", default="results/exploratory/risk_learner", help="the folder of --report's tables")
+    parser.add_argument("--frontiers", help="with --report: also comparison.md from the frontier.json of each folder in this one "
+                                            "(deadtime frontier's results)")
     parser.add_argument("--cached", action="store_true", help="--report plays nothing: the tables of the plants played so far")
     parser.add_argument("overrides", nargs="*", metavar="key=value", help="config values, as YAML (training_plants=2000)")
 
@@ -51,8 +54,14 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"override {item!r} is not key=value")
         overrides[key] = load_yaml(value, key)
     if args.report:
-        from agents.risk.report import write_report
+        from agents.risk.report import write_matched, write_report
 
+        if args.frontiers:
+            folders = sorted(path.parent for path in Path(args.frontiers).glob("*/frontier.json"))
+            if not folders:
+                raise ValueError(f"--frontiers: no frontier.json in the folders of {args.frontiers}")
+            print(f"wrote {write_matched(folders, Path(args.out))}")
+            return 0
         chosen = (args.structures or "PID,FPPI,MSP,PI").upper().split(",")
         print(f"wrote {write_report(args.config, [s.strip() for s in chosen], args.plants, Path(args.out), models, args.cached)}")
         return 0

@@ -1,10 +1,11 @@
-"""The tables of ``results/risk_learner/``: calibration (requested against realized risk) and cost beside the rule families.
+"""The calibration of the risk learners: requested against realized risk, per regime and per band of noise.
 
 ``deadtime pretrain --report [--structures PID,...] [--plants 2000] [--cached]`` plays the
 shipped learners on their validation plants (:mod:`agents.risk.calibration`, cached in
-``runs/risk_learner/eval``) and writes ``results/risk_learner/calibration.md``, ``comparison.md`` and
-``summary.json``.  The rule families' rows are read from the cache where a run of the rules has
-written them (``rules-<regime>`` streams of the same plants: the first ``--rule-plants``).
+``runs/risk_learner/eval``) and writes ``calibration.md`` and ``summary.json`` (default folder
+``results/exploratory/risk_learner``).  Per band of noise it also gives the share of the labelled
+plants on which no design of the structure is feasible: no design at any risk is below it.  Their
+cost beside every rule family at matched risk is ``deadtime frontier``'s (docs/risk_learner.md).
 """
 
 from __future__ import annotations
@@ -15,15 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from agents.risk.calibration import REGIMES, frontier_choice, play_plants, regime_seeds, wilson
+from agents.risk.calibration import REGIMES, play_plants, regime_seeds, wilson
 from agents.risk.train import RISKS
 
-__all__ = ["BANDS", "KNOBS", "write_report"]
+__all__ = ["BANDS", "matched_lines", "write_matched", "write_report"]
 
 BANDS = (0.003, 0.01, 0.03, 0.1, 0.3)
 """The edges of the noise bands (``noise_std``) of the reliability table across regimes."""
-KNOBS = (-0.5, -0.25, 0.0, 0.25, 0.5, 1.0, 1.5)
-"""The rule families' knob grid (:data:`agents.frontier.frontier.DEFAULT_KNOBS` without its extremes)."""
 EVAL = Path("runs/risk_learner/eval")
 
 
@@ -47,7 +46,7 @@ def _band_rows(config: Any, structure: str, learner: Any, digest: str) -> list[d
         env = make_env(config.env_id(structure), regime.env_kwargs(config.env_kwargs))
         row = _play_one(env, record["seed"], learner, [], ())
         env.close()
-        rows.append({**row, "noise_std": record["noise_std"]})
+        rows.append({**row, "noise_std": record["noise_std"], "no_design": record.get("boundary_action") is None})
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(rows))
     return rows
@@ -67,59 +66,67 @@ def _calibration_lines(summary: dict[str, Any]) -> list[str]:
 
 
 def _band_lines(summary: dict[str, Any]) -> list[str]:
-    lines = ["| structure | noise_std band | plants | " + " | ".join(f"realized at {r:g}" for r in RISKS) + " |",
-             "|---|---|---:|" + "---:|" * len(RISKS)]
+    lines = ["| structure | noise_std band | plants | no feasible design | " + " | ".join(f"realized at {r:g}" for r in RISKS) + " |",
+             "|---|---|---:|---:|" + "---:|" * len(RISKS)]
     for structure, regimes in summary.items():
         for band, row in regimes["bands"].items():
-            lines.append(f"| {structure} | {band} | {row['plants']} | " + " | ".join(f"{row[str(r)]:.4f}" for r in RISKS) + " |")
+            lines.append(f"| {structure} | {band} | {row['plants']} | {row['no_design'] / max(row['plants'], 1):.4f} | "
+                         + " | ".join(f"{row[str(r)]:.4f}" for r in RISKS) + " |")
     return lines
 
 
-def _comparison(rows: list[dict[str, Any]], rule_rows: list[dict[str, Any]], families: list[str]) -> dict[str, Any]:
-    """Per risk: the learner's mean cost and risk on the plants the rules were played on, every family's choice."""
-    by_seed = {row["seed"]: row for row in rows}
-    rule_rows = [row for row in rule_rows if row["seed"] in by_seed]  # the plants both were played on
-    own = [by_seed[row["seed"]] for row in rule_rows]
-    n = len(rule_rows)
-    found = {}
-    for risk in RISKS:
-        cost = float(np.mean([row["learner"][str(risk)][0] for row in own]))
-        share = float(np.mean([not row["learner"][str(risk)][1] for row in own]))
-        chosen = {family: frontier_choice(rule_rows, family, KNOBS, risk) for family in families}
-        reached = {f: c for f, c in chosen.items() if c is not None}
-        best = min(reached, key=lambda f: reached[f][1]) if reached else None
-        found[str(risk)] = {"plants": n, "learner_cost": cost, "learner_risk": share, "best_family": best,
-                            "best": None if best is None else list(reached[best]),
-                            "beaten_by": sorted(f for f, c in reached.items() if c[1] < cost),
-                            "unreached": sorted(f for f, c in chosen.items() if c is None), "families": len(families)}
-    return found
+def _cell(row: dict[str, Any] | None, knob: bool = True) -> str:
+    if row is None:
+        return "cannot reach"
+    name = f"{row['family']} (s = {row['knob']:g}): " if knob else ""
+    return f"{name}{row['mean_cost']:.3f} ({100 * row['risk']:.2f}%)"
 
 
-def _comparison_lines(comparisons: dict[str, Any]) -> list[str]:
-    lines = ["| structure | regime | plants | r | learner: mean cost (risk) | best rule family at r: knob, mean cost (risk) | "
-             "learner - best | families cheaper than the learner | families that cannot reach r |",
-             "|---|---|---:|---:|---|---|---:|---|---:|"]
-    for (structure, regime), found in comparisons.items():
-        for risk, row in found.items():
-            best = row["best"]
-            best_text = "none reaches r" if best is None else f"{row['best_family']} @ {best[0]:g}: {best[1]:.3f} ({best[2]:.3f})"
-            gap = "" if best is None else f"{row['learner_cost'] - best[1]:+.3f}"
-            lines.append(f"| {structure} | {regime} | {row['plants']} | {float(risk):g} | {row['learner_cost']:.3f} ({row['learner_risk']:.3f}) | "
-                         f"{best_text} | {gap} | {', '.join(row['beaten_by']) or 'none'} | {len(row['unreached'])} of {row['families']} |")
+def matched_lines(frontiers: list[dict[str, Any]]) -> list[str]:
+    """Per ``deadtime frontier`` result (its ``frontier.json``) and declared risk level: the shipped learner at
+    that risk as a user runs it (``learned-<structure>@<r>``, ``s = 0``), the best rule family at the level, every
+    other learned family at its knob chosen for the level, and the oracle."""
+    lines = ["| environment, regime | r | shipped learner at r, s = 0: cost (risk) | best rule family at r | "
+             "other learned families at r | oracle |", "|---|---:|---|---|---|---:|"]
+    for result in frontiers:
+        rows = {(row["family"], row["knob"]): row for row in result["rows"]}
+        structure = result["env_id"].split("/")[1].split("-")[0].lower()
+        regime = json.dumps(result["env_kwargs"] or {}, sort_keys=True)
+        learned = [f for f, kinds in {row["family"]: row["kind"] for row in result["rows"]}.items()
+                   if kinds != "rule" and not f.startswith(f"learned-{structure}@")]
+        for level, risk in zip(result["best"], result["risk_levels"]):
+            own = rows.get((f"learned-{structure}@{risk:g}", 0.0))
+            others = []
+            for family in learned:
+                knob = result["chosen"][family][level]
+                others.append(f"{family}: cannot reach" if knob is None else _cell(rows[(family, knob)]))
+            lines.append(f"| {result['env_id']} {regime} | {level} | {_cell(own, knob=False) if own else '-'} | "
+                         f"{_cell(result['best'][level]['rule'])} | {'; '.join(others) or '-'} | {result['oracle']['mean_cost']:.3f} |")
     return lines
+
+
+def write_matched(frontier_dirs: list[Path], out: Path) -> Path:
+    """``out/comparison.md``: :func:`matched_lines` of the ``frontier.json`` in each of ``frontier_dirs``."""
+    results = [json.loads((folder / "frontier.json").read_text()) for folder in frontier_dirs]
+    text = ["# The shipped learners beside every rule family and the other learners, at matched risk", "",
+            "Written by `deadtime pretrain --report --frontiers DIR` from `deadtime frontier`'s results (docs/risk_learner.md):",
+            "each policy's mean cost (share of violating plants, per seed) on the frontier's validation plants; a family's",
+            "knob is its least costly within the level, a rule family that reaches no level is `cannot reach`.", "",
+            *matched_lines(results), ""]
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "comparison.md").write_text("\n".join(text))
+    return out / "comparison.md"
 
 
 def write_report(config_path: str, structures: list[str], plants: int, out: Path, models: Path | None = None,
                  cached: bool = False) -> Path:
     """Play the learners of ``models`` (default: the shipped ones) on ``plants`` validation plants per structure and
     regime (only the plants played so far where ``cached``) and write the tables to ``out``: its path."""
-    from agents.evaluation.policies import applicable_rules
     from agents.risk.config import load_config
     from agents.risk.pretrained import PRETRAINED_DIR, load_learner
 
     config = load_config(config_path)
     summary: dict[str, Any] = {}
-    comparisons: dict[tuple[str, str], Any] = {}
     for structure in structures:
         learner, manifest, _ = load_learner(structure, models or PRETRAINED_DIR)
         entry = {"model": manifest["model"], "bands": manifest["bands"], "sha256": manifest["sha256"],
@@ -136,35 +143,20 @@ def write_report(config_path: str, structures: list[str], plants: int, out: Path
                 k, n = _realized(rows, risk)
                 entry["regimes"][regime][str(risk)] = {"plants": n, "violations": k, "realized": k / n, "interval": list(wilson(k, n)),
                                                       "mean_cost": float(np.mean([row["learner"][str(risk)][0] for row in rows]))}
-            rule_path = EVAL / structure
-            rule_rows = []
-            for path in sorted(rule_path.glob(f"rules-{regime}-*.json")):
-                rule_rows += json.loads(path.read_text())
-            if rule_rows:
-                families = applicable_rules(structure.lower())
-                comparisons[(structure, regime)] = _comparison(rows, rule_rows, families)
         band_path = EVAL / structure / f"bands-{manifest['sha256'][:12]}.json"
         band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12]) if band_path.is_file() or not cached else []
         noise = np.array([row["noise_std"] for row in band_rows])
         for low, high in zip(BANDS[:-1], BANDS[1:]) if band_rows else ():
             inside = [row for row, v in zip(band_rows, noise) if low <= v < high or (high == BANDS[-1] and v == high)]
-            entry["bands"][f"[{low:g}, {high:g})"] = {"plants": len(inside),
+            entry["bands"][f"[{low:g}, {high:g})"] = {"plants": len(inside), "no_design": sum(row["no_design"] for row in inside),
                                                       **{str(r): _realized(inside, r)[0] / max(len(inside), 1) for r in RISKS}}
         summary[structure] = entry
     out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").write_text(json.dumps({"calibration": summary, "comparison": {
-        f"{s} {r}": v for (s, r), v in comparisons.items()}}, indent=1) + "\n")
+    (out / "summary.json").write_text(json.dumps({"calibration": summary}, indent=1) + "\n")
     text = ["# The risk-conditioned learners: requested against realized risk", "",
             "Written by `deadtime pretrain --report` (docs/risk_learner.md).  Validation plants of the config's own",
             "stream; a design violates when its loop on the true plant breaks a constraint or there is no design.", "",
             "## Per regime", "", *_calibration_lines(summary), "",
             "## Per noise band (the validation stream across regimes, each plant in its own regime)", "", *_band_lines(summary), ""]
     (out / "calibration.md").write_text("\n".join(text))
-    if comparisons:
-        text = ["# The learners beside every rule family at matched risk", "",
-                "Written by `deadtime pretrain --report`.  The same validation plants (the first of the calibration plants),",
-                f"each rule family `RULE@S` over the knob grid {list(KNOBS)}, its knob of least mean cost among those whose share",
-                "of violating plants is at most r (docs/frontier.md); the learner at r.  Paired: every design on the same identification.", "",
-                *_comparison_lines(comparisons), ""]
-        (out / "comparison.md").write_text("\n".join(text))
     return out
