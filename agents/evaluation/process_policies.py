@@ -45,7 +45,7 @@ from envs.process.protocol import Process
 from envs.process.scoring import ProcessScore, process_score
 
 __all__ = ["CHECKED_FEATURES", "FAMILY_PLANTS", "ProcessPolicyResult", "evaluate_policies",
-           "out_of_distribution", "process_observation", "DEFAULT_AGENT_ENV"]
+           "out_of_distribution", "process_observation", "DEFAULT_AGENT_ENV", "RANGE_QUANTILES"]
 
 DEFAULT_AGENT_ENV = "DeadTime/PID-v0"
 """The environment of an agent saved without its config (it is then taken as a PID-v0 agent)."""
@@ -54,7 +54,8 @@ CHECKED_FEATURES: tuple[str, ...] = ("tau", "theta", "dead_time_fraction", "log_
 """The observation's features that describe the plant and its noise, checked against the training family."""
 FAMILY_PLANTS = 400
 """Plants of the training family whose observations give the features' training range."""
-_RANGE_QUANTILES = (0.005, 0.995)
+RANGE_QUANTILES = (0.005, 0.995)
+"""The quantiles of a feature over the training plants that bound its training range."""
 
 
 @dataclass(frozen=True)
@@ -104,15 +105,17 @@ def _training_ranges(env_id: str, kwargs: dict[str, Any]) -> dict[str, tuple[flo
         names = tuning_env_of(env).feature_names
         rows = np.array([env.reset(seed=k)[0] for k in range(FAMILY_PLANTS)])
         env.close()
-        _RANGES[key] = {name: tuple(float(q) for q in np.quantile(rows[:, names.index(name)], _RANGE_QUANTILES))
+        _RANGES[key] = {name: tuple(float(q) for q in np.quantile(rows[:, names.index(name)], RANGE_QUANTILES))
                         for name in CHECKED_FEATURES if name in names}
     return _RANGES[key]
 
 
-def out_of_distribution(env_id: str, kwargs: dict[str, Any], names: tuple[str, ...], observation: np.ndarray) -> str | None:
-    """A note naming the observation's features outside the training family's range, or None."""
+def out_of_distribution(env_id: str, kwargs: dict[str, Any], names: tuple[str, ...], observation: np.ndarray,
+                        ranges: dict[str, Any] | None = None) -> str | None:
+    """A note naming the observation's features outside the training range, or None: ``ranges`` where the policy
+    carries its own (a shipped learner, trained across regimes), else the training family's."""
     outside = []
-    for name, (low, high) in _training_ranges(env_id, kwargs).items():
+    for name, (low, high) in (ranges or _training_ranges(env_id, kwargs)).items():
         value = float(observation[names.index(name)])
         if not low <= value <= high:
             outside.append(f"{name} {value:.3g} outside [{low:.3g}, {high:.3g}]")
@@ -158,7 +161,7 @@ def _agent(process, found, protocol, spec: Any) -> ProcessPolicyResult:
         return ProcessPolicyResult(name, "agent", error=f"the agent designs the modified Smith predictor of {env_id}, for "
                                    "integrating plants; the procedure here identifies self-regulating processes")
     observation = process_observation(env, found)
-    note = out_of_distribution(env_id, kwargs, env.feature_names, observation)
+    note = out_of_distribution(env_id, kwargs, env.feature_names, observation, getattr(policy, "feature_ranges", None))
     if hasattr(policy, "choose"):  # a selector: a rule by name, or its learned design's action
         choice = policy.choose(observation)
         rule = policy.rule_of(choice)

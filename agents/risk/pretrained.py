@@ -93,6 +93,11 @@ class PretrainedPolicy:
     path: str
     manifest: dict = field(repr=False)
 
+    @property
+    def feature_ranges(self) -> dict[str, list[float]] | None:
+        """The plant features' ranges over the training plants (the manifest's), for the out-of-distribution check."""
+        return self.manifest.get("feature_ranges")
+
     def predict(self, observation: Any, deterministic: bool = True) -> tuple[np.ndarray, None]:
         """``(action, None)`` for one observation (or a batch, first axis), as stable-baselines3's ``predict``."""
         rows = np.asarray(observation, dtype=np.float64)

@@ -62,15 +62,24 @@ def _validate(learner: Any, data: dict[str, np.ndarray]) -> dict[str, Any]:
     return {"violation_shares": rates, "calibration_miss": round(miss, 4), "mean_design": round(float(np.mean(designs)), 5)}
 
 
-def _noise_index(env_id: str, env_kwargs: dict[str, Any]) -> tuple[int, float, float]:
+def _feature_ranges(observations: np.ndarray, names: tuple[str, ...]) -> dict[str, list[float]]:
+    """The checked plant features' ranges over the training observations (as the process's out-of-distribution
+    check bounds a training family's, :func:`agents.evaluation.process_policies.out_of_distribution`)."""
+    from agents.evaluation.process_policies import CHECKED_FEATURES, RANGE_QUANTILES
+
+    return {name: [round(float(q), 6) for q in np.quantile(observations[:, names.index(name)], RANGE_QUANTILES)]
+            for name in CHECKED_FEATURES if name in names}
+
+
+def _noise_index(env_id: str, env_kwargs: dict[str, Any]) -> tuple[int, float, float, tuple[str, ...]]:
     from agents.environments import make_env
     from envs.interface import tuning_env_of
 
     env = make_env(env_id, env_kwargs)
     try:
         env.reset(seed=0)
-        names = tuning_env_of(env).feature_names
-        return names.index(NOISE_FEATURE), float(env.action_space.low[0]), float(env.action_space.high[0])
+        names = tuple(tuning_env_of(env).feature_names)
+        return names.index(NOISE_FEATURE), float(env.action_space.low[0]), float(env.action_space.high[0]), names
     finally:
         env.close()
 
@@ -91,7 +100,7 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
         streams[stream] = records_arrays(label_stream(labels, env_id, structure, stream, entropy, count,
                                                       base_kwargs=config.env_kwargs, draw_kwargs=config.draw_kwargs(), log=log))
     labelled = time.perf_counter()
-    noise, low, high = _noise_index(env_id, config.env_kwargs)
+    noise, low, high, names = _noise_index(env_id, config.env_kwargs)
     directions = {float(d) for d in streams["training"]["direction"]} - {0.0}
     if directions != {1.0}:
         raise ValueError(f"{env_id}: a larger action is not the more conservative design in every training episode")
@@ -113,6 +122,7 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
     save_model_file(model_path, manifest_path, learner, {
         "kind": "risk learner", "structure": structure, "env_id": env_id, "env_kwargs": dict(config.env_kwargs),
         "model": kind, "bands": bands, "noise_feature": NOISE_FEATURE, "directions": sorted(directions),
+        "feature_ranges": _feature_ranges(streams["training"]["observation"], names),
         "config": config.to_dict(), "commit": commit,
         "choice": [{"model": k, "bands": b, **row} for (k, b), row in candidates.items()],
         "chosen": {"model": kind, "bands": bands},
