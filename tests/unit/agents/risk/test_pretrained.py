@@ -78,3 +78,14 @@ def test_a_retrain_on_a_few_plants_gives_the_same_predictions(tmp_path):
     for risk in (0.01, 0.05, 0.3):
         assert np.array_equal(load_learner("PI", first.parent)[0].design(rows, risk),
                               load_learner("PI", second.parent)[0].design(rows, risk))
+
+
+def test_a_shipped_learner_is_checked_against_its_own_training_range():
+    from agents.evaluation.process_policies import out_of_distribution
+
+    policy = load_pretrained("learned-fppi@0.01")
+    low, high = policy.feature_ranges["log_noise_ratio"]
+    assert high - low > 1.5  # trained across noise levels, not one
+    names = ("log_noise_ratio",)
+    assert out_of_distribution(policy.env_id, policy.env_kwargs, names, np.array([(low + high) / 2]), policy.feature_ranges) is None
+    assert "log_noise_ratio" in out_of_distribution(policy.env_id, policy.env_kwargs, names, np.array([high + 1.0]), policy.feature_ranges)
