@@ -86,6 +86,8 @@ def test_a_shipped_learner_is_checked_against_its_own_training_range():
     policy = load_pretrained("learned-fppi@0.01")
     low, high = policy.feature_ranges["log_noise_ratio"]
     assert high - low > 1.5  # trained across noise levels, not one
-    names = ("log_noise_ratio",)
-    assert out_of_distribution(policy.env_id, policy.env_kwargs, names, np.array([(low + high) / 2]), policy.feature_ranges) is None
-    assert "log_noise_ratio" in out_of_distribution(policy.env_id, policy.env_kwargs, names, np.array([high + 1.0]), policy.feature_ranges)
+    names = tuple(policy.feature_ranges)
+    inside = np.array([sum(policy.feature_ranges[name]) / 2 for name in names])
+    assert out_of_distribution(policy.env_id, policy.env_kwargs, names, inside, policy.feature_ranges) is None
+    outside = np.where(np.array(names) == "log_noise_ratio", high + 1.0, inside)
+    assert "log_noise_ratio" in out_of_distribution(policy.env_id, policy.env_kwargs, names, outside, policy.feature_ranges)
