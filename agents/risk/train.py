@@ -67,7 +67,7 @@ def _feature_ranges(observations: np.ndarray, names: tuple[str, ...]) -> dict[st
     check bounds a training family's, :func:`agents.evaluation.process_policies.out_of_distribution`)."""
     from agents.evaluation.process_policies import CHECKED_FEATURES, RANGE_QUANTILES
 
-    return {name: [round(float(q), 6) for q in np.quantile(observations[:, names.index(name)], RANGE_QUANTILES)]
+    return {name: [float(q) for q in np.quantile(observations[:, names.index(name)], RANGE_QUANTILES)]
             for name in CHECKED_FEATURES if name in names}
 
 
