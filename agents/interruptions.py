@@ -29,7 +29,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-__all__ = ["GRACE_S", "Terminated", "descendants", "end_children", "ignore_interrupts", "ignore_interrupts_in_worker", "interrupted",
+__all__ = ["GRACE_S", "Terminated", "descendants", "end_children", "process_stats", "ignore_interrupts", "ignore_interrupts_in_worker", "interrupted",
            "signals_as_interrupts", "terminated"]
 
 GRACE_S = 2.0
@@ -104,23 +104,31 @@ def _in_chain(error: BaseException, kind: type[BaseException]) -> bool:
     return False
 
 
-def _parents() -> dict[int, int] | None:
-    """``{pid: parent pid}`` of every process, or None where there is no ``/proc``."""
+def process_stats() -> Iterator[tuple[int, list[str]]] | None:
+    """``(pid, fields)`` of every process, ``fields`` its ``/proc/PID/stat`` after the command name (which may
+    hold spaces: ``fields[0]`` the state, ``[1]`` the parent, ``[3]`` the session); None where there is no ``/proc``."""
     proc = Path("/proc")
     if not (proc / "self" / "stat").exists():
         return None
-    parents = {}
-    for entry in proc.iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-        except OSError:
-            continue
-        fields = stat[stat.rindex(")") + 2:].split()  # after the command name, which may hold spaces
-        if fields[0] != "Z":  # a zombie has ended already
-            parents[int(entry.name)] = int(fields[1])
-    return parents
+
+    def stats() -> Iterator[tuple[int, list[str]]]:
+        for entry in proc.iterdir():
+            if not entry.name.isdigit():
+                continue
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:  # ended meanwhile
+                continue
+            yield int(entry.name), stat[stat.rindex(")") + 2:].split()
+    return stats()
+
+
+def _parents() -> dict[int, int] | None:
+    """``{pid: parent pid}`` of every live process, or None where there is no ``/proc``."""
+    stats = process_stats()
+    if stats is None:
+        return None
+    return {pid: int(fields[1]) for pid, fields in stats if fields[0] != "Z"}  # a zombie has ended already
 
 
 def descendants(pid: int | None = None) -> set[int]:

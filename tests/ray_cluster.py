@@ -20,10 +20,25 @@ from pathlib import Path
 
 import pytest
 
+from agents.interruptions import process_stats
+
 
 def driver_environment() -> dict[str, str]:
     """The environment of a command run by a test: one BLAS thread, no Ray address inherited."""
     return {**os.environ, "OPENBLAS_NUM_THREADS": "1", "RAY_ADDRESS": ""}
+
+
+@contextmanager
+def command_running(command: list[str], cwd: Path) -> Iterator[subprocess.Popen[str]]:
+    """``command`` started in ``cwd`` with :func:`driver_environment`, its standard error piped as text; killed
+    on the way out if it is still running."""
+    process = subprocess.Popen(command, cwd=cwd, env=driver_environment(), stderr=subprocess.PIPE, text=True)
+    try:
+        yield process
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
 
 
 def _free_port() -> int:
@@ -35,16 +50,10 @@ def _free_port() -> int:
 def _kill_session(session: int) -> None:
     """SIGKILL every process of the session ``ray start`` ran in (the head node's processes, which
     Ray starts in process groups of their own, so a process group is not enough)."""
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-        except OSError:
-            continue
-        if int(stat[stat.rindex(")") + 2:].split()[3]) == session:
+    for pid, fields in process_stats() or ():
+        if int(fields[3]) == session:
             try:
-                os.kill(int(entry.name), signal.SIGKILL)
+                os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
 

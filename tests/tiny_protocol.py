@@ -84,37 +84,40 @@ def write_rule(folder: Path, training_plants: int = 30) -> Path:
 
 
 def write_tiny_protocol(folder: Path, *, regimes: dict[str, float] | None = None, plants: tuple[int, int, int] = (30, 5, 6),
-                        entropy: int = 11, wide: bool = False, comparisons: str = COMPARISONS,
+                        entropy: int = 11, wide: bool = False, comparisons: str = COMPARISONS, regimes_text: str | None = None,
                         edits: tuple[tuple[str, str], ...] = (), file_name: str = "tiny", register: bool = False) -> Path:
     """The tiny protocol written to ``folder/protocols/FILE_NAME.yaml`` (its rule to ``folder/rule.yaml``): its path.
 
     ``regimes`` maps a regime's name to its noise (one regime ``pid-tiny`` of noise 0.01 if not given), each
     with a fixed-mode learner ``tiny-fixed`` (and ``tiny-fixed-wide`` if ``wide``) and a plan-mode one
-    ``tiny-plan``; ``plants`` are the training plants of a fit and the validation and test plants; ``entropy``
+    ``tiny-plan``, or the regimes as written in ``regimes_text`` (a YAML list, formatted with ``rule``: the rule's
+    path); ``plants`` are the training plants of a fit and the validation and test plants; ``entropy``
     the validation stream's; ``edits`` pairs of text replaced once each (each must occur); ``register``
     writes the test stream's entry into ``test_seeds.json`` beside the file."""
     rule = write_rule(folder, plants[0])
+    if regimes_text is None:
+        regimes_text = "".join(REGIME.format(name=name, noise=noise, rule=rule, wide=WIDE.format(rule=rule) if wide else "")
+                               for name, noise in (regimes or {"pid-tiny": 0.01}).items())
     text = PROTOCOL.format(entropy=entropy, validation_plants=plants[1], test_plants=plants[2], comparisons=comparisons,
-                           regimes="".join(REGIME.format(name=name, noise=noise, rule=rule, wide=WIDE.format(rule=rule) if wide else "")
-                                           for name, noise in (regimes or {"pid-tiny": 0.01}).items()))
+                           regimes=regimes_text.replace("{rule}", str(rule)))
     for old, new in edits:
         assert old in text, old
         text = text.replace(old, new, 1)
-    (folder / "protocols").mkdir(exist_ok=True)
-    path = folder / "protocols" / f"{file_name}.yaml"
-    path.write_text(text)
-    if register:
-        protocol = load_protocol(path)
-        register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
-    return path
+    return _write(folder / "protocols" / f"{file_name}.yaml", text, register)
 
 
 def write_tiny_frontier_protocol(folder: Path) -> Path:
     """The tiny frontier protocol (two PID regimes, two seeds, a few plants, three knobs, its learned rule fitted on
     20 training plants) written to ``folder/protocols/tiny-frontier.yaml`` and registered: its path."""
-    path = folder / "protocols" / "tiny-frontier.yaml"
+    return _write(folder / "protocols" / "tiny-frontier.yaml", FRONTIER.format(rule=write_rule(folder, 20)), register=True)
+
+
+def _write(path: Path, text: str, register: bool) -> Path:
+    """``text`` written to ``path`` (its folder created); ``register`` writes the test stream's entry into
+    ``test_seeds.json`` beside it.  Its path."""
     path.parent.mkdir(exist_ok=True)
-    path.write_text(FRONTIER.format(rule=write_rule(folder, 20)))
-    protocol = load_protocol(path)
-    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
+    path.write_text(text)
+    if register:
+        protocol = load_protocol(path)
+        register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
     return path

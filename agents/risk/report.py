@@ -39,12 +39,12 @@ def _band_rows(config: Any, structure: str, learner: Any, digest: str) -> list[d
     path = EVAL / structure / f"bands-{digest}.json"
     if path.is_file():
         return json.loads(path.read_text())
-    from agents.risk.calibration import _play_one
+    from agents.risk.calibration import play_plant
 
     for record in load_stream(Path("runs/risk_learner/labels"), structure, "validation")[: config.validation_plants]:
         regime = Regime(record["noise_std"], record["production"], record["quantization"])
         env = make_env(config.env_id(structure), regime.env_kwargs(config.env_kwargs))
-        row = _play_one(env, record["seed"], learner, [], ())
+        row = play_plant(env, record["seed"], learner)
         env.close()
         rows.append({**row, "noise_std": record["noise_std"], "no_design": record.get("boundary_action") is None})
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ray_cluster import driver_environment
+from ray_cluster import command_running, driver_environment
 from tiny_protocol import FRONTIER, write_rule, write_tiny_frontier_protocol
 
 from agents.protocol.config import load_protocol
@@ -145,17 +145,12 @@ def test_the_tiny_frontier_protocol_by_address_on_a_ray_cluster_writes_the_seria
 def test_the_tiny_frontier_protocol_interrupted_resumes_to_the_serial_tables(tiny_frontier_run, tmp_path):
     protocol, serial = tiny_frontier_run
     out = tmp_path / "out"
-    first = subprocess.Popen(_command(protocol, out), cwd=tmp_path, env=driver_environment(), stderr=subprocess.PIPE, text=True)
-    try:
+    with command_running(_command(protocol, out), tmp_path) as first:
         for line in first.stderr:
             if "validation" in line and "done (3 of" in line:  # three frontier tasks done, the fourth started
                 break
         first.send_signal(signal.SIGTERM)
         rest = first.communicate(timeout=300)[1]
-    finally:
-        if first.poll() is None:
-            first.kill()
-            first.wait()
     assert first.returncode == 143, rest[-2000:]
     assert not (out / "pid-quiet" / "selection.json").exists()
     again = subprocess.run(_command(protocol, out, "--resume"), cwd=tmp_path, env=driver_environment(), capture_output=True,

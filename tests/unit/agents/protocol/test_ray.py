@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from ray_cluster import driver_environment
+from ray_cluster import command_running, driver_environment
 
 from agents.protocol.run import PER_PLANT, SUMMARY
 
@@ -63,9 +63,7 @@ def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial
     run's tables."""
     protocol, serial = tiny_serial_run
     out = tmp_path / "out"
-    first = subprocess.Popen(_command(protocol, out, *workers), cwd=tmp_path, env=driver_environment(), stderr=subprocess.PIPE,
-                             text=True)
-    try:
+    with command_running(_command(protocol, out, *workers), tmp_path) as first:
         seen = []
         for line in first.stderr:
             seen.append(line)
@@ -82,10 +80,6 @@ def test_a_run_ended_by_sigterm_during_a_fit_exits_143_and_resumes_to_the_serial
 
         first.send_signal(signal.SIGTERM)
         rest = first.communicate(timeout=300)[1]
-    finally:
-        if first.poll() is None:
-            first.kill()
-            first.wait()
     assert first.returncode == 143, rest[-2000:]
     last = rest.strip().splitlines()[-1]
     assert last.startswith("deadtime protocol: terminated;"), rest[-2000:]

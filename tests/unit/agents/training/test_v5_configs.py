@@ -46,21 +46,7 @@ def test_v5_configs_resolve_and_validate_in_both_regimes(name: str, env_id: str,
     assert not (tmp_path / "run").exists()
 
 
-TINY_PROTOCOL = """name: tiny-sb3
-seeds: {{first: 0, count: 2}}
-alpha: 0.05
-streams:
-  validation: {{entropy: 11, plants: 4, episode_seed: 50000000}}
-  test: {{entropy: 12, plants: 5, episode_seed: 60000000}}
-selection:
-  violation_target: 0.5
-  confidence: 0.95
-  rules: [simc-pi, gorez-klan-mu-2]
-  plans: [plan-1-1, plan-3-0.1]
-  fixed_procedure: plan-1-1
-comparisons: [[fixed, best-rule], [plan, best-rule]]
-regimes:
-  - name: pid-default
+SB3_REGIMES = """  - name: pid-default
     env: DeadTime/PID-v3
     env_kwargs: {{}}
     fixed: [{{label: sac, config: {config}, overrides: {tiny}}}]
@@ -76,17 +62,15 @@ TINY = ["total_timesteps=300", "hyperparameters.learning_starts=100", "eval_freq
 def test_sac_trains_in_a_protocol_in_both_regimes(tmp_path: Path) -> None:
     """SAC of configs/v5/sac.yaml as the fixed candidate of the default regime and, with its plan-mode
     overrides, the plan candidate of the noisy priced one: two seeds each, trained, chosen and tested."""
+    from tiny_protocol import write_tiny_protocol
+
     from agents.protocol.config import load_protocol
     from agents.protocol.run import run_protocol
-    from agents.protocol.streams import register_test_seed
 
-    (tmp_path / "protocols").mkdir()
-    path = tmp_path / "protocols" / "tiny.yaml"
-    path.write_text(TINY_PROTOCOL.format(config=ROOT / "configs" / "v5" / "sac.yaml", tiny=TINY,
-                                         plan=[*PLAN["sac"], *TINY]))
-    protocol = load_protocol(path)
-    register_test_seed(protocol.test.entropy, protocol.path, protocol.sha256, path.with_name("test_seeds.json"))
-    assert run_protocol(protocol, tmp_path / "out") == ["pid-default", "pid-noise10-production"]
+    regimes = SB3_REGIMES.format(config=ROOT / "configs" / "v5" / "sac.yaml", tiny=TINY, plan=[*PLAN["sac"], *TINY])
+    path = write_tiny_protocol(tmp_path, plants=(30, 4, 5), comparisons="[[fixed, best-rule], [plan, best-rule]]",
+                               regimes_text=regimes, register=True)
+    assert run_protocol(load_protocol(path), tmp_path / "out") == ["pid-default", "pid-noise10-production"]
     runs = sorted((tmp_path / "out" / "work" / "runs").glob("*/s*/run.json"))
     assert [run.parent.name for run in runs] == ["s0", "s1", "s0", "s1"]
     from agents.files.reader import read_json
