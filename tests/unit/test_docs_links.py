@@ -92,7 +92,7 @@ def test_the_retired_studies_are_in_the_history_at_their_commits() -> None:
 
 
 def test_the_anchors_are_github_s() -> None:
-    assert "where-the-verdicts-differ-from-the-exploratory-studies" in _anchors(REPO / "docs" / "protocol.md")
+    assert "the-answers-of-v1-v4" in _anchors(REPO / "docs" / "protocol.md")
     assert "terms" in _anchors(REPO / "docs" / "results.md")
 
 

@@ -106,12 +106,20 @@ def test_the_readme_headlines_are_their_folders_numbers():
 
 def test_the_readme_protocol_tables_are_the_committed_reports():
     """Every verdict row of the README's Results is a row of a committed protocol report (``results.md`` of
-    ``deadtime protocol report``), and every row of those reports that compares a primary with a rule or
-    with another primary is in the README (those with the fixed procedure and the best single plan are
-    in the reports only)."""
+    ``deadtime protocol report``), and docs/protocol.md links every report, where all its rows are."""
     readme = (RESULTS.parent / "README.md").read_text()
     rows = {line for line in readme.splitlines() if line.startswith("| ") and line.endswith(("| better |", "| worse |", "| tie |"))}
     reports = {line for path in RESULTS.glob("protocol_v*/results.md") for line in path.read_text().splitlines()
                if line.startswith("| ") and line.endswith(("| better |", "| worse |", "| tie |"))}
     assert rows and rows <= reports
-    assert {row for row in reports if "(fixed-procedure)" not in row and "(best-plan)" not in row} <= rows
+    protocol = (RESULTS.parent / "docs" / "protocol.md").read_text()
+    assert all(f"(../results/{path.parent.name}/results.md)" in protocol for path in RESULTS.glob("protocol_v*/results.md"))
+
+
+def test_the_readme_results_are_one_answer_one_table_one_figure():
+    """README's Results: at most 40 lines, one table of at most 8 columns, one figure; the rest in docs/protocol.md."""
+    readme = (RESULTS.parent / "README.md").read_text()
+    section = readme[readme.index("## Results\n"):].split("\n## ")[0].splitlines()[1:]
+    tables = [line for line in section if line.startswith("|---")]
+    assert len(section) <= 40 and len(tables) == 1 and tables[0].count("|") - 1 <= 8
+    assert sum(line.startswith("![") for line in section) == 1
