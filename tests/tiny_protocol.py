@@ -65,6 +65,7 @@ regimes:
     env: DeadTime/PID-v3
     env_kwargs: {{noise_std: 0.01}}
     fixed: [{{label: tiny-fixed, config: {rule}}}]
+    pretrained: [learned-pid@0.05]
   - name: pid-noisy
     env: DeadTime/PID-v3
     env_kwargs: {{noise_std: 0.05}}

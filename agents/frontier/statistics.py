@@ -19,6 +19,7 @@ seeds keeps only the last two terms.
   standard error of the mean from them, and a Student-t interval with Satterthwaite's degrees of
   freedom (few seeds: ``k - 1`` is close).  The method's default, since ten seeds are few for a
   percentile interval.
+* :func:`plant_interval`: one model's row (a shipped file): the paired t over the plants, the model fixed.
 * :func:`coverage`: the share of intervals that hold the known mean on data simulated from the
   crossed model, with its binomial standard error (the check of the interval, docs/frontier.md).
 """
@@ -32,7 +33,8 @@ import numpy as np
 from scipy import stats
 
 __all__ = ["COVERAGE_SETTINGS", "CrossedInterval", "Coverage", "METHODS", "coverage", "coverage_table", "crossed_bootstrap", "crossed_interval",
-           "crossed_p_value", "crossed_variance", "simulate_crossed", "variance_components"]
+           "crossed_p_value", "crossed_variance", "plant_interval", "plant_p_value", "seeds_or_plants_interval",
+           "seeds_or_plants_p_value", "simulate_crossed", "variance_components"]
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,39 @@ def crossed_p_value(differences: np.ndarray) -> float:
     if se == 0.0:
         return 1.0 if mean == 0.0 else 0.0
     return float(2.0 * stats.t.sf(abs(mean) / se, dof))
+
+
+def _plant_moments(differences: np.ndarray) -> tuple[float, float, int]:
+    d = np.asarray(differences, dtype=float)
+    if d.ndim != 2 or d.shape[0] != 1 or d.shape[1] < 2 or not np.all(np.isfinite(d)):
+        raise ValueError(f"differences must be one finite row of at least 2 plants, got shape {d.shape}")
+    return float(d.mean()), float(d.std(ddof=1) / np.sqrt(d.shape[1])), d.shape[1] - 1
+
+
+def plant_interval(differences: np.ndarray, level: float = 0.95) -> CrossedInterval:
+    """The paired t interval of one model's (1 x plants) differences: plants random, the model fixed (a shipped
+    file is one model: a user of it meets other plants, not another model)."""
+    mean, se, dof = _plant_moments(differences)
+    half = stats.t.ppf(0.5 + level / 2.0, dof) * se
+    return CrossedInterval(mean, mean - half, mean + half, se, "paired t, plants random (one model)")
+
+
+def plant_p_value(differences: np.ndarray) -> float:
+    """The two-sided p-value of a zero mean by :func:`plant_interval`'s t."""
+    mean, se, dof = _plant_moments(differences)
+    if se == 0.0:
+        return 1.0 if mean == 0.0 else 0.0
+    return float(2.0 * stats.t.sf(abs(mean) / se, dof))
+
+
+def seeds_or_plants_interval(differences: np.ndarray, level: float = 0.95) -> CrossedInterval:
+    """:func:`crossed_variance` for several seeds, :func:`plant_interval` for one model."""
+    return plant_interval(differences, level) if np.shape(differences)[0] == 1 else crossed_variance(differences, level)
+
+
+def seeds_or_plants_p_value(differences: np.ndarray) -> float:
+    """:func:`crossed_p_value` for several seeds, :func:`plant_p_value` for one model."""
+    return plant_p_value(differences) if np.shape(differences)[0] == 1 else crossed_p_value(differences)
 
 
 METHODS: dict[str, Callable[..., CrossedInterval]] = {"variance": crossed_variance, "bootstrap": crossed_bootstrap}

@@ -35,9 +35,12 @@ and its comparisons are fixed by the section::
       rules: [all-rules]              # the rule families (a regime's own ``rules:`` list replaces it there)
       min_seeds: 10                   # seeds.count at least this
     regimes:
-      - {name: ..., env: ..., env_kwargs: ..., rules: [...], fixed: [...], plan: [...]}   # every candidate a family
+      - {name: ..., env: ..., env_kwargs: ..., rules: [...], fixed: [...], plan: [...],
+         pretrained: [learned-pid@0.01, ...]}   # every candidate a family
 
 A learner's label there names neither a rule nor holds ``@`` (``FAMILY@S`` names a family's member).
+``pretrained`` names shipped learners of the regime's structure at a risk (:mod:`agents.risk.pretrained`):
+each is a learned family of one model (the shipped file, not trained by the protocol).
 
 Streams of plants (:mod:`agents.protocol.streams`): the validation and test plants of each structure
 come from ``numpy.random.SeedSequence(entropy, spawn_key=(family,))``; the training plants are the
@@ -106,6 +109,7 @@ class Regime:
     plan: tuple[Learner, ...] = ()
     seq: tuple[Learner, ...] = ()
     rules: tuple[str, ...] = ()
+    pretrained: tuple[str, ...] = ()
 
     def learners(self) -> tuple[Learner, ...]:
         """Every candidate of every primary, in order (a frontier protocol's learned families)."""
@@ -253,7 +257,8 @@ def _learner(value: Any, where: str) -> Learner:
 
 
 def _regime(value: Any, where: str, frontier: bool = False) -> Regime:
-    value = _mapping(value, where, ("name", "env", "env_kwargs", *PRIMARIES, *(("rules",) if frontier else ())), ("name", "env"))
+    value = _mapping(value, where, ("name", "env", "env_kwargs", *PRIMARIES, *(("rules", "pretrained") if frontier else ())),
+                     ("name", "env"))
     name, env = plain_name(value["name"], f"{where}.name"), value["env"]
     if not isinstance(env, str) or not env.startswith("DeadTime/"):
         raise ValueError(f"{where}.env must be a DeadTime environment id, got {env!r}")
@@ -270,7 +275,8 @@ def _regime(value: Any, where: str, frontier: bool = False) -> Regime:
         if len(set(labels)) != len(labels):
             raise ValueError(f"{where}.{mode} repeats a label: {labels}")
     labels = [learner.label for mode in PRIMARIES for learner in learners[mode]]
-    if not labels:
+    pretrained = _strings(value.get("pretrained"), f"{where}.pretrained", allow_empty=True)
+    if not labels and not pretrained:
         raise ValueError(f"{where} has no candidates: give at least one of {', '.join(PRIMARIES)} a learner")
     shared = sorted({label for label in labels if labels.count(label) > 1})
     if shared:
@@ -278,7 +284,24 @@ def _regime(value: Any, where: str, frontier: bool = False) -> Regime:
     rules = _strings(value.get("rules"), f"{where}.rules", allow_empty=True)
     for i, rule in enumerate(rules):
         _rule(rule, f"{where}.rules[{i}]")
-    return Regime(name, env, dict(env_kwargs), learners["fixed"], learners["plan"], learners["seq"], rules)
+    regime = Regime(name, env, dict(env_kwargs), learners["fixed"], learners["plan"], learners["seq"], rules, pretrained)
+    if pretrained:
+        _check_pretrained(regime, f"{where}.pretrained")
+    return regime
+
+
+def _check_pretrained(regime: Regime, where: str) -> None:
+    """Each name of ``regime.pretrained`` a shipped learner of the regime's structure at a risk, loaded, no repeat."""
+    from agents.risk.pretrained import load_pretrained
+
+    if len(set(regime.pretrained)) != len(regime.pretrained):
+        raise ValueError(f"{where} repeats a name: {list(regime.pretrained)}")
+    structure, _ = structure_and_family(regime)
+    for i, name in enumerate(regime.pretrained):
+        try:
+            load_pretrained(name, structure)
+        except ValueError as error:
+            raise ValueError(f"{where}[{i}]: {error}") from None
 
 
 def _frontier(value: Any) -> Frontier:

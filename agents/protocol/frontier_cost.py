@@ -4,9 +4,9 @@ spent identifying the plant: ``deadtime protocol frontier-cost ENV [--plants N] 
 Per plant of the fixed validation set, with its episode seed: the fixed mode's episode reset (the
 identification experiments and the fit of the models, which do not depend on the policy), a rule's
 design and score on that identification, the oracle's, and (with ``--fit``) a learned policy's whole
-episode at a knob (its own reset, then its design).  A frontier task evaluates each member on each
-plant as its own episode, so the reset is paid once per (family, knob, seed, plant); the printed share
-is what a shared identification per plant would save.
+episode at a knob (its own reset, then its design).  A frontier run scores a rule family's knobs on
+one identification per plant (:class:`agents.protocol.members.Knobs`): a rule member costs its design
+and score, the reset once per plant and family; a learned member plays its own episode, reset included.
 """
 
 from __future__ import annotations

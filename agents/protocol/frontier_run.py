@@ -5,7 +5,8 @@ For each regime, until its ``summary.json`` exists:
 1. every candidate learner is trained with every seed of the protocol (the fits of :mod:`agents.protocol.training`);
 2. on the validation stream, every family (each declared rule as ``RULE@S``, each learner's seeds at
    the knob) at every knob of the grid, and the oracle, are scored, one task per (family, knob, seed,
-   chunk of plants) (:class:`agents.protocol.members.Member`); the per-plant per-seed table
+   chunk of plants) (:class:`agents.protocol.members.Member`; a rule family's knobs on one chunk share
+   one task, :class:`~agents.protocol.members.Knobs`, and one identification per plant); the per-plant per-seed table
    ``OUT/work/REGIME/validation_per_plant.csv.gz`` is assembled in the stream's order;
 3. the choices are made on it alone and written to ``OUT/REGIME/selection.json`` (:func:`frontier_choices`):
    per family its mean cost and risk over the knob, where risk is the share of validation plants on
@@ -44,7 +45,7 @@ import numpy as np
 
 from agents.files.reader import read_csv, read_json
 from agents.protocol.config import Protocol, Regime, structure_and_family
-from agents.protocol.members import Member, member_label
+from agents.protocol.members import Member, batched, member_label
 from agents.protocol.tasks import Fit
 
 __all__ = ["VALIDATION_TABLE", "frontier_choices", "frontier_results", "read_table", "run_frontier"]
@@ -87,6 +88,7 @@ def families(protocol: Protocol, regime: Regime, fits: Path) -> list[FamilySpec]
     for learner in regime.learners():
         found.append(FamilySpec(learner.label, "learned", tuple(
             (str(seed), str(Fit(str(fits), plain, learner, seed).directory())) for seed in protocol.seeds)))
+    found += [FamilySpec(name, "learned", (("", name),)) for name in regime.pretrained]  # one model: the shipped file
     return found
 
 
@@ -104,7 +106,7 @@ def member_tasks(regime: Regime, stage: str, pairs: list[tuple[FamilySpec, float
     tasks = []
     for family, knob in [*pairs, (oracle, 0.0)]:
         for seed, member in family.members:
-            folder = directory / family.name / f"k{float(knob)!r}" / (f"s{seed}" if seed else "rule")
+            folder = directory / family.name / f"k{float(knob)!r}" / (f"s{seed}" if seed else "model" if family.kind == "learned" else "rule")
             tasks += [Member(regime.name, stage, family.name, family.kind, member, float(knob), seed, first, regime.env,
                              dict(regime.env_kwargs), tuple(dicts[first:first + size]), episode_seed,
                              str(folder / f"chunk-{k:04d}")) for k, first in starts]
@@ -280,7 +282,7 @@ def run_frontier(protocol: Protocol, out: Path, chosen: list[Regime], fits: Path
             validation = {r.name: _validation(protocol, work, r, specs[r.name], size) for r in pending if r.name not in selected}
             _say(f"{len(pending)} regime(s) to run: the fits, then the frontiers on the validation plants, then the test plants")
             run([fit for r in pending for fit in fits_of(protocol, r, fits)])
-            run([task for tasks in validation.values() for task in tasks])
+            run(batched([task for tasks in validation.values() for task in tasks]))
             for regime in pending:
                 if regime.name in validation:
                     selected[regime.name] = _select(protocol, out, regime, specs[regime.name], validation[regime.name])
@@ -290,7 +292,7 @@ def run_frontier(protocol: Protocol, out: Path, chosen: list[Regime], fits: Path
             if validation_only:
                 return
             tests = {r.name: _test(protocol, work, r, specs[r.name], selected[r.name], size) for r in pending}
-            run([task for tasks in tests.values() for task in tasks])
+            run(batched([task for tasks in tests.values() for task in tasks]))
             for regime in pending:
                 _tested(protocol, out, regime, selected[regime.name], tests[regime.name])
                 _say(f"{regime.name}: tested")
@@ -341,7 +343,7 @@ def _gap_closed(first: np.ndarray, second: np.ndarray, oracle: np.ndarray, resam
 
 def regime_summary(selection: dict[str, Any], table: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, Any]:
     """The regime's test results: each chosen policy's mean cost and risk, the oracle's, the comparisons unadjusted."""
-    from agents.frontier.statistics import crossed_interval, crossed_p_value
+    from agents.frontier.statistics import seeds_or_plants_interval, seeds_or_plants_p_value
 
     policies = {label: {"mean_cost": float(costs.mean()), **_risk(violated)} for label, (costs, violated) in table.items()}
     comparisons = []
@@ -349,9 +351,9 @@ def regime_summary(selection: dict[str, Any], table: dict[str, tuple[np.ndarray,
         first = member_label(comparison["first"]["family"], comparison["first"]["knob"])
         second = member_label(comparison["second"]["family"], comparison["second"]["knob"])
         d = _difference(table[first], table[second])
-        interval = crossed_interval(d)
+        interval = seeds_or_plants_interval(d)
         comparisons.append({**comparison, "first_policy": first, "second_policy": second,
-                            "difference": interval.to_dict(), "p_value": crossed_p_value(d),
+                            "difference": interval.to_dict(), "p_value": seeds_or_plants_p_value(d),
                             "percent_of_second": 100.0 * interval.estimate / float(table[second][0].mean()),
                             "gap_closed": _gap_closed(table[first][0], table[second][0], table[ORACLE][0])})
     return {"regime": selection["regime"], "env": selection["env"], "env_kwargs": selection["env_kwargs"],
@@ -362,7 +364,7 @@ def regime_summary(selection: dict[str, Any], table: dict[str, tuple[np.ndarray,
 def frontier_results(protocol: Protocol, out: Path) -> dict[str, Any]:
     """``OUT/protocol_results.json`` from every regime's selection and test table (module docstring)."""
     from agents.files.writer import write_json
-    from agents.frontier.statistics import crossed_interval
+    from agents.frontier.statistics import seeds_or_plants_interval
     from agents.protocol.statistics import holm
 
     record = read_json(out / "protocol.json", dict)
@@ -391,13 +393,14 @@ def frontier_results(protocol: Protocol, out: Path) -> dict[str, Any]:
     if family:
         adjusted, rejected, levels = holm([c["p_value"] for _, c, _ in family], protocol.alpha)
         for (_, comparison, d), p, reject, level in zip(family, adjusted, rejected, levels):
-            held = crossed_interval(d, level=float(level))
+            held = seeds_or_plants_interval(d, level=float(level))
             comparison.update({"holm_p_value": float(p), "holm_rejected": bool(reject), "holm_level": float(level),
                                "holm_interval": [held.low, held.high]})
     results = {"protocol": protocol.path, "protocol_sha256": protocol.sha256, "commit": record.get("commit"),
                "code": record.get("code"), "alpha": protocol.alpha, "risk_levels": list(protocol.frontier.risk_levels),
                "knobs": list(protocol.frontier.knobs), "comparisons_in_holm_family": len(family),
-               "interval_method": "crossed random effects (t, Satterthwaite): seeds and plants random",
+               "interval_method": "crossed random effects (t, Satterthwaite): seeds and plants random; for a shipped "
+                                  "learner (one model) the paired t over the plants, the model fixed",
                "risk_intervals": RISK_INTERVALS, "regimes": regimes}
     write_json(out / RESULTS, results)
     return results

@@ -7,7 +7,8 @@ whichever chunk holds the plant.  A policy is
 
 * ``rule``: the rule family's member ``RULE@S`` (:mod:`baselines.rules.family`) on the fixed mode's
   identification, scored as :func:`agents.evaluation.run.rule_result` scores a rule;
-* ``learned``: the fit in ``member`` (a learned rule, a selector or a stable-baselines3 agent) at the
+* ``learned``: the fit in ``member`` (a learned rule, a selector or a stable-baselines3 agent), or the
+  shipped learner ``member`` names (``learned-pid@0.01``, :mod:`agents.risk.pretrained`), at the
   knob (:func:`agents.frontier.families.at_knob`), played in its own mode and scored in the regime
   (:func:`agents.evaluation.run.agent_result`, :func:`~agents.evaluation.run.selector_result`);
 * ``oracle``: the oracle of the identified models (:func:`agents.evaluation.run.oracle_result`).
@@ -22,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["KINDS", "Member", "member_label", "score_member"]
+__all__ = ["KINDS", "Knobs", "Member", "batched", "member_label", "score_knobs", "score_member"]
 
 KINDS = ("rule", "learned", "oracle")
 TABLE = "per_plant.csv"
@@ -67,8 +68,13 @@ def _player(task: Member, env: Any) -> tuple[Any, Any, str]:
     from agents.training.selector_policy import is_selector
     from envs.interface import tuning_env_of
 
+    from agents.risk.pretrained import is_pretrained_name
+
     path = task.member
-    kind = "selector" if is_selector(path) else "learned-rule" if is_learned_rule(path) else "agent"
+    if is_pretrained_name(path):  # a shipped learner at a risk: load_agent resolves the name
+        kind = "learned-rule"
+    else:
+        kind = "selector" if is_selector(path) else "learned-rule" if is_learned_rule(path) else "agent"
     name, policy = load_agent(PolicySpec(task.family, kind, path))
     check_trained_on(policy, task.env, f"{task.family} ({path})")
     unwrapped = tuning_env_of(env)
@@ -78,31 +84,85 @@ def _player(task: Member, env: Any) -> tuple[Any, Any, str]:
     return at_knob(name, policy, task.knob, played), played, f"{kind}|{path}|knob={task.knob!r}"
 
 
-def _fixed_result(env: Any, kind: str, name: str, seed: int, plant: Any) -> Any:
-    """A rule's or the oracle's result on the fixed mode's identification of ``plant``."""
-    from agents.evaluation.run import PolicyResult, oracle_result, rule_result
+def _identified(env: Any, seed: int, plant: Any) -> float:
+    """The fixed mode's identification of ``plant`` (``env`` reset); returns the experiments' time in residence times."""
     from envs.interface import episode_of
 
     env.reset(seed=seed, options={"plant": plant})
-    episode = episode_of(env)
-    experiment_time = episode.evidence.experiment_time / plant.residence_time
-    if episode.identification is None:
+    return episode_of(env).evidence.experiment_time / plant.residence_time
+
+
+def _on_identification(env: Any, kind: str, name: str, experiment_time: float) -> Any:
+    """A rule's or the oracle's result on the identification ``env`` holds."""
+    from agents.evaluation.run import PolicyResult, oracle_result, rule_result
+    from envs.interface import episode_of
+
+    if episode_of(env).identification is None:
         return PolicyResult.failed(ValueError("the identification procedure identified no usable model"), experiment_time)
     if kind == "oracle":
         return oracle_result(env, False, experiment_time)[0]
     return rule_result(env, name, experiment_time)
 
 
-def score_member(task: Member) -> str:
-    """Run ``task`` (module docstring); returns its folder."""
+@dataclass(frozen=True)
+class Knobs:
+    """The members of one rule family at every knob of a grid, one seed, one chunk of plants: scored on one
+    identification per plant (a rule's design and score do not touch the episode, so each member's table is
+    the one its own :class:`Member` task writes)."""
+
+    members: tuple[Member, ...]
+
+    @property
+    def name(self) -> str:
+        first = self.members[0]
+        knobs = ", ".join(f"{member.knob!r}" for member in self.members)
+        return (f"{first.stage} {first.family}@[{knobs}] plants {first.first}-{first.first + len(first.plants) - 1} "
+                f"({first.regime})")
+
+
+def batched(tasks: list[Member]) -> list[Member | Knobs]:
+    """``tasks`` with each rule family's members of one seed and chunk gathered into one :class:`Knobs` (in
+    the order of their first member), the other members as they are."""
+    groups: dict[tuple[str, str, int], list[Member]] = {}
+    found: list[Member | list[Member]] = []
+    for task in tasks:
+        if task.kind != "rule":
+            found.append(task)
+            continue
+        key = (task.family, task.seed, task.first)
+        if key not in groups:
+            groups[key] = []
+            found.append(groups[key])
+        groups[key].append(task)
+    return [Knobs(tuple(item)) if isinstance(item, list) else item for item in found]
+
+
+def _environment(task: Member) -> tuple[Any, str, str]:
+    """The fixed mode's environment of ``task``'s regime, its cache name and its plant family."""
     import json
 
     from agents.environments import make_env
+    from envs.interface import tuning_env_of
+
+    env = make_env(task.env, {"experiments": "fixed", **task.env_kwargs})
+    return env, f"{task.env} {json.dumps(task.env_kwargs, sort_keys=True, default=str)}", tuning_env_of(env).family
+
+
+def _write(directory: Path, rows: list[list[str]]) -> None:
+    from agents.files.writer import csv_text, write_text
+
+    write_text(directory / TABLE, csv_text(rows))
+
+
+def _row(index: int, result: Any) -> list[str]:
+    return [str(index), repr(float(result.cost)), str(bool(result.feasible))]
+
+
+def score_member(task: Member) -> str:
+    """Run ``task`` (module docstring); returns its folder."""
     from agents.evaluation.cache import Cache
     from agents.evaluation.run import agent_result, plant_key, selector_result
-    from agents.files.writer import csv_text, write_text
     from baselines.rules.family import member_name
-    from envs.interface import tuning_env_of
     from envs.systems.plants import as_plant
 
     directory = Path(task.directory)
@@ -112,9 +172,7 @@ def score_member(task: Member) -> str:
         raise ValueError(f"unknown member kind {task.kind!r} (kinds: {', '.join(KINDS)})")
     directory.mkdir(parents=True, exist_ok=True)
     cache = Cache(directory / "cache.jsonl")
-    env = make_env(task.env, {"experiments": "fixed", **task.env_kwargs})
-    environment = f"{task.env} {json.dumps(task.env_kwargs, sort_keys=True, default=str)}"
-    family = tuning_env_of(env).family
+    env, environment, family = _environment(task)
     if task.kind == "learned":
         policy, played, identity = _player(task, env)
     else:
@@ -131,11 +189,47 @@ def score_member(task: Member) -> str:
                 play = selector_result if hasattr(policy, "rule_of") else agent_result
                 result = play(played, policy, seed, plant)
             else:
-                result = _fixed_result(env, task.kind, identity, seed, plant)
+                result = _on_identification(env, task.kind, identity, _identified(env, seed, plant))
             cache.put(key, identity, result)
-        rows.append([str(index), repr(float(result.cost)), str(bool(result.feasible))])
+        rows.append(_row(index, result))
     env.close()
     if played is not None:
         played.close()
-    write_text(directory / TABLE, csv_text(rows))
+    _write(directory, rows)
     return str(directory)
+
+
+def score_knobs(batch: Knobs) -> str:
+    """Run ``batch`` (:class:`Knobs`): per plant one reset, then each member not yet done; returns the first
+    member's folder."""
+    from agents.evaluation.cache import Cache
+    from agents.evaluation.run import plant_key
+    from baselines.rules.family import member_name
+    from envs.systems.plants import as_plant
+
+    todo = [task for task in batch.members if not (Path(task.directory) / TABLE).exists()]
+    if not todo:
+        return batch.members[0].directory
+    first = todo[0]
+    env, environment, family = _environment(first)
+    for task in todo:
+        Path(task.directory).mkdir(parents=True, exist_ok=True)
+    caches = [Cache(Path(task.directory) / "cache.jsonl") for task in todo]
+    identities = [member_name(task.member, task.knob) for task in todo]
+    tables = [[["index", "cost", "feasible"]] for _ in todo]
+    for offset, data in enumerate(first.plants):
+        index, plant = first.first + offset, as_plant(dict(data))
+        seed = first.episode_seed + index
+        key = plant_key(environment, family, seed, index, dict(data))
+        results = [cache.get(key, identity) for cache, identity in zip(caches, identities)]
+        if any(result is None for result in results):
+            experiment_time = _identified(env, seed, plant)
+        for k, (cache, identity) in enumerate(zip(caches, identities)):
+            if results[k] is None:
+                results[k] = _on_identification(env, "rule", identity, experiment_time)
+                cache.put(key, identity, results[k])
+            tables[k].append(_row(index, results[k]))
+    env.close()
+    for task, rows in zip(todo, tables):
+        _write(Path(task.directory), rows)
+    return batch.members[0].directory

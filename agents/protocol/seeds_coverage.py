@@ -63,7 +63,10 @@ def populations(path: Path) -> list[dict[str, Any]]:
     summary = path.with_name("summary.json")
     if summary.exists() and "best-rule" in read_json(summary, dict).get("chosen", {}):
         rules = [read_json(summary, dict)["chosen"]["best-rule"]]
-    else:  # a frontier protocol's table: every policy without seeds but the oracle
+    elif path.with_name("selection.json").exists():  # a frontier protocol's table: its rule families' members
+        kinds = {name: entry["kind"] for name, entry in read_json(path.with_name("selection.json"), dict)["frontiers"].items()}
+        rules = [p for p in table if kinds.get(p.rpartition("@")[0]) == "rule"]
+    else:  # a frontier table without its selection: every policy without seeds but the oracle
         rules = [p for p, seeds in table.items() if list(seeds) == [""] and p != "oracle"]
     found = []
     for learner, seeds in table.items():

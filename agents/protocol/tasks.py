@@ -6,7 +6,8 @@ of a Ray cluster (:mod:`agents.protocol.workers`), and it writes only its own fo
 * :class:`Fit`: one seed of one learner in one regime (:func:`agents.protocol.training.train_learner`),
   into its run directory under the fits folder; resumable (a finished fit is read back).
 * :class:`agents.protocol.members.Member`: a frontier protocol's family at one knob and one seed on a
-  chunk of a stream (:mod:`agents.protocol.frontier_run`).
+  chunk of a stream (:mod:`agents.protocol.frontier_run`), and :class:`~agents.protocol.members.Knobs`, a rule
+  family's members at every knob on one chunk, on one identification per plant.
 * :class:`Chunk`: plants ``first`` to ``first + len(plants)`` of a regime's validation or test stream,
   evaluated (:func:`agents.evaluation.evaluate.evaluate`) into ``WORK/REGIME/STAGE/chunk-KKKK``, whose
   per-plant cache resumes an interrupted chunk.  Its episode seeds are the stream's ``episode_seed + i``
@@ -78,10 +79,12 @@ class Chunk:
 def run_task(task: Any) -> str:
     """Run ``task`` (see the module docstring; a frontier's :class:`agents.protocol.members.Member` too);
     returns the folder it wrote."""
-    from agents.protocol.members import Member, score_member
+    from agents.protocol.members import Knobs, Member, score_knobs, score_member
 
     if isinstance(task, Member):
         return score_member(task)
+    if isinstance(task, Knobs):
+        return score_knobs(task)
     if isinstance(task, Fit):
         from agents.protocol.training import train_learner
 

@@ -32,6 +32,7 @@ def test_the_tiny_frontier_protocol_loads_with_its_families_and_the_earlier_prot
     protocol = load_protocol(_write(tmp_path, FRONTIER))
     assert protocol.frontier.knobs == (-0.5, 0.0, 0.5) and protocol.frontier.rules == ("simc-pi", "gorez-klan-mu-2")
     assert protocol.regimes[1].rules == ("amigo-pid",) and [l.label for l in protocol.regimes[0].learners()] == ["tiny-fixed"]
+    assert protocol.regimes[0].pretrained == ("learned-pid@0.05",) and protocol.regimes[1].pretrained == ()
     for version in ("v1", "v2", "v3", "v4"):
         assert load_protocol(Path(f"configs/protocols/{version}.yaml")).frontier is None
 
@@ -45,6 +46,9 @@ def test_the_tiny_frontier_protocol_loads_with_its_families_and_the_earlier_prot
     (("rules: [simc-pi,", "rules: [oracle,"), "is not a rule"),
     (("label: tiny-fixed, config", "label: simc-pi, config"), "must not name a rule"),
     (("frontier:", "selection: []\nfrontier:"), "selection"),
+    (("learned-pid@0.05]", "learned-fppi@0.05]"), r"pretrained\[0\]: 'learned-fppi@0.05' designs the FPPI structure"),
+    (("learned-pid@0.05]", "learned-pid@0.7]"), r"pretrained\[0\].*in \(0, 0.5\)"),
+    (("learned-pid@0.05]", "learned-pid@0.05, learned-pid@0.05]"), "repeats a name"),
 ])
 def test_a_bad_frontier_protocol_is_refused_naming_what_is_wrong(tmp_path, edit, message):
     with pytest.raises(ValueError, match=message):
@@ -126,6 +130,8 @@ def test_the_tiny_frontier_protocol_writes_its_results_with_holm_once_per_pair(t
     for regime in results["regimes"].values():
         assert set(regime["frontiers"]) >= {"tiny-fixed"} and regime["test"]["oracle"]["seeds"] == 1
         assert len(regime["frontiers"]["tiny-fixed"]["risk_per_seed"][0]) == 2
+    shipped = results["regimes"]["pid-quiet"]["frontiers"]["learned-pid@0.05"]  # the shipped learner: one model
+    assert shipped["kind"] == "learned" and all(len(row) == 1 for row in shipped["risk_per_seed"])
 
 
 @pytest.mark.slow
@@ -137,7 +143,7 @@ def test_the_tiny_frontier_protocol_by_address_on_a_ray_cluster_writes_the_seria
     done = subprocess.run(_command(protocol, out, "--address", address, "--chunk-plants", "2"), cwd=tmp_path,
                           env=environment, capture_output=True, text=True, timeout=1800)
     assert done.returncode == 0, done.stderr[-3000:]
-    assert "validation simc-pi@0.5 plants 2-3 (pid-quiet) done" in done.stderr  # chunks of two plants
+    assert "validation simc-pi@[-0.5, 0.0, 0.5] plants 2-3 (pid-quiet) done" in done.stderr  # chunks of two plants, every knob
     _assert_same_run(serial, out)
 
 
@@ -205,3 +211,47 @@ def test_the_regime_summary_risks_and_gap_closed_recompute_independently():
     low, high = comparison["gap_closed"]["interval"]
     assert low < gap < high
     assert comparison["difference"]["estimate"] == pytest.approx(learner[0].mean() - rule[0].mean())
+
+
+def test_a_rule_familys_knobs_on_one_identification_write_the_tables_of_their_own_tasks(tmp_path):
+    """:class:`Knobs` (one reset per plant for every knob) writes each member's table byte for byte as that member's
+    own task (its own reset per plant) writes it, on a noisy priced regime; a finished batch is not rerun."""
+    from agents.protocol.members import Knobs, Member, batched, score_knobs, score_member
+    from envs.systems.plant_sets import plant_set
+
+    kwargs = {"noise_std": 0.1, "weights": {"production": 0.05}}
+    plants = tuple(plant.to_dict() for plant in plant_set("fopdt", "validation", 3))
+
+    def members(rule: str, folder: str) -> list[Member]:
+        return [Member("r", "validation", rule, "rule", rule, knob, "", 0, "DeadTime/PID-v3", kwargs, plants, 70000000,
+                       str(tmp_path / folder / rule / f"k{knob!r}")) for knob in (-0.5, 0.0, 1.0)]
+
+    for rule in ("amigo-pid", "gorez-klan-mu-2"):
+        alone, together = members(rule, "alone"), members(rule, "together")
+        for task in alone:
+            score_member(task)
+        [batch] = batched(together)
+        assert isinstance(batch, Knobs) and batch.members == tuple(together)
+        score_knobs(batch)
+        for a, b in zip(alone, together):
+            assert (Path(a.directory) / "per_plant.csv").read_bytes() == (Path(b.directory) / "per_plant.csv").read_bytes()
+        mtime = (Path(together[0].directory) / "per_plant.csv").stat().st_mtime_ns
+        score_knobs(batch)
+        assert (Path(together[0].directory) / "per_plant.csv").stat().st_mtime_ns == mtime
+    oracle = Member("r", "validation", "oracle", "oracle", "oracle", 0.0, "", 0, "DeadTime/PID-v3", kwargs, plants, 70000000, "x")
+    assert batched([oracle, *members("simc-pi", "b")]) [0] is oracle and len(batched([oracle, *members("simc-pi", "b")])) == 2
+
+
+def test_one_models_comparison_is_the_paired_t_over_the_plants():
+    """A shipped learner is one model: its interval is scipy's one-sample t on the paired differences."""
+    from scipy import stats
+
+    from agents.frontier.statistics import seeds_or_plants_interval, seeds_or_plants_p_value
+
+    d = np.random.default_rng(3).normal(0.2, 1.0, size=(1, 80))
+    found = seeds_or_plants_interval(d)
+    test = stats.ttest_1samp(d[0], 0.0)
+    low, high = test.confidence_interval(0.95)
+    assert (found.low, found.high) == pytest.approx((low, high)) and found.method.startswith("paired t")
+    assert seeds_or_plants_p_value(d) == pytest.approx(test.pvalue)
+    assert seeds_or_plants_interval(np.vstack([d, d + 0.1])).method.startswith("crossed")
