@@ -140,7 +140,12 @@ def agent_action(env: Any, policy: Any, observation: np.ndarray) -> Any:
 
 
 def agent_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResult:
-    observation, info = env.reset(seed=seed, options={"plant": plant})
+    observation, _ = env.reset(seed=seed, options={"plant": plant})
+    return agent_played(env, policy, observation)
+
+
+def agent_played(env: Any, policy: Any, observation: Any) -> PolicyResult:
+    """An agent's episode from ``observation`` of an ``env`` just reset, to its end."""
     for _ in range(10_000):
         observation, _, terminated, truncated, info = env.step(agent_action(env, policy, observation))
         if terminated or truncated:
@@ -154,9 +159,14 @@ def selector_result(env: Any, policy: Any, seed: int, plant: Any) -> PolicyResul
     """A selector's episode (:mod:`agents.training.selector_policy`): reset with the plant and seed, the
     candidate it chooses from the observation, then that candidate's design on this identification: a
     rule scored as :func:`rule_result` scores it, a learned design's action stepped as an agent's."""
+    observation, _ = env.reset(seed=seed, options={"plant": plant})
+    return selector_played(env, policy, observation, plant)
+
+
+def selector_played(env: Any, policy: Any, observation: Any, plant: Any) -> PolicyResult:
+    """A selector's episode from ``observation`` of an ``env`` just reset with ``plant`` (:func:`selector_result`)."""
     import dataclasses
 
-    observation, _ = env.reset(seed=seed, options={"plant": plant})
     episode = episode_of(env)
     choice = policy.choose(observation)
     rule = policy.rule_of(choice)

@@ -19,6 +19,7 @@ found, so that an interrupted task resumes where it stopped; a task whose table 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -59,29 +60,40 @@ class Member:
                 f"{self.first + len(self.plants) - 1} ({self.regime})")
 
 
-def _player(task: Member, env: Any) -> tuple[Any, Any, str]:
-    """The played policy at the knob, the environment it plays, and its cache identity."""
+def _loaded(task: Member, env: Any) -> tuple[str, Any, Any, str]:
+    """``(name, policy, environment it plays, its kind)`` of a learned member (its knob not applied)."""
     from agents.evaluation.evaluate import check_trained_on, played_env
     from agents.evaluation.policies import PolicySpec, load_agent
-    from agents.frontier.families import at_knob
+    from agents.risk.pretrained import is_pretrained_name
     from agents.training.learned_rule_policy import is_learned_rule
     from agents.training.selector_policy import is_selector
     from envs.interface import tuning_env_of
 
-    from agents.risk.pretrained import is_pretrained_name
-
     path = task.member
     if is_pretrained_name(path):  # a shipped learner at a risk: load_agent resolves the name
-        kind = "learned-rule"
+        kind, spec = "learned-rule", PolicySpec(path, "learned-rule", path)
     else:
         kind = "selector" if is_selector(path) else "learned-rule" if is_learned_rule(path) else "agent"
-    name, policy = load_agent(PolicySpec(task.family, kind, path))
+        spec = PolicySpec(task.family, kind, path)
+    name, policy = load_agent(spec)
     check_trained_on(policy, task.env, f"{task.family} ({path})")
     unwrapped = tuning_env_of(env)
     scoring = {"constraints": unwrapped.constraints, "weights": unwrapped.weights, **task.env_kwargs,
                "noise_std": unwrapped.options.noise_std}
     played = played_env(policy, task.env, {**dict(getattr(policy, "env_kwargs", None) or {}), **scoring})
-    return at_knob(name, policy, task.knob, played), played, f"{kind}|{path}|knob={task.knob!r}"
+    return name, policy, played, kind
+
+
+def _identity(task: Member, kind: str) -> str:
+    return f"{kind}|{task.member}|knob={task.knob!r}"
+
+
+def _player(task: Member, env: Any) -> tuple[Any, Any, str]:
+    """The played policy at the knob, the environment it plays, and its cache identity."""
+    from agents.frontier.families import at_knob
+
+    name, policy, played, kind = _loaded(task, env)
+    return at_knob(name, policy, task.knob, played), played, _identity(task, kind)
 
 
 def _identified(env: Any, seed: int, plant: Any) -> float:
@@ -106,9 +118,9 @@ def _on_identification(env: Any, kind: str, name: str, experiment_time: float) -
 
 @dataclass(frozen=True)
 class Knobs:
-    """The members of one rule family at every knob of a grid, one seed, one chunk of plants: scored on one
-    identification per plant (a rule's design and score do not touch the episode, so each member's table is
-    the one its own :class:`Member` task writes)."""
+    """The members of one family at every knob of a grid, one seed, one chunk of plants, scored on one reset per
+    plant: a rule's design and score do not touch the episode; a learned member plays its own copy of the episode
+    just reset (:func:`copy.deepcopy`), so that each member's table is the one its own :class:`Member` task writes."""
 
     members: tuple[Member, ...]
 
@@ -116,20 +128,21 @@ class Knobs:
     def name(self) -> str:
         first = self.members[0]
         knobs = ", ".join(f"{member.knob!r}" for member in self.members)
-        return (f"{first.stage} {first.family}@[{knobs}] plants {first.first}-{first.first + len(first.plants) - 1} "
+        seed = f" seed {first.seed}" if first.seed else ""
+        return (f"{first.stage} {first.family}@[{knobs}]{seed} plants {first.first}-{first.first + len(first.plants) - 1} "
                 f"({first.regime})")
 
 
 def batched(tasks: list[Member]) -> list[Member | Knobs]:
-    """``tasks`` with each rule family's members of one seed and chunk gathered into one :class:`Knobs` (in
-    the order of their first member), the other members as they are."""
-    groups: dict[tuple[str, str, int], list[Member]] = {}
+    """``tasks`` with each family's members of one seed and chunk gathered into one :class:`Knobs` (in the order
+    of their first member), the oracle's as they are."""
+    groups: dict[tuple[str, str, str, int], list[Member]] = {}
     found: list[Member | list[Member]] = []
     for task in tasks:
-        if task.kind != "rule":
+        if task.kind == "oracle":
             found.append(task)
             continue
-        key = (task.family, task.seed, task.first)
+        key = (task.kind, task.family, task.seed, task.first)
         if key not in groups:
             groups[key] = []
             found.append(groups[key])
@@ -199,12 +212,46 @@ def score_member(task: Member) -> str:
     return str(directory)
 
 
+def _knob_scorers(todo: list[Member], env: Any) -> tuple[list[str], Callable[[int, Any], Any], Callable[[Member], Any], Any]:
+    """``(identities, reset(seed, plant), score(member), the environment played)`` of a batch's members: a rule's
+    on the identification of ``env``, a learned member's episode on its own copy of its environment just reset."""
+    import copy
+
+    from agents.evaluation.run import agent_played, selector_played
+    from agents.frontier.families import at_knob
+    from baselines.rules.family import member_name
+
+    if todo[0].kind == "rule":
+        state: dict[str, Any] = {}
+
+        def reset(seed: int, plant: Any) -> None:
+            state["time"] = _identified(env, seed, plant)
+
+        return ([member_name(task.member, task.knob) for task in todo], reset,
+                lambda task: _on_identification(env, "rule", member_name(task.member, task.knob), state["time"]), env)
+    name, policy, played, kind = _loaded(todo[0], env)
+    state = {}
+
+    def reset_played(seed: int, plant: Any) -> None:
+        state["observation"], _ = played.reset(seed=seed, options={"plant": plant})
+        state["plant"] = plant
+
+    def score(task: Member) -> Any:
+        own = copy.deepcopy(played)
+        player = at_knob(name, policy, task.knob, own)
+        observation = copy.deepcopy(state["observation"])
+        if hasattr(player, "rule_of"):
+            return selector_played(own, player, observation, state["plant"])
+        return agent_played(own, player, observation)
+
+    return [_identity(task, kind) for task in todo], reset_played, score, played
+
+
 def score_knobs(batch: Knobs) -> str:
     """Run ``batch`` (:class:`Knobs`): per plant one reset, then each member not yet done; returns the first
     member's folder."""
     from agents.evaluation.cache import Cache
     from agents.evaluation.run import plant_key
-    from baselines.rules.family import member_name
     from envs.systems.plants import as_plant
 
     todo = [task for task in batch.members if not (Path(task.directory) / TABLE).exists()]
@@ -215,7 +262,7 @@ def score_knobs(batch: Knobs) -> str:
     for task in todo:
         Path(task.directory).mkdir(parents=True, exist_ok=True)
     caches = [Cache(Path(task.directory) / "cache.jsonl") for task in todo]
-    identities = [member_name(task.member, task.knob) for task in todo]
+    identities, reset, score, played = _knob_scorers(todo, env)
     tables = [[["index", "cost", "feasible"]] for _ in todo]
     for offset, data in enumerate(first.plants):
         index, plant = first.first + offset, as_plant(dict(data))
@@ -223,13 +270,14 @@ def score_knobs(batch: Knobs) -> str:
         key = plant_key(environment, family, seed, index, dict(data))
         results = [cache.get(key, identity) for cache, identity in zip(caches, identities)]
         if any(result is None for result in results):
-            experiment_time = _identified(env, seed, plant)
-        for k, (cache, identity) in enumerate(zip(caches, identities)):
+            reset(seed, plant)
+        for k, (task, cache, identity) in enumerate(zip(todo, caches, identities)):
             if results[k] is None:
-                results[k] = _on_identification(env, "rule", identity, experiment_time)
+                results[k] = score(task)
                 cache.put(key, identity, results[k])
             tables[k].append(_row(index, results[k]))
     env.close()
+    played.close()
     for task, rows in zip(todo, tables):
         _write(Path(task.directory), rows)
     return batch.members[0].directory

@@ -255,3 +255,47 @@ def test_one_models_comparison_is_the_paired_t_over_the_plants():
     assert (found.low, found.high) == pytest.approx((low, high)) and found.method.startswith("paired t")
     assert seeds_or_plants_p_value(d) == pytest.approx(test.pvalue)
     assert seeds_or_plants_interval(np.vstack([d, d + 0.1])).method.startswith("crossed")
+
+
+def _learned_knobs_match(tmp_path: Path, member: str, env_kwargs: dict, plants: int = 3) -> None:
+    """A learned family's :class:`Knobs` (one reset per plant, each knob's episode on its own copy) writes each
+    member's table byte for byte as that member's own task writes it."""
+    from agents.protocol.members import Knobs, Member, score_knobs, score_member
+    from envs.systems.plant_sets import plant_set
+
+    dicts = tuple(plant.to_dict() for plant in plant_set("fopdt", "validation", plants))
+
+    def members(folder: str) -> list[Member]:
+        return [Member("r", "validation", "family", "learned", member, knob, "0", 0, "DeadTime/PID-v3", env_kwargs, dicts,
+                       70000000, str(tmp_path / folder / f"k{knob!r}")) for knob in (-1.0, 0.0, 1.5)]
+
+    alone, together = members("alone"), members("together")
+    for task in alone:
+        score_member(task)
+    score_knobs(Knobs(tuple(together)))
+    for a, b in zip(alone, together):
+        assert (Path(a.directory) / "per_plant.csv").read_bytes() == (Path(b.directory) / "per_plant.csv").read_bytes()
+
+
+def test_a_shipped_learners_knobs_on_one_reset_write_the_tables_of_their_own_tasks(tmp_path):
+    _learned_knobs_match(tmp_path, "learned-pid@0.05", {"noise_std": 0.1, "weights": {"production": 0.05}})
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["selector", "sac-plan"])
+def test_a_selectors_and_a_plan_mode_agents_knobs_on_one_reset_write_the_tables_of_their_own_tasks(tmp_path, kind):
+    """A selector (its threshold the knob) and an agent that plans its experiments (the plan's step shared, the
+    design's stepped per knob), each trained on a few plants."""
+    fit = tmp_path / "fit"
+    if kind == "selector":
+        overrides = ["training_plants=60", "validation_plants=40",
+                     'learned_overrides=["training_plants=30", "validation_plants=10", "margins=[0.0, 0.2]"]']
+        config, env_kwargs = "configs/selector.yaml", {}
+    else:
+        overrides = ["env_kwargs.experiments=plan", "env_kwargs.noise_std=0.1", "total_timesteps=300",
+                     "hyperparameters.learning_starts=100", "eval_freq=300", "n_eval_episodes=5"]
+        config, env_kwargs = "configs/v5/sac.yaml", {"noise_std": 0.1}
+    done = subprocess.run([sys.executable, "-m", "agents.cli", "train", "--config", config, "--env", "DeadTime/PID-v3",
+                           "--out", str(fit), *overrides], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    _learned_knobs_match(tmp_path, str(fit), env_kwargs)
