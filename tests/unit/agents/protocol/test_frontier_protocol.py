@@ -178,7 +178,9 @@ def test_the_v5_draft_loads_on_fresh_streams_and_is_not_registered():
     protocol = load_protocol(path)
     assert len(protocol.regimes) == 8 and len(protocol.seeds) == 10
     assert protocol.frontier.risk_levels == (0.005, 0.01, 0.02, 0.05) and 0.0 in protocol.frontier.knobs
-    assert all({"sac", "ppo", "td3", "learned-rule", "selector"} <= {l.label for l in r.learners()} for r in protocol.regimes)
+    assert all({"sac", "ppo", "learned-rule", "selector"} <= {l.label for l in r.learners()} for r in protocol.regimes)
+    assert all("sac-lagrangian" in {l.label for l in r.learners()} for r in protocol.regimes if r.name.endswith("fixed-default"))
+    assert all(len(r.pretrained) == 4 for r in protocol.regimes)
     assert protocol.test.entropy not in [entry["entropy"] for entry in read_registry()]
     others = "".join(p.read_text() for p in Path("configs/protocols").glob("v[1-4].yaml"))
     entropies = {int(e) for e in re.findall(r"entropy: (\d+)", others)}
