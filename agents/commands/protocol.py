@@ -10,6 +10,7 @@
     deadtime protocol coverage --n 4000 --out results/protocol_coverage/coverage.json
     deadtime protocol seeds-coverage results/protocol_v*/*/test_per_plant.csv.gz --seeds 20 --out FILE
     deadtime protocol frontier-cost DeadTime/PID-v3 [--plants N] [--fit RUN_DIR]   # one frontier task's CPU time
+    deadtime protocol budget configs/protocols/v5.yaml --out results/protocol_v5 [--fits DIR] [--workers N]
 
 ``run`` trains, chooses on validation and tests (:mod:`agents.protocol.run`; a frontier protocol's
 families by :mod:`agents.protocol.frontier_run`), from a tree whose code is the commit's (or, with
@@ -93,6 +94,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     cost.add_argument("--plants", type=int, default=20, help="plants timed (default 20)")
     cost.add_argument("--env-kwargs", default="{}", help="environment options as JSON")
     cost.add_argument("--fit", help="a learned policy's run directory (its episode timed at knob 0.5)")
+    spent = actions.add_parser("budget", help="a frontier protocol's compute from its run: CPU hours per regime, part "
+                                              "and learner (agents/protocol/budget.py)")
+    spent.add_argument("protocol", help="the protocol file, e.g. configs/protocols/v5.yaml")
+    spent.add_argument("--out", required=True, help="the run's folder (its work/ holds the tasks' timings)")
+    spent.add_argument("--fits", help="the learners' fits, if not OUT/work/runs")
+    spent.add_argument("--workers", type=int, default=2, help="cores the wall time is given for (default 2)")
+    spent.add_argument("--json", action="store_true", help="print the JSON instead of the markdown table")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -111,6 +119,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.action != "register":
         require_directory(args.out)  # before the protocol is read: the empty string would be the working directory
+    if args.action == "budget":
+        return _budget(args, load_protocol(args.protocol))
     protocol = load_protocol(args.protocol)
     if args.action == "register":
         from agents.protocol.streams import register_test_seed
@@ -143,6 +153,22 @@ def run(args: argparse.Namespace) -> int:
     results = write_report(protocol, out)
     print(f"{results['comparisons_done']} of {results['comparisons_declared']} comparisons; wrote "
           f"{out / 'protocol_results.json'}, results.md, forest.png", file=sys.stderr)
+    return 0
+
+
+def _budget(args: argparse.Namespace, protocol: Any) -> int:
+    """``deadtime protocol budget``: the run's compute, a markdown table (or ``--json``)."""
+    from agents.protocol.budget import budget, budget_table
+
+    if protocol.frontier is None:
+        raise ValueError(f"{protocol.path} is not a frontier protocol: its tasks record no timings")
+    if args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    out = require_directory(args.out)
+    if not (out / "work").is_dir():
+        raise ValueError(f"{out / 'work'} is missing: no run of {protocol.path} in --out")
+    found = budget(protocol, out, Path(args.fits) if args.fits else None)
+    print(json.dumps(found, indent=1) if args.json else budget_table(found, args.workers), end="" if not args.json else "\n")
     return 0
 
 

@@ -14,7 +14,8 @@ whichever chunk holds the plant.  A policy is
 * ``oracle``: the oracle of the identified models (:func:`agents.evaluation.run.oracle_result`).
 
 Each plant's result goes to ``DIRECTORY/cache.jsonl`` (:class:`agents.evaluation.cache.Cache`) as it is
-found, so that an interrupted task resumes where it stopped; a task whose table exists is done.
+found, so that an interrupted task resumes where it stopped; a task whose table exists is done.  A task
+adds its CPU and wall seconds to ``DIRECTORY/timing.json`` (a batch of knobs, to its first member's).
 """
 
 from __future__ import annotations
@@ -24,10 +25,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["KINDS", "Knobs", "Member", "batched", "member_label", "score_knobs", "score_member"]
+__all__ = ["KINDS", "TIMING", "Knobs", "Member", "batched", "clock", "member_label", "score_knobs", "score_member", "timed"]
 
 KINDS = ("rule", "learned", "oracle")
 TABLE = "per_plant.csv"
+TIMING = "timing.json"
 
 
 def member_label(family: str, knob: float) -> str:
@@ -134,15 +136,15 @@ class Knobs:
 
 
 def batched(tasks: list[Member]) -> list[Member | Knobs]:
-    """``tasks`` with each family's members of one seed and chunk gathered into one :class:`Knobs` (in the order
-    of their first member), the oracle's as they are."""
-    groups: dict[tuple[str, str, str, int], list[Member]] = {}
+    """``tasks`` with each family's members of one regime, stage, seed and chunk gathered into one :class:`Knobs` (in
+    the order of their first member), the oracle's as they are."""
+    groups: dict[tuple[str, ...], list[Member]] = {}
     found: list[Member | list[Member]] = []
     for task in tasks:
         if task.kind == "oracle":
             found.append(task)
             continue
-        key = (task.kind, task.family, task.seed, task.first)
+        key = (task.regime, task.stage, task.kind, task.family, task.member, task.seed, str(task.first))
         if key not in groups:
             groups[key] = []
             found.append(groups[key])
@@ -167,6 +169,35 @@ def _write(directory: Path, rows: list[list[str]]) -> None:
     write_text(directory / TABLE, csv_text(rows))
 
 
+def timed(directory: Path, started: tuple[float, float], episodes: int, members: int) -> None:
+    """Add this session's CPU and wall seconds and its new episodes to ``directory/timing.json`` (the budget of
+    :mod:`agents.protocol.budget`; a resumed task adds its sessions)."""
+    import time
+
+    from agents.files.reader import read_record
+    from agents.files.writer import write_json
+
+    path = directory / TIMING
+    found = read_record(path, dict) or {"cpu_seconds": 0.0, "wall_seconds": 0.0, "episodes": 0, "members": members}
+    write_json(path, {"cpu_seconds": found["cpu_seconds"] + _cpu() - started[0],
+                      "wall_seconds": found["wall_seconds"] + time.perf_counter() - started[1],
+                      "episodes": found["episodes"] + episodes, "members": members})
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and its finished children (a learner's environments may run in subprocesses)."""
+    import resource
+
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def clock() -> tuple[float, float]:
+    import time
+
+    return _cpu(), time.perf_counter()
+
+
 def _row(index: int, result: Any) -> list[str]:
     return [str(index), repr(float(result.cost)), str(bool(result.feasible))]
 
@@ -183,6 +214,7 @@ def score_member(task: Member) -> str:
         return str(directory)
     if task.kind not in KINDS:
         raise ValueError(f"unknown member kind {task.kind!r} (kinds: {', '.join(KINDS)})")
+    started, episodes = clock(), 0
     directory.mkdir(parents=True, exist_ok=True)
     cache = Cache(directory / "cache.jsonl")
     env, environment, family = _environment(task)
@@ -204,10 +236,12 @@ def score_member(task: Member) -> str:
             else:
                 result = _on_identification(env, task.kind, identity, _identified(env, seed, plant))
             cache.put(key, identity, result)
+            episodes += 1
         rows.append(_row(index, result))
     env.close()
     if played is not None:
         played.close()
+    timed(directory, started, episodes, 1)
     _write(directory, rows)
     return str(directory)
 
@@ -257,7 +291,7 @@ def score_knobs(batch: Knobs) -> str:
     todo = [task for task in batch.members if not (Path(task.directory) / TABLE).exists()]
     if not todo:
         return batch.members[0].directory
-    first = todo[0]
+    first, started, episodes = todo[0], clock(), 0
     env, environment, family = _environment(first)
     for task in todo:
         Path(task.directory).mkdir(parents=True, exist_ok=True)
@@ -275,9 +309,11 @@ def score_knobs(batch: Knobs) -> str:
             if results[k] is None:
                 results[k] = score(task)
                 cache.put(key, identity, results[k])
+                episodes += 1
             tables[k].append(_row(index, results[k]))
     env.close()
     played.close()
+    timed(Path(first.directory), started, episodes, len(todo))
     for task, rows in zip(todo, tables):
         _write(Path(task.directory), rows)
     return batch.members[0].directory

@@ -4,7 +4,8 @@ A task is plain data (picklable; its paths relative to the working directory it 
 of a Ray cluster (:mod:`agents.protocol.workers`), and it writes only its own folder:
 
 * :class:`Fit`: one seed of one learner in one regime (:func:`agents.protocol.training.train_learner`),
-  into its run directory under the fits folder; resumable (a finished fit is read back).
+  into its run directory under the fits folder; resumable (a finished fit is read back); its CPU and wall
+  seconds added to the run directory's ``timing.json``.
 * :class:`agents.protocol.members.Member`: a frontier protocol's family at one knob and one seed on a
   chunk of a stream (:mod:`agents.protocol.frontier_run`), and :class:`~agents.protocol.members.Knobs`, a rule
   family's members at every knob on one chunk, on one identification per plant.
@@ -86,9 +87,13 @@ def run_task(task: Any) -> str:
     if isinstance(task, Knobs):
         return score_knobs(task)
     if isinstance(task, Fit):
+        from agents.protocol.members import clock, timed
         from agents.protocol.training import train_learner
 
-        return str(train_learner(Path(task.fits), task.regime, task.learner, task.seed))
+        started = clock()
+        directory = train_learner(Path(task.fits), task.regime, task.learner, task.seed)
+        timed(Path(directory), started, 0, 1)
+        return str(directory)
     from agents.evaluation.evaluate import evaluate
 
     evaluate(task.env, ",".join(task.policies), len(task.plants), task.episode_seed + task.first, Path(task.directory),

@@ -3,6 +3,7 @@ serially, by ``--address`` on a Ray cluster and interrupted then resumed, each w
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import subprocess
@@ -242,6 +243,8 @@ def test_a_rule_familys_knobs_on_one_identification_write_the_tables_of_their_ow
         assert (Path(together[0].directory) / "per_plant.csv").stat().st_mtime_ns == mtime
     oracle = Member("r", "validation", "oracle", "oracle", "oracle", 0.0, "", 0, "DeadTime/PID-v3", kwargs, plants, 70000000, "x")
     assert batched([oracle, *members("simc-pi", "b")]) [0] is oracle and len(batched([oracle, *members("simc-pi", "b")])) == 2
+    other = [dataclasses.replace(task, regime="another") for task in members("simc-pi", "c")]
+    assert [len(batch.members) for batch in batched([*members("simc-pi", "b"), *other])] == [3, 3]  # never across regimes
 
 
 def test_one_models_comparison_is_the_paired_t_over_the_plants():
@@ -301,3 +304,33 @@ def test_a_selectors_and_a_plan_mode_agents_knobs_on_one_reset_write_the_tables_
                            "--out", str(fit), *overrides], capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     _learned_knobs_match(tmp_path, str(fit), env_kwargs)
+
+
+@pytest.mark.slow
+def test_the_budget_counts_every_task_of_the_run_by_part_and_kind(tiny_frontier_run):
+    """Every fit and every (family, seed, chunk) task recorded its time; the episodes are the stream's plants times
+    the members: pid-quiet's validation has 2 rule families, 1 learner of 2 seeds and 1 shipped learner at 3 knobs."""
+    from agents.protocol.budget import budget, budget_table
+
+    path, out = tiny_frontier_run
+    found = budget(load_protocol(path), out)["regimes"]["pid-quiet"]
+    assert found["fits"]["tiny-fixed"]["tasks"] == 2 and found["fits"]["tiny-fixed"]["cpu_seconds"] > 0
+    episodes = {kind: entry["episodes"] for kind, entry in found["validation"].items()}
+    assert episodes == {"rules": 2 * 3 * 4, "learners": 2 * 3 * 4, "shipped": 3 * 4, "oracle": 4}
+    assert set(found["test"]) >= {"oracle"} and found["test"]["oracle"]["episodes"] == 5
+    table = budget_table(budget(load_protocol(path), out))
+    assert "| pid-quiet | validation | shipped | 1 | 12 |" in table and table.splitlines()[-1].startswith("| all |")
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["configs/protocols/v1.yaml", "--out", "x"], "not a frontier protocol"),
+    (["PROTOCOL", "--out", "nowhere"], "no run of"),
+    (["PROTOCOL", "--out", "x", "--workers", "0"], "--workers must be at least 1"),
+])
+def test_a_bad_budget_request_is_one_line(tmp_path, extra, message):
+    from in_process import error_line
+
+    protocol = write_tiny_frontier_protocol(tmp_path)
+    (tmp_path / "x" / "work").mkdir(parents=True)
+    args = [str(protocol) if a == "PROTOCOL" else str(tmp_path / a) if a in ("x", "nowhere") else a for a in extra]
+    assert message in error_line("protocol", "budget", *args)
