@@ -12,18 +12,25 @@ disjoint splits of the training plants:
 1. ``f_b``, a regression of the boundary's action on ``x``, and ``f_a``, one of the oracle's action
    (the design of least predicted cost), fitted on the first split;
 2. ``s``, a regression of the absolute residual ``|b - f_b(x)|`` on ``x`` (the local scale), on the second;
-3. the scores of the third split, sorted: the standardized residual ``z = (b - f_b(x)) / s(x)``, but
-   ``-inf`` where ``f_a(x) >= b`` (the design ``max(f_a, .)`` is then feasible whatever the quantile)
-   and ``+inf`` where the plant has no feasible design (every design violates).  A design violates
-   exactly when ``f_a(x) < b`` and ``z > q``, that is when the score exceeds ``q``.  ``q_{1-r}`` is the
-   ``ceil((n + 1)(1 - r))``-th smallest of the ``n`` scores (``inf`` beyond the last: the most
-   conservative design), so that on a new plant of the training distribution the design
-   ``a(x, r)`` violates with probability at most ``r`` (the conformal guarantee, marginal over the
-   plants), and not far below it: the maximum with ``f_a`` is part of the calibrated score.
+3. the scores of the third split: the standardized residual ``z = (b - f_b(x)) / s(x)``, but ``-inf``
+   where ``f_a(x) >= b`` (the design ``max(f_a, .)`` is then feasible whatever the quantile).  A design
+   violates exactly when ``f_a(x) < b`` and ``z > q``, that is when the score exceeds ``q``.  The plants
+   with no feasible design (every design violates) have no score; they are counted, ``n_0`` of the
+   split's ``n`` plants.  ``q_{1-r}`` is the ``k``-th smallest of the ``n - n_0`` scores with
+   ``k = ceil((n + 1)(1 - r))``: the rank of split-conformal prediction over all ``n`` plants with the
+   ``n_0`` scored ``+inf`` (they sort last), so that on a new plant of the training distribution the
+   design ``a(x, r)`` violates with probability at most ``r`` (the conformal guarantee, marginal over
+   the plants), and not far below it: the maximum with ``f_a`` is part of the calibrated score.
+   Among the feasible plants this is their own conformal quantile at the adjusted level
+   ``(r - p_0) / (1 - p_0)``, ``p_0 = n_0 / n``, up to the rank's rounding (one rank, in the safe
+   direction).  Where ``k > n - n_0`` the level is *unreachable*: no design violates on fewer than the
+   share ``p_0`` of the plants; the design is then the most conservative one, and
+   :meth:`RiskLearner.reachable` and :meth:`RiskLearner.floor` say so per plant.
 
 With ``bands`` the third split's residuals are kept per band of the observation's noise feature
 (``log_noise_ratio``), and a plant's quantile is its band's (Mondrian conformal prediction, Vovk,
-Gammerman and Shafer 2005, ch. 4: the guarantee then holds within each band).  The design never
+Gammerman and Shafer 2005, ch. 4: the guarantee then holds within each band, and so does ``p_0``:
+the plants with no feasible design, found at high noise, make no other band conservative).  The design never
 goes bolder than ``f_a(x)``, the predicted optimum: the oracle's action is feasible, so it lies on
 the boundary or beyond it.
 """
@@ -44,11 +51,15 @@ SCALE_FLOOR = 1e-3
 standardized residual explode."""
 
 
-def conformal_quantile(scores: np.ndarray, risk: float) -> float:
-    """The ``ceil((n + 1)(1 - risk))``-th smallest of the sorted ``scores`` (``inf`` beyond the last)."""
-    n = len(scores)
+def conformal_quantile(scores: np.ndarray, risk: float, no_design: int = 0, n: int | None = None) -> float:
+    """The ``ceil((n + 1)(1 - risk))``-th smallest of ``n`` scores: the sorted ``scores`` and ``no_design`` more
+    of ``+inf`` (``n = len(scores) + no_design`` unless given); ``inf`` where the rank falls beyond ``scores``
+    (module docstring, step 3)."""
+    n = len(scores) + no_design if n is None else n
     rank = math.ceil((n + 1) * (1.0 - risk))
-    return float(scores[rank - 1]) if 1 <= rank <= n else (math.inf if rank > n else -math.inf)
+    if rank < 1:
+        return -math.inf
+    return float(scores[rank - 1]) if rank <= len(scores) else math.inf
 
 
 @dataclass
@@ -59,7 +70,9 @@ class RiskLearner:
     ----------
     action_model, boundary_model, scale_model : regressions with ``predict(rows)``
     scores : list of numpy arrays
-        Per band, the third split's standardized residuals, sorted (``inf`` for no feasible design).
+        Per band, the scores of the third split's plants with a feasible design, sorted.
+    no_design : list of int
+        Per band, the third split's plants with no feasible design (``n_0``).
     band_edges : numpy array
         The inner edges of the bands in the noise feature (empty: one band).
     noise_feature : int
@@ -78,6 +91,7 @@ class RiskLearner:
     low: float
     high: float
     observation_size: int
+    no_design: list = field(default_factory=list)
 
     def _rows(self, observation: Any) -> np.ndarray:
         rows = np.asarray(observation, dtype=np.float64).reshape(-1, self.observation_size)
@@ -86,10 +100,27 @@ class RiskLearner:
     def bands(self, rows: np.ndarray) -> np.ndarray:
         return np.searchsorted(self.band_edges, rows[:, self.noise_feature], side="right")
 
+    def _counts(self, band: int) -> tuple[int, int]:
+        """``(n_0, n)`` of a band: its plants with no feasible design, and all its plants."""
+        scores, no_design = self.scores[band], getattr(self, "no_design", None)
+        if not no_design:  # a learner of the former files: the no-design plants among the scores, +inf
+            return int(np.isposinf(scores).sum()), len(scores)
+        return int(no_design[band]), len(scores) + int(no_design[band])
+
     def quantiles(self, rows: np.ndarray, risk: float) -> np.ndarray:
-        """Each row's ``q_{1-risk}`` (its band's)."""
-        per_band = np.array([conformal_quantile(scores, risk) for scores in self.scores])
+        """Each row's ``q_{1-risk}`` (its band's; ``inf`` where unreachable)."""
+        per_band = np.array([conformal_quantile(scores[np.isfinite(scores) | np.isneginf(scores)], risk, *self._counts(b))
+                             for b, scores in enumerate(self.scores)])
         return per_band[self.bands(rows)]
+
+    def floor(self, observation: Any) -> np.ndarray:
+        """Each row's band's share ``p_0`` of calibration plants with no feasible design (no risk below it is reachable)."""
+        per_band = np.array([n0 / max(n, 1) for n0, n in map(self._counts, range(len(self.scores)))])
+        return per_band[self.bands(self._rows(observation))]
+
+    def reachable(self, observation: Any, risk: float) -> np.ndarray:
+        """Per row, whether its band reaches ``risk`` (a finite quantile); where not, the design is the most conservative."""
+        return np.isfinite(self.quantiles(self._rows(observation), risk))
 
     def design(self, observation: Any, risk: float) -> np.ndarray:
         """The design actions (float64, one per row of ``observation``) at risk ``risk``."""
@@ -150,14 +181,16 @@ def fit_regressions(data: dict[str, np.ndarray], kind: str, seed: int,
 def conformalized(regressions: tuple[Any, Any, Any, np.ndarray, np.ndarray], bands: int, noise_feature: int, low: float,
                   high: float) -> RiskLearner:
     """Step 3 of the module docstring on the regressions of :func:`fit_regressions`: the third split's
-    standardized residuals, sorted, in ``bands`` equal-count bands of its noise feature."""
+    scores, sorted, and its plants with no feasible design, counted, in ``bands`` equal-count bands of its noise feature."""
     action_model, boundary_model, scale_model, rows, z = regressions
     noise = rows[:, noise_feature]
     edges = np.quantile(noise, np.arange(1, bands) / bands) if bands > 1 else np.array([])
     band = np.searchsorted(edges, noise, side="right")
-    scores = [np.sort(z[band == b]) for b in range(bands)]
+    scored = ~np.isposinf(z)
+    scores = [np.sort(z[(band == b) & scored]) for b in range(bands)]
+    no_design = [int(np.sum((band == b) & ~scored)) for b in range(bands)]
     return RiskLearner(action_model, boundary_model, scale_model, scores, np.asarray(edges, dtype=float), int(noise_feature),
-                       float(low), float(high), rows.shape[1])
+                       float(low), float(high), rows.shape[1], no_design)
 
 
 def _rows(observation: np.ndarray) -> np.ndarray:
