@@ -30,7 +30,12 @@ disjoint splits of the training plants:
 With ``bands`` the third split's residuals are kept per band of the observation's noise feature
 (``log_noise_ratio``), and a plant's quantile is its band's (Mondrian conformal prediction, Vovk,
 Gammerman and Shafer 2005, ch. 4: the guarantee then holds within each band, and so does ``p_0``:
-the plants with no feasible design, found at high noise, make no other band conservative).  The design never
+the plants with no feasible design, found at high noise, make no other band conservative).  With
+``quantized_band``, the plants whose observation looks quantized have one band of their own: a
+regression of the indicator of a sensor quantization on ``x``, fitted on the first split, above
+one half (a function of ``x`` fitted apart from the third split, so a Mondrian taxonomy like the
+noise bands).  A quantized sensor's plants have residuals of another law than the unquantized
+plants of the same noise; sharing a band, one kind would be bold where the other is conservative.  The design never
 goes bolder than ``f_a(x)``, the predicted optimum: the oracle's action is feasible, so it lies on
 the boundary or beyond it.
 """
@@ -43,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SCALE_FLOOR", "RiskLearner", "conformal_quantile", "conformalized", "fit_learner", "fit_regressions", "regression",
+__all__ = ["SCALE_FLOOR", "RiskLearner", "conformal_quantile", "conformalized", "fit_learner", "fit_regressions", "looks_quantized", "regression",
            "split_indices"]
 
 SCALE_FLOOR = 1e-3
@@ -73,6 +78,9 @@ class RiskLearner:
         Per band, the scores of the third split's plants with a feasible design, sorted.
     no_design : list of int
         Per band, the third split's plants with no feasible design (``n_0``).
+    quantized_model : regression or None
+        With a band of its own for the plants that look quantized: the regression of the quantization's
+        indicator (that band is the last).
     band_edges : numpy array
         The inner edges of the bands in the noise feature (empty: one band).
     noise_feature : int
@@ -92,13 +100,16 @@ class RiskLearner:
     high: float
     observation_size: int
     no_design: list = field(default_factory=list)
+    quantized_model: Any = None
 
     def _rows(self, observation: Any) -> np.ndarray:
         rows = np.asarray(observation, dtype=np.float64).reshape(-1, self.observation_size)
         return np.nan_to_num(rows, nan=0.0, posinf=1e6, neginf=-1e6)
 
     def bands(self, rows: np.ndarray) -> np.ndarray:
-        return np.searchsorted(self.band_edges, rows[:, self.noise_feature], side="right")
+        band = np.searchsorted(self.band_edges, rows[:, self.noise_feature], side="right")
+        quantized = getattr(self, "quantized_model", None)
+        return band if quantized is None else np.where(looks_quantized(quantized, rows), len(self.band_edges) + 1, band)
 
     def _counts(self, band: int) -> tuple[int, int]:
         """``(n_0, n)`` of a band: its plants with no feasible design, and all its plants."""
@@ -133,6 +144,11 @@ class RiskLearner:
         return np.maximum(self.scale_model.predict(rows), SCALE_FLOOR)
 
 
+def looks_quantized(model: Any, rows: np.ndarray) -> np.ndarray:
+    """Per row, whether the regression of the quantization's indicator predicts above one half."""
+    return model.predict(rows) > 0.5
+
+
 def regression(kind: str, seed: int, loss: str = "squared_error") -> Any:
     """An unfitted regression of ``kind``: ``boosting`` (histogram gradient boosting) or ``mlp`` (a small
     network on standardized inputs; its loss is the squared error whatever ``loss``)."""
@@ -160,9 +176,10 @@ def split_indices(n: int, shares: tuple[float, float, float], seed: int) -> list
 
 
 def fit_regressions(data: dict[str, np.ndarray], kind: str, seed: int,
-                    shares: tuple[float, float, float] = (0.6, 0.2, 0.2)) -> tuple[Any, Any, Any, np.ndarray, np.ndarray]:
+                    shares: tuple[float, float, float] = (0.6, 0.2, 0.2)) -> tuple[Any, Any, Any, np.ndarray, np.ndarray, Any]:
     """Steps 1-2 of the module docstring: ``(action model, boundary model, scale model, third split's rows,
-    their standardized residuals)`` from the arrays of :func:`agents.risk.labels.records_arrays`."""
+    their scores, quantization model)`` from the arrays of :func:`agents.risk.labels.records_arrays` (the
+    quantization model ``None`` where the data have no ``quantization`` or no quantized plant)."""
     x, action, boundary = _rows(data["observation"]), data["action"], data["boundary"]
     first, second, third = split_indices(len(x), shares, seed)
     feasible = first[np.isfinite(boundary[first])]
@@ -175,22 +192,30 @@ def fit_regressions(data: dict[str, np.ndarray], kind: str, seed: int,
     z = (b - boundary_model.predict(x[third])) / np.maximum(scale_model.predict(x[third]), SCALE_FLOOR)
     # where the predicted optimum is already at least the boundary, the design max(f_a, ...) is feasible for every q
     z = np.where(action_model.predict(x[third]) >= b, -np.inf, z)
-    return action_model, boundary_model, scale_model, x[third], z
+    quantized = (data["quantization"] > 0).astype(float) if "quantization" in data else np.zeros(len(x))
+    quantized_model = regression(kind, seed + 3).fit(x[first], quantized[first]) if quantized[first].any() else None
+    return action_model, boundary_model, scale_model, x[third], z, quantized_model
 
 
-def conformalized(regressions: tuple[Any, Any, Any, np.ndarray, np.ndarray], bands: int, noise_feature: int, low: float,
-                  high: float) -> RiskLearner:
+def conformalized(regressions: tuple[Any, ...], bands: int, noise_feature: int, low: float, high: float,
+                  quantized_band: bool = False) -> RiskLearner:
     """Step 3 of the module docstring on the regressions of :func:`fit_regressions`: the third split's
-    scores, sorted, and its plants with no feasible design, counted, in ``bands`` equal-count bands of its noise feature."""
-    action_model, boundary_model, scale_model, rows, z = regressions
+    scores, sorted, and its plants with no feasible design, counted, in ``bands`` equal-count bands of its
+    noise feature (and, with ``quantized_band`` and a quantization model, one more band of the plants that
+    look quantized)."""
+    action_model, boundary_model, scale_model, rows, z, quantized_model = regressions
+    if not quantized_band:
+        quantized_model = None
+    apart = looks_quantized(quantized_model, rows) if quantized_model is not None else np.zeros(len(rows), bool)
     noise = rows[:, noise_feature]
-    edges = np.quantile(noise, np.arange(1, bands) / bands) if bands > 1 else np.array([])
-    band = np.searchsorted(edges, noise, side="right")
+    edges = np.quantile(noise[~apart], np.arange(1, bands) / bands) if bands > 1 else np.array([])
+    band = np.where(apart, bands, np.searchsorted(edges, noise, side="right"))
     scored = ~np.isposinf(z)
-    scores = [np.sort(z[(band == b) & scored]) for b in range(bands)]
-    no_design = [int(np.sum((band == b) & ~scored)) for b in range(bands)]
+    count = bands + (quantized_model is not None)
+    scores = [np.sort(z[(band == b) & scored]) for b in range(count)]
+    no_design = [int(np.sum((band == b) & ~scored)) for b in range(count)]
     return RiskLearner(action_model, boundary_model, scale_model, scores, np.asarray(edges, dtype=float), int(noise_feature),
-                       float(low), float(high), rows.shape[1], no_design)
+                       float(low), float(high), rows.shape[1], no_design, quantized_model)
 
 
 def _rows(observation: np.ndarray) -> np.ndarray:
@@ -198,6 +223,6 @@ def _rows(observation: np.ndarray) -> np.ndarray:
 
 
 def fit_learner(data: dict[str, np.ndarray], kind: str, seed: int, *, shares: tuple[float, float, float] = (0.6, 0.2, 0.2),
-                bands: int = 1, noise_feature: int, low: float, high: float) -> RiskLearner:
+                bands: int = 1, noise_feature: int, low: float, high: float, quantized_band: bool = False) -> RiskLearner:
     """A :class:`RiskLearner` (module docstring): :func:`fit_regressions` then :func:`conformalized`."""
-    return conformalized(fit_regressions(data, kind, seed, shares), bands, noise_feature, low, high)
+    return conformalized(fit_regressions(data, kind, seed, shares), bands, noise_feature, low, high, quantized_band)

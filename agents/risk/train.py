@@ -5,13 +5,19 @@ Per structure of the config:
 1. the training and validation plants of the config's two streams, labelled by the oracle's fast
    search and cached in ``LABELS/<STRUCTURE>/`` (:mod:`agents.risk.labels`; an interrupted run
    continues from the files written);
-2. every candidate of ``models`` x ``bands`` fitted on the training plants
+2. every candidate of ``models`` x ``bands`` x ``quantized_band`` fitted on the training plants
    (:func:`agents.risk.model.fit_learner`) and played on the validation plants, where a design
    violates when it is bolder than the plant's feasibility boundary (or the plant has no feasible
-   design): the candidates whose violation share is within ``[0.5 r, 1.5 r]`` at every risk of
-   :data:`RISKS` and in every quarter of the validation plants' noise levels keep their place, and
-   among them (or, where none does, among those of the least calibration miss) the one of least mean
-   design action (the least conservative on average) is chosen;
+   design).  Its violation share is checked at every risk of :data:`RISKS` in :data:`CELLS` groups of
+   the validation plants (all; the unquantized plants, as the regimes of the report are, per quarter
+   of their noise levels; the quantized ones), each over the plants whose level the learner reaches
+   (:meth:`agents.risk.model.RiskLearner.reachable`; the others it says unreachable).  A cell's miss is
+   its share's distance outside ``[0.5 r, 1.5 r]`` in binomial standard errors at ``r``, so that a cell of
+   few plants is not failed by its sampling noise alone; the candidates whose largest miss is at most
+   :data:`MISS` keep their place (where none does, those of the least miss), and among them the one
+   of least calibration error is chosen: the mean over cells and risks of ``z^2``, ``z`` the share's
+   distance from ``r`` in those standard errors (about 1 for a learner calibrated in every cell, larger
+   for one calibrated only on average: bolder in some cells, more conservative in others);
 3. the chosen candidate (deterministic given the config's seed) is written as ``MODELS/learned-<structure>.skops`` and its manifest ``.json``
    (:mod:`agents.risk.pretrained`), with the config, the commit and the choice's table.
 
@@ -29,12 +35,18 @@ import numpy as np
 
 from agents.risk.config import RiskLearnerConfig
 
-__all__ = ["NOISE_FEATURE", "RISKS", "label_violations", "pretrain", "pretrain_structure"]
+__all__ = ["CELLS", "MISS", "NOISE_FEATURE", "RISKS", "label_violations", "pretrain", "pretrain_structure"]
 
 RISKS = (0.005, 0.01, 0.02, 0.05)
 """The declared risk levels the choice checks (those of :data:`agents.frontier.frontier.RISK_LEVELS`)."""
 
 NOISE_FEATURE = "log_noise_ratio"
+
+CELLS = ("all", "noise quarter 1", "noise quarter 2", "noise quarter 3", "noise quarter 4", "quantized")
+"""The validation cells of the choice (the quarters: of the unquantized plants' noise levels)."""
+
+MISS = 2.5
+"""The largest miss of a candidate kept, in standard errors (about 1% of a calibrated cell's checks fail by chance)."""
 
 
 def label_violations(learner: Any, data: dict[str, np.ndarray], risk: float) -> np.ndarray:
@@ -44,22 +56,37 @@ def label_violations(learner: Any, data: dict[str, np.ndarray], risk: float) -> 
     return learner.design(data["observation"], risk) < boundary
 
 
-def _quarters(noise: np.ndarray) -> np.ndarray:
-    return np.searchsorted(np.quantile(noise, [0.25, 0.5, 0.75]), noise, side="right")
+def _cells(data: dict[str, np.ndarray]) -> list[np.ndarray]:
+    """The masks of :data:`CELLS` over the validation plants."""
+    plain = data["quantization"] <= 0
+    edges = np.quantile(data["noise_std"][plain], [0.25, 0.5, 0.75]) if plain.any() else np.zeros(3)
+    quarter = np.searchsorted(edges, data["noise_std"], side="right")
+    return [np.ones(len(plain), bool), *(plain & (quarter == q) for q in range(4)), ~plain]
+
+
+def _miss(violations: int, plants: int, risk: float) -> float:
+    """The share's distance outside ``[0.5 r, 1.5 r]`` in standard errors ``sqrt(r (1 - r) / plants)``."""
+    if plants == 0:
+        return 0.0
+    share, error = violations / plants, (risk * (1 - risk) / plants) ** 0.5
+    return max(share - 1.5 * risk, 0.5 * risk - share, 0.0) / error
 
 
 def _validate(learner: Any, data: dict[str, np.ndarray]) -> dict[str, Any]:
-    """Violation shares per risk (all plants and per quarter of noise), the worst calibration ratio's miss,
-    and the mean design action."""
-    quarter = _quarters(data["noise_std"])
-    rates, miss, designs = {}, 0.0, []
+    """Per risk and cell of :data:`CELLS`, ``[plants reached, violating]``; the largest miss; the calibration error;
+    the mean design action."""
+    cells = _cells(data)
+    found, miss, designs, squares = {}, 0.0, [], []
     for risk in RISKS:
         violates = label_violations(learner, data, risk)
-        shares = [float(violates.mean())] + [float(violates[quarter == q].mean()) for q in range(4)]
-        rates[str(risk)] = [round(s, 5) for s in shares]
-        miss = max(miss, *(max(s / risk - 1.5, 0.5 - s / risk) for s in shares))
+        reached = learner.reachable(data["observation"], risk)
+        counts = [[int((cell & reached).sum()), int((cell & reached & violates).sum())] for cell in cells]
+        found[str(risk)] = counts
+        miss = max(miss, *(_miss(k, n, risk) for n, k in counts))
+        squares += [(k - n * risk) ** 2 / (n * risk * (1 - risk)) for n, k in counts if n]
         designs.append(float(learner.design(data["observation"], risk).mean()))
-    return {"violation_shares": rates, "calibration_miss": round(miss, 4), "mean_design": round(float(np.mean(designs)), 5)}
+    return {"cells": list(CELLS), "reached_and_violating": found, "miss": round(miss, 3),
+            "error": round(float(np.mean(squares)), 3), "mean_design": round(float(np.mean(designs)), 5)}
 
 
 def _feature_ranges(observations: np.ndarray, names: tuple[str, ...]) -> dict[str, list[float]]:
@@ -108,27 +135,28 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
     for kind in config.models:
         regressions = fit_regressions(streams["training"], kind, config.seed, tuple(config.splits))
         for bands in config.bands:
-            key = (kind, int(bands))
-            learners[key] = conformalized(regressions, int(bands), noise, low, high)
-            candidates[key] = _validate(learners[key], streams["validation"])
-            print(f"{structure} {kind} bands={bands}: {candidates[key]}", file=log, flush=True)
-    calibrated = [key for key, row in candidates.items() if row["calibration_miss"] <= 0.0]
-    pool = calibrated or [min(candidates, key=lambda key: candidates[key]["calibration_miss"])]
-    kind, bands = min(pool, key=lambda key: (candidates[key]["mean_design"], key))
-    learner = learners[(kind, bands)]
+            for apart in config.quantized_band:
+                key = (kind, int(bands), bool(apart))
+                learners[key] = conformalized(regressions, int(bands), noise, low, high, bool(apart))
+                candidates[key] = _validate(learners[key], streams["validation"])
+                print(f"{structure} {kind} bands={bands} quantized_band={apart}: {candidates[key]}", file=log, flush=True)
+    calibrated = [key for key, row in candidates.items() if row["miss"] <= MISS]
+    pool = calibrated or [min(candidates, key=lambda key: candidates[key]["miss"])]
+    kind, bands, apart = min(pool, key=lambda key: (candidates[key]["error"], key))
+    learner = learners[(kind, bands, apart)]
     fitted = time.perf_counter()
     model_path, manifest_path = model_paths(structure, models)
     models.mkdir(parents=True, exist_ok=True)
     save_model_file(model_path, manifest_path, learner, {
         "kind": "risk learner", "structure": structure, "env_id": env_id, "env_kwargs": dict(config.env_kwargs),
-        "model": kind, "bands": bands, "noise_feature": NOISE_FEATURE, "directions": sorted(directions),
+        "model": kind, "bands": bands, "quantized_band": apart, "noise_feature": NOISE_FEATURE, "directions": sorted(directions),
         "feature_ranges": _feature_ranges(streams["training"]["observation"], names),
         "config": config.to_dict(), "commit": commit,
-        "choice": [{"model": k, "bands": b, **row} for (k, b), row in candidates.items()],
-        "chosen": {"model": kind, "bands": bands},
+        "choice": [{"model": k, "bands": b, "quantized_band": q, **row} for (k, b, q), row in candidates.items()],
+        "chosen": {"model": kind, "bands": bands, "quantized_band": apart},
         "seconds": {"labels": round(labelled - started, 1), "fit_and_choice": round(fitted - labelled, 1)},
     })
-    print(f"{structure}: {kind}, {bands} band(s) -> {model_path} ({model_path.stat().st_size} bytes)", file=log, flush=True)
+    print(f"{structure}: {kind}, {bands} band(s){' and a quantized band' if apart else ''} -> {model_path} ({model_path.stat().st_size} bytes)", file=log, flush=True)
     return manifest_path
 
 

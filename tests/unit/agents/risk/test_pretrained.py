@@ -61,7 +61,8 @@ def test_the_manifests_name_the_committed_config_and_the_choice():
         learner, record, _ = load_learner(structure)
         assert record["structure"] == structure and record["config"] == json.loads(json.dumps(config.to_dict()))
         assert record["config"]["training_plants"] >= 20000 and record["config"]["quantized_share"] > 0
-        assert record["chosen"] == {"model": record["model"], "bands": record["bands"]} and record["commit"]
+        chosen = {"model": record["model"], "bands": record["bands"], "quantized_band": record["quantized_band"]}
+        assert record["chosen"] == chosen and record["commit"]
         space = gym.make(record["env_id"]).observation_space
         assert learner.observation_size == space.shape[0]
 

@@ -175,3 +175,32 @@ def test_a_learner_of_the_former_scores_with_inf_gives_the_same_quantiles():
     for risk in (0.005, 0.02, 0.1):
         assert np.array_equal(former.quantiles(rows, risk), learner.quantiles(rows, risk))
         assert np.array_equal(former.floor(rows), learner.floor(rows))
+
+
+def _quantized(n, seed):
+    """A quarter of the plants 'quantized': seen in a third feature, their boundary's residual of another law (Student's
+    t with 2 degrees of freedom) of the same median absolute value as the others' (normal): a scale cannot tell them apart."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(size=(n, 3))
+    quantized = rng.uniform(size=n) < 0.25
+    x[:, 2] = np.where(quantized, 0.8, 0.2) + 0.1 * rng.normal(size=n)
+    heavy = rng.standard_t(2, size=n) * 0.6745 / 0.8165  # the medians of |N(0, 1)| and |t_2|
+    boundary = x[:, 0] + 0.1 * np.where(quantized, heavy, rng.normal(size=n))
+    return {"observation": x, "action": boundary - 1.0, "boundary": boundary, "quantization": quantized * 0.1}
+
+
+def test_a_band_of_its_own_calibrates_the_unquantized_plants_apart_from_the_quantized():
+    train, fresh = _quantized(24000, 9), _quantized(40000, 10)
+    plain = fresh["quantization"] == 0
+    risk = 0.01
+    shares = {}
+    for apart in (False, True):
+        learner = fit_learner(train, "boosting", 0, shares=(0.4, 0.2, 0.4), noise_feature=1, low=-5.0, high=5.0,
+                              quantized_band=apart)
+        violates = learner.design(fresh["observation"], risk) < fresh["boundary"]
+        shares[apart] = (float(violates[plain].mean()), float(violates[~plain].mean()))
+    calibration = 0.25 * 0.4 * 24000  # the quantized band's calibration plants, the fewer
+    tolerance = 4 * math.sqrt(risk * (1 - risk) / calibration) + 3 * math.sqrt(risk / (~plain).sum())
+    assert all(abs(share - risk) <= tolerance for share in shares[True]), shares
+    # one band for both: the shared quantile is bold for the heavy tail, conservative for the others
+    assert shares[False][1] > risk + tolerance and shares[False][0] < 0.5 * risk, shares
