@@ -129,6 +129,11 @@ class RiskLearner:
         per_band = np.array([n0 / max(n, 1) for n0, n in map(self._counts, range(len(self.scores)))])
         return per_band[self.bands(self._rows(observation))]
 
+    def unreachable(self, risk: float) -> list[float]:
+        """The floors ``p_0`` of the bands that do not reach ``risk`` (empty: every band reaches it)."""
+        return [n0 / max(n, 1) for b, (n0, n) in enumerate(map(self._counts, range(len(self.scores))))
+                if math.isinf(conformal_quantile(self.scores[b][~np.isposinf(self.scores[b])], risk, n0, n))]
+
     def reachable(self, observation: Any, risk: float) -> np.ndarray:
         """Per row, whether its band reaches ``risk`` (a finite quantile); where not, the design is the most conservative."""
         return np.isfinite(self.quantiles(self._rows(observation), risk))

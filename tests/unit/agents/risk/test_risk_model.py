@@ -204,3 +204,8 @@ def test_a_band_of_its_own_calibrates_the_unquantized_plants_apart_from_the_quan
     assert all(abs(share - risk) <= tolerance for share in shares[True]), shares
     # one band for both: the shared quantile is bold for the heavy tail, conservative for the others
     assert shares[False][1] > risk + tolerance and shares[False][0] < 0.5 * risk, shares
+
+
+def test_the_unreachable_bands_are_those_whose_floor_is_above_the_risk():
+    learner = fit_learner(_banded(6000, 5), "boosting", 0, shares=(0.4, 0.2, 0.4), bands=2, noise_feature=1, low=-5.0, high=5.0)
+    assert learner.unreachable(0.1) == [] and learner.unreachable(0.01) == [learner.no_design[1] / (len(learner.scores[1]) + learner.no_design[1])]
