@@ -51,9 +51,9 @@ def play_plant(env: Any, seed: int, learner: Any) -> dict[str, Any]:
 
     observation, _ = env.reset(seed=seed)
     # the learner's actions as the step reads them (float32)
-    actions = [float(np.float32(learner.design(observation, r)[0])) for r in RISKS]
-    reach = {"reached": {str(r): bool(learner.reachable(observation, r)[0]) for r in RISKS},
-             "floor": float(learner.floor(observation)[0])}
+    designs, reached = learner.designs(observation, RISKS)
+    actions = [float(np.float32(a)) for a in designs[0]]
+    reach = {"reached": {str(r): bool(k) for r, k in zip(RISKS, reached[0])}, "floor": float(learner.floor(observation)[0])}
     if episode_of(env).identification is None:  # a failed identification: every design fails as the step fails it
         info = env.step(np.zeros(env.action_space.shape, dtype=np.float32))[4]
         return {"seed": seed, "learner": {str(r): [float(info["cost"]), False] for r in RISKS}, **reach}

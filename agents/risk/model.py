@@ -118,11 +118,11 @@ class RiskLearner:
             return int(np.isposinf(scores).sum()), len(scores)
         return int(no_design[band]), len(scores) + int(no_design[band])
 
-    def quantiles(self, rows: np.ndarray, risk: float) -> np.ndarray:
-        """Each row's ``q_{1-risk}`` (its band's; ``inf`` where unreachable)."""
+    def quantiles(self, rows: np.ndarray, risk: float, band: np.ndarray | None = None) -> np.ndarray:
+        """Each row's ``q_{1-risk}`` (its band's, ``band`` if given; ``inf`` where unreachable)."""
         per_band = np.array([conformal_quantile(scores[np.isfinite(scores) | np.isneginf(scores)], risk, *self._counts(b))
                              for b, scores in enumerate(self.scores)])
-        return per_band[self.bands(rows)]
+        return per_band[self.bands(rows) if band is None else band]
 
     def floor(self, observation: Any) -> np.ndarray:
         """Each row's band's share ``p_0`` of calibration plants with no feasible design (no risk below it is reachable)."""
@@ -140,10 +140,16 @@ class RiskLearner:
 
     def design(self, observation: Any, risk: float) -> np.ndarray:
         """The design actions (float64, one per row of ``observation``) at risk ``risk``."""
+        return self.designs(observation, (risk,))[0][:, 0]
+
+    def designs(self, observation: Any, risks: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """``(design actions, reachable)``, rows by ``risks``, the regressions evaluated once for all risks."""
         rows = self._rows(observation)
-        bound = self.boundary_model.predict(rows) + self.scale(rows) * self.quantiles(rows, risk)
-        action = np.maximum(self.action_model.predict(rows), np.nan_to_num(bound, posinf=self.high, neginf=self.low))
-        return np.clip(action, self.low, self.high)
+        action, boundary, scale, band = (self.action_model.predict(rows), self.boundary_model.predict(rows), self.scale(rows),
+                                         self.bands(rows))
+        quantiles = np.column_stack([self.quantiles(rows, risk, band) for risk in risks])
+        bound = np.nan_to_num(boundary[:, None] + scale[:, None] * quantiles, posinf=self.high, neginf=self.low)
+        return np.clip(np.maximum(action[:, None], bound), self.low, self.high), np.isfinite(quantiles)
 
     def scale(self, rows: np.ndarray) -> np.ndarray:
         return np.maximum(self.scale_model.predict(rows), SCALE_FLOOR)
