@@ -14,10 +14,13 @@ Per structure of the config:
    (:meth:`agents.risk.model.RiskLearner.reachable`; the others it says unreachable).  A cell's miss is
    its share's distance outside ``[0.5 r, 1.5 r]`` in binomial standard errors at ``r``, so that a cell of
    few plants is not failed by its sampling noise alone; the candidates whose largest miss is at most
-   :data:`MISS` keep their place (where none does, those of the least miss), and among them the one
-   of least calibration error is chosen: the mean over cells and risks of ``z^2``, ``z`` the share's
-   distance from ``r`` in those standard errors (about 1 for a learner calibrated in every cell, larger
-   for one calibrated only on average: bolder in some cells, more conservative in others);
+   :data:`MISS` keep their place (where none does, those of the least miss); their calibration error
+   is the mean over cells and risks of ``z^2``, ``z`` the share's distance from ``r`` in those standard
+   errors (about 1 for a learner calibrated in every cell, larger for one calibrated only on average:
+   bolder in some cells, more conservative in others).  Among those within :data:`ERROR_NOISE` of the
+   least error (which the validation plants cannot tell apart) the one of most bands is chosen, with
+   the quantized band before without: a finer Mondrian taxonomy has its guarantee in each band, a
+   coarser one only on the average over its bands;
 3. the chosen candidate (deterministic given the config's seed) is written as ``MODELS/learned-<structure>.skops`` and its manifest ``.json``
    (:mod:`agents.risk.pretrained`), with the config, the commit and the choice's table.
 
@@ -35,7 +38,7 @@ import numpy as np
 
 from agents.risk.config import RiskLearnerConfig
 
-__all__ = ["CELLS", "MISS", "NOISE_FEATURE", "RISKS", "label_violations", "pretrain", "pretrain_structure"]
+__all__ = ["CELLS", "ERROR_NOISE", "MISS", "NOISE_FEATURE", "RISKS", "label_violations", "pretrain", "pretrain_structure"]
 
 RISKS = (0.005, 0.01, 0.02, 0.05)
 """The declared risk levels the choice checks (those of :data:`agents.frontier.frontier.RISK_LEVELS`)."""
@@ -47,6 +50,10 @@ CELLS = ("all", "noise quarter 1", "noise quarter 2", "noise quarter 3", "noise 
 
 MISS = 2.5
 """The largest miss of a candidate kept, in standard errors (about 1% of a calibrated cell's checks fail by chance)."""
+
+ERROR_NOISE = 0.3
+"""The calibration errors the choice does not tell apart: the standard deviation of a mean of 24 squared standard
+normal deviates, ``sqrt(2 / 24)``, the cells' overlap aside."""
 
 
 def label_violations(learner: Any, data: dict[str, np.ndarray], risk: float) -> np.ndarray:
@@ -142,7 +149,9 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
                 print(f"{structure} {kind} bands={bands} quantized_band={apart}: {candidates[key]}", file=log, flush=True)
     calibrated = [key for key, row in candidates.items() if row["miss"] <= MISS]
     pool = calibrated or [min(candidates, key=lambda key: candidates[key]["miss"])]
-    kind, bands, apart = min(pool, key=lambda key: (candidates[key]["error"], key))
+    least = min(candidates[key]["error"] for key in pool)
+    close = [key for key in pool if candidates[key]["error"] <= least + ERROR_NOISE]
+    kind, bands, apart = max(close, key=lambda key: (key[1], key[2], -candidates[key]["error"]))
     learner = learners[(kind, bands, apart)]
     fitted = time.perf_counter()
     model_path, manifest_path = model_paths(structure, models)
