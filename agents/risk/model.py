@@ -132,11 +132,11 @@ class RiskLearner:
     def unreachable(self, risk: float) -> list[float]:
         """The floors ``p_0`` of the bands that do not reach ``risk`` (empty: every band reaches it)."""
         return [n0 / max(n, 1) for b, (n0, n) in enumerate(map(self._counts, range(len(self.scores))))
-                if math.isinf(conformal_quantile(self.scores[b][~np.isposinf(self.scores[b])], risk, n0, n))]
+                if conformal_quantile(self.scores[b][~np.isposinf(self.scores[b])], risk, n0, n) == math.inf]
 
     def reachable(self, observation: Any, risk: float) -> np.ndarray:
-        """Per row, whether its band reaches ``risk`` (a finite quantile); where not, the design is the most conservative."""
-        return np.isfinite(self.quantiles(self._rows(observation), risk))
+        """Per row, whether its band reaches ``risk`` (a quantile below ``inf``); where not, the design is the most conservative."""
+        return ~np.isposinf(self.quantiles(self._rows(observation), risk))
 
     def design(self, observation: Any, risk: float) -> np.ndarray:
         """The design actions (float64, one per row of ``observation``) at risk ``risk``."""
@@ -149,7 +149,7 @@ class RiskLearner:
                                          self.bands(rows))
         quantiles = np.column_stack([self.quantiles(rows, risk, band) for risk in risks])
         bound = np.nan_to_num(boundary[:, None] + scale[:, None] * quantiles, posinf=self.high, neginf=self.low)
-        return np.clip(np.maximum(action[:, None], bound), self.low, self.high), np.isfinite(quantiles)
+        return np.clip(np.maximum(action[:, None], bound), self.low, self.high), ~np.isposinf(quantiles)
 
     def scale(self, rows: np.ndarray) -> np.ndarray:
         return np.maximum(self.scale_model.predict(rows), SCALE_FLOOR)

@@ -93,7 +93,7 @@ def _validate(learner: Any, data: dict[str, np.ndarray]) -> dict[str, Any]:
         squares += [(k - n * risk) ** 2 / (n * risk * (1 - risk)) for n, k in counts if n]
         designs.append(float(learner.design(data["observation"], risk).mean()))
     return {"cells": list(CELLS), "reached_and_violating": found, "miss": round(miss, 3),
-            "error": round(float(np.mean(squares)), 3), "mean_design": round(float(np.mean(designs)), 5)}
+            "error": round(float(np.mean(squares)) if squares else 0.0, 3), "mean_design": round(float(np.mean(designs)), 5)}
 
 
 def _feature_ranges(observations: np.ndarray, names: tuple[str, ...]) -> dict[str, list[float]]:

@@ -209,3 +209,12 @@ def test_a_band_of_its_own_calibrates_the_unquantized_plants_apart_from_the_quan
 def test_the_unreachable_bands_are_those_whose_floor_is_above_the_risk():
     learner = fit_learner(_banded(6000, 5), "boosting", 0, shares=(0.4, 0.2, 0.4), bands=2, noise_feature=1, low=-5.0, high=5.0)
     assert learner.unreachable(0.1) == [] and learner.unreachable(0.01) == [learner.no_design[1] / (len(learner.scores[1]) + learner.no_design[1])]
+
+
+def test_a_band_whose_quantile_is_minus_inf_reaches_its_risk():
+    # every calibration plant's predicted optimum already feasible: scores -inf, the quantile -inf, the design f_a
+    learner = fit_learner(_synthetic(600, 3), "boosting", 0, noise_feature=1, low=-5.0, high=5.0)
+    learner = dataclasses.replace(learner, scores=[np.full(200, -np.inf)], no_design=[0])
+    rows = _synthetic(20, 4)["observation"]
+    assert np.all(learner.reachable(rows, 0.05)) and learner.unreachable(0.05) == []
+    assert np.array_equal(learner.design(rows, 0.05), np.clip(learner.action_model.predict(rows), -5.0, 5.0))
