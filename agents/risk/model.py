@@ -118,6 +118,10 @@ class RiskLearner:
             return int(np.isposinf(scores).sum()), len(scores)
         return int(no_design[band]), len(scores) + int(no_design[band])
 
+    def band_sizes(self) -> list[int]:
+        """Per band, its calibration plants (with those of no feasible design)."""
+        return [self._counts(b)[1] for b in range(len(self.scores))]
+
     def quantiles(self, rows: np.ndarray, risk: float, band: np.ndarray | None = None) -> np.ndarray:
         """Each row's ``q_{1-risk}`` (its band's, ``band`` if given; ``inf`` where unreachable)."""
         per_band = np.array([conformal_quantile(scores[np.isfinite(scores) | np.isneginf(scores)], risk, *self._counts(b))

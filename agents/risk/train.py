@@ -17,10 +17,12 @@ Per structure of the config:
    :data:`MISS` keep their place (where none does, those of the least miss); their calibration error
    is the mean over cells and risks of ``z^2``, ``z`` the share's distance from ``r`` in those standard
    errors (about 1 for a learner calibrated in every cell, larger for one calibrated only on average:
-   bolder in some cells, more conservative in others).  Among those within :data:`ERROR_NOISE` of the
-   least error (which the validation plants cannot tell apart) the one of most bands is chosen, with
-   the quantized band before without: a finer Mondrian taxonomy has its guarantee in each band, a
-   coarser one only on the average over its bands;
+   bolder in some cells, more conservative in others).  Only the candidates whose every band holds at
+   least :func:`least_band` calibration plants are tried (:func:`choose`); among those within
+   :data:`ERROR_NOISE` of the least error (which the validation plants cannot tell apart) the one of
+   most bands is chosen, with the quantized band before without: a finer Mondrian taxonomy has its
+   guarantee in each band, a coarser one only on the average over its bands, and the least band
+   already bounds what a band's calibration costs in variance;
 3. the chosen candidate (deterministic given the config's seed) is written as ``MODELS/learned-<structure>.skops`` and its manifest ``.json``
    (:mod:`agents.risk.pretrained`), with the config, the commit and the choice's table.
 
@@ -29,6 +31,7 @@ The plants never come from a test stream: both entropies are the config's own.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from pathlib import Path
@@ -38,7 +41,8 @@ import numpy as np
 
 from agents.risk.config import RiskLearnerConfig
 
-__all__ = ["CELLS", "ERROR_NOISE", "MISS", "NOISE_FEATURE", "RISKS", "label_violations", "pretrain", "pretrain_structure"]
+__all__ = ["CELLS", "ERROR_NOISE", "MISS", "NOISE_FEATURE", "RISKS", "choose", "label_violations", "least_band", "pretrain",
+           "pretrain_structure"]
 
 RISKS = (0.005, 0.01, 0.02, 0.05)
 """The declared risk levels the choice checks (those of :data:`agents.frontier.frontier.RISK_LEVELS`)."""
@@ -54,6 +58,34 @@ MISS = 2.5
 ERROR_NOISE = 0.3
 """The calibration errors the choice does not tell apart: the standard deviation of a mean of 24 squared standard
 normal deviates, ``sqrt(2 / 24)``, the cells' overlap aside."""
+
+
+def least_band(risk: float = min(RISKS)) -> int:
+    """The fewest calibration plants a band needs for its realized risk at ``risk`` to have a standard deviation of
+    at most ``risk / 4`` (so that about 95% of the bands' realized risks fall within ``[0.5 r, 1.5 r]``).
+
+    Given its ``n`` calibration plants, a band's split-conformal design violates on new plants of the band with
+    probability ``Beta(l, n + 1 - l)`` distributed over the draws of those plants, ``l = floor((n + 1) r)`` (Vovk
+    2012, "Conditional validity of inductive conformal predictors", section 2; Angelopoulos and Bates 2021,
+    "A gentle introduction to conformal prediction", section 3.2): mean about ``r``, variance about
+    ``r (1 - r) / n``.  ``r (1 - r) / n <= r^2 / 16`` gives ``n >= 16 (1 - r) / r`` (3184 at 0.5%)."""
+    return math.ceil(round(16 * (1 - risk) / risk, 6))
+
+
+def choose(candidates: dict[tuple[str, int, bool], dict[str, Any]], smallest: dict[tuple[str, int, bool], int],
+           least: int | None = None) -> tuple[str, int, bool]:
+    """The chosen ``(model, bands, quantized band)`` of the candidates' validation rows (:func:`_validate`), given each
+    candidate's fewest calibration plants in a band (``smallest``): only those with at least ``least`` (default
+    :func:`least_band`) are tried, or where none has, those of the largest smallest band; of these, those whose miss is
+    at most :data:`MISS` (or else the least missing); of these, the finest taxonomy whose calibration error is within
+    :data:`ERROR_NOISE` of the least (module docstring, step 2)."""
+    least = least_band() if least is None else least
+    tried = [key for key in candidates if smallest[key] >= least] or \
+        [key for key in candidates if smallest[key] == max(smallest.values())]
+    pool = [key for key in tried if candidates[key]["miss"] <= MISS] or [min(tried, key=lambda key: candidates[key]["miss"])]
+    error = min(candidates[key]["error"] for key in pool)
+    close = [key for key in pool if candidates[key]["error"] <= error + ERROR_NOISE]
+    return max(close, key=lambda key: (key[1], key[2], -candidates[key]["error"]))
 
 
 def label_violations(learner: Any, data: dict[str, np.ndarray], risk: float) -> np.ndarray:
@@ -145,13 +177,9 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
             for apart in config.quantized_band:
                 key = (kind, int(bands), bool(apart))
                 learners[key] = conformalized(regressions, int(bands), noise, low, high, bool(apart))
-                candidates[key] = _validate(learners[key], streams["validation"])
+                candidates[key] = {**_validate(learners[key], streams["validation"]), "smallest_band": min(learners[key].band_sizes())}
                 print(f"{structure} {kind} bands={bands} quantized_band={apart}: {candidates[key]}", file=log, flush=True)
-    calibrated = [key for key, row in candidates.items() if row["miss"] <= MISS]
-    pool = calibrated or [min(candidates, key=lambda key: candidates[key]["miss"])]
-    least = min(candidates[key]["error"] for key in pool)
-    close = [key for key in pool if candidates[key]["error"] <= least + ERROR_NOISE]
-    kind, bands, apart = max(close, key=lambda key: (key[1], key[2], -candidates[key]["error"]))
+    kind, bands, apart = choose(candidates, {key: row["smallest_band"] for key, row in candidates.items()})
     learner = learners[(kind, bands, apart)]
     fitted = time.perf_counter()
     model_path, manifest_path = model_paths(structure, models)
@@ -162,7 +190,7 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
         "feature_ranges": _feature_ranges(streams["training"]["observation"], names),
         "config": config.to_dict(), "commit": commit,
         "choice": [{"model": k, "bands": b, "quantized_band": q, **row} for (k, b, q), row in candidates.items()],
-        "chosen": {"model": kind, "bands": bands, "quantized_band": apart},
+        "chosen": {"model": kind, "bands": bands, "quantized_band": apart}, "least_band": least_band(),
         "seconds": {"labels": round(labelled - started, 1), "fit_and_choice": round(fitted - labelled, 1)},
     })
     print(f"{structure}: {kind}, {bands} band(s){' and a quantized band' if apart else ''} -> {model_path} ({model_path.stat().st_size} bytes)", file=log, flush=True)
