@@ -8,7 +8,9 @@ identification), the learner's action at each risk of :data:`agents.risk.train.R
 episode's step scores it, without ending the episode (:meth:`envs.tuning_env.DeadTimeTuningEnv.score_action`):
 so all are paired on the same identification.
 A design *violates* when its loop on the true plant breaks a constraint, or there is no design (a
-failed identification).
+failed identification).  Each row also keeps, per risk, whether the learner reaches it on the plant
+(:meth:`agents.risk.model.RiskLearner.reachable`), and the plant's floor (the share of its band's
+calibration plants with no feasible design).
 
 The plants of the validation stream across regimes (those of the choice, :mod:`agents.risk.train`)
 are played the same way in their own regimes, for the reliability per band of noise.
@@ -25,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["CHUNK", "REGIMES", "play_plant", "play_plants", "regime_seeds", "wilson"]
+__all__ = ["CHUNK", "REGIMES", "expected_misses", "outside_probability", "play_plant", "play_plants", "regime_seeds", "wilson"]
 
 CHUNK = 100
 
@@ -43,18 +45,21 @@ def regime_seeds(entropy: int, structure: str, regime: str, n: int) -> list[int]
 
 
 def play_plant(env: Any, seed: int, learner: Any) -> dict[str, Any]:
-    """One plant's row: ``{"seed", "learner": {risk: [cost, feasible]}}`` (module docstring)."""
+    """One plant's row: ``{"seed", "learner": {risk: [cost, feasible]}, "reached": {risk: bool}, "floor"}`` (module docstring)."""
     from agents.risk.train import RISKS
     from envs.interface import episode_of, tuning_env_of
 
     observation, _ = env.reset(seed=seed)
     # the learner's actions as the step reads them (float32)
-    actions = [float(np.float32(learner.design(observation, r)[0])) for r in RISKS]
+    designs, reached = learner.designs(observation, RISKS)
+    actions = [float(np.float32(a)) for a in designs[0]]
+    reach = {"reached": {str(r): bool(k) for r, k in zip(RISKS, reached[0])}, "floor": float(learner.floor(observation)[0])}
     if episode_of(env).identification is None:  # a failed identification: every design fails as the step fails it
         info = env.step(np.zeros(env.action_space.shape, dtype=np.float32))[4]
-        return {"seed": seed, "learner": {str(r): [float(info["cost"]), False] for r in RISKS}}
+        return {"seed": seed, "learner": {str(r): [float(info["cost"]), False] for r in RISKS}, **reach}
     scores = [tuning_env_of(env).score_action(action)[2] for action in actions]
-    return {"seed": seed, "learner": {str(r): [float(score.cost), bool(score.feasible)] for r, score in zip(RISKS, scores)}}
+    return {"seed": seed, "learner": {str(r): [float(score.cost), bool(score.feasible)] for r, score in zip(RISKS, scores)},
+            **reach}
 
 
 def play_plants(folder: Path, env_id: str, env_kwargs: dict[str, Any], structure: str, stream: str, seeds: list[int],
@@ -94,3 +99,17 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     p = k / n
     centre, half = (p + z * z / (2 * n)) / (1 + z * z / n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
     return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def outside_probability(n: int, risk: float) -> float:
+    """The probability that the share of ``n`` plants of a learner calibrated exactly at ``risk`` falls outside
+    ``[0.5 risk, 1.5 risk]`` (the binomial's, exact)."""
+    from scipy.stats import binom
+
+    low, high = math.ceil(0.5 * risk * n - 1e-9), math.floor(1.5 * risk * n + 1e-9)
+    return float(1.0 - (binom.cdf(high, n, risk) - binom.cdf(low - 1, n, risk)))
+
+
+def expected_misses(cells: list[tuple[int, float]]) -> float:
+    """The expected count of cells ``(plants, risk)`` outside ``[0.5 r, 1.5 r]`` by sampling noise alone."""
+    return float(sum(outside_probability(n, r) for n, r in cells))

@@ -30,6 +30,7 @@ class RiskLearnerConfig:
     seed: int = 0
     models: tuple[str, ...] = ("boosting",)
     bands: tuple[int, ...] = (1, 4)
+    quantized_band: tuple[bool, ...] = (False,)
     splits: tuple[float, float, float] = (0.6, 0.2, 0.2)
 
     def __post_init__(self) -> None:
@@ -44,6 +45,8 @@ class RiskLearnerConfig:
             raise ValueError(f"bands must be a list of integers >= 1, got {list(self.bands)}")
         if not (0 < self.noise_range[0] < self.noise_range[1]):
             raise ValueError(f"noise_range must be two increasing positive numbers, got {list(self.noise_range)}")
+        if not self.quantized_band or any(not isinstance(q, bool) for q in self.quantized_band):
+            raise ValueError(f"quantized_band must be a list of true/false, got {list(self.quantized_band)}")
         if len(self.splits) != 3 or any(s <= 0 for s in self.splits):
             raise ValueError(f"splits must be three positive shares, got {list(self.splits)}")
         if self.training_plants < 30 or self.validation_plants < 2:
@@ -71,7 +74,7 @@ def load_config(path: str | Path, overrides: dict[str, Any] | None = None) -> Ri
     unknown = sorted(set(data) - names)
     if unknown:
         raise ValueError(f"{path}: unknown key {unknown[0]!r}; valid keys: {', '.join(sorted(names))}")
-    tuples = {"structures", "noise_range", "productions", "quantization_range", "splits", "models", "bands"}
+    tuples = {"structures", "noise_range", "productions", "quantization_range", "splits", "models", "bands", "quantized_band"}
     data = {k: tuple(v) if k in tuples and isinstance(v, list) else v for k, v in data.items()}
     try:
         return RiskLearnerConfig(**data)

@@ -12,18 +12,30 @@ disjoint splits of the training plants:
 1. ``f_b``, a regression of the boundary's action on ``x``, and ``f_a``, one of the oracle's action
    (the design of least predicted cost), fitted on the first split;
 2. ``s``, a regression of the absolute residual ``|b - f_b(x)|`` on ``x`` (the local scale), on the second;
-3. the scores of the third split, sorted: the standardized residual ``z = (b - f_b(x)) / s(x)``, but
-   ``-inf`` where ``f_a(x) >= b`` (the design ``max(f_a, .)`` is then feasible whatever the quantile)
-   and ``+inf`` where the plant has no feasible design (every design violates).  A design violates
-   exactly when ``f_a(x) < b`` and ``z > q``, that is when the score exceeds ``q``.  ``q_{1-r}`` is the
-   ``ceil((n + 1)(1 - r))``-th smallest of the ``n`` scores (``inf`` beyond the last: the most
-   conservative design), so that on a new plant of the training distribution the design
-   ``a(x, r)`` violates with probability at most ``r`` (the conformal guarantee, marginal over the
-   plants), and not far below it: the maximum with ``f_a`` is part of the calibrated score.
+3. the scores of the third split: the standardized residual ``z = (b - f_b(x)) / s(x)``, but ``-inf``
+   where ``f_a(x) >= b`` (the design ``max(f_a, .)`` is then feasible whatever the quantile).  A design
+   violates exactly when ``f_a(x) < b`` and ``z > q``, that is when the score exceeds ``q``.  The plants
+   with no feasible design (every design violates) have no score; they are counted, ``n_0`` of the
+   split's ``n`` plants.  ``q_{1-r}`` is the ``k``-th smallest of the ``n - n_0`` scores with
+   ``k = ceil((n + 1)(1 - r))``: the rank of split-conformal prediction over all ``n`` plants with the
+   ``n_0`` scored ``+inf`` (they sort last), so that on a new plant of the training distribution the
+   design ``a(x, r)`` violates with probability at most ``r`` (the conformal guarantee, marginal over
+   the plants), and not far below it: the maximum with ``f_a`` is part of the calibrated score.
+   Among the feasible plants this is their own conformal quantile at the adjusted level
+   ``(r - p_0) / (1 - p_0)``, ``p_0 = n_0 / n``, up to the rank's rounding (one rank, in the safe
+   direction).  Where ``k > n - n_0`` the level is *unreachable*: no design violates on fewer than the
+   share ``p_0`` of the plants; the design is then the most conservative one, and
+   :meth:`RiskLearner.reachable` and :meth:`RiskLearner.floor` say so per plant.
 
 With ``bands`` the third split's residuals are kept per band of the observation's noise feature
 (``log_noise_ratio``), and a plant's quantile is its band's (Mondrian conformal prediction, Vovk,
-Gammerman and Shafer 2005, ch. 4: the guarantee then holds within each band).  The design never
+Gammerman and Shafer 2005, ch. 4: the guarantee then holds within each band, and so does ``p_0``:
+the plants with no feasible design, found at high noise, make no other band conservative).  With
+``quantized_band``, the plants whose observation looks quantized have one band of their own: a
+regression of the indicator of a sensor quantization on ``x``, fitted on the first split, above
+one half (a function of ``x`` fitted apart from the third split, so a Mondrian taxonomy like the
+noise bands).  A quantized sensor's plants have residuals of another law than the unquantized
+plants of the same noise; sharing a band, one kind would be bold where the other is conservative.  The design never
 goes bolder than ``f_a(x)``, the predicted optimum: the oracle's action is feasible, so it lies on
 the boundary or beyond it.
 """
@@ -36,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SCALE_FLOOR", "RiskLearner", "conformal_quantile", "conformalized", "fit_learner", "fit_regressions", "regression",
+__all__ = ["SCALE_FLOOR", "RiskLearner", "conformal_quantile", "conformalized", "fit_learner", "fit_regressions", "looks_quantized", "regression",
            "split_indices"]
 
 SCALE_FLOOR = 1e-3
@@ -44,11 +56,15 @@ SCALE_FLOOR = 1e-3
 standardized residual explode."""
 
 
-def conformal_quantile(scores: np.ndarray, risk: float) -> float:
-    """The ``ceil((n + 1)(1 - risk))``-th smallest of the sorted ``scores`` (``inf`` beyond the last)."""
-    n = len(scores)
+def conformal_quantile(scores: np.ndarray, risk: float, no_design: int = 0, n: int | None = None) -> float:
+    """The ``ceil((n + 1)(1 - risk))``-th smallest of ``n`` scores: the sorted ``scores`` and ``no_design`` more
+    of ``+inf`` (``n = len(scores) + no_design`` unless given); ``inf`` where the rank falls beyond ``scores``
+    (module docstring, step 3)."""
+    n = len(scores) + no_design if n is None else n
     rank = math.ceil((n + 1) * (1.0 - risk))
-    return float(scores[rank - 1]) if 1 <= rank <= n else (math.inf if rank > n else -math.inf)
+    if rank < 1:
+        return -math.inf
+    return float(scores[rank - 1]) if rank <= len(scores) else math.inf
 
 
 @dataclass
@@ -59,7 +75,12 @@ class RiskLearner:
     ----------
     action_model, boundary_model, scale_model : regressions with ``predict(rows)``
     scores : list of numpy arrays
-        Per band, the third split's standardized residuals, sorted (``inf`` for no feasible design).
+        Per band, the scores of the third split's plants with a feasible design, sorted.
+    no_design : list of int
+        Per band, the third split's plants with no feasible design (``n_0``).
+    quantized_model : regression or None
+        With a band of its own for the plants that look quantized: the regression of the quantization's
+        indicator (that band is the last).
     band_edges : numpy array
         The inner edges of the bands in the noise feature (empty: one band).
     noise_feature : int
@@ -78,28 +99,69 @@ class RiskLearner:
     low: float
     high: float
     observation_size: int
+    no_design: list = field(default_factory=list)
+    quantized_model: Any = None
 
     def _rows(self, observation: Any) -> np.ndarray:
         rows = np.asarray(observation, dtype=np.float64).reshape(-1, self.observation_size)
         return np.nan_to_num(rows, nan=0.0, posinf=1e6, neginf=-1e6)
 
     def bands(self, rows: np.ndarray) -> np.ndarray:
-        return np.searchsorted(self.band_edges, rows[:, self.noise_feature], side="right")
+        band = np.searchsorted(self.band_edges, rows[:, self.noise_feature], side="right")
+        quantized = getattr(self, "quantized_model", None)
+        return band if quantized is None else np.where(looks_quantized(quantized, rows), len(self.band_edges) + 1, band)
 
-    def quantiles(self, rows: np.ndarray, risk: float) -> np.ndarray:
-        """Each row's ``q_{1-risk}`` (its band's)."""
-        per_band = np.array([conformal_quantile(scores, risk) for scores in self.scores])
-        return per_band[self.bands(rows)]
+    def _counts(self, band: int) -> tuple[int, int]:
+        """``(n_0, n)`` of a band: its plants with no feasible design, and all its plants."""
+        scores, no_design = self.scores[band], getattr(self, "no_design", None)
+        if not no_design:  # a learner of the former files: the no-design plants among the scores, +inf
+            return int(np.isposinf(scores).sum()), len(scores)
+        return int(no_design[band]), len(scores) + int(no_design[band])
+
+    def band_sizes(self) -> list[int]:
+        """Per band, its calibration plants (with those of no feasible design)."""
+        return [self._counts(b)[1] for b in range(len(self.scores))]
+
+    def quantiles(self, rows: np.ndarray, risk: float, band: np.ndarray | None = None) -> np.ndarray:
+        """Each row's ``q_{1-risk}`` (its band's, ``band`` if given; ``inf`` where unreachable)."""
+        per_band = np.array([conformal_quantile(scores[np.isfinite(scores) | np.isneginf(scores)], risk, *self._counts(b))
+                             for b, scores in enumerate(self.scores)])
+        return per_band[self.bands(rows) if band is None else band]
+
+    def floor(self, observation: Any) -> np.ndarray:
+        """Each row's band's share ``p_0`` of calibration plants with no feasible design (no risk below it is reachable)."""
+        per_band = np.array([n0 / max(n, 1) for n0, n in map(self._counts, range(len(self.scores)))])
+        return per_band[self.bands(self._rows(observation))]
+
+    def unreachable(self, risk: float) -> list[float]:
+        """The floors ``p_0`` of the bands that do not reach ``risk`` (empty: every band reaches it)."""
+        return [n0 / max(n, 1) for b, (n0, n) in enumerate(map(self._counts, range(len(self.scores))))
+                if conformal_quantile(self.scores[b][~np.isposinf(self.scores[b])], risk, n0, n) == math.inf]
+
+    def reachable(self, observation: Any, risk: float) -> np.ndarray:
+        """Per row, whether its band reaches ``risk`` (a quantile below ``inf``); where not, the design is the most conservative."""
+        return ~np.isposinf(self.quantiles(self._rows(observation), risk))
 
     def design(self, observation: Any, risk: float) -> np.ndarray:
         """The design actions (float64, one per row of ``observation``) at risk ``risk``."""
+        return self.designs(observation, (risk,))[0][:, 0]
+
+    def designs(self, observation: Any, risks: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """``(design actions, reachable)``, rows by ``risks``, the regressions evaluated once for all risks."""
         rows = self._rows(observation)
-        bound = self.boundary_model.predict(rows) + self.scale(rows) * self.quantiles(rows, risk)
-        action = np.maximum(self.action_model.predict(rows), np.nan_to_num(bound, posinf=self.high, neginf=self.low))
-        return np.clip(action, self.low, self.high)
+        action, boundary, scale, band = (self.action_model.predict(rows), self.boundary_model.predict(rows), self.scale(rows),
+                                         self.bands(rows))
+        quantiles = np.column_stack([self.quantiles(rows, risk, band) for risk in risks])
+        bound = np.nan_to_num(boundary[:, None] + scale[:, None] * quantiles, posinf=self.high, neginf=self.low)
+        return np.clip(np.maximum(action[:, None], bound), self.low, self.high), ~np.isposinf(quantiles)
 
     def scale(self, rows: np.ndarray) -> np.ndarray:
         return np.maximum(self.scale_model.predict(rows), SCALE_FLOOR)
+
+
+def looks_quantized(model: Any, rows: np.ndarray) -> np.ndarray:
+    """Per row, whether the regression of the quantization's indicator predicts above one half."""
+    return model.predict(rows) > 0.5
 
 
 def regression(kind: str, seed: int, loss: str = "squared_error") -> Any:
@@ -129,9 +191,10 @@ def split_indices(n: int, shares: tuple[float, float, float], seed: int) -> list
 
 
 def fit_regressions(data: dict[str, np.ndarray], kind: str, seed: int,
-                    shares: tuple[float, float, float] = (0.6, 0.2, 0.2)) -> tuple[Any, Any, Any, np.ndarray, np.ndarray]:
+                    shares: tuple[float, float, float] = (0.6, 0.2, 0.2)) -> tuple[Any, Any, Any, np.ndarray, np.ndarray, Any]:
     """Steps 1-2 of the module docstring: ``(action model, boundary model, scale model, third split's rows,
-    their standardized residuals)`` from the arrays of :func:`agents.risk.labels.records_arrays`."""
+    their scores, quantization model)`` from the arrays of :func:`agents.risk.labels.records_arrays` (the
+    quantization model ``None`` where the data have no ``quantization`` or no quantized plant)."""
     x, action, boundary = _rows(data["observation"]), data["action"], data["boundary"]
     first, second, third = split_indices(len(x), shares, seed)
     feasible = first[np.isfinite(boundary[first])]
@@ -144,20 +207,30 @@ def fit_regressions(data: dict[str, np.ndarray], kind: str, seed: int,
     z = (b - boundary_model.predict(x[third])) / np.maximum(scale_model.predict(x[third]), SCALE_FLOOR)
     # where the predicted optimum is already at least the boundary, the design max(f_a, ...) is feasible for every q
     z = np.where(action_model.predict(x[third]) >= b, -np.inf, z)
-    return action_model, boundary_model, scale_model, x[third], z
+    quantized = (data["quantization"] > 0).astype(float) if "quantization" in data else np.zeros(len(x))
+    quantized_model = regression(kind, seed + 3).fit(x[first], quantized[first]) if quantized[first].any() else None
+    return action_model, boundary_model, scale_model, x[third], z, quantized_model
 
 
-def conformalized(regressions: tuple[Any, Any, Any, np.ndarray, np.ndarray], bands: int, noise_feature: int, low: float,
-                  high: float) -> RiskLearner:
+def conformalized(regressions: tuple[Any, ...], bands: int, noise_feature: int, low: float, high: float,
+                  quantized_band: bool = False) -> RiskLearner:
     """Step 3 of the module docstring on the regressions of :func:`fit_regressions`: the third split's
-    standardized residuals, sorted, in ``bands`` equal-count bands of its noise feature."""
-    action_model, boundary_model, scale_model, rows, z = regressions
+    scores, sorted, and its plants with no feasible design, counted, in ``bands`` equal-count bands of its
+    noise feature (and, with ``quantized_band`` and a quantization model, one more band of the plants that
+    look quantized)."""
+    action_model, boundary_model, scale_model, rows, z, quantized_model = regressions
+    if not quantized_band:
+        quantized_model = None
+    apart = looks_quantized(quantized_model, rows) if quantized_model is not None else np.zeros(len(rows), bool)
     noise = rows[:, noise_feature]
-    edges = np.quantile(noise, np.arange(1, bands) / bands) if bands > 1 else np.array([])
-    band = np.searchsorted(edges, noise, side="right")
-    scores = [np.sort(z[band == b]) for b in range(bands)]
+    edges = np.quantile(noise[~apart], np.arange(1, bands) / bands) if bands > 1 else np.array([])
+    band = np.where(apart, bands, np.searchsorted(edges, noise, side="right"))
+    scored = ~np.isposinf(z)
+    count = bands + (quantized_model is not None)
+    scores = [np.sort(z[(band == b) & scored]) for b in range(count)]
+    no_design = [int(np.sum((band == b) & ~scored)) for b in range(count)]
     return RiskLearner(action_model, boundary_model, scale_model, scores, np.asarray(edges, dtype=float), int(noise_feature),
-                       float(low), float(high), rows.shape[1])
+                       float(low), float(high), rows.shape[1], no_design, quantized_model)
 
 
 def _rows(observation: np.ndarray) -> np.ndarray:
@@ -165,6 +238,6 @@ def _rows(observation: np.ndarray) -> np.ndarray:
 
 
 def fit_learner(data: dict[str, np.ndarray], kind: str, seed: int, *, shares: tuple[float, float, float] = (0.6, 0.2, 0.2),
-                bands: int = 1, noise_feature: int, low: float, high: float) -> RiskLearner:
+                bands: int = 1, noise_feature: int, low: float, high: float, quantized_band: bool = False) -> RiskLearner:
     """A :class:`RiskLearner` (module docstring): :func:`fit_regressions` then :func:`conformalized`."""
-    return conformalized(fit_regressions(data, kind, seed, shares), bands, noise_feature, low, high)
+    return conformalized(fit_regressions(data, kind, seed, shares), bands, noise_feature, low, high, quantized_band)

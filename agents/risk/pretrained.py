@@ -11,6 +11,9 @@ file against its manifest and executes nothing from it.  ``deadtime pretrain`` w
 A name ``learned-pid@0.01`` is the PID learner at risk ``r = 0.01`` (the share of plants on which its
 design may violate a constraint), in ``deadtime evaluate --policies``, ``deadtime process`` and the
 Python API (:func:`load_pretrained`); it plays the fixed mode of its structure's v3 environment.
+Where the risk is below the share of plants with no feasible design in some band of the learner
+(high noise), loading warns: there no design reaches it, the design is the most conservative one and
+:meth:`PretrainedPolicy.reachable` is false; :meth:`PretrainedPolicy.floor` gives a plant's share.
 """
 
 from __future__ import annotations
@@ -98,6 +101,14 @@ class PretrainedPolicy:
         """The plant features' ranges over the training plants (the manifest's), for the out-of-distribution check."""
         return self.manifest.get("feature_ranges")
 
+    def reachable(self, observation: Any) -> np.ndarray:
+        """Per observation (a row, or rows), whether the learner reaches the policy's risk there."""
+        return self.learner.reachable(observation, self.risk)
+
+    def floor(self, observation: Any) -> np.ndarray:
+        """Per observation, the share of its band's plants with no feasible design: no risk below it is reachable."""
+        return self.learner.floor(observation)
+
     def predict(self, observation: Any, deterministic: bool = True) -> tuple[np.ndarray, None]:
         """``(action, None)`` for one observation (or a batch, first axis), as stable-baselines3's ``predict``."""
         rows = np.asarray(observation, dtype=np.float64)
@@ -141,6 +152,13 @@ def load_pretrained(name: str, structure: str | None = None, folder: Path = PRET
     """
     own, risk = parse_name(name, structure)
     learner, manifest, model_path = load_learner(own, folder)
+    floors = learner.unreachable(risk)
+    if floors:
+        import warnings
+
+        warnings.warn(f"{str(name).strip()}: the risk {risk:g} is below the share of plants with no feasible design in "
+                      f"{len(floors)} of the learner's {len(learner.scores)} bands (up to {max(floors):.2%}, at high noise); "
+                      "there the design is the most conservative one and the realized risk is that share", stacklevel=2)
     path = f"{model_path}@{risk:g}#{manifest['sha256'][:16]}"
     return PretrainedPolicy(str(name).strip(), risk, learner, str(manifest["env_id"]), dict(manifest["env_kwargs"]), path,
                             manifest)

@@ -4,7 +4,11 @@
 shipped learners on their validation plants (:mod:`agents.risk.calibration`, cached in
 ``runs/risk_learner/eval``) and writes ``calibration.md`` and ``summary.json`` (default folder
 ``results/exploratory/risk_learner``).  Per band of noise it also gives the share of the labelled
-plants on which no design of the structure is feasible: no design at any risk is below it.  Their
+plants on which no design of the structure is feasible: no design at any risk is below it.  A cell
+most of whose plants the learner says unreachable at ``r`` (their band's floor above ``r``,
+:meth:`agents.risk.model.RiskLearner.reachable`) is reported ``unreachable`` with the floor, not
+counted as a miss; beside the count of misses, the count a learner calibrated exactly would show by
+the check's sampling noise alone (:func:`agents.risk.calibration.expected_misses`).  Their
 cost beside every rule family at matched risk is ``deadtime frontier``'s (docs/risk_learner.md).
 """
 
@@ -16,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.risk.calibration import REGIMES, play_plants, regime_seeds, wilson
+from agents.risk.calibration import REGIMES, expected_misses, play_plants, regime_seeds, wilson
 from agents.risk.train import RISKS
 
 __all__ = ["BANDS", "matched_lines", "write_matched", "write_report"]
@@ -52,6 +56,29 @@ def _band_rows(config: Any, structure: str, learner: Any, digest: str) -> list[d
     return rows
 
 
+def _verdict(row: dict[str, Any], risk: float) -> str:
+    """``yes``, ``NO`` or, where most plants are unreachable at ``risk``, ``unreachable: floor p0``."""
+    if row.get("unreachable", 0.0) > 0.5:
+        return f"unreachable: floor {row['floor']:.4f}"
+    return "yes" if 0.5 * risk <= row["realized"] <= 1.5 * risk else "NO"
+
+
+def _count_line(summary: dict[str, Any]) -> str:
+    """How many cells are within, missed and unreachable, and the misses expected of an exactly calibrated learner."""
+    verdicts, reached = [], []
+    for regimes in summary.values():
+        for found in regimes["regimes"].values():
+            for risk, row in found.items():
+                verdicts.append(_verdict(row, float(risk)))
+                if not verdicts[-1].startswith("unreachable"):
+                    reached.append((row["plants"], float(risk)))
+    within, unreachable = verdicts.count("yes"), sum(v.startswith("unreachable") for v in verdicts)
+    return (f"{within} of {len(verdicts)} cells within [0.5 r, 1.5 r], {len(verdicts) - within - unreachable} outside, "
+            f"{unreachable} unreachable (the floor above r).  A learner calibrated exactly would fall outside in "
+            f"{expected_misses(reached):.1f} of the {len(reached)} reachable cells by the check's sampling noise alone "
+            "(binomial, exact).")
+
+
 def _calibration_lines(summary: dict[str, Any]) -> list[str]:
     lines = ["| structure | regime | plants | requested r | violating plants | realized | 95% interval | within [0.5 r, 1.5 r] | mean cost |",
              "|---|---|---:|---:|---:|---:|---|---|---:|"]
@@ -60,8 +87,7 @@ def _calibration_lines(summary: dict[str, Any]) -> list[str]:
             for risk, row in found.items():
                 r = float(risk)
                 lines.append(f"| {structure} | {regime} | {row['plants']} | {r:.3g} | {row['violations']} | {row['realized']:.4f} | "
-                             f"[{row['interval'][0]:.4f}, {row['interval'][1]:.4f}] | "
-                             f"{'yes' if 0.5 * r <= row['realized'] <= 1.5 * r else 'NO'} | {row['mean_cost']:.3f} |")
+                             f"[{row['interval'][0]:.4f}, {row['interval'][1]:.4f}] | {_verdict(row, r)} | {row['mean_cost']:.3f} |")
     return lines
 
 
@@ -129,7 +155,7 @@ def write_report(config_path: str, structures: list[str], plants: int, out: Path
     summary: dict[str, Any] = {}
     for structure in structures:
         learner, manifest, _ = load_learner(structure, models or PRETRAINED_DIR)
-        entry = {"model": manifest["model"], "bands": manifest["bands"], "sha256": manifest["sha256"],
+        entry = {"model": manifest["model"], "conformal_bands": manifest["bands"], "sha256": manifest["sha256"],
                  "training_plants": manifest["config"]["training_plants"], "regimes": {}, "bands": {}}
         for regime, kwargs in REGIMES.items():
             seeds = regime_seeds(config.validation_entropy, structure, regime, plants)
@@ -141,8 +167,11 @@ def write_report(config_path: str, structures: list[str], plants: int, out: Path
             entry["regimes"][regime] = {}
             for risk in RISKS:
                 k, n = _realized(rows, risk)
+                unreached = [row for row in rows if not row.get("reached", {}).get(str(risk), True)]
                 entry["regimes"][regime][str(risk)] = {"plants": n, "violations": k, "realized": k / n, "interval": list(wilson(k, n)),
-                                                      "mean_cost": float(np.mean([row["learner"][str(risk)][0] for row in rows]))}
+                                                      "mean_cost": float(np.mean([row["learner"][str(risk)][0] for row in rows])),
+                                                      "unreachable": len(unreached) / n,
+                                                      "floor": float(np.mean([row["floor"] for row in unreached])) if unreached else 0.0}
         band_path = EVAL / structure / f"bands-{manifest['sha256'][:12]}.json"
         band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12]) if band_path.is_file() or not cached else []
         noise = np.array([row["noise_std"] for row in band_rows])
@@ -156,7 +185,7 @@ def write_report(config_path: str, structures: list[str], plants: int, out: Path
     text = ["# The risk-conditioned learners: requested against realized risk", "",
             "Written by `deadtime pretrain --report` (docs/risk_learner.md).  Validation plants of the config's own",
             "stream; a design violates when its loop on the true plant breaks a constraint or there is no design.", "",
-            "## Per regime", "", *_calibration_lines(summary), "",
+            "## Per regime", "", _count_line(summary), "", *_calibration_lines(summary), "",
             "## Per noise band (the validation stream across regimes, each plant in its own regime)", "", *_band_lines(summary), ""]
     (out / "calibration.md").write_text("\n".join(text))
     return out

@@ -5,13 +5,24 @@ Per structure of the config:
 1. the training and validation plants of the config's two streams, labelled by the oracle's fast
    search and cached in ``LABELS/<STRUCTURE>/`` (:mod:`agents.risk.labels`; an interrupted run
    continues from the files written);
-2. every candidate of ``models`` x ``bands`` fitted on the training plants
+2. every candidate of ``models`` x ``bands`` x ``quantized_band`` fitted on the training plants
    (:func:`agents.risk.model.fit_learner`) and played on the validation plants, where a design
    violates when it is bolder than the plant's feasibility boundary (or the plant has no feasible
-   design): the candidates whose violation share is within ``[0.5 r, 1.5 r]`` at every risk of
-   :data:`RISKS` and in every quarter of the validation plants' noise levels keep their place, and
-   among them (or, where none does, among those of the least calibration miss) the one of least mean
-   design action (the least conservative on average) is chosen;
+   design).  Its violation share is checked at every risk of :data:`RISKS` in :data:`CELLS` groups of
+   the validation plants (all; the unquantized plants, as the regimes of the report are, per quarter
+   of their noise levels; the quantized ones), each over the plants whose level the learner reaches
+   (:meth:`agents.risk.model.RiskLearner.reachable`; the others it says unreachable).  A cell's miss is
+   its share's distance outside ``[0.5 r, 1.5 r]`` in binomial standard errors at ``r``, so that a cell of
+   few plants is not failed by its sampling noise alone; the candidates whose largest miss is at most
+   :data:`MISS` keep their place (where none does, those of the least miss); their calibration error
+   is the mean over cells and risks of ``z^2``, ``z`` the share's distance from ``r`` in those standard
+   errors (about 1 for a learner calibrated in every cell, larger for one calibrated only on average:
+   bolder in some cells, more conservative in others).  Only the candidates whose every band holds at
+   least :func:`least_band` calibration plants are tried (:func:`choose`); among those within
+   :data:`ERROR_NOISE` of the least error (which the validation plants cannot tell apart) the one of
+   most bands is chosen, with the quantized band before without: a finer Mondrian taxonomy has its
+   guarantee in each band, a coarser one only on the average over its bands, and the least band
+   already bounds what a band's calibration costs in variance;
 3. the chosen candidate (deterministic given the config's seed) is written as ``MODELS/learned-<structure>.skops`` and its manifest ``.json``
    (:mod:`agents.risk.pretrained`), with the config, the commit and the choice's table.
 
@@ -20,6 +31,7 @@ The plants never come from a test stream: both entropies are the config's own.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from pathlib import Path
@@ -29,12 +41,51 @@ import numpy as np
 
 from agents.risk.config import RiskLearnerConfig
 
-__all__ = ["NOISE_FEATURE", "RISKS", "label_violations", "pretrain", "pretrain_structure"]
+__all__ = ["CELLS", "ERROR_NOISE", "MISS", "NOISE_FEATURE", "RISKS", "choose", "label_violations", "least_band", "pretrain",
+           "pretrain_structure"]
 
 RISKS = (0.005, 0.01, 0.02, 0.05)
 """The declared risk levels the choice checks (those of :data:`agents.frontier.frontier.RISK_LEVELS`)."""
 
 NOISE_FEATURE = "log_noise_ratio"
+
+CELLS = ("all", "noise quarter 1", "noise quarter 2", "noise quarter 3", "noise quarter 4", "quantized")
+"""The validation cells of the choice (the quarters: of the unquantized plants' noise levels)."""
+
+MISS = 2.5
+"""The largest miss of a candidate kept, in standard errors (about 1% of a calibrated cell's checks fail by chance)."""
+
+ERROR_NOISE = 0.3
+"""The calibration errors the choice does not tell apart: the standard deviation of a mean of 24 squared standard
+normal deviates, ``sqrt(2 / 24)``, the cells' overlap aside."""
+
+
+def least_band(risk: float = min(RISKS)) -> int:
+    """The fewest calibration plants a band needs for its realized risk at ``risk`` to have a standard deviation of
+    at most ``risk / 4`` (so that about 95% of the bands' realized risks fall within ``[0.5 r, 1.5 r]``).
+
+    Given its ``n`` calibration plants, a band's split-conformal design violates on new plants of the band with
+    probability ``Beta(l, n + 1 - l)`` distributed over the draws of those plants, ``l = floor((n + 1) r)`` (Vovk
+    2012, "Conditional validity of inductive conformal predictors", section 2; Angelopoulos and Bates 2021,
+    "A gentle introduction to conformal prediction", section 3.2): mean about ``r``, variance about
+    ``r (1 - r) / n``.  ``r (1 - r) / n <= r^2 / 16`` gives ``n >= 16 (1 - r) / r`` (3184 at 0.5%)."""
+    return math.ceil(round(16 * (1 - risk) / risk, 6))
+
+
+def choose(candidates: dict[tuple[str, int, bool], dict[str, Any]], smallest: dict[tuple[str, int, bool], int],
+           least: int | None = None) -> tuple[str, int, bool]:
+    """The chosen ``(model, bands, quantized band)`` of the candidates' validation rows (:func:`_validate`), given each
+    candidate's fewest calibration plants in a band (``smallest``): only those with at least ``least`` (default
+    :func:`least_band`) are tried, or where none has, those of the largest smallest band; of these, those whose miss is
+    at most :data:`MISS` (or else the least missing); of these, the finest taxonomy whose calibration error is within
+    :data:`ERROR_NOISE` of the least (module docstring, step 2)."""
+    least = least_band() if least is None else least
+    tried = [key for key in candidates if smallest[key] >= least] or \
+        [key for key in candidates if smallest[key] == max(smallest.values())]
+    pool = [key for key in tried if candidates[key]["miss"] <= MISS] or [min(tried, key=lambda key: candidates[key]["miss"])]
+    error = min(candidates[key]["error"] for key in pool)
+    close = [key for key in pool if candidates[key]["error"] <= error + ERROR_NOISE]
+    return max(close, key=lambda key: (key[1], key[2], -candidates[key]["error"]))
 
 
 def label_violations(learner: Any, data: dict[str, np.ndarray], risk: float) -> np.ndarray:
@@ -44,22 +95,37 @@ def label_violations(learner: Any, data: dict[str, np.ndarray], risk: float) -> 
     return learner.design(data["observation"], risk) < boundary
 
 
-def _quarters(noise: np.ndarray) -> np.ndarray:
-    return np.searchsorted(np.quantile(noise, [0.25, 0.5, 0.75]), noise, side="right")
+def _cells(data: dict[str, np.ndarray]) -> list[np.ndarray]:
+    """The masks of :data:`CELLS` over the validation plants."""
+    plain = data["quantization"] <= 0
+    edges = np.quantile(data["noise_std"][plain], [0.25, 0.5, 0.75]) if plain.any() else np.zeros(3)
+    quarter = np.searchsorted(edges, data["noise_std"], side="right")
+    return [np.ones(len(plain), bool), *(plain & (quarter == q) for q in range(4)), ~plain]
+
+
+def _miss(violations: int, plants: int, risk: float) -> float:
+    """The share's distance outside ``[0.5 r, 1.5 r]`` in standard errors ``sqrt(r (1 - r) / plants)``."""
+    if plants == 0:
+        return 0.0
+    share, error = violations / plants, (risk * (1 - risk) / plants) ** 0.5
+    return max(share - 1.5 * risk, 0.5 * risk - share, 0.0) / error
 
 
 def _validate(learner: Any, data: dict[str, np.ndarray]) -> dict[str, Any]:
-    """Violation shares per risk (all plants and per quarter of noise), the worst calibration ratio's miss,
-    and the mean design action."""
-    quarter = _quarters(data["noise_std"])
-    rates, miss, designs = {}, 0.0, []
+    """Per risk and cell of :data:`CELLS`, ``[plants reached, violating]``; the largest miss; the calibration error;
+    the mean design action."""
+    cells = _cells(data)
+    found, miss, designs, squares = {}, 0.0, [], []
     for risk in RISKS:
         violates = label_violations(learner, data, risk)
-        shares = [float(violates.mean())] + [float(violates[quarter == q].mean()) for q in range(4)]
-        rates[str(risk)] = [round(s, 5) for s in shares]
-        miss = max(miss, *(max(s / risk - 1.5, 0.5 - s / risk) for s in shares))
+        reached = learner.reachable(data["observation"], risk)
+        counts = [[int((cell & reached).sum()), int((cell & reached & violates).sum())] for cell in cells]
+        found[str(risk)] = counts
+        miss = max(miss, *(_miss(k, n, risk) for n, k in counts))
+        squares += [(k - n * risk) ** 2 / (n * risk * (1 - risk)) for n, k in counts if n]
         designs.append(float(learner.design(data["observation"], risk).mean()))
-    return {"violation_shares": rates, "calibration_miss": round(miss, 4), "mean_design": round(float(np.mean(designs)), 5)}
+    return {"cells": list(CELLS), "reached_and_violating": found, "miss": round(miss, 3),
+            "error": round(float(np.mean(squares)) if squares else 0.0, 3), "mean_design": round(float(np.mean(designs)), 5)}
 
 
 def _feature_ranges(observations: np.ndarray, names: tuple[str, ...]) -> dict[str, list[float]]:
@@ -108,27 +174,26 @@ def pretrain_structure(config: RiskLearnerConfig, structure: str, labels: Path, 
     for kind in config.models:
         regressions = fit_regressions(streams["training"], kind, config.seed, tuple(config.splits))
         for bands in config.bands:
-            key = (kind, int(bands))
-            learners[key] = conformalized(regressions, int(bands), noise, low, high)
-            candidates[key] = _validate(learners[key], streams["validation"])
-            print(f"{structure} {kind} bands={bands}: {candidates[key]}", file=log, flush=True)
-    calibrated = [key for key, row in candidates.items() if row["calibration_miss"] <= 0.0]
-    pool = calibrated or [min(candidates, key=lambda key: candidates[key]["calibration_miss"])]
-    kind, bands = min(pool, key=lambda key: (candidates[key]["mean_design"], key))
-    learner = learners[(kind, bands)]
+            for apart in config.quantized_band:
+                key = (kind, int(bands), bool(apart))
+                learners[key] = conformalized(regressions, int(bands), noise, low, high, bool(apart))
+                candidates[key] = {**_validate(learners[key], streams["validation"]), "smallest_band": min(learners[key].band_sizes())}
+                print(f"{structure} {kind} bands={bands} quantized_band={apart}: {candidates[key]}", file=log, flush=True)
+    kind, bands, apart = choose(candidates, {key: row["smallest_band"] for key, row in candidates.items()})
+    learner = learners[(kind, bands, apart)]
     fitted = time.perf_counter()
     model_path, manifest_path = model_paths(structure, models)
     models.mkdir(parents=True, exist_ok=True)
     save_model_file(model_path, manifest_path, learner, {
         "kind": "risk learner", "structure": structure, "env_id": env_id, "env_kwargs": dict(config.env_kwargs),
-        "model": kind, "bands": bands, "noise_feature": NOISE_FEATURE, "directions": sorted(directions),
+        "model": kind, "bands": bands, "quantized_band": apart, "noise_feature": NOISE_FEATURE, "directions": sorted(directions),
         "feature_ranges": _feature_ranges(streams["training"]["observation"], names),
         "config": config.to_dict(), "commit": commit,
-        "choice": [{"model": k, "bands": b, **row} for (k, b), row in candidates.items()],
-        "chosen": {"model": kind, "bands": bands},
+        "choice": [{"model": k, "bands": b, "quantized_band": q, **row} for (k, b, q), row in candidates.items()],
+        "chosen": {"model": kind, "bands": bands, "quantized_band": apart}, "least_band": least_band(),
         "seconds": {"labels": round(labelled - started, 1), "fit_and_choice": round(fitted - labelled, 1)},
     })
-    print(f"{structure}: {kind}, {bands} band(s) -> {model_path} ({model_path.stat().st_size} bytes)", file=log, flush=True)
+    print(f"{structure}: {kind}, {bands} band(s){' and a quantized band' if apart else ''} -> {model_path} ({model_path.stat().st_size} bytes)", file=log, flush=True)
     return manifest_path
 
 

@@ -61,7 +61,8 @@ def test_the_manifests_name_the_committed_config_and_the_choice():
         learner, record, _ = load_learner(structure)
         assert record["structure"] == structure and record["config"] == json.loads(json.dumps(config.to_dict()))
         assert record["config"]["training_plants"] >= 20000 and record["config"]["quantized_share"] > 0
-        assert record["chosen"] == {"model": record["model"], "bands": record["bands"]} and record["commit"]
+        chosen = {"model": record["model"], "bands": record["bands"], "quantized_band": record["quantized_band"]}
+        assert record["chosen"] == chosen and record["commit"]
         space = gym.make(record["env_id"]).observation_space
         assert learner.observation_size == space.shape[0]
 
@@ -91,3 +92,15 @@ def test_a_shipped_learner_is_checked_against_its_own_training_range():
     assert out_of_distribution(policy.env_id, policy.env_kwargs, names, inside, policy.feature_ranges) is None
     outside = np.where(np.array(names) == "log_noise_ratio", high + 1.0, inside)
     assert "log_noise_ratio" in out_of_distribution(policy.env_id, policy.env_kwargs, names, outside, policy.feature_ranges)
+
+
+def test_a_risk_below_a_bands_share_without_a_feasible_design_warns_on_loading():
+    learner, _, _ = load_learner("MSP")
+    risk = 0.005
+    floors = learner.unreachable(risk)
+    assert floors and all(floor >= risk * 0.9 for floor in floors)  # MSP at high noise: a few % of plants with no design
+    with pytest.warns(UserWarning, match="no feasible design"):
+        policy = load_pretrained(f"learned-msp@{risk}")
+    rows = np.zeros((1, learner.observation_size))
+    assert policy.reachable(rows).shape == (1,) and policy.floor(rows).shape == (1,)
+    assert not learner.unreachable(0.2)

@@ -33,3 +33,29 @@ def test_the_command_writes_the_table_and_refuses_a_folder_without_results(tmp_p
     status, out, _ = run_deadtime("pretrain", "--report", "--frontiers", str(tmp_path / "runs"), "--out", str(tmp_path / "out"))
     assert status == 0 and "| 5% | 3.500 (3.00%)" in (tmp_path / "out" / "comparison.md").read_text()
     assert "no frontier.json" in error_line("pretrain", "--report", "--frontiers", str(tmp_path / "out"), "--out", str(tmp_path / "x"))
+
+
+def test_the_misses_expected_of_an_exactly_calibrated_learner_are_the_binomials():
+    import numpy as np
+
+    from agents.risk.calibration import expected_misses, outside_probability
+
+    # against a simulation of the check: shares of n plants violating with probability r
+    rng = np.random.default_rng(0)
+    for n, r in ((2000, 0.005), (2000, 0.05), (300, 0.01)):
+        shares = rng.binomial(n, r, size=200000) / n
+        simulated = float(np.mean((shares < 0.5 * r) | (shares > 1.5 * r)))
+        assert abs(outside_probability(n, r) - simulated) <= 4 * (simulated * (1 - simulated) / 200000) ** 0.5 + 1e-4
+    assert 0.07 < outside_probability(2000, 0.005) < 0.085  # about one cell in thirteen at r = 0.5%
+    assert expected_misses([(2000, 0.005), (2000, 0.005)]) == 2 * outside_probability(2000, 0.005)
+
+
+def test_a_cell_most_of_whose_plants_are_unreachable_says_its_floor():
+    from agents.risk.report import _count_line, _verdict
+
+    unreachable = {"plants": 2000, "realized": 0.0165, "unreachable": 0.8, "floor": 0.031}
+    assert _verdict(unreachable, 0.005) == "unreachable: floor 0.0310"
+    assert _verdict({"plants": 2000, "realized": 0.006}, 0.005) == "yes"
+    assert _verdict({"plants": 2000, "realized": 0.0005, "unreachable": 0.0}, 0.005) == "NO"
+    line = _count_line({"MSP": {"regimes": {"priced-10": {"0.005": unreachable, "0.05": {"plants": 2000, "realized": 0.05}}}}})
+    assert line.startswith("1 of 2 cells within [0.5 r, 1.5 r], 0 outside, 1 unreachable")
