@@ -166,9 +166,9 @@ def test_the_tiny_frontier_protocol_interrupted_resumes_to_the_serial_tables(tin
     _assert_same_run(serial, out)
 
 
-def test_the_v5_draft_loads_on_fresh_streams_and_is_not_registered():
+def test_v5_loads_on_fresh_streams_and_is_registered():
     """Eight regimes, ten seeds, the declared risk levels; its entropies and episode seeds used by no other protocol;
-    its test seed not in the registry (a draft).  It names configs/v5/*.yaml, the stable-baselines3 candidates."""
+    its test seed registered with the file's sha256.  It names configs/v5/*.yaml, the stable-baselines3 candidates."""
     import re
 
     from agents.protocol.streams import read_registry
@@ -182,7 +182,8 @@ def test_the_v5_draft_loads_on_fresh_streams_and_is_not_registered():
     assert all({"sac", "ppo", "learned-rule", "selector"} <= {l.label for l in r.learners()} for r in protocol.regimes)
     assert all("sac-lagrangian" in {l.label for l in r.learners()} for r in protocol.regimes if r.name.endswith("fixed-default"))
     assert all(len(r.pretrained) == 4 for r in protocol.regimes)
-    assert protocol.test.entropy not in [entry["entropy"] for entry in read_registry()]
+    assert {"entropy": protocol.test.entropy, "sha256": protocol.sha256}.items() <= next(
+        entry for entry in read_registry() if entry["entropy"] == protocol.test.entropy).items()
     others = "".join(p.read_text() for p in Path("configs/protocols").glob("v[1-4].yaml"))
     entropies = {int(e) for e in re.findall(r"entropy: (\d+)", others)}
     assert not {protocol.validation.entropy, protocol.test.entropy} & entropies
