@@ -63,7 +63,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {write_matched(folders, Path(args.out))}")
             return 0
         chosen = (args.structures or "PID,FPPI,MSP,PI").upper().split(",")
-        print(f"wrote {write_report(args.config, [s.strip() for s in chosen], args.plants, Path(args.out), models, args.cached)}")
+        written = write_report(args.config, [s.strip() for s in chosen], args.plants, Path(args.out), models, args.cached,
+                               Path(args.labels))
+        print(f"wrote {written}")
         return 0
     config = load_config(args.config, overrides)
     structures = None if args.structures is None else tuple(s.strip().upper() for s in args.structures.split(","))

@@ -15,7 +15,7 @@ calibration plants with no feasible design).
 The plants of the validation stream across regimes (those of the choice, :mod:`agents.risk.train`)
 are played the same way in their own regimes, for the reliability per band of noise.
 
-Per-plant rows are cached ``CHUNK`` plants a file (``EVAL/<STRUCTURE>/<regime>-<first>.json``).
+Per-plant rows are cached ``CHUNK`` plants a file (``FOLDER/<STRUCTURE>/<regime>-<first>.json``).
 """
 
 from __future__ import annotations

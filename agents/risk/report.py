@@ -1,8 +1,8 @@
 """The calibration of the risk learners: requested against realized risk, per regime and per band of noise.
 
-``deadtime pretrain --report [--structures PID,...] [--plants 2000] [--cached]`` plays the
-shipped learners on their validation plants (:mod:`agents.risk.calibration`, cached in
-``runs/risk_learner/eval``) and writes ``calibration.md`` and ``summary.json`` (default folder
+``deadtime pretrain --report [--structures PID,...] [--plants 2000] [--cached] [--labels DIR]`` plays the
+shipped learners on their validation plants (:mod:`agents.risk.calibration`, cached in ``eval`` beside the
+labels' folder ``DIR``, default ``runs/risk_learner``) and writes ``calibration.md`` and ``summary.json`` (default folder
 ``results/exploratory/risk_learner``).  Per band of noise it also gives the share of the labelled
 plants on which no design of the structure is feasible: no design at any risk is below it.  A cell
 most of whose plants the learner says unreachable at ``r`` (their band's floor above ``r``,
@@ -27,25 +27,26 @@ __all__ = ["BANDS", "matched_lines", "write_matched", "write_report"]
 
 BANDS = (0.003, 0.01, 0.03, 0.1, 0.3)
 """The edges of the noise bands (``noise_std``) of the reliability table across regimes."""
-EVAL = Path("runs/risk_learner/eval")
+LABELS = Path("runs/risk_learner/labels")
+"""The default folder of the cached labels; the plays are cached in ``eval`` beside it."""
 
 
 def _realized(rows: list[dict[str, Any]], risk: float) -> tuple[int, int]:
     return sum(not row["learner"][str(risk)][1] for row in rows), len(rows)
 
 
-def _band_rows(config: Any, structure: str, learner: Any, digest: str) -> list[dict[str, Any]]:
+def _band_rows(config: Any, structure: str, learner: Any, digest: str, labels: Path) -> list[dict[str, Any]]:
     """The validation stream's plants, each replayed in its own regime (the same plant and noise as labelled)."""
     from agents.environments import make_env
     from agents.risk.labels import Regime, load_stream
 
     rows = []
-    path = EVAL / structure / f"bands-{digest}.json"
+    path = labels.parent / "eval" / structure / f"bands-{digest}.json"
     if path.is_file():
         return json.loads(path.read_text())
     from agents.risk.calibration import play_plant
 
-    for record in load_stream(Path("runs/risk_learner/labels"), structure, "validation")[: config.validation_plants]:
+    for record in load_stream(labels, structure, "validation")[: config.validation_plants]:
         regime = Regime(record["noise_std"], record["production"], record["quantization"])
         env = make_env(config.env_id(structure), regime.env_kwargs(config.env_kwargs))
         row = play_plant(env, record["seed"], learner)
@@ -145,9 +146,10 @@ def write_matched(frontier_dirs: list[Path], out: Path) -> Path:
 
 
 def write_report(config_path: str, structures: list[str], plants: int, out: Path, models: Path | None = None,
-                 cached: bool = False) -> Path:
+                 cached: bool = False, labels: Path = LABELS) -> Path:
     """Play the learners of ``models`` (default: the shipped ones) on ``plants`` validation plants per structure and
-    regime (only the plants played so far where ``cached``) and write the tables to ``out``: its path."""
+    regime (only the plants played so far where ``cached``) and write the tables to ``out``: its path.  The labels
+    are read from ``labels``, the plays cached in ``eval`` beside it."""
     from agents.risk.config import load_config
     from agents.risk.pretrained import PRETRAINED_DIR, load_learner
 
@@ -160,7 +162,7 @@ def write_report(config_path: str, structures: list[str], plants: int, out: Path
         for regime, kwargs in REGIMES.items():
             seeds = regime_seeds(config.validation_entropy, structure, regime, plants)
             stream = f"{regime}-{manifest['sha256'][:12]}"
-            rows = play_plants(EVAL, config.env_id(structure), {**config.env_kwargs, **kwargs}, structure, stream, seeds, learner,
+            rows = play_plants(labels.parent / "eval", config.env_id(structure), {**config.env_kwargs, **kwargs}, structure, stream, seeds, learner,
                                cached=cached)
             if not rows:
                 continue
@@ -172,8 +174,8 @@ def write_report(config_path: str, structures: list[str], plants: int, out: Path
                                                       "mean_cost": float(np.mean([row["learner"][str(risk)][0] for row in rows])),
                                                       "unreachable": len(unreached) / n,
                                                       "floor": float(np.mean([row["floor"] for row in unreached])) if unreached else 0.0}
-        band_path = EVAL / structure / f"bands-{manifest['sha256'][:12]}.json"
-        band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12]) if band_path.is_file() or not cached else []
+        band_path = labels.parent / "eval" / structure / f"bands-{manifest['sha256'][:12]}.json"
+        band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12], labels) if band_path.is_file() or not cached else []
         noise = np.array([row["noise_std"] for row in band_rows])
         for low, high in zip(BANDS[:-1], BANDS[1:]) if band_rows else ():
             inside = [row for row, v in zip(band_rows, noise) if low <= v < high or (high == BANDS[-1] and v == high)]
