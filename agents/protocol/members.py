@@ -203,66 +203,33 @@ def _row(index: int, result: Any) -> list[str]:
 
 
 def score_member(task: Member) -> str:
-    """Run ``task`` (module docstring); returns its folder."""
-    from agents.evaluation.cache import Cache
-    from agents.evaluation.run import agent_result, plant_key, selector_result
-    from baselines.rules.family import member_name
-    from envs.systems.plants import as_plant
-
-    directory = Path(task.directory)
-    if (directory / TABLE).exists():
-        return str(directory)
+    """Run ``task`` (module docstring): a batch of one (:func:`score_knobs`); returns its folder."""
     if task.kind not in KINDS:
         raise ValueError(f"unknown member kind {task.kind!r} (kinds: {', '.join(KINDS)})")
-    started, episodes = clock(), 0
-    directory.mkdir(parents=True, exist_ok=True)
-    cache = Cache(directory / "cache.jsonl")
-    env, environment, family = _environment(task)
-    if task.kind == "learned":
-        policy, played, identity = _player(task, env)
-    else:
-        policy, played = None, None
-        identity = "oracle" if task.kind == "oracle" else member_name(task.member, task.knob)
-    rows = [["index", "cost", "feasible"]]
-    for offset, data in enumerate(task.plants):
-        index, plant = task.first + offset, as_plant(dict(data))
-        seed = task.episode_seed + index
-        key = plant_key(environment, family, seed, index, dict(data))
-        result = cache.get(key, identity)
-        if result is None:
-            if task.kind == "learned":
-                play = selector_result if hasattr(policy, "rule_of") else agent_result
-                result = play(played, policy, seed, plant)
-            else:
-                result = _on_identification(env, task.kind, identity, _identified(env, seed, plant))
-            cache.put(key, identity, result)
-            episodes += 1
-        rows.append(_row(index, result))
-    env.close()
-    if played is not None:
-        played.close()
-    timed(directory, started, episodes, 1)
-    _write(directory, rows)
-    return str(directory)
+    return score_knobs(Knobs((task,)))
 
 
 def _knob_scorers(todo: list[Member], env: Any) -> tuple[list[str], Callable[[int, Any], Any], Callable[[Member], Any], Any]:
-    """``(identities, reset(seed, plant), score(member), the environment played)`` of a batch's members: a rule's
-    on the identification of ``env``, a learned member's episode on its own copy of its environment just reset."""
+    """``(identities, reset(seed, plant), score(member), the environment played or None)`` of a batch's members: a
+    rule's or the oracle's on the identification of ``env``, a learned member's episode on its own copy of its
+    environment just reset."""
     import copy
 
     from agents.evaluation.run import agent_played, selector_played
     from agents.frontier.families import at_knob
     from baselines.rules.family import member_name
 
-    if todo[0].kind == "rule":
+    if todo[0].kind != "learned":  # a rule's or the oracle's result on the identification of ``env``
         state: dict[str, Any] = {}
+
+        def identity(task: Member) -> str:
+            return "oracle" if task.kind == "oracle" else member_name(task.member, task.knob)
 
         def reset(seed: int, plant: Any) -> None:
             state["time"] = _identified(env, seed, plant)
 
-        return ([member_name(task.member, task.knob) for task in todo], reset,
-                lambda task: _on_identification(env, "rule", member_name(task.member, task.knob), state["time"]), env)
+        return ([identity(task) for task in todo], reset,
+                lambda task: _on_identification(env, task.kind, identity(task), state["time"]), None)
     name, policy, played, kind = _loaded(todo[0], env)
     state = {}
 
@@ -312,7 +279,8 @@ def score_knobs(batch: Knobs) -> str:
                 episodes += 1
             tables[k].append(_row(index, results[k]))
     env.close()
-    played.close()
+    if played is not None:
+        played.close()
     timed(Path(first.directory), started, episodes, len(todo))
     for task, rows in zip(todo, tables):
         _write(Path(task.directory), rows)
