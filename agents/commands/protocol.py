@@ -19,7 +19,7 @@ as tasks in this process, on N local Ray workers or on a Ray cluster (:mod:`agen
 it holds a lock on ``--out`` while it runs, and Ctrl-C or SIGTERM ends it (status 130 or 143) with the
 command that resumes; each finished regime's folder can be committed.  ``report`` writes
 ``protocol_results.json``, ``results.md`` and ``forest.png`` (:mod:`agents.protocol.report`; a frontier
-protocol's ``protocol_results.json`` only).
+protocol's ``protocol_results.json``, ``results.md`` and ``frontiers.png``: :mod:`agents.protocol.frontier_report`).
 """
 
 from __future__ import annotations
@@ -138,9 +138,12 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "report" and protocol.frontier is not None:
         from agents.protocol.frontier_run import frontier_results
 
+        from agents.protocol.frontier_report import write_frontier_report
+
         results = frontier_results(protocol, out)
-        print(f"{len(results['regimes'])} regime(s), {results['comparisons_in_holm_family']} comparisons in the Holm "
-              f"family; wrote {out / 'protocol_results.json'}", file=sys.stderr)
+        write_frontier_report(results, out, len(protocol.regimes))
+        print(f"{len(results['regimes'])} of {len(protocol.regimes)} regime(s), {results['comparisons_in_holm_family']} "
+              f"comparisons in the Holm family; wrote {out / 'protocol_results.json'}, results.md, frontiers.png", file=sys.stderr)
         return 0
     if args.action == "every-rule":
         from agents.protocol.every_rule import write_every_rule

@@ -1,7 +1,7 @@
 """The committed results (``results/``) and the tree around them.
 
 The protocols at the top of ``results/``, the current exploratory studies in ``results/exploratory/``,
-the retired ones in git history at the commits results/README.md names, at most 20 MB tracked.  The top level of the repository is
+the retired ones in git history at the commits results/README.md names, at most 24 MB tracked.  The top level of the repository is
 the pipeline: configs in (``configs/``), code (``envs/``, ``baselines/``, ``agents/``), results out
 (``results/``), with ``tests/`` and ``docs/``; every YAML file is a config.
 """
@@ -70,9 +70,10 @@ def test_every_results_folder_has_a_row_in_the_readme():
     assert all(line.rstrip(" |").endswith("current") for line in _rows())
 
 
-def test_the_results_stay_within_20_mb():
-    """A clone stays light: the tracked files under results/ hold at most 20 MB."""
-    assert sum((REPO / path).stat().st_size for path in _tracked() if path.startswith("results/")) <= 20_000_000
+def test_the_results_stay_within_24_mb():
+    """A clone stays light: the tracked files under results/ hold at most 24 MB (v1-v4 and the studies take
+    about 19.6 MB, protocol v5 about 0.3 MB per regime and its report)."""
+    assert sum((REPO / path).stat().st_size for path in _tracked() if path.startswith("results/")) <= 24_000_000
 
 
 def test_every_retired_folder_is_in_the_history_at_its_commit():

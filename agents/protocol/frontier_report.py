@@ -1,0 +1,169 @@
+"""A frontier protocol's report: ``results.md`` and ``frontiers.png`` from its ``protocol_results.json``.
+
+``results.md`` has one section per regime: the validation oracle and the best rule as shipped, the rule
+families that cannot reach each declared risk level, and one row per comparison (each declared risk
+level, then the best learned family at the shipped rule's risk): the families and knobs chosen on
+validation, the test difference with its interval (seeds and plants random; the paired t over plants for a
+one-model learner) and its Holm-adjusted interval, the percent of the rule's cost, the share of the
+rule-to-oracle gap closed and both policies' test risk with its exact interval.  A level no rule family
+reaches has no comparison; its row gives the learned family alone.
+
+``frontiers.png`` has one panel per regime: mean validation cost against risk (the share of plants on
+which one model's design violates, per seed, averaged), each learned family a coloured curve over its
+knob, each rule family a grey curve, the shipped rules (``s = 0``) as points, the declared risk levels as
+vertical lines; the axes show risks up to 30% and costs up to 1.5 times the most costly of the
+best families and the best rule as shipped.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+__all__ = ["frontier_markdown", "frontiers_figure", "write_frontier_report"]
+
+
+def _percent(share: float) -> str:
+    return f"{100 * share:.2f}%"
+
+
+def _chosen(point: dict[str, Any]) -> str:
+    return f"`{point['family']}` (s = {point['knob']:g}): {point['mean_cost']:.4g} at {_percent(point['risk'])}"
+
+
+def _test_risk(policy: dict[str, Any]) -> str:
+    low, high = policy["risk_interval"]
+    return f"{_percent(policy['risk'])} [{100 * low:.2f}, {100 * high:.2f}]"
+
+
+def _holm_intervals(matched: list[dict[str, Any]]) -> dict[tuple[str, str], list[float]]:
+    """The Holm-adjusted interval of each pair (a pair answering several levels is counted once)."""
+    return {(c["first_policy"], c["second_policy"]): c["holm_interval"] for c in matched if "holm_interval" in c}
+
+
+def _comparison_row(level: str, c: dict[str, Any], holm: dict, test: dict[str, Any]) -> str:
+    d, gap = c["difference"], c["gap_closed"]
+    adjusted = holm.get((c["first_policy"], c["second_policy"]))
+    held = "-" if adjusted is None else f"[{adjusted[0]:.3g}, {adjusted[1]:.3g}]"
+    closed = "-" if gap["estimate"] is None else f"{100 * gap['estimate']:.0f}%" + (
+        "" if gap["interval"] is None else f" [{100 * gap['interval'][0]:.0f}, {100 * gap['interval'][1]:.0f}]")
+    return (f"| {level} | {_chosen(c['first'])} | {_chosen(c['second'])} | {d['estimate']:+.3g} [{d['low']:.3g}, "
+            f"{d['high']:.3g}] | {held} | {c['percent_of_second']:+.1f}% | {closed} | "
+            f"{_test_risk(test[c['first_policy']])}; {_test_risk(test[c['second_policy']])} |")
+
+
+def _regime_section(name: str, regime: dict[str, Any]) -> list[str]:
+    shipped, oracle = regime["shipped_rule"], regime["validation_oracle"]
+    rules = [family for family, entry in regime["frontiers"].items() if entry["kind"] == "rule"]
+    unreachable = {level: sum(family in rules for family in families) for level, families in regime["cannot_reach"].items()}
+    lines = [f"## {name}", "",
+             f"`{regime['env']}` {regime['env_kwargs'] or ''}: {regime['validation_plants']} validation plants, "
+             f"{regime['test_plants']} test plants, learners with {len(regime['seeds'])} seeds.  Validation: the oracle "
+             f"costs {oracle['mean_cost']:.4g}; the best rule as shipped is {_chosen(shipped)}.  Rule families that cannot "
+             "reach the level on validation: " + ", ".join(f"{level} {count} of {len(rules)}" for level, count in unreachable.items())
+             + ".", "",
+             "| risk level | best learned family (validation) | best rule family (validation) | learned - rule on test [95%] "
+             "| Holm-adjusted | percent | gap closed [95%] | test risk: learned; rule [95%] |",
+             "|---|---|---|---:|---|---:|---:|---|"]
+    holm, test, rows = _holm_intervals(regime["matched"]), regime["test"], []
+    answered = {c["risk_level"] for c in regime["matched"] if c["kind"] == "matched risk"}
+    for level, best in regime["best"].items():
+        if level in answered:
+            continue
+        learned = best["learned"]
+        if learned is None:
+            rows.append(f"| {level} | no learned family reaches it | " + ("no rule family reaches it" if best["rule"] is None
+                         else _chosen(best["rule"])) + " | - | - | - | - | - |")
+        else:
+            rows.append(f"| {level} | {_chosen(learned)} | no rule family reaches it | - | - | - | - | - |")
+    for c in regime["matched"]:
+        level = c["risk_level"] if c["kind"] == "matched risk" else f"the shipped rule's ({_percent(c['risk_level'])})"
+        rows.append(_comparison_row(level, c, holm, test))
+    levels = list(regime["best"])
+    rows.sort(key=lambda row: levels.index(row[2:].split(" |")[0]) if row[2:].split(" |")[0] in levels else len(levels))
+    return lines + rows + [""]
+
+
+def frontier_markdown(results: dict[str, Any], declared: int) -> str:
+    """``results.md``: a heading with the protocol's identity and the Holm family, then one section per regime."""
+    done = len(results["regimes"])
+    lines = ["# Protocol v5: the learned families against the rule families at matched risk", "",
+             f"`{results['protocol']}` (sha256 `{results['protocol_sha256'][:12]}`), run at commit `{str(results['commit'])[:7]}` "
+             f"(code sha256 `{(results['code'] or {}).get('sha256', '')[:12]}`).  {done} of {declared} regimes tested; Holm "
+             f"(alpha {results['alpha']}) over the {results['comparisons_in_holm_family']} comparisons of "
+             + ("every regime." if done == declared else "the regimes tested so far, not final until every regime is in."),
+             "", f"Intervals: {results['interval_method']}.  Test risks: the share of (seed, plant) episodes that violate, "
+             "with the Clopper-Pearson interval; a refusal counts as violating.  Gap closed: (rule - learned) / (rule - "
+             "oracle) of the test mean costs.", ""]
+    for name, regime in results["regimes"].items():
+        lines += _regime_section(name, regime)
+    return "\n".join(lines)
+
+
+def _panel(axes: Any, name: str, regime: dict[str, Any], levels: list[float]) -> None:
+    import matplotlib.pyplot as plt
+
+    colors = iter(plt.get_cmap("tab10").colors)
+    for family, entry in regime["frontiers"].items():
+        order = sorted(range(len(entry["knobs"])), key=lambda i: entry["knobs"][i])
+        risk = [100 * entry["risk"][i] for i in order]
+        cost = [entry["mean_cost"][i] for i in order]
+        shipped = [i for i in order if entry["knobs"][i] == 0]
+        if entry["kind"] == "rule":
+            axes.plot(risk, cost, "-", color="0.8", linewidth=0.7, zorder=1)
+            for i in shipped:
+                axes.plot(100 * entry["risk"][i], entry["mean_cost"][i], ".", color="0.45", markersize=4, zorder=2)
+        else:
+            color = next(colors)
+            axes.plot(risk, cost, "-", marker=".", markersize=3, color=color, linewidth=1.2, label=family, zorder=3)
+
+    best = [point for chosen in regime["best"].values() for point in chosen.values() if point is not None]
+    shown = [point["mean_cost"] for point in best] + [regime["shipped_rule"]["mean_cost"]]
+    oracle = regime["validation_oracle"]["mean_cost"]
+    axes.axhline(oracle, color="black", linestyle=":", linewidth=0.8, zorder=0)
+    for level in levels:
+        axes.axvline(100 * level, color="0.9", linewidth=0.8, zorder=0)
+    axes.set_xscale("symlog", linthresh=1.0)
+    axes.set_xlim(0.0, 30.0)
+    axes.set_ylim(0.9 * oracle, 1.5 * max(shown))
+    axes.set_title(name, fontsize=9)
+    axes.tick_params(labelsize=7)
+    axes.legend(fontsize=5, loc="upper right")
+
+
+def frontiers_figure(results: dict[str, Any], path: Path) -> Path:
+    """One panel per regime (two columns), the frontiers over the knob on the validation plants."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from agents.files.writer import write_figure
+
+    names = list(results["regimes"])
+    rows = (len(names) + 1) // 2
+    figure, grid = plt.subplots(rows, 2, figsize=(9.0, 2.9 * rows + 0.6), squeeze=False)
+    for axes, name in zip(grid.flat, names):
+        _panel(axes, name, results["regimes"][name], results["risk_levels"])
+    for axes in list(grid.flat)[len(names):]:
+        axes.set_visible(False)
+    for axes in grid[-1]:
+        axes.set_xlabel("risk: plants on which one model violates (%)", fontsize=8)
+    for axes in grid[:, 0]:
+        axes.set_ylabel("mean cost (validation)", fontsize=8)
+    figure.suptitle("Cost against risk over each family's knob: learned families in colour, rule families grey, "
+                    "shipped rules as dots, the oracle dotted", fontsize=8)
+    figure.tight_layout()
+    write_figure(path, figure, 120)
+    plt.close(figure)
+    return path
+
+
+def write_frontier_report(results: dict[str, Any], out: Path, declared: int) -> list[Path]:
+    """Write ``results.md`` and (with a regime tested) ``frontiers.png`` into ``out``; returns the paths."""
+    from agents.files.writer import write_text
+
+    written = [write_text(out / "results.md", frontier_markdown(results, declared))]
+    if results["regimes"]:
+        written.append(frontiers_figure(results, out / "frontiers.png"))
+    return written
