@@ -56,3 +56,15 @@ def test_the_frontiers_figure_has_one_panel_per_regime(tmp_path):
     path = frontiers_figure(_committed(), tmp_path / "f.png")
     width, height = Image.open(path).size
     assert width > 800 and height > 300
+
+
+def test_the_answer_table_has_one_row_per_regime_at_1_percent_or_the_least_level_a_rule_reaches():
+    from agents.protocol.frontier_report import answer_table
+
+    results = _committed()
+    rows = answer_table(results)[2:]
+    assert len(rows) == len(results["regimes"]) and all(row.count("|") == 8 for row in rows)
+    for row, (name, regime) in zip(rows, results["regimes"].items()):
+        reached = [level for level, best in regime["best"].items() if best["rule"] is not None and best["learned"] is not None]
+        later = [level for level in reached if float(level.rstrip("%")) >= 1.0]
+        assert row.startswith(f"| {name} | {later[0] if later else '-'}")
