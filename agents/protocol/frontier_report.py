@@ -7,7 +7,9 @@ level, then the best learned family at the shipped rule's risk): the families an
 validation, the test difference with its interval (seeds and plants random; the paired t over plants for a
 one-model learner) and its Holm-adjusted interval, the percent of the rule's cost, the share of the
 rule-to-oracle gap closed and both policies' test risk with its exact interval.  A level no rule family
-reaches has no comparison; its row gives the learned family alone.
+reaches has no comparison; its row gives the learned family alone.  Last, each learned family's knob of
+least validation cost at each level beside the best rule family's (the union of the seeds' violating
+plants in brackets).
 
 ``frontiers.png`` has one panel per regime: mean validation cost against risk (the share of plants on
 which one model's design violates, per seed, averaged), each learned family a coloured curve over its
@@ -53,6 +55,26 @@ def _comparison_row(level: str, c: dict[str, Any], holm: dict, test: dict[str, A
             f"{_test_risk(test[c['first_policy']])}; {_test_risk(test[c['second_policy']])} |")
 
 
+def _at_levels(regime: dict[str, Any]) -> list[str]:
+    """Validation: each learned family's knob of least cost at each level (cost at its risk, per seed; the union
+    over the seeds in brackets), then the best rule family at each level."""
+    levels = list(regime["best"])
+    lines = ["| validation | " + " | ".join(levels) + " |", "|---|" + "---|" * len(levels)]
+    for family, entry in regime["frontiers"].items():
+        if entry["kind"] != "learned":
+            continue
+        cells = []
+        for level in levels:
+            knob = regime["chosen"][family][level]
+            i = None if knob is None else entry["knobs"].index(knob)
+            cells.append("cannot reach" if i is None else f"{entry['mean_cost'][i]:.4g} at {_percent(entry['risk'][i])} "
+                         f"({_percent(entry['risk_union'][i])}), s = {knob:g}")
+        lines.append(f"| `{family}` | " + " | ".join(cells) + " |")
+    rules = [regime["best"][level]["rule"] for level in levels]
+    lines.append("| best rule family | " + " | ".join("none reaches it" if rule is None else _chosen(rule) for rule in rules) + " |")
+    return lines + [""]
+
+
 def _regime_section(name: str, regime: dict[str, Any]) -> list[str]:
     shipped, oracle = regime["shipped_rule"], regime["validation_oracle"]
     rules = [family for family, entry in regime["frontiers"].items() if entry["kind"] == "rule"]
@@ -82,7 +104,7 @@ def _regime_section(name: str, regime: dict[str, Any]) -> list[str]:
         rows.append(_comparison_row(level, c, holm, test))
     levels = list(regime["best"])
     rows.sort(key=lambda row: levels.index(row[2:].split(" |")[0]) if row[2:].split(" |")[0] in levels else len(levels))
-    return lines + rows + [""]
+    return lines + rows + ["", *_at_levels(regime)]
 
 
 ANSWER_LEVEL = "1%"
