@@ -20,6 +20,7 @@ best families and the best rule as shipped.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -80,7 +81,8 @@ def _regime_section(name: str, regime: dict[str, Any]) -> list[str]:
     rules = [family for family, entry in regime["frontiers"].items() if entry["kind"] == "rule"]
     unreachable = {level: sum(family in rules for family in families) for level, families in regime["cannot_reach"].items()}
     lines = [f"## {name}", "",
-             f"`{regime['env']}` {regime['env_kwargs'] or ''}: {regime['validation_plants']} validation plants, "
+             f"`{regime['env']}`" + (f" `{json.dumps(regime['env_kwargs'])}`" if regime["env_kwargs"] else "")
+             + f": {regime['validation_plants']} validation plants, "
              f"{regime['test_plants']} test plants, learners with {len(regime['seeds'])} seeds.  Validation: the oracle "
              f"costs {oracle['mean_cost']:.4g}; the best rule as shipped is {_chosen(shipped)}.  Rule families that cannot "
              "reach the level on validation: " + ", ".join(f"{level} {count} of {len(rules)}" for level, count in unreachable.items())
@@ -121,9 +123,8 @@ def _answer(regime: dict[str, Any]) -> dict[str, Any] | None:
 def answer_table(results: dict[str, Any]) -> list[str]:
     """One row per regime: the best learned family against the best rule family at 1% (or the least level
     above at which a rule family is there), the test difference with its Holm-adjusted interval (seeds and plants
-    random), its percent
-    and the gap closed, both test risks."""
-    lines = ["| structure and regime | risk level | best learned family | best rule family | learned - rule [95%] | "
+    random), its percent and the gap closed, both test risks."""
+    lines = ["| structure and regime | risk level | best learned family | best rule family | learned - rule [Holm 95%] | "
              "percent; gap closed | test risk: learned; rule |", "|---|---|---|---|---:|---:|---|"]
     for name, regime in results["regimes"].items():
         c = _answer(regime)

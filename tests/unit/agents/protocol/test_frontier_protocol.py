@@ -133,6 +133,15 @@ def test_the_tiny_frontier_protocol_writes_its_results_with_holm_once_per_pair(t
         assert len(regime["frontiers"]["tiny-fixed"]["risk_per_seed"][0]) == 2
     shipped = results["regimes"]["pid-quiet"]["frontiers"]["learned-pid@0.05"]  # the shipped learner: one model
     assert shipped["kind"] == "learned" and all(len(row) == 1 for row in shipped["risk_per_seed"])
+    from agents.protocol.frontier_report import write_frontier_report
+
+    written = write_frontier_report(results, out, 2)
+    text = written[0].read_text()
+    assert [path.name for path in written] == ["results.md", "frontiers.png"] and "2 of 2 regimes tested" in text
+    for regime in results["regimes"].values():
+        for c in regime["matched"]:
+            d = c["difference"]
+            assert f"{d['estimate']:+.3g} [{d['low']:.3g}, {d['high']:.3g}]" in text
 
 
 @pytest.mark.slow
