@@ -8,7 +8,7 @@ validation, the test difference with its interval (seeds and plants random; the 
 one-model learner) and its Holm-adjusted interval, the percent of the rule's cost, the share of the
 rule-to-oracle gap closed and both policies' test risk with its exact interval.  A level no rule family
 reaches has no comparison; its row gives the learned family alone.  Last, each learned family's knob of
-least validation cost at each level beside the best rule family's (the union of the seeds' violating
+least validation cost at each level beside the best rule family's (the union over the seeds of the violating
 plants in brackets).
 
 ``frontiers.png`` has one panel per regime: mean validation cost against risk (the share of plants on
