@@ -90,22 +90,19 @@ def _regime_section(name: str, regime: dict[str, Any]) -> list[str]:
              "| risk level | best learned family (validation) | best rule family (validation) | learned - rule on test [95%] "
              "| Holm-adjusted | percent | gap closed [95%] | test risk: learned; rule [95%] |",
              "|---|---|---|---:|---|---:|---:|---|"]
-    holm, test, rows = _holm_intervals(regime["matched"]), regime["test"], []
-    answered = {c["risk_level"] for c in regime["matched"] if c["kind"] == "matched risk"}
-    for level, best in regime["best"].items():
-        if level in answered:
-            continue
-        learned = best["learned"]
-        if learned is None:
+    holm, test = _holm_intervals(regime["matched"]), regime["test"]
+    matched = {c["risk_level"]: c for c in regime["matched"] if c["kind"] == "matched risk"}
+    rows = []
+    for level, best in regime["best"].items():  # the declared levels in order, then the shipped rule's risk
+        if level in matched:
+            rows.append(_comparison_row(level, matched[level], holm, test))
+        elif best["learned"] is None:
             rows.append(f"| {level} | no learned family reaches it | " + ("no rule family reaches it" if best["rule"] is None
-                         else _chosen(best["rule"])) + " | - | - | - | - | - |")
+                        else _chosen(best["rule"])) + " | - | - | - | - | - |")
         else:
-            rows.append(f"| {level} | {_chosen(learned)} | no rule family reaches it | - | - | - | - | - |")
-    for c in regime["matched"]:
-        level = c["risk_level"] if c["kind"] == "matched risk" else f"the shipped rule's ({_percent(c['risk_level'])})"
-        rows.append(_comparison_row(level, c, holm, test))
-    levels = list(regime["best"])
-    rows.sort(key=lambda row: levels.index(row[2:].split(" |")[0]) if row[2:].split(" |")[0] in levels else len(levels))
+            rows.append(f"| {level} | {_chosen(best['learned'])} | no rule family reaches it | - | - | - | - | - |")
+    rows += [_comparison_row(f"the shipped rule's ({_percent(c['risk_level'])})", c, holm, test)
+             for c in regime["matched"] if c["kind"] != "matched risk"]
     return lines + rows + ["", *_at_levels(regime)]
 
 

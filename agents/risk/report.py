@@ -31,6 +31,11 @@ LABELS = Path("runs/risk_learner/labels")
 """The default folder of the cached labels; the plays are cached in ``eval`` beside it."""
 
 
+def _bands_path(labels: Path, structure: str, digest: str) -> Path:
+    """The cached plays of the validation stream across regimes, in ``eval`` beside the labels' folder."""
+    return labels.parent / "eval" / structure / f"bands-{digest}.json"
+
+
 def _realized(rows: list[dict[str, Any]], risk: float) -> tuple[int, int]:
     return sum(not row["learner"][str(risk)][1] for row in rows), len(rows)
 
@@ -41,7 +46,7 @@ def _band_rows(config: Any, structure: str, learner: Any, digest: str, labels: P
     from agents.risk.labels import Regime, load_stream
 
     rows = []
-    path = labels.parent / "eval" / structure / f"bands-{digest}.json"
+    path = _bands_path(labels, structure, digest)
     if path.is_file():
         return json.loads(path.read_text())
     from agents.risk.calibration import play_plant
@@ -174,7 +179,7 @@ def write_report(config_path: str, structures: list[str], plants: int, out: Path
                                                       "mean_cost": float(np.mean([row["learner"][str(risk)][0] for row in rows])),
                                                       "unreachable": len(unreached) / n,
                                                       "floor": float(np.mean([row["floor"] for row in unreached])) if unreached else 0.0}
-        band_path = labels.parent / "eval" / structure / f"bands-{manifest['sha256'][:12]}.json"
+        band_path = _bands_path(labels, structure, manifest["sha256"][:12])
         band_rows = _band_rows(config, structure, learner, manifest["sha256"][:12], labels) if band_path.is_file() or not cached else []
         noise = np.array([row["noise_std"] for row in band_rows])
         for low, high in zip(BANDS[:-1], BANDS[1:]) if band_rows else ():
