@@ -92,13 +92,14 @@ def play_plants(folder: Path, env_id: str, env_kwargs: dict[str, Any], structure
     return rows
 
 
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """The Wilson score interval of a share ``k/n``."""
+def wilson(k: int, n: int) -> tuple[float, float]:
+    """The Wilson score 95% interval of a share ``k/n`` (scipy's ``binomtest(k, n).proportion_ci``)."""
     if n == 0:
         return (math.nan, math.nan)
-    p = k / n
-    centre, half = (p + z * z / (2 * n)) / (1 + z * z / n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    from scipy.stats import binomtest
+
+    interval = binomtest(k, n).proportion_ci(0.95, method="wilson")
+    return (float(interval.low), float(interval.high))
 
 
 def outside_probability(n: int, risk: float) -> float:

@@ -59,3 +59,21 @@ def test_a_cell_most_of_whose_plants_are_unreachable_says_its_floor():
     assert _verdict({"plants": 2000, "realized": 0.0005, "unreachable": 0.0}, 0.005) == "NO"
     line = _count_line({"MSP": {"regimes": {"priced-10": {"0.005": unreachable, "0.05": {"plants": 2000, "realized": 0.05}}}}})
     assert line.startswith("1 of 2 cells within [0.5 r, 1.5 r], 0 outside, 1 unreachable")
+
+
+def test_the_calibration_interval_is_wilsons_score_interval():
+    import math
+
+    from scipy.stats import norm
+
+    from agents.risk.calibration import wilson
+
+    # Wilson's closed form with the exact normal quantile; the two differ by the rounding of a few operations
+    z = norm.ppf(0.975)
+    for k, n in ((0, 2000), (14, 2000), (71, 2000), (3, 7), (300, 300)):
+        p = k / n
+        centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+        half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+        low, high = wilson(k, n)
+        assert abs(low - max(0.0, centre - half)) < 1e-12 and abs(high - min(1.0, centre + half)) < 1e-12
+    assert all(math.isnan(v) for v in wilson(0, 0))
