@@ -160,8 +160,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _budget(args: argparse.Namespace, protocol: Any) -> int:
-    """``deadtime protocol budget``: the run's compute, a markdown table (or ``--json``)."""
-    from agents.protocol.budget import budget, budget_table
+    """``deadtime protocol budget``: the run's compute, a markdown table per regime and part, then per learner (or
+    ``--json``)."""
+    from agents.protocol.budget import budget, budget_summary, budget_table
 
     if protocol.frontier is None:
         raise ValueError(f"{protocol.path} is not a frontier protocol: its tasks record no timings")
@@ -171,7 +172,10 @@ def _budget(args: argparse.Namespace, protocol: Any) -> int:
     if not (out / "work").is_dir():
         raise ValueError(f"{out / 'work'} is missing: no run of {protocol.path} in --out")
     found = budget(protocol, out, Path(args.fits) if args.fits else None)
-    print(json.dumps(found, indent=1) if args.json else budget_table(found, args.workers), end="" if not args.json else "\n")
+    if args.json:
+        print(json.dumps(found, indent=1))
+    else:
+        print(budget_summary(found, args.workers) + "\n" + budget_table(found, args.workers), end="")
     return 0
 
 

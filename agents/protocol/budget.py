@@ -5,7 +5,8 @@ Every task of a run adds its CPU and wall seconds to a ``timing.json`` in its fo
 in its first member's folder, ``OUT/work/REGIME/STAGE/FAMILY/kKNOB/(rule|model|sSEED)/chunk-KKKK``.  The
 budget sums them per regime and part:
 
-* ``fits``: per learner, its seeds' fits (the regime's :func:`agents.protocol.frontier_run.fits_of`);
+* ``fits``: per learner, its seeds' fits (the regime's :func:`agents.protocol.frontier_run.fits_of`), with
+  the algorithm its ``run.json`` names;
 * ``validation`` and ``test``: per kind of family, ``rules``, ``learners`` (trained seeds), ``shipped``
   (one shipped model) and ``oracle``; the member-episodes scored beside.
 
@@ -13,6 +14,11 @@ A fit shared with another regime (one config alike) counts in the first regime t
 interrupted before its end adds nothing for that session: the budget is of the finished work.  The wall
 time on ``W`` workers is the CPU time over ``W`` (the tasks are independent; the last ones leave workers
 idle, so a run takes somewhat longer).
+
+:func:`budget_summary` gives one row per regime by the parts of a study: the labels and fits of the learned
+rule (its labels, the oracle's action on each training and validation plant, are most of its fit), the
+selector's fits (a learned rule of its own among them), the stable-baselines3 agents' training, the frontiers
+(every family over its knob on the validation plants) and the test.
 """
 
 from __future__ import annotations
@@ -24,9 +30,10 @@ from agents.files.reader import read_record
 from agents.protocol.config import Protocol
 from agents.protocol.members import TIMING
 
-__all__ = ["budget", "budget_table"]
+__all__ = ["budget", "budget_summary", "budget_table"]
 
 STAGES = ("validation", "test")
+SUMMARY = ("labels and learned-rule fits", "selector fits", "SB3 training", "frontiers (validation)", "test")
 
 
 def _kind(path: Path, stage_folder: Path) -> str:
@@ -61,6 +68,8 @@ def budget(protocol: Protocol, out: Path, fits: Path | None = None) -> dict[str,
             if record is not None and path not in counted:
                 counted.add(path)
                 _add(parts["fits"], fit.learner.label, record)
+                run = read_record(fit.directory() / "run.json", dict) or {}
+                parts["fits"][fit.learner.label]["algorithm"] = str(run.get("algorithm", ""))
         for stage in STAGES:
             folder = out / "work" / regime.name / stage
             for path in sorted(folder.rglob(TIMING)) if folder.is_dir() else []:
@@ -69,6 +78,12 @@ def budget(protocol: Protocol, out: Path, fits: Path | None = None) -> dict[str,
                     _add(parts[stage], _kind(path.parent, folder), record)
         regimes[regime.name] = parts
     return {"protocol": protocol.path, "out": str(out), "fits": str(fits), "regimes": regimes}
+
+
+def _summary_part(part: str, entry: dict[str, Any]) -> str:
+    if part != "fits":
+        return SUMMARY[3] if part == "validation" else SUMMARY[4]
+    return {"learned-rule": SUMMARY[0], "selector": SUMMARY[1]}.get(entry.get("algorithm", ""), SUMMARY[2])
 
 
 def _hours(seconds: float) -> str:
@@ -86,4 +101,24 @@ def budget_table(found: dict[str, Any], workers: int = 2) -> str:
                 lines.append(f"| {name} | {part} | {what} | {entry['tasks']} | {entry['episodes']} | "
                              f"{_hours(entry['cpu_seconds'])} | {_hours(entry['cpu_seconds'] / workers)} |")
     lines.append(f"| all | | | | | {_hours(total)} | {_hours(total / workers)} |")
+    return "\n".join(lines) + "\n"
+
+
+def budget_summary(found: dict[str, Any], workers: int = 2) -> str:
+    """One row per regime: CPU hours by the parts of :data:`SUMMARY`, the total, and its wall hours on ``workers``."""
+    head = " | ".join(SUMMARY)
+    lines = [f"| regime | {head} | CPU hours | wall hours on {workers} cores |", "|---|" + "---:|" * (len(SUMMARY) + 2)]
+    totals = dict.fromkeys(SUMMARY, 0.0)
+    for name, parts in found["regimes"].items():
+        row = dict.fromkeys(SUMMARY, 0.0)
+        for part, entries in parts.items():
+            for entry in entries.values():
+                row[_summary_part(part, entry)] += entry["cpu_seconds"]
+        if not any(row.values()):
+            continue
+        totals = {key: totals[key] + row[key] for key in SUMMARY}
+        cells = " | ".join(_hours(row[key]) for key in SUMMARY)
+        lines.append(f"| {name} | {cells} | {_hours(sum(row.values()))} | {_hours(sum(row.values()) / workers)} |")
+    cells = " | ".join(_hours(totals[key]) for key in SUMMARY)
+    lines.append(f"| all | {cells} | {_hours(sum(totals.values()))} | {_hours(sum(totals.values()) / workers)} |")
     return "\n".join(lines) + "\n"

@@ -320,7 +320,7 @@ def test_a_selectors_and_a_plan_mode_agents_knobs_on_one_reset_write_the_tables_
 def test_the_budget_counts_every_task_of_the_run_by_part_and_kind(tiny_frontier_run):
     """Every fit and every (family, seed, chunk) task recorded its time; the episodes are the stream's plants times
     the members: pid-quiet's validation has 2 rule families, 1 learner of 2 seeds and 1 shipped learner at 3 knobs."""
-    from agents.protocol.budget import budget, budget_table
+    from agents.protocol.budget import budget, budget_summary, budget_table
 
     path, out = tiny_frontier_run
     found = budget(load_protocol(path), out)["regimes"]["pid-quiet"]
@@ -330,6 +330,27 @@ def test_the_budget_counts_every_task_of_the_run_by_part_and_kind(tiny_frontier_
     assert set(found["test"]) >= {"oracle"} and found["test"]["oracle"]["episodes"] == 5
     table = budget_table(budget(load_protocol(path), out))
     assert "| pid-quiet | validation | shipped | 1 | 12 |" in table and table.splitlines()[-1].startswith("| all |")
+    # the summary by part: its regimes' rows add up to the detail's total
+    summary = budget_summary(budget(load_protocol(path), out)).splitlines()
+    assert summary[0].startswith("| regime | labels and learned-rule fits |") and summary[-1].startswith("| all |")
+    assert summary[-1].split(" | ")[-2] == table.splitlines()[-1].split(" | ")[-2]
+
+
+def test_the_budgets_summary_puts_each_fit_in_its_part_by_its_algorithm():
+    from agents.protocol.budget import budget_summary
+
+    def entry(hours, algorithm=None):
+        return {"cpu_seconds": 3600 * hours, "wall_seconds": 0.0, "episodes": 0, "tasks": 1,
+                **({"algorithm": algorithm} if algorithm else {})}
+
+    found = {"regimes": {
+        "a": {"fits": {"learned-rule": entry(1.0, "learned-rule"), "selector": entry(0.5, "selector"),
+                       "sac": entry(0.25, "SAC"), "ppo": entry(0.5, "PPO")},
+              "validation": {"rules": entry(2.0), "learners": entry(1.0)}, "test": {"oracle": entry(0.25)}},
+        "b": {"fits": {}, "validation": {}, "test": {}}}}
+    lines = budget_summary(found, workers=2).splitlines()
+    assert lines[2] == "| a | 1.00 | 0.50 | 0.75 | 3.00 | 0.25 | 5.50 | 2.75 |"
+    assert lines[3] == "| all | 1.00 | 0.50 | 0.75 | 3.00 | 0.25 | 5.50 | 2.75 |" and len(lines) == 4  # b has no work yet
 
 
 @pytest.mark.parametrize("extra, message", [
