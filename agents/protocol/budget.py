@@ -81,9 +81,12 @@ def budget(protocol: Protocol, out: Path, fits: Path | None = None) -> dict[str,
 
 
 def _summary_part(part: str, entry: dict[str, Any]) -> str:
-    if part != "fits":
-        return SUMMARY[3] if part == "validation" else SUMMARY[4]
-    return {"learned-rule": SUMMARY[0], "selector": SUMMARY[1]}.get(entry.get("algorithm", ""), SUMMARY[2])
+    """The column of :data:`SUMMARY` a part's entry adds to: a fit by its algorithm (any but the learned rule and
+    the selector is a stable-baselines3 agent's), a stage by its name."""
+    if part == "fits":
+        fits = {"learned-rule": "labels and learned-rule fits", "selector": "selector fits"}
+        return fits.get(entry.get("algorithm", ""), "SB3 training")
+    return {"validation": "frontiers (validation)", "test": "test"}[part]
 
 
 def _hours(seconds: float) -> str:
