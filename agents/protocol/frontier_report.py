@@ -14,8 +14,9 @@ plants in brackets).
 ``frontiers.png`` has one panel per regime: mean validation cost against risk (the share of plants on
 which one model's design violates, per seed, averaged), each learned family a coloured curve over its
 knob, each rule family a grey curve, the shipped rules (``s = 0``) as points, the declared risk levels as
-vertical lines; the axes show risks up to 30% and costs up to 1.5 times the most costly of the
-best families and the best rule as shipped.
+vertical lines, the answer's pair (the row of :func:`answer_table`) ringed; the axes show risks up to 30%
+and costs up to 1.5 times the most costly of the best families and the best rule as shipped.  One legend
+serves every panel: a family has one colour in all of them.
 """
 
 from __future__ import annotations
@@ -157,10 +158,26 @@ def frontier_markdown(results: dict[str, Any], declared: int) -> str:
     return "\n".join(lines)
 
 
-def _panel(axes: Any, name: str, regime: dict[str, Any], levels: list[float]) -> None:
+LEARNED_ORDER = ("learned-rule", "selector", "sac", "ppo", "sac-lagrangian", "@0.005", "@0.01", "@0.02", "@0.05")
+
+
+def _legend_name(family: str) -> str:
+    """A learned family's name in the figure's one legend: a shipped learner's structure becomes ``<s>``
+    (``learned-pid@0.01`` -> ``learned-<s>@0.01``), so that one colour means one family in every panel."""
+    head, at, level = family.partition("@")
+    return f"learned-<s>@{level}" if at and head.startswith("learned-") else family
+
+
+def _colour(family: str) -> Any:
     import matplotlib.pyplot as plt
 
-    colors = iter(plt.get_cmap("tab10").colors)
+    palette = plt.get_cmap("tab10").colors
+    name = _legend_name(family)
+    keys = [key for key in LEARNED_ORDER if name == key or name.endswith(key)]
+    return palette[LEARNED_ORDER.index(keys[0]) if keys else len(LEARNED_ORDER)]
+
+
+def _panel(axes: Any, name: str, regime: dict[str, Any], levels: list[float]) -> None:
     for family, entry in regime["frontiers"].items():
         order = sorted(range(len(entry["knobs"])), key=lambda i: entry["knobs"][i])
         risk = [100 * entry["risk"][i] for i in order]
@@ -171,8 +188,13 @@ def _panel(axes: Any, name: str, regime: dict[str, Any], levels: list[float]) ->
             for i in shipped:
                 axes.plot(100 * entry["risk"][i], entry["mean_cost"][i], ".", color="0.45", markersize=4, zorder=2)
         else:
-            color = next(colors)
-            axes.plot(risk, cost, "-", marker=".", markersize=3, color=color, linewidth=1.2, label=family, zorder=3)
+            axes.plot(risk, cost, "-", marker=".", markersize=3, color=_colour(family), linewidth=1.2,
+                      label=_legend_name(family), zorder=3)
+    answer = _answer(regime)
+    if answer is not None:
+        for point in (answer["first"], answer["second"]):
+            axes.plot(100 * point["risk"], point["mean_cost"], "o", markersize=8, markerfacecolor="none",
+                      markeredgecolor="black", markeredgewidth=0.9, zorder=4)
 
     best = [point for chosen in regime["best"].values() for point in chosen.values() if point is not None]
     shown = [point["mean_cost"] for point in best] + [regime["shipped_rule"]["mean_cost"]]
@@ -185,11 +207,11 @@ def _panel(axes: Any, name: str, regime: dict[str, Any], levels: list[float]) ->
     axes.set_ylim(0.9 * oracle, 1.5 * max(shown))
     axes.set_title(name, fontsize=9)
     axes.tick_params(labelsize=7)
-    axes.legend(fontsize=5, loc="upper right")
 
 
 def frontiers_figure(results: dict[str, Any], path: Path) -> Path:
-    """One panel per regime (two columns), the frontiers over the knob on the validation plants."""
+    """One panel per regime (two columns), the frontiers over the knob on the validation plants; one legend
+    below them."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -199,7 +221,8 @@ def frontiers_figure(results: dict[str, Any], path: Path) -> Path:
 
     names = list(results["regimes"])
     rows = (len(names) + 1) // 2
-    figure, grid = plt.subplots(rows, 2, figsize=(9.0, 2.9 * rows + 0.6), squeeze=False)
+    height = 2.9 * rows + 1.0
+    figure, grid = plt.subplots(rows, 2, figsize=(9.0, height), squeeze=False)
     for axes, name in zip(grid.flat, names):
         _panel(axes, name, results["regimes"][name], results["risk_levels"])
     for axes in list(grid.flat)[len(names):]:
@@ -208,9 +231,14 @@ def frontiers_figure(results: dict[str, Any], path: Path) -> Path:
         axes.set_xlabel("risk: plants on which one model violates (%)", fontsize=8)
     for axes in grid[:, 0]:
         axes.set_ylabel("mean cost (validation)", fontsize=8)
+    legend = {}
+    for axes in grid.flat:
+        legend.update(zip(axes.get_legend_handles_labels()[1], axes.get_legend_handles_labels()[0]))
+    figure.legend(list(legend.values()), list(legend), loc="lower center", ncol=5, fontsize=7, frameon=False)
     figure.suptitle("Cost against risk over each family's knob: learned families in colour, rule families grey, "
-                    "shipped rules as dots, the oracle dotted", fontsize=8)
-    figure.tight_layout()
+                    "shipped rules as dots, the oracle dotted,\nthe answer's pair (the README's table) ringed; "
+                    "<s> is the regime's structure", fontsize=8)
+    figure.tight_layout(rect=(0, 0.55 / height, 1, 1))  # the legend's two lines below the panels
     write_figure(path, figure, 120)
     plt.close(figure)
     return path

@@ -68,3 +68,14 @@ def test_the_answer_table_has_one_row_per_regime_at_1_percent_or_the_least_level
         reached = [level for level, best in regime["best"].items() if best["rule"] is not None and best["learned"] is not None]
         later = [level for level in reached if float(level.rstrip("%")) >= 1.0]
         assert row.startswith(f"| {name} | {later[0] if later else '-'}")
+
+
+def test_a_learned_family_has_one_legend_name_and_one_colour_in_every_panel():
+    from agents.protocol.frontier_report import _colour, _legend_name
+
+    assert _legend_name("learned-pid@0.01") == _legend_name("learned-msp@0.01") == "learned-<s>@0.01"
+    assert _legend_name("learned-rule") == "learned-rule" and _legend_name("sac-lagrangian") == "sac-lagrangian"
+    assert _colour("learned-fppi@0.005") == _colour("learned-pi@0.005") != _colour("learned-pi@0.05")
+    names = ["learned-rule", "selector", "sac", "ppo", "sac-lagrangian", "learned-pid@0.005", "learned-pid@0.01",
+             "learned-pid@0.02", "learned-pid@0.05"]
+    assert len({_colour(name) for name in names}) == len(names)
