@@ -105,14 +105,15 @@ def test_the_readme_headlines_are_their_folders_numbers():
     assert checked >= 40
 
 
-def test_the_readme_protocol_tables_are_the_committed_reports():
-    """Every verdict row of the README's Results is a row of a committed protocol report (``results.md`` of
-    ``deadtime protocol report``), and docs/protocol.md links every report, where all its rows are."""
+def test_the_readme_table_is_v5s_answer_table():
+    """The README's Results table is the answer table of protocol v5's committed report (``results.md`` of
+    ``deadtime protocol report``), every row of it, and docs/protocol.md links every protocol's report."""
     readme = (RESULTS.parent / "README.md").read_text()
-    rows = {line for line in readme.splitlines() if line.startswith("| ") and line.endswith(("| better |", "| worse |", "| tie |"))}
-    reports = {line for path in RESULTS.glob("protocol_v*/results.md") for line in path.read_text().splitlines()
-               if line.startswith("| ") and line.endswith(("| better |", "| worse |", "| tie |"))}
-    assert rows and rows <= reports
+    section = readme[readme.index("## Results\n"):].split("\n## ")[0]
+    report = (RESULTS / "protocol_v5" / "results.md").read_text()
+    answer = report[report.index("## The answer at"):].split("\n## ")[0]
+    assert [line for line in section.splitlines() if line.startswith("|")] == [
+        line for line in answer.splitlines() if line.startswith("|")]
     protocol = (RESULTS.parent / "docs" / "protocol.md").read_text()
     assert all(f"(../results/{path.parent.name}/results.md)" in protocol for path in RESULTS.glob("protocol_v*/results.md"))
 
