@@ -19,14 +19,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
-from importlib import import_module
 from pathlib import Path
 from typing import Any
 
 from agents.commands.arguments import CommandError, load_json_argument, require_directory
+from agents.user_code import user_function
 
 __all__ = ["add_arguments", "run", "make_process"]
 
@@ -72,15 +71,10 @@ def make_process(text: str) -> Any:
     module_name, colon, factory_name = text.partition(":")
     if not colon or not module_name or not factory_name:
         raise CommandError(f"--process: unknown process {text!r}; give 'tclab' or module:factory (a function that returns a process)")
-    if os.getcwd() not in sys.path:
-        sys.path.append(os.getcwd())
     try:
-        module = import_module(module_name)
-    except Exception as error:  # noqa: BLE001  (whatever the user's module raises on import is bad input)
-        raise CommandError(f"--process: cannot import {module_name!r} ({type(error).__name__}: {error})") from None
-    factory = getattr(module, factory_name, None)
-    if not callable(factory):
-        raise CommandError(f"--process: module {module_name!r} has no function {factory_name!r}")
+        factory = user_function(text, "--process")
+    except ValueError as error:
+        raise CommandError(str(error)) from None
     try:
         process = factory()
     except Exception as error:  # noqa: BLE001  (a factory that raises is bad input, named)

@@ -17,11 +17,10 @@ from __future__ import annotations
 import glob
 import os
 import re
-import sys
-from importlib import import_module
 from typing import Any
 
 from agents.frontier.frontier import RULE, Family
+from agents.user_code import user_function
 
 __all__ = ["parse_families"]
 
@@ -71,17 +70,8 @@ def _family(item: str) -> Family:
 def _callable(target: str) -> Any:
     from agents.evaluation.policies import CallablePolicy
 
-    module_name, _, function_name = target.partition(":")
-    if os.getcwd() not in sys.path:
-        sys.path.append(os.getcwd())
-    try:
-        module = import_module(module_name)
-    except Exception as error:  # noqa: BLE001  (whatever the user's module raises on import is bad input)
-        raise ValueError(f"--policies: cannot import {module_name!r} ({type(error).__name__}: {error})") from None
-    function = getattr(module, function_name, None)
-    if not callable(function):
-        raise ValueError(f"--policies: module {module_name!r} has no function {function_name!r}")
-    return CallablePolicy(function_name, function)
+    function = user_function(target, "--policies")
+    return CallablePolicy(target.partition(":")[2], function)
 
 
 def _pretrained(name: str, target: str) -> Family:
