@@ -171,10 +171,9 @@ def _legend_name(family: str) -> str:
 def _colour(family: str) -> Any:
     import matplotlib.pyplot as plt
 
-    palette = plt.get_cmap("tab10").colors
     name = _legend_name(family)
-    keys = [key for key in LEARNED_ORDER if name == key or name.endswith(key)]
-    return palette[LEARNED_ORDER.index(keys[0]) if keys else len(LEARNED_ORDER)]
+    key = name.removeprefix("learned-<s>")
+    return plt.get_cmap("tab10").colors[LEARNED_ORDER.index(key) if key in LEARNED_ORDER else len(LEARNED_ORDER)]
 
 
 def _panel(axes: Any, name: str, regime: dict[str, Any], levels: list[float]) -> None:
@@ -235,7 +234,8 @@ def frontiers_figure(results: dict[str, Any], path: Path) -> Path:
         axes.set_ylabel("mean cost (validation)", fontsize=8)
     legend = {}
     for axes in grid.flat:
-        legend.update(zip(axes.get_legend_handles_labels()[1], axes.get_legend_handles_labels()[0]))
+        handles, labels = axes.get_legend_handles_labels()
+        legend.update(zip(labels, handles))
     figure.legend(list(legend.values()), list(legend), loc="lower center", ncol=5, fontsize=7, frameon=False)
     figure.suptitle("Cost against risk over each family's knob: learned families in colour, rule families grey, "
                     "shipped rules as dots, the oracle dotted,\nthe answer's pair (the README's table) ringed; "
