@@ -33,7 +33,10 @@ from agents.protocol.members import TIMING
 __all__ = ["budget", "budget_summary", "budget_table"]
 
 STAGES = ("validation", "test")
-SUMMARY = ("labels and learned-rule fits", "selector fits", "SB3 training", "frontiers (validation)", "test")
+FIT_COLUMNS = {"learned-rule": "labels and learned-rule fits", "selector": "selector fits"}  # by a fit's algorithm
+AGENT_COLUMN = "SB3 training"  # a fit of any other algorithm
+STAGE_COLUMNS = {"validation": "frontiers (validation)", "test": "test"}
+SUMMARY = (*FIT_COLUMNS.values(), AGENT_COLUMN, *STAGE_COLUMNS.values())
 
 
 def _kind(path: Path, stage_folder: Path) -> str:
@@ -84,9 +87,8 @@ def _summary_part(part: str, entry: dict[str, Any]) -> str:
     """The column of :data:`SUMMARY` a part's entry adds to: a fit by its algorithm (any but the learned rule and
     the selector is a stable-baselines3 agent's), a stage by its name."""
     if part == "fits":
-        fits = {"learned-rule": "labels and learned-rule fits", "selector": "selector fits"}
-        return fits.get(entry.get("algorithm", ""), "SB3 training")
-    return {"validation": "frontiers (validation)", "test": "test"}[part]
+        return FIT_COLUMNS.get(entry.get("algorithm", ""), AGENT_COLUMN)
+    return STAGE_COLUMNS[part]
 
 
 def _hours(seconds: float) -> str:

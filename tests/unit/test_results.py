@@ -105,11 +105,16 @@ def test_the_readme_headlines_are_their_folders_numbers():
     assert checked >= 40
 
 
+def _readme_results() -> str:
+    """The README's Results section, its heading line first."""
+    readme = (RESULTS.parent / "README.md").read_text()
+    return readme[readme.index("## Results\n"):].split("\n## ")[0]
+
+
 def test_the_readme_table_is_v5s_answer_table():
     """The README's Results table is the answer table of protocol v5's committed report (``results.md`` of
     ``deadtime protocol report``), every row of it, and docs/protocol.md links every protocol's report."""
-    readme = (RESULTS.parent / "README.md").read_text()
-    section = readme[readme.index("## Results\n"):].split("\n## ")[0]
+    section = _readme_results()
     report = (RESULTS / "protocol_v5" / "results.md").read_text()
     answer = report[report.index("## The answer at"):].split("\n## ")[0]
     assert [line for line in section.splitlines() if line.startswith("|")] == [
@@ -120,8 +125,7 @@ def test_the_readme_table_is_v5s_answer_table():
 
 def test_the_readme_results_are_one_answer_one_table_one_figure():
     """README's Results: at most 40 lines, one table of at most 8 columns, one figure; the rest in docs/protocol.md."""
-    readme = (RESULTS.parent / "README.md").read_text()
-    section = readme[readme.index("## Results\n"):].split("\n## ")[0].splitlines()[1:]
+    section = _readme_results().splitlines()[1:]
     tables = [line for line in section if line.startswith("|---")]
     assert len(section) <= 40 and len(tables) == 1 and tables[0].count("|") - 1 <= 8
     assert sum(line.startswith("![") for line in section) == 1
