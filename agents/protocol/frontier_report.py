@@ -226,8 +226,8 @@ def frontiers_figure(results: dict[str, Any], path: Path) -> Path:
         _panel(axes, name, results["regimes"][name], results["risk_levels"])
     for axes in list(grid.flat)[len(names):]:
         axes.set_visible(False)
-    for column in range(2):
-        shown = [axes for axes in grid[:, column] if axes.get_visible()]
+    for column in grid.T:
+        shown = [axes for axes in column if axes.get_visible()]
         if shown:
             shown[-1].set_xlabel("risk: plants on which one model violates (%)", fontsize=8)
     for axes in grid[:, 0]:
